@@ -1,0 +1,17 @@
+//! # qcshape
+//!
+//! Deformation similarity in quasi-conformal shape space (Kilian-style shape spaces with the
+//! rigid, isometric, conformal, L2 and quasi-conformal metrics of the paper in
+//! `shared/seed/paper.txt`, with the choices fixed by `shared/spec/METHOD.md`).
+//!
+//! Conventions used throughout:
+//! - a [`mesh::Topology`] is an immutable, shared (`Arc`) triangle list `F` (#F x 3);
+//! - a shape (pose) is a position array `V` (#V x 3, `[[f64; 3]]`) on one topology;
+//! - a tangent vector (deformation field) `X` is a #V x 3 array of displacements;
+//! - a path `P_0 .. P_N` has fixed ends; its segments are `X_i = P_{i+1} - P_i`.
+//!
+//! Lengths are in the units of the input coordinates unless a function says it normalizes.
+#![warn(missing_docs)]
+
+pub mod mesh;
+pub mod synth;

@@ -1,0 +1,196 @@
+//! Derived geometry of a shape: functions of (topology, positions #V x 3), recomputed on demand.
+//!
+//! Also the small 3-vector helpers the metrics share.
+
+use super::Topology;
+
+/// Difference `a - b`.
+#[inline]
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+/// Sum `a + b`.
+#[inline]
+pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+/// Scaling `s * a`.
+#[inline]
+pub fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+/// Dot product.
+#[inline]
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+/// Cross product.
+#[inline]
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+/// Euclidean norm.
+#[inline]
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Length of every edge (#E), in the unit of the positions.
+pub fn edge_lengths(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
+    topo.edges()
+        .iter()
+        .map(|e| norm(sub(pos[e[0] as usize], pos[e[1] as usize])))
+        .collect()
+}
+
+/// Mean edge length `lbar` (the scale used for normalization and noise, METHOD.md).
+pub fn mean_edge_length(topo: &Topology, pos: &[[f64; 3]]) -> f64 {
+    let l = edge_lengths(topo, pos);
+    l.iter().sum::<f64>() / l.len().max(1) as f64
+}
+
+/// Area of every face (#F), in squared units.
+pub fn face_areas(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
+    topo.faces()
+        .iter()
+        .map(|f| {
+            let [p, q, r] = f.map(|i| pos[i as usize]);
+            0.5 * norm(cross(sub(q, p), sub(r, p)))
+        })
+        .collect()
+}
+
+/// Total surface area.
+pub fn total_area(topo: &Topology, pos: &[[f64; 3]]) -> f64 {
+    face_areas(topo, pos).iter().sum()
+}
+
+/// Unit normal of every face (#F x 3), oriented by the face's vertex order; zero for a
+/// degenerate face.
+pub fn face_normals(topo: &Topology, pos: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    topo.faces()
+        .iter()
+        .map(|f| {
+            let [p, q, r] = f.map(|i| pos[i as usize]);
+            let n = cross(sub(q, p), sub(r, p));
+            let l = norm(n);
+            if l > 0.0 {
+                scale(n, 1.0 / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// Area-weighted unit vertex normals (#V x 3); zero for isolated vertices.
+pub fn vertex_normals(topo: &Topology, pos: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut n = vec![[0.0; 3]; topo.n_vertices()];
+    for f in topo.faces() {
+        let [p, q, r] = f.map(|i| pos[i as usize]);
+        let w = cross(sub(q, p), sub(r, p)); // 2 * area * unit normal
+        for &i in f {
+            n[i as usize] = add(n[i as usize], w);
+        }
+    }
+    for v in &mut n {
+        let l = norm(*v);
+        if l > 0.0 {
+            *v = scale(*v, 1.0 / l);
+        }
+    }
+    n
+}
+
+/// Interior angle at the corner `p` of triangle `(p, q, r)`, in radians, computed stably as
+/// `atan2(|u x v|, u . v)` with `u = q - p`, `v = r - p`.
+#[inline]
+pub fn corner_angle(p: [f64; 3], q: [f64; 3], r: [f64; 3]) -> f64 {
+    let (u, v) = (sub(q, p), sub(r, p));
+    norm(cross(u, v)).atan2(dot(u, v))
+}
+
+/// Gradient of [`corner_angle`] with respect to `(p, q, r)`.
+///
+/// With `n` the unit normal of `(p, q, r)`: `d/dq = -(n x u)/|u|^2`, `d/dr = (n x v)/|v|^2`,
+/// `d/dp = -(d/dq + d/dr)`. Zero for a degenerate triangle.
+#[inline]
+pub fn corner_angle_gradient(p: [f64; 3], q: [f64; 3], r: [f64; 3]) -> [[f64; 3]; 3] {
+    let (u, v) = (sub(q, p), sub(r, p));
+    let c = cross(u, v);
+    let lc = norm(c);
+    let (uu, vv) = (dot(u, u), dot(v, v));
+    if lc <= 0.0 || uu <= 0.0 || vv <= 0.0 {
+        return [[0.0; 3]; 3];
+    }
+    let n = scale(c, 1.0 / lc);
+    let dq = scale(cross(n, u), -1.0 / uu);
+    let dr = scale(cross(n, v), 1.0 / vv);
+    [scale(add(dq, dr), -1.0), dq, dr]
+}
+
+/// Corner angles (#F x 3): `angles[f][k]` is the angle at corner `k` of face `f`, radians.
+pub fn corner_angles(topo: &Topology, pos: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    topo.faces()
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| pos[i as usize]);
+            [
+                corner_angle(a, b, c),
+                corner_angle(b, c, a),
+                corner_angle(c, a, b),
+            ]
+        })
+        .collect()
+}
+
+/// Vertex areas `A_p` (#V): one third of the area of the faces at `p` (paper eq. 11).
+pub fn vertex_areas(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
+    let mut a = vec![0.0; topo.n_vertices()];
+    for (f, area) in topo.faces().iter().zip(face_areas(topo, pos)) {
+        for &i in f {
+            a[i as usize] += area / 3.0;
+        }
+    }
+    a
+}
+
+/// Angle-defect (discrete Gaussian) curvature `K_p` (#V), radians: `2 pi - sum of corner
+/// angles` at an interior vertex, `pi - sum` at a boundary vertex (METHOD.md; paper section
+/// 2.1). Zero at isolated vertices.
+pub fn angle_defect(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
+    let mut k: Vec<f64> = (0..topo.n_vertices())
+        .map(|v| {
+            if topo.vertex_faces(v).is_empty() {
+                0.0
+            } else if topo.is_boundary_vertex(v) {
+                std::f64::consts::PI
+            } else {
+                2.0 * std::f64::consts::PI
+            }
+        })
+        .collect();
+    for (f, ang) in topo.faces().iter().zip(corner_angles(topo, pos)) {
+        for c in 0..3 {
+            k[f[c] as usize] -= ang[c];
+        }
+    }
+    k
+}
+
+/// Axis-aligned bounding box `(min, max)` of the positions.
+pub fn bounding_box(pos: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in pos {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (lo, hi)
+}

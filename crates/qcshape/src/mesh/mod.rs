@@ -1,0 +1,14 @@
+//! Mesh core: the shared immutable [`Topology`], [`Shape`]s as plain positions, and functions
+//! that derive geometry (edge lengths, areas, angles, angle-defect curvature, normals).
+//!
+//! Derived quantities are always computed by functions from positions, never cached, so they
+//! cannot go stale.
+
+mod error;
+pub mod geometry;
+mod shape;
+mod topology;
+
+pub use error::MeshError;
+pub use shape::Shape;
+pub use topology::Topology;
