@@ -14,4 +14,5 @@
 #![warn(missing_docs)]
 
 pub mod mesh;
+pub mod metric;
 pub mod synth;

@@ -1,0 +1,86 @@
+use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use crate::mesh::geometry::{dot, sub};
+use crate::mesh::Topology;
+
+/// The as-isometric-as-possible metric (eq. 3): `G_M(X) = sum over edges (p, q) of
+/// <X_p - X_q, p - q>^2`, one residual per edge (the rate of change of squared edge length / 2).
+/// Vanishes on infinitesimal rigid motions. Units: length^4.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Isometric;
+
+impl Metric for Isometric {
+    fn name(&self) -> String {
+        "isometric".into()
+    }
+
+    fn pattern(&self, topo: &Topology) -> Pattern {
+        Pattern::from_rows(topo.edges().iter())
+    }
+
+    fn n_residuals(&self, topo: &Topology) -> usize {
+        topo.n_edges()
+    }
+
+    fn residuals(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &mut [f64],
+        mut jac: Option<JacobianMut>,
+    ) {
+        let (g, x) = geometry_and_displacement(seg);
+        for (ei, e) in topo.edges().iter().enumerate() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let de = sub(g[p], g[q]);
+            let dx = sub(x[p], x[q]);
+            r[ei] = dot(dx, de);
+            if let Some(j) = jac.as_mut() {
+                // dr/dg_p = dx, dr/dg_q = -dx; dr/dX_p = de, dr/dX_q = -de.
+                let (da, db) = split_segment(seg.at, dx, de);
+                j.da[2 * ei] = da;
+                j.db[2 * ei] = db;
+                let (da, db) = split_segment(seg.at, dx.map(|v| -v), de.map(|v| -v));
+                j.da[2 * ei + 1] = da;
+                j.db[2 * ei + 1] = db;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::{fdcheck, At};
+
+    #[test]
+    fn isometric_jacobian_matches_finite_differences() {
+        fdcheck::check_metric(&Isometric, 11);
+    }
+
+    #[test]
+    fn isometric_vanishes_on_infinitesimal_rotation() {
+        let s = crate::synth::icosphere(2);
+        let w = [0.3, -0.2, 0.7];
+        let t = 1e-3;
+        // X = t * (w x p) + translation: an infinitesimal rigid motion.
+        let b: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| {
+                let c = crate::mesh::geometry::cross(w, *p);
+                [p[0] + t * c[0] + t, p[1] + t * c[1], p[2] + t * c[2]]
+            })
+            .collect();
+        let pat = Isometric.pattern(&s.topology);
+        let seg = Segment {
+            a: &s.positions,
+            b: &b,
+            at: At::Start,
+            aux: &[],
+            frozen: None,
+        };
+        let g = Isometric.squared_norm(&s.topology, &pat, &seg);
+        assert!(g < 1e-28, "{g}");
+    }
+}

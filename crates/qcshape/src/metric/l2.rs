@@ -1,0 +1,98 @@
+use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use crate::mesh::geometry::{cross, norm, scale, sub};
+use crate::mesh::Topology;
+
+/// The L2 metric (eq. 11): `G_M(X) = sum_p A_p |X_p|^2`, `A_p` one third of the area of the
+/// faces at `p` in `M`.
+///
+/// Written per face corner and coordinate as residuals `sqrt(area_f / 3) * X_v^c` (9 #F
+/// residuals), so each residual depends on the three vertices of one face. Units: length^4.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct L2;
+
+impl Metric for L2 {
+    fn name(&self) -> String {
+        "l2".into()
+    }
+
+    fn pattern(&self, topo: &Topology) -> Pattern {
+        Pattern::from_rows(topo.faces().iter().flat_map(|f| std::iter::repeat_n(*f, 9)))
+    }
+
+    fn n_residuals(&self, topo: &Topology) -> usize {
+        9 * topo.n_faces()
+    }
+
+    fn residuals(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &mut [f64],
+        mut jac: Option<JacobianMut>,
+    ) {
+        let (g, x) = geometry_and_displacement(seg);
+        for (fi, f) in topo.faces().iter().enumerate() {
+            let [p, q, rr] = f.map(|i| g[i as usize]);
+            let c = cross(sub(q, p), sub(rr, p));
+            let lc = norm(c);
+            let area = 0.5 * lc;
+            let s = (area / 3.0).sqrt();
+            // d area / d (p, q, r) = 0.5 * (q - r) x n, cyclic.
+            let darea = if lc > 0.0 {
+                let n = scale(c, 1.0 / lc);
+                [cross(sub(q, rr), n), cross(sub(rr, p), n), cross(sub(p, q), n)].map(|v| scale(v, 0.5))
+            } else {
+                [[0.0; 3]; 3]
+            };
+            let ds_scale = if s > 0.0 { 1.0 / (6.0 * s) } else { 0.0 };
+            for k in 0..3 {
+                let xv = x[f[k] as usize];
+                for c3 in 0..3 {
+                    let row = fi * 9 + k * 3 + c3;
+                    r[row] = s * xv[c3];
+                    if let Some(j) = jac.as_mut() {
+                        for m in 0..3 {
+                            let dg = scale(darea[m], xv[c3] * ds_scale);
+                            let mut dx = [0.0; 3];
+                            if m == k {
+                                dx[c3] = s;
+                            }
+                            let (da, db) = split_segment(seg.at, dg, dx);
+                            j.da[row * 3 + m] = da;
+                            j.db[row * 3 + m] = db;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::fdcheck;
+
+    #[test]
+    fn l2_jacobian_matches_finite_differences() {
+        fdcheck::check_metric(&L2, 7);
+    }
+
+    #[test]
+    fn l2_of_translation_is_area_times_squared_length() {
+        let s = crate::synth::icosphere(2);
+        let b: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0] + 0.5, p[1], p[2]]).collect();
+        let pat = L2.pattern(&s.topology);
+        let seg = Segment {
+            a: &s.positions,
+            b: &b,
+            at: super::super::At::Start,
+            aux: &[],
+            frozen: None,
+        };
+        let g = L2.squared_norm(&s.topology, &pat, &seg);
+        let area = crate::mesh::geometry::total_area(&s.topology, &s.positions);
+        assert!((g - 0.25 * area).abs() < 1e-12 * area);
+    }
+}

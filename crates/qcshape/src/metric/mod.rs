@@ -1,0 +1,262 @@
+//! Shape-space metrics (paper section 2.1, METHOD.md "Metrics").
+//!
+//! Every metric is a squared norm `G_M(X) = <<X, X>>_M = |r|^2` written as a sum of squared
+//! residuals `r`, where `M` is the pose that supplies the geometry and `X` a tangent vector
+//! (#V x 3). The path energy (eq. 12) evaluates each metric on a path segment `X = b - a` with
+//! the geometry of either end, so the [`Metric`] trait works on segments: it returns the
+//! residuals and their exact Jacobian blocks with respect to both ends (`a` and `b`), computed
+//! from the same intermediates. The sparsity [`Pattern`] (which vertices each residual depends
+//! on) is built once per topology and reused for every evaluation.
+//!
+//! Metrics: [`L2`] (eq. 11), [`Isometric`] (eq. 3), [`Rigid`] (eq. 1), [`Conformal`] (eqs. 7-9),
+//! [`QuasiConformal`] (eq. 10), and [`Regularized`] (`G + lambda * L2`, eq. 11).
+
+mod conformal;
+mod isometric;
+mod l2;
+mod regularized;
+mod rigid;
+
+#[cfg(test)]
+pub(crate) mod fdcheck;
+
+pub use isometric::Isometric;
+pub use l2::L2;
+pub use regularized::Regularized;
+
+use std::fmt::Debug;
+
+use crate::mesh::Topology;
+
+/// Which end of a path segment supplies the metric's geometry: `G_{P_i}(X_i)` is
+/// [`At::Start`], `G_{P_{i+1}}(X_i)` is [`At::End`] (eq. 12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum At {
+    /// Geometry of the segment's first pose `a = P_i`.
+    Start,
+    /// Geometry of the segment's second pose `b = P_{i+1}`.
+    End,
+}
+
+/// One evaluation of a metric on a path segment: `X = b - a` measured at `a` or `b`.
+#[derive(Debug, Clone, Copy)]
+pub struct Segment<'a> {
+    /// First pose `P_i` (#V x 3).
+    pub a: &'a [[f64; 3]],
+    /// Second pose `P_{i+1}` (#V x 3).
+    pub b: &'a [[f64; 3]],
+    /// Which pose supplies the geometry.
+    pub at: At,
+    /// Auxiliary unknowns of this term ([`Metric::n_aux`] values; the rigid motion for
+    /// [`Rigid`]); empty for the other metrics.
+    pub aux: &'a [f64],
+    /// Per-vertex weights frozen for a whole path ([`Metric::frozen_weights`]), if any.
+    pub frozen: Option<&'a [f64]>,
+}
+
+/// Jacobian sparsity of a metric's residuals: residual `i` depends on the vertices
+/// `vertices[offsets[i]..offsets[i+1]]` (unique within a residual). Built once per topology.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Pattern {
+    /// Row offsets (#residuals + 1).
+    pub offsets: Vec<u32>,
+    /// Vertex indices of each residual's entries.
+    pub vertices: Vec<u32>,
+}
+
+impl Pattern {
+    /// Number of residuals.
+    pub fn n_residuals(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+    /// Number of (residual, vertex) entries.
+    pub fn n_entries(&self) -> usize {
+        self.vertices.len()
+    }
+    /// Entry range of residual `i`.
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+    /// Borrowed view of the pattern.
+    pub fn as_ref(&self) -> PatternRef<'_> {
+        PatternRef {
+            offsets: &self.offsets,
+            vertices: &self.vertices,
+        }
+    }
+    /// Builds a pattern from rows of vertex lists.
+    pub fn from_rows<I: IntoIterator<Item = R>, R: AsRef<[u32]>>(rows: I) -> Self {
+        let mut p = Pattern {
+            offsets: vec![0],
+            vertices: Vec::new(),
+        };
+        for r in rows {
+            p.vertices.extend_from_slice(r.as_ref());
+            p.offsets.push(p.vertices.len() as u32);
+        }
+        p
+    }
+    /// Concatenates `other` after `self` (residuals of `other` follow).
+    pub fn append(&mut self, other: &Pattern) {
+        let base = self.vertices.len() as u32;
+        self.vertices.extend_from_slice(&other.vertices);
+        self.offsets.extend(other.offsets[1..].iter().map(|o| o + base));
+    }
+}
+
+/// Borrowed view of a [`Pattern`] (or of a prefix of one: the first residuals).
+#[derive(Debug, Clone, Copy)]
+pub struct PatternRef<'a> {
+    /// Row offsets (#residuals + 1).
+    pub offsets: &'a [u32],
+    /// Vertex indices of the entries.
+    pub vertices: &'a [u32],
+}
+
+impl PatternRef<'_> {
+    /// Number of residuals.
+    pub fn n_residuals(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+    /// Entry range of residual `i`.
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+}
+
+/// Mutable view of Jacobian values (see [`Jacobian`]).
+#[derive(Debug)]
+pub struct JacobianMut<'a> {
+    /// `dr/da_v` per entry.
+    pub da: &'a mut [[f64; 3]],
+    /// `dr/db_v` per entry.
+    pub db: &'a mut [[f64; 3]],
+    /// `dr/daux`, #residuals x n_aux, row-major.
+    pub daux: &'a mut [f64],
+}
+
+/// Jacobian values in [`Pattern`] order: entry `k` (vertex `pattern.vertices[k]` of its
+/// residual) holds `dr/da_v` and `dr/db_v` (3 each); `daux` holds `dr/daux` row-major
+/// (#residuals x [`Metric::n_aux`]).
+#[derive(Debug, Clone, Default)]
+pub struct Jacobian {
+    /// Derivatives with respect to the first pose's vertex, per entry.
+    pub da: Vec<[f64; 3]>,
+    /// Derivatives with respect to the second pose's vertex, per entry.
+    pub db: Vec<[f64; 3]>,
+    /// Derivatives with respect to the auxiliary unknowns.
+    pub daux: Vec<f64>,
+}
+
+impl Jacobian {
+    /// Zeroed storage for `pattern` with `n_aux` auxiliary unknowns.
+    pub fn zeros(pattern: &Pattern, n_aux: usize) -> Self {
+        Jacobian {
+            da: vec![[0.0; 3]; pattern.n_entries()],
+            db: vec![[0.0; 3]; pattern.n_entries()],
+            daux: vec![0.0; pattern.n_residuals() * n_aux],
+        }
+    }
+    /// Mutable view.
+    pub fn as_mut(&mut self) -> JacobianMut<'_> {
+        JacobianMut {
+            da: &mut self.da,
+            db: &mut self.db,
+            daux: &mut self.daux,
+        }
+    }
+    /// Sets every value to zero (keeps the storage).
+    pub fn clear(&mut self) {
+        self.da.fill([0.0; 3]);
+        self.db.fill([0.0; 3]);
+        self.daux.fill(0.0);
+    }
+}
+
+/// A shape-space metric as a sum of squared residuals with exact sparse Jacobians.
+///
+/// Implementations compute residuals and derivatives from the same intermediates, and each has
+/// a finite-difference test beside it.
+pub trait Metric: Send + Sync + Debug {
+    /// Short name with variant, e.g. `"quasi-conformal(quadratic,endpoints)"`.
+    fn name(&self) -> String;
+
+    /// Jacobian sparsity on `topo` (build once per topology and reuse).
+    fn pattern(&self, topo: &Topology) -> Pattern;
+
+    /// Number of residuals on `topo` (cheap; equals `pattern(topo).n_residuals()`).
+    fn n_residuals(&self, topo: &Topology) -> usize;
+
+    /// Number of auxiliary unknowns per segment term (6 for [`Rigid`], else 0). They are
+    /// optimized together with the path, `G(X) = min_aux |r(X, aux)|^2`.
+    fn n_aux(&self) -> usize {
+        0
+    }
+
+    /// Optimal auxiliary unknowns for a segment with the others fixed (the start value for the
+    /// solvers and the value used when measuring lengths). Empty when [`Metric::n_aux`] is 0.
+    fn best_aux(&self, _topo: &Topology, _seg: &Segment) -> Vec<f64> {
+        Vec::new()
+    }
+
+    /// Per-vertex weights that stay fixed along a path from `start` to `end` (the
+    /// quasi-conformal `endpoints` reading: `K(end) - K(start)`); `None` otherwise.
+    fn frozen_weights(&self, _topo: &Topology, _start: &[[f64; 3]], _end: &[[f64; 3]]) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// Evaluates the residuals `r` (length `pattern.n_residuals()`) of `G_M(b - a)` with `M` the
+    /// end chosen by `seg.at`, and, if `jac` is given, their Jacobian in pattern order. Every
+    /// Jacobian value of the metric's entries is written (the caller need not zero them).
+    fn residuals(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        seg: &Segment,
+        r: &mut [f64],
+        jac: Option<JacobianMut>,
+    );
+
+    /// The squared norm `G_M(X) = |r|^2` of the segment (with the optimal auxiliary unknowns).
+    fn squared_norm(&self, topo: &Topology, pattern: &Pattern, seg: &Segment) -> f64 {
+        let aux;
+        let seg = if self.n_aux() > 0 {
+            aux = self.best_aux(topo, seg);
+            Segment { aux: &aux, ..*seg }
+        } else {
+            *seg
+        };
+        let mut r = vec![0.0; pattern.n_residuals()];
+        self.residuals(topo, pattern.as_ref(), &seg, &mut r, None);
+        r.iter().map(|x| x * x).sum()
+    }
+}
+
+/// Chain rule from `(geometry g, displacement X)` derivatives to `(a, b)` derivatives for a
+/// segment with `X = b - a` and `g = a` or `g = b`: `dr/da = -dr/dX + [g = a] dr/dg`,
+/// `dr/db = dr/dX + [g = b] dr/dg`.
+#[inline]
+pub(crate) fn split_segment(at: At, dg: [f64; 3], dx: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    match at {
+        At::Start => ([dg[0] - dx[0], dg[1] - dx[1], dg[2] - dx[2]], dx),
+        At::End => (
+            [-dx[0], -dx[1], -dx[2]],
+            [dg[0] + dx[0], dg[1] + dx[1], dg[2] + dx[2]],
+        ),
+    }
+}
+
+/// The geometry pose and the displacement `X = b - a` (#V x 3) of a segment.
+pub(crate) fn geometry_and_displacement<'a>(seg: &Segment<'a>) -> (&'a [[f64; 3]], Vec<[f64; 3]>) {
+    let g = match seg.at {
+        At::Start => seg.a,
+        At::End => seg.b,
+    };
+    let x = seg
+        .a
+        .iter()
+        .zip(seg.b)
+        .map(|(p, q)| [q[0] - p[0], q[1] - p[1], q[2] - p[2]])
+        .collect();
+    (g, x)
+}
