@@ -1,0 +1,261 @@
+//! The discrete path energy (eq. 12) and its exact gradient.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::mesh::Topology;
+use crate::metric::{At, Jacobian, Metric, Pattern, Segment};
+
+/// Fixed data of one path problem: the two end poses and the frozen metric weights.
+#[derive(Debug, Clone)]
+pub struct Ends {
+    /// First pose `P_0` (#V x 3).
+    pub start: Vec<[f64; 3]>,
+    /// Last pose `P_N` (#V x 3).
+    pub end: Vec<[f64; 3]>,
+    /// Per-vertex weights frozen along the path ([`Metric::frozen_weights`]).
+    pub frozen: Option<Vec<f64>>,
+}
+
+/// The path energy `E(P) = sum_i ( G_{P_i}(X_i) + G_{P_{i+1}}(X_i) )` (eq. 12) of a path with
+/// `N` segments and fixed ends, as a function of the unknown vector
+/// `x = [P_1, ..., P_{N-1} (each #V x 3, flattened), aux_0, ..., aux_{2N-1}]`, where `aux_t`
+/// are the metric's auxiliary unknowns of term `t = 2 i + (0 for At::Start, 1 for At::End)`.
+///
+/// Holds the metric's Jacobian pattern, built once per topology.
+#[derive(Debug)]
+pub struct PathEnergy<'m> {
+    pub(crate) topo: Arc<Topology>,
+    pub(crate) metric: &'m dyn Metric,
+    pub(crate) pattern: Pattern,
+    pub(crate) steps: usize,
+}
+
+/// Residuals and Jacobian of one term, reused across evaluations.
+pub(crate) struct TermEval {
+    pub r: Vec<f64>,
+    pub jac: Jacobian,
+}
+
+impl<'m> PathEnergy<'m> {
+    /// Path energy with `steps = N >= 1` segments for `metric` on `topo`.
+    pub fn new(metric: &'m dyn Metric, topo: Arc<Topology>, steps: usize) -> Self {
+        assert!(steps >= 1, "a path has at least one segment");
+        let pattern = metric.pattern(&topo);
+        PathEnergy {
+            topo,
+            metric,
+            pattern,
+            steps,
+        }
+    }
+
+    /// Number of segments `N`.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.topo.n_vertices()
+    }
+    /// Number of pose unknowns, `3 #V (N - 1)`.
+    pub fn n_pose_vars(&self) -> usize {
+        3 * self.n_vertices() * (self.steps - 1)
+    }
+    /// Number of unknowns (poses and auxiliary).
+    pub fn n_vars(&self) -> usize {
+        self.n_pose_vars() + 2 * self.steps * self.metric.n_aux()
+    }
+    /// The metric's Jacobian pattern.
+    pub fn pattern(&self) -> &Pattern {
+        &self.pattern
+    }
+
+    /// Pose `i` (0..=N) of the path given by `x` and `ends`.
+    pub fn pose<'a>(&self, x: &'a [f64], ends: &'a Ends, i: usize) -> &'a [[f64; 3]] {
+        if i == 0 {
+            &ends.start
+        } else if i == self.steps {
+            &ends.end
+        } else {
+            let n = 3 * self.n_vertices();
+            x[(i - 1) * n..i * n].as_chunks::<3>().0
+        }
+    }
+
+    /// Auxiliary unknowns of term `t`.
+    pub fn aux<'a>(&self, x: &'a [f64], t: usize) -> &'a [f64] {
+        let k = self.metric.n_aux();
+        &x[self.n_pose_vars() + t * k..self.n_pose_vars() + (t + 1) * k]
+    }
+
+    pub(crate) fn new_term_eval(&self) -> TermEval {
+        TermEval {
+            r: vec![0.0; self.pattern.n_residuals()],
+            jac: Jacobian::zeros(&self.pattern, self.metric.n_aux()),
+        }
+    }
+
+    fn segment<'a>(&self, x: &'a [f64], ends: &'a Ends, s: usize, at: At) -> Segment<'a> {
+        let t = 2 * s + usize::from(at == At::End);
+        Segment {
+            a: self.pose(x, ends, s),
+            b: self.pose(x, ends, s + 1),
+            at,
+            aux: self.aux(x, t),
+            frozen: ends.frozen.as_deref(),
+        }
+    }
+
+    /// Evaluates term (`s`, `at`) into `out`; with `jac`, also its Jacobian. Returns `|r|^2`.
+    pub(crate) fn eval_term(
+        &self,
+        x: &[f64],
+        ends: &Ends,
+        s: usize,
+        at: At,
+        out: &mut TermEval,
+        jac: bool,
+    ) -> f64 {
+        let seg = self.segment(x, ends, s, at);
+        let j = if jac { Some(out.jac.as_mut()) } else { None };
+        self.metric
+            .residuals(&self.topo, self.pattern.as_ref(), &seg, &mut out.r, j);
+        out.r.iter().map(|v| v * v).sum()
+    }
+
+    /// The energy `E(x)` (eq. 12).
+    pub fn energy(&self, x: &[f64], ends: &Ends) -> f64 {
+        (0..self.steps)
+            .into_par_iter()
+            .map_init(
+                || self.new_term_eval(),
+                |te, s| {
+                    self.eval_term(x, ends, s, At::Start, te, false)
+                        + self.eval_term(x, ends, s, At::End, te, false)
+                },
+            )
+            .sum()
+    }
+
+    /// Per segment `(G_{P_i}(X_i), G_{P_{i+1}}(X_i))`, with the auxiliary unknowns at their
+    /// optimum (so the values are the metric's squared norms).
+    pub fn segment_norms(&self, x: &[f64], ends: &Ends) -> Vec<(f64, f64)> {
+        (0..self.steps)
+            .into_par_iter()
+            .map(|s| {
+                let g = |at| {
+                    let seg = self.segment(x, ends, s, at);
+                    self.metric.squared_norm(&self.topo, &self.pattern, &seg)
+                };
+                (g(At::Start), g(At::End))
+            })
+            .collect()
+    }
+
+    /// The energy and its exact gradient `2 J^T r` (written to `grad`, length [`Self::n_vars`]).
+    pub fn energy_gradient(&self, x: &[f64], ends: &Ends, grad: &mut [f64]) -> f64 {
+        let nv3 = 3 * self.n_vertices();
+        let n_aux = self.metric.n_aux();
+        let parts: Vec<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> = (0..self.steps)
+            .into_par_iter()
+            .map_init(
+                || self.new_term_eval(),
+                |te, s| {
+                    let mut ga = vec![0.0; nv3];
+                    let mut gb = vec![0.0; nv3];
+                    let mut gaux = vec![0.0; 2 * n_aux];
+                    let mut e = 0.0;
+                    for (k, at) in [At::Start, At::End].into_iter().enumerate() {
+                        e += self.eval_term(x, ends, s, at, te, true);
+                        for i in 0..self.pattern.n_residuals() {
+                            let ri = 2.0 * te.r[i];
+                            if ri == 0.0 {
+                                continue;
+                            }
+                            for e_ in self.pattern.row(i) {
+                                let v = self.pattern.vertices[e_] as usize;
+                                for c in 0..3 {
+                                    ga[3 * v + c] += ri * te.jac.da[e_][c];
+                                    gb[3 * v + c] += ri * te.jac.db[e_][c];
+                                }
+                            }
+                            for m in 0..n_aux {
+                                gaux[k * n_aux + m] += ri * te.jac.daux[i * n_aux + m];
+                            }
+                        }
+                    }
+                    (e, ga, gb, gaux)
+                },
+            )
+            .collect();
+        grad.fill(0.0);
+        let np = self.n_pose_vars();
+        let mut e = 0.0;
+        for (s, (es, ga, gb, gaux)) in parts.into_iter().enumerate() {
+            e += es;
+            if s >= 1 {
+                for (g, v) in grad[(s - 1) * nv3..s * nv3].iter_mut().zip(&ga) {
+                    *g += v;
+                }
+            }
+            if s + 1 < self.steps {
+                for (g, v) in grad[s * nv3..(s + 1) * nv3].iter_mut().zip(&gb) {
+                    *g += v;
+                }
+            }
+            grad[np + 2 * s * n_aux..np + 2 * (s + 1) * n_aux].copy_from_slice(&gaux);
+        }
+        e
+    }
+
+    /// Unknown vector of the linear interpolation `P_i = (1 - i/N) A + (i/N) B`, with the
+    /// auxiliary unknowns at their optimum.
+    pub fn linear_start(&self, ends: &Ends) -> Vec<f64> {
+        let poses: Vec<Vec<[f64; 3]>> = (1..self.steps)
+            .map(|i| {
+                let t = i as f64 / self.steps as f64;
+                ends.start
+                    .iter()
+                    .zip(&ends.end)
+                    .map(|(p, q)| [0, 1, 2].map(|c| (1.0 - t) * p[c] + t * q[c]))
+                    .collect()
+            })
+            .collect();
+        self.pack(&poses, ends)
+    }
+
+    /// Unknown vector from interior poses `P_1 .. P_{N-1}`, with the auxiliary unknowns at
+    /// their optimum for those poses.
+    pub fn pack(&self, interior: &[Vec<[f64; 3]>], ends: &Ends) -> Vec<f64> {
+        assert_eq!(interior.len(), self.steps - 1);
+        let mut x = Vec::with_capacity(self.n_vars());
+        for p in interior {
+            x.extend_from_slice(p.as_flattened());
+        }
+        x.resize(self.n_vars(), 0.0);
+        self.reset_aux(&mut x, ends);
+        x
+    }
+
+    /// Sets every term's auxiliary unknowns to their optimum for the current poses.
+    pub fn reset_aux(&self, x: &mut [f64], ends: &Ends) {
+        let k = self.metric.n_aux();
+        if k == 0 {
+            return;
+        }
+        let np = self.n_pose_vars();
+        for s in 0..self.steps {
+            for (j, at) in [At::Start, At::End].into_iter().enumerate() {
+                let seg = Segment {
+                    aux: &[],
+                    ..self.segment(x, ends, s, at)
+                };
+                let best = self.metric.best_aux(&self.topo, &seg);
+                let t = 2 * s + j;
+                x[np + t * k..np + (t + 1) * k].copy_from_slice(&best);
+            }
+        }
+    }
+}

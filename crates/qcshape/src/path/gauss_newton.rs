@@ -1,0 +1,106 @@
+//! Levenberg-Marquardt on the stacked residuals of the path energy.
+
+use super::energy::{Ends, PathEnergy};
+use super::hessian::HessianLayout;
+use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+
+/// Minimizes the path energy from `x` with Levenberg-Marquardt steps
+/// `(J^T J + mu D) dx = -J^T r`, `D = diag(J^T J)` floored (Marquardt scaling), `mu` adapted by
+/// the ratio of actual to predicted decrease (Nielsen's rule).
+pub(crate) fn minimize(
+    pe: &PathEnergy,
+    layout: &HessianLayout,
+    ends: &Ends,
+    mut x: Vec<f64>,
+    opts: &GeodesicOptions,
+) -> Result<SolveOutput, GeodesicError> {
+    let par = faer::get_global_parallelism();
+    let (mut blocks, mut energy, mut g) = layout.assemble(pe, &x, ends);
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    // The energy gradient is 2 J^T r.
+    let g0 = 2.0 * norm(&g);
+    let mut mu = 1e-4;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    let mut stop = StopReason::MaxIterations;
+    if g0 == 0.0 {
+        return Ok(SolveOutput {
+            x,
+            iterations,
+            stop: StopReason::GradientTolerance,
+        });
+    }
+    while iterations < opts.max_iterations {
+        if let Some(t) = opts.target_energy {
+            if energy <= t {
+                stop = StopReason::TargetEnergy;
+                break;
+            }
+        }
+        if 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
+            stop = StopReason::GradientTolerance;
+            break;
+        }
+        iterations += 1;
+        let jtj = layout.values(&blocks);
+        let dmax = layout.diag_idx().iter().map(|&i| jtj[i]).fold(0.0f64, f64::max);
+        let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+        // Inner loop: raise mu until a step lowers the energy.
+        let accepted = loop {
+            let mut h = jtj.clone();
+            let mut dscale = Vec::with_capacity(layout.diag_idx().len());
+            for &i in layout.diag_idx() {
+                let d = jtj[i].max(floor);
+                h[i] += mu * d;
+                dscale.push(d);
+            }
+            let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
+            if layout.solve(&h, &mut dx, par).is_err() || dx.iter().any(|v| !v.is_finite()) {
+                mu *= nu;
+                nu *= 2.0;
+                if mu > 1e16 {
+                    break None;
+                }
+                continue;
+            }
+            // Predicted decrease of |r + J dx|^2: -g.dx + mu dx^T D dx.
+            let pred: f64 = -g.iter().zip(&dx).map(|(a, b)| a * b).sum::<f64>()
+                + mu * dx.iter().zip(&dscale).map(|(a, d)| a * a * d).sum::<f64>();
+            let x_new: Vec<f64> = x.iter().zip(&dx).map(|(a, b)| a + b).collect();
+            let e_new = pe.energy(&x_new, ends);
+            let rho = if pred > 0.0 { (energy - e_new) / pred } else { -1.0 };
+            if e_new.is_finite() && e_new < energy && rho > 1e-4 {
+                mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                nu = 2.0;
+                break Some((x_new, e_new, norm(&dx)));
+            }
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e16 {
+                break None;
+            }
+        };
+        let Some((mut x_new, e_new, step)) = accepted else {
+            stop = StopReason::NoProgress;
+            break;
+        };
+        pe.reset_aux(&mut x_new, ends);
+        let decrease = energy - e_new;
+        x = x_new;
+        let (b, e, gg) = layout.assemble(pe, &x, ends);
+        blocks = b;
+        energy = e;
+        g = gg;
+        if decrease <= opts.energy_tolerance * energy.abs() || step <= 1e-15 * (1.0 + norm(&x)) {
+            stop = StopReason::EnergyTolerance;
+            break;
+        }
+    }
+    if stop == StopReason::MaxIterations && 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
+        stop = StopReason::GradientTolerance;
+    }
+    if !energy.is_finite() {
+        return Err(GeodesicError::NonFinite(format!("energy {energy}")));
+    }
+    Ok(SolveOutput { x, iterations, stop })
+}

@@ -1,0 +1,440 @@
+//! Gauss-Newton normal equations `J^T J` of the path energy, assembled from 3 x 3 vertex blocks
+//! into a sparse matrix whose structure (and symbolic Cholesky factorization) is built once
+//! per (topology, metric, number of segments) and reused for every iteration and every pair.
+//!
+//! Unknowns are pose-major (`P_1 .. P_{N-1}`, each `3 #V`), then the auxiliary unknowns of the
+//! `2N` terms. `J^T J` is block-tridiagonal in the poses; within a pose block, vertex `u` couples
+//! with vertex `v` when some residual depends on both (the set `S`, stored column-wise).
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
+
+use super::energy::{Ends, PathEnergy};
+use crate::metric::At;
+
+/// Structure of `J^T J` for one path problem, built once, with its symbolic factorization.
+pub(crate) struct HessianLayout {
+    st: Structure,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    diag_idx: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+}
+
+/// Vertex-pair structure and per-residual slots (no factorization).
+struct Structure {
+    nv: usize,
+    steps: usize,
+    n_aux: usize,
+    /// Vertex-pair set `S`, column-wise CSR: column `v` holds rows `s_rows[s_off[v]..s_off[v+1]]`.
+    s_off: Vec<usize>,
+    s_rows: Vec<u32>,
+    /// Per residual `i` with entries `e_0..e_{L-1}`: `pair_slots[pair_off[i] + k L + l]` is the
+    /// slot of (row vertex of entry `k`, column vertex of entry `l`).
+    pair_off: Vec<usize>,
+    pair_slots: Vec<u32>,
+}
+
+/// One segment's contribution to `J^T r` and `J^T J` (both terms of the segment).
+pub(crate) struct SegmentBlocks {
+    /// `sum da_u da_v^T` per slot (row u, column v), row-major 3 x 3.
+    aa: Vec<[f64; 9]>,
+    /// `sum db_u db_v^T` per slot.
+    bb: Vec<[f64; 9]>,
+    /// `sum da_u db_v^T` per slot (row: vertex u of the first pose, column: v of the second).
+    ab: Vec<[f64; 9]>,
+    /// `J^T r` for the first and second pose (3 #V each).
+    ga: Vec<f64>,
+    gb: Vec<f64>,
+    /// Per term (2): coupling of each aux unknown with the first / second pose (3 #V x n_aux),
+    /// aux-aux block (n_aux x n_aux), and `J^T r` of the aux unknowns.
+    aux_a: [Vec<f64>; 2],
+    aux_b: [Vec<f64>; 2],
+    aux_aux: [Vec<f64>; 2],
+    aux_g: [Vec<f64>; 2],
+    /// Energy of the two terms.
+    pub energy: f64,
+}
+
+impl HessianLayout {
+    /// Builds the structure and the symbolic factorization (AMD ordering).
+    pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
+        let nv = pe.n_vertices();
+        let steps = pe.steps;
+        let n_aux = pe.metric.n_aux();
+        let pat = &pe.pattern;
+        // S: every pair of vertices sharing a residual (and every vertex with itself).
+        let mut cols: Vec<Vec<u32>> = (0..nv as u32).map(|v| vec![v]).collect();
+        for i in 0..pat.n_residuals() {
+            let row = &pat.vertices[pat.row(i)];
+            for &u in row {
+                for &v in row {
+                    cols[v as usize].push(u);
+                }
+            }
+        }
+        let mut s_off = Vec::with_capacity(nv + 1);
+        let mut s_rows = Vec::new();
+        s_off.push(0);
+        for mut c in cols {
+            c.sort_unstable();
+            c.dedup();
+            s_rows.extend_from_slice(&c);
+            s_off.push(s_rows.len());
+        }
+        let slot = |row: u32, col: u32| -> u32 {
+            let r = &s_rows[s_off[col as usize]..s_off[col as usize + 1]];
+            (s_off[col as usize] + r.binary_search(&row).expect("pair in S")) as u32
+        };
+        let mut pair_off = Vec::with_capacity(pat.n_residuals() + 1);
+        let mut pair_slots = Vec::new();
+        pair_off.push(0);
+        for i in 0..pat.n_residuals() {
+            let row = &pat.vertices[pat.row(i)];
+            for &u in row {
+                for &v in row {
+                    pair_slots.push(slot(u, v));
+                }
+            }
+            pair_off.push(pair_slots.len());
+        }
+        let st = Structure {
+            nv,
+            steps,
+            n_aux,
+            s_off,
+            s_rows,
+            pair_off,
+            pair_slots,
+        };
+        let n = pe.n_vars();
+        let mut col_ptr = vec![0usize];
+        let mut row_idx = Vec::new();
+        let mut diag_idx = Vec::with_capacity(n);
+        st.walk(|col, row, _| {
+            while col_ptr.len() <= col {
+                col_ptr.push(row_idx.len());
+            }
+            if row == col {
+                diag_idx.push(row_idx.len());
+            }
+            row_idx.push(row);
+        });
+        while col_ptr.len() <= n {
+            col_ptr.push(row_idx.len());
+        }
+        debug_assert_eq!(diag_idx.len(), n);
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let symbolic =
+            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, Default::default())?;
+        Ok(HessianLayout {
+            st,
+            col_ptr,
+            row_idx,
+            diag_idx,
+            symbolic,
+        })
+    }
+
+    /// Number of stored entries of the upper triangle.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+
+    /// Number of stored values of the Cholesky factor.
+    pub fn factor_len(&self) -> usize {
+        self.symbolic.len_val()
+    }
+}
+
+impl Structure {
+    /// Visits the upper triangle column by column, rows ascending: `f(col, row, source)`.
+    fn walk(&self, mut f: impl FnMut(usize, usize, Source)) {
+        let (nv, n_aux) = (self.nv, self.n_aux);
+        let nv3 = 3 * nv;
+        let base = |j: usize| (j - 1) * nv3; // first unknown of interior pose j
+        for j in 1..self.steps {
+            for v in 0..nv {
+                let rows = self.s_off[v]..self.s_off[v + 1];
+                for c in 0..3 {
+                    let col = base(j) + 3 * v + c;
+                    if j >= 2 {
+                        for idx in rows.clone() {
+                            let u = self.s_rows[idx] as usize;
+                            for cr in 0..3 {
+                                f(
+                                    col,
+                                    base(j - 1) + 3 * u + cr,
+                                    Source::Off {
+                                        seg: j - 1,
+                                        slot: idx,
+                                        k: cr * 3 + c,
+                                    },
+                                );
+                            }
+                        }
+                    }
+                    for idx in rows.clone() {
+                        let u = self.s_rows[idx] as usize;
+                        if u > v {
+                            break;
+                        }
+                        let last = if u == v { c } else { 2 };
+                        for cr in 0..=last {
+                            f(
+                                col,
+                                base(j) + 3 * u + cr,
+                                Source::Diag {
+                                    pose: j,
+                                    slot: idx,
+                                    k: cr * 3 + c,
+                                },
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        let np = nv3 * (self.steps - 1);
+        for s in 0..self.steps {
+            for e in 0..2 {
+                let t = 2 * s + e;
+                for m in 0..n_aux {
+                    let col = np + t * n_aux + m;
+                    if s >= 1 {
+                        for q in 0..nv3 {
+                            f(
+                                col,
+                                base(s) + q,
+                                Source::AuxA {
+                                    seg: s,
+                                    term: e,
+                                    k: q * n_aux + m,
+                                },
+                            );
+                        }
+                    }
+                    if s + 1 < self.steps {
+                        for q in 0..nv3 {
+                            f(
+                                col,
+                                base(s + 1) + q,
+                                Source::AuxB {
+                                    seg: s,
+                                    term: e,
+                                    k: q * n_aux + m,
+                                },
+                            );
+                        }
+                    }
+                    for m2 in 0..=m {
+                        f(
+                            col,
+                            np + t * n_aux + m2,
+                            Source::AuxAux {
+                                seg: s,
+                                term: e,
+                                k: m2 * n_aux + m,
+                            },
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Evaluates one segment's two terms with Jacobians and accumulates its blocks.
+    fn segment_blocks(&self, pe: &PathEnergy, x: &[f64], ends: &Ends, s: usize) -> SegmentBlocks {
+        let n_slots = self.s_rows.len();
+        let nv3 = 3 * self.nv;
+        let n_aux = self.n_aux;
+        let need_a = s >= 1;
+        let need_b = s + 1 < self.steps;
+        let mut sb = SegmentBlocks {
+            aa: if need_a {
+                vec![[0.0; 9]; n_slots]
+            } else {
+                Vec::new()
+            },
+            bb: if need_b {
+                vec![[0.0; 9]; n_slots]
+            } else {
+                Vec::new()
+            },
+            ab: if need_a && need_b {
+                vec![[0.0; 9]; n_slots]
+            } else {
+                Vec::new()
+            },
+            ga: vec![0.0; nv3],
+            gb: vec![0.0; nv3],
+            aux_a: [vec![0.0; nv3 * n_aux], vec![0.0; nv3 * n_aux]],
+            aux_b: [vec![0.0; nv3 * n_aux], vec![0.0; nv3 * n_aux]],
+            aux_aux: [vec![0.0; n_aux * n_aux], vec![0.0; n_aux * n_aux]],
+            aux_g: [vec![0.0; n_aux], vec![0.0; n_aux]],
+            energy: 0.0,
+        };
+        let pat = &pe.pattern;
+        let mut te = pe.new_term_eval();
+        for (e, at) in [At::Start, At::End].into_iter().enumerate() {
+            sb.energy += pe.eval_term(x, ends, s, at, &mut te, true);
+            let (r, jac) = (&te.r, &te.jac);
+            for i in 0..pat.n_residuals() {
+                let range = pat.row(i);
+                let l = range.len();
+                let first = range.start;
+                let ps = &self.pair_slots[self.pair_off[i]..self.pair_off[i + 1]];
+                let ri = r[i];
+                for k in 0..l {
+                    let vk = pat.vertices[first + k] as usize;
+                    let (dak, dbk) = (jac.da[first + k], jac.db[first + k]);
+                    for c in 0..3 {
+                        sb.ga[3 * vk + c] += dak[c] * ri;
+                        sb.gb[3 * vk + c] += dbk[c] * ri;
+                    }
+                    for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
+                        let slot = slot as usize;
+                        let (dal, dbl) = (jac.da[first + ll], jac.db[first + ll]);
+                        if need_a {
+                            outer_add(&mut sb.aa[slot], dak, dal);
+                        }
+                        if need_b {
+                            outer_add(&mut sb.bb[slot], dbk, dbl);
+                        }
+                        if need_a && need_b {
+                            outer_add(&mut sb.ab[slot], dak, dbl);
+                        }
+                    }
+                    if n_aux > 0 {
+                        let daux = &jac.daux[i * n_aux..(i + 1) * n_aux];
+                        for c in 0..3 {
+                            for m in 0..n_aux {
+                                sb.aux_a[e][(3 * vk + c) * n_aux + m] += dak[c] * daux[m];
+                                sb.aux_b[e][(3 * vk + c) * n_aux + m] += dbk[c] * daux[m];
+                            }
+                        }
+                    }
+                }
+                if n_aux > 0 {
+                    let daux = &jac.daux[i * n_aux..(i + 1) * n_aux];
+                    for m in 0..n_aux {
+                        sb.aux_g[e][m] += daux[m] * ri;
+                        for m2 in 0..n_aux {
+                            sb.aux_aux[e][m2 * n_aux + m] += daux[m2] * daux[m];
+                        }
+                    }
+                }
+            }
+        }
+        sb
+    }
+}
+
+impl HessianLayout {
+    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
+    pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
+        let st = &self.st;
+        let blocks: Vec<SegmentBlocks> = (0..st.steps)
+            .into_par_iter()
+            .map(|s| st.segment_blocks(pe, x, ends, s))
+            .collect();
+        let nv3 = 3 * st.nv;
+        let np = nv3 * (st.steps - 1);
+        let n_aux = st.n_aux;
+        let mut g = vec![0.0; pe.n_vars()];
+        let mut energy = 0.0;
+        for (s, b) in blocks.iter().enumerate() {
+            energy += b.energy;
+            if s >= 1 {
+                for (gi, v) in g[(s - 1) * nv3..s * nv3].iter_mut().zip(&b.ga) {
+                    *gi += v;
+                }
+            }
+            if s + 1 < st.steps {
+                for (gi, v) in g[s * nv3..(s + 1) * nv3].iter_mut().zip(&b.gb) {
+                    *gi += v;
+                }
+            }
+            for e in 0..2 {
+                let t = 2 * s + e;
+                g[np + t * n_aux..np + (t + 1) * n_aux].copy_from_slice(&b.aux_g[e]);
+            }
+        }
+        (blocks, energy, g)
+    }
+
+    /// Values of the upper triangle of `J^T J` in the layout's order.
+    pub fn values(&self, blocks: &[SegmentBlocks]) -> Vec<f64> {
+        let mut vals = Vec::with_capacity(self.nnz());
+        self.st.walk(|_, _, src| {
+            vals.push(match src {
+                Source::Off { seg, slot, k } => blocks[seg].ab[slot][k],
+                // Interior pose j is the second pose of segment j - 1 and the first of segment j.
+                Source::Diag { pose, slot, k } => blocks[pose - 1].bb[slot][k] + blocks[pose].aa[slot][k],
+                Source::AuxA { seg, term, k } => blocks[seg].aux_a[term][k],
+                Source::AuxB { seg, term, k } => blocks[seg].aux_b[term][k],
+                Source::AuxAux { seg, term, k } => blocks[seg].aux_aux[term][k],
+            })
+        });
+        vals
+    }
+
+    /// Positions of the diagonal entries in [`Self::values`].
+    pub fn diag_idx(&self) -> &[usize] {
+        &self.diag_idx
+    }
+
+    /// Factorizes the matrix with upper-triangle `values` and solves `H x = rhs` in place.
+    /// Errors when the matrix is not numerically positive definite.
+    pub fn solve(
+        &self,
+        values: &[f64],
+        rhs: &mut [f64],
+        par: Par,
+    ) -> Result<(), faer::linalg::cholesky::llt::factor::LltError> {
+        let n = rhs.len();
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let a = SparseColMatRef::new(sym, values);
+        let mut l_values = vec![0.0f64; self.symbolic.len_val()];
+        let req = self
+            .symbolic
+            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+            .or(self.symbolic.solve_in_place_scratch::<f64>(1, par));
+        let mut mem = MemBuffer::new(req);
+        let stack = MemStack::new(&mut mem);
+        let llt = self.symbolic.factorize_numeric_llt(
+            &mut l_values,
+            a,
+            Side::Upper,
+            LltRegularization::default(),
+            par,
+            stack,
+            Default::default(),
+        )?;
+        let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        llt.solve_in_place_with_conj(Conj::No, rhs_mat, par, stack);
+        Ok(())
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Source {
+    Off { seg: usize, slot: usize, k: usize },
+    Diag { pose: usize, slot: usize, k: usize },
+    AuxA { seg: usize, term: usize, k: usize },
+    AuxB { seg: usize, term: usize, k: usize },
+    AuxAux { seg: usize, term: usize, k: usize },
+}
+
+#[inline]
+fn outer_add(b: &mut [f64; 9], u: [f64; 3], v: [f64; 3]) {
+    for r in 0..3 {
+        for c in 0..3 {
+            b[r * 3 + c] += u[r] * v[c];
+        }
+    }
+}

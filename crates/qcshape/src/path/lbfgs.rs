@@ -1,0 +1,93 @@
+//! L-BFGS (the paper's quasi-Newton method) through argmin, on the exact gradient.
+
+use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, TerminationStatus};
+use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::quasinewton::LBFGS;
+
+use super::energy::{Ends, PathEnergy};
+use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+
+struct Problem<'a, 'm> {
+    pe: &'a PathEnergy<'m>,
+    ends: &'a Ends,
+}
+
+impl CostFunction for Problem<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+        Ok(self.pe.energy(x, self.ends))
+    }
+}
+
+impl Gradient for Problem<'_, '_> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    fn gradient(&self, x: &Vec<f64>) -> Result<Vec<f64>, argmin::core::Error> {
+        let mut g = vec![0.0; x.len()];
+        self.pe.energy_gradient(x, self.ends, &mut g);
+        Ok(g)
+    }
+}
+
+/// Minimizes the path energy with L-BFGS (`opts.lbfgs_memory` pairs, More-Thuente line
+/// search). Converged when the gradient norm is below `gradient_tolerance` times its initial
+/// value, or the relative energy change falls below `energy_tolerance`.
+pub(crate) fn minimize(
+    pe: &PathEnergy,
+    ends: &Ends,
+    x0: Vec<f64>,
+    opts: &GeodesicOptions,
+) -> Result<SolveOutput, GeodesicError> {
+    let problem = Problem { pe, ends };
+    let mut g = vec![0.0; x0.len()];
+    pe.energy_gradient(&x0, ends, &mut g);
+    let g0 = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if g0 == 0.0 {
+        return Ok(SolveOutput {
+            x: x0,
+            iterations: 0,
+            stop: StopReason::GradientTolerance,
+        });
+    }
+    let err = |e: argmin::core::Error| GeodesicError::Optimizer(e.to_string());
+    let solver = LBFGS::new(MoreThuenteLineSearch::new(), opts.lbfgs_memory.max(1))
+        .with_tolerance_grad(opts.gradient_tolerance * g0)
+        .map_err(err)?
+        .with_tolerance_cost(opts.energy_tolerance)
+        .map_err(err)?;
+    let max_iters = (opts.max_iterations * 50) as u64;
+    let target = opts.target_energy;
+    let res = Executor::new(problem, solver)
+        .configure(|state| {
+            let s = state.param(x0).max_iters(max_iters);
+            match target {
+                Some(t) => s.target_cost(t),
+                None => s,
+            }
+        })
+        .run()
+        .map_err(err)?;
+    let state = res.state();
+    let iterations = state.get_iter() as usize;
+    let stop = match state.get_termination_status() {
+        TerminationStatus::Terminated(TerminationReason::SolverConverged) => {
+            let mut g = vec![0.0; pe.n_vars()];
+            let x = state.get_best_param().expect("argmin keeps the best parameter");
+            pe.energy_gradient(x, ends, &mut g);
+            if g.iter().map(|v| v * v).sum::<f64>().sqrt() <= opts.gradient_tolerance * g0 {
+                StopReason::GradientTolerance
+            } else {
+                StopReason::EnergyTolerance
+            }
+        }
+        TerminationStatus::Terminated(TerminationReason::TargetCostReached) => StopReason::TargetEnergy,
+        TerminationStatus::Terminated(TerminationReason::MaxItersReached) => StopReason::MaxIterations,
+        other => StopReason::Other(format!("{other:?}")),
+    };
+    let x = state
+        .get_best_param()
+        .cloned()
+        .ok_or_else(|| GeodesicError::Optimizer("no parameter returned".into()))?;
+    Ok(SolveOutput { x, iterations, stop })
+}

@@ -1,0 +1,467 @@
+//! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
+//!
+//! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
+//! path with `N` segments, started from the linear interpolation. Two solvers:
+//! - [`Solver::GaussNewton`]: Levenberg-Marquardt on the stacked residuals; the normal
+//!   equations `J^T J + mu D` are block-tridiagonal in the poses and solved by faer's sparse
+//!   Cholesky, with the sparsity structure and the symbolic factorization built once per
+//!   (topology, metric, N) and reused for every iteration and every pair solved by one
+//!   [`GeodesicSolver`];
+//! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
+//!   line search) on the exact gradient.
+//!
+//! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
+//! distance `dis(A, B)` is the length of the discrete geodesic.
+
+mod energy;
+mod gauss_newton;
+mod hessian;
+mod lbfgs;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use thiserror::Error;
+
+pub use energy::{Ends, PathEnergy};
+
+use crate::mesh::{geometry, MeshError, Shape, Topology};
+use crate::metric::Metric;
+
+/// Which optimizer minimizes the path energy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Solver {
+    /// Levenberg-Marquardt / Gauss-Newton with a sparse Cholesky factorization (default).
+    #[default]
+    GaussNewton,
+    /// L-BFGS (the paper's quasi-Newton method).
+    Lbfgs,
+}
+
+impl std::str::FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "gauss-newton" | "gn" | "lm" => Ok(Solver::GaussNewton),
+            "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
+            _ => Err(format!("unknown solver '{s}' (expected gauss-newton or lbfgs)")),
+        }
+    }
+}
+
+/// Options of the geodesic solvers.
+#[derive(Debug, Clone)]
+pub struct GeodesicOptions {
+    /// Number of path segments `N` (N - 1 free interior poses). Default 8.
+    pub steps: usize,
+    /// The optimizer. Default Gauss-Newton.
+    pub solver: Solver,
+    /// Iteration limit (Gauss-Newton default 100; L-BFGS uses `max_iterations * 50`).
+    pub max_iterations: usize,
+    /// Converged when the gradient norm falls below this fraction of its value at the start.
+    /// Default 1e-6.
+    pub gradient_tolerance: f64,
+    /// Converged when an accepted step lowers the energy by less than this fraction.
+    /// Default 1e-12.
+    pub energy_tolerance: f64,
+    /// Stop as soon as the energy is at or below this value (used to time solvers to a
+    /// common energy).
+    pub target_energy: Option<f64>,
+    /// Number of correction pairs kept by L-BFGS. Default 10.
+    pub lbfgs_memory: usize,
+}
+
+impl Default for GeodesicOptions {
+    fn default() -> Self {
+        GeodesicOptions {
+            steps: 8,
+            solver: Solver::GaussNewton,
+            max_iterations: 100,
+            gradient_tolerance: 1e-6,
+            energy_tolerance: 1e-12,
+            target_energy: None,
+            lbfgs_memory: 10,
+        }
+    }
+}
+
+/// Why a solver stopped.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopReason {
+    /// The path has no free unknowns (N = 1 and no auxiliary unknowns).
+    NothingToOptimize,
+    /// The gradient norm fell below the relative tolerance.
+    GradientTolerance,
+    /// The energy stopped decreasing (relative decrease below tolerance).
+    EnergyTolerance,
+    /// The target energy was reached.
+    TargetEnergy,
+    /// The iteration limit was reached.
+    MaxIterations,
+    /// No step could lower the energy further (the damping grew without bound).
+    NoProgress,
+    /// The solver stopped for another reason (message).
+    Other(String),
+}
+
+impl StopReason {
+    /// Whether the reason counts as converged.
+    pub fn is_converged(&self) -> bool {
+        matches!(
+            self,
+            StopReason::NothingToOptimize
+                | StopReason::GradientTolerance
+                | StopReason::EnergyTolerance
+                | StopReason::TargetEnergy
+        )
+    }
+}
+
+/// A discrete geodesic (or, if not converged, the best path found).
+#[derive(Debug, Clone)]
+pub struct Geodesic {
+    /// The poses `P_0 .. P_N` (each #V x 3), ends included, in the input's units.
+    pub poses: Vec<Vec<[f64; 3]>>,
+    /// Path energy (eq. 12) at the solution, in the solver's (normalized) units.
+    pub energy: f64,
+    /// Path energy of the linear interpolation (the start).
+    pub initial_energy: f64,
+    /// Length `L` of the path = `dis(A, B)` (normalized units).
+    pub length: f64,
+    /// Length of each segment, `sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`.
+    pub segment_lengths: Vec<f64>,
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Whether the solver converged.
+    pub converged: bool,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Norm of the energy gradient at the solution.
+    pub gradient_norm: f64,
+    /// The factor all coordinates were multiplied by before solving (1 if not normalized).
+    pub scale: f64,
+    /// Wall-clock seconds spent in the solver.
+    pub seconds: f64,
+}
+
+/// Errors of the geodesic computation.
+#[derive(Debug, Error)]
+pub enum GeodesicError {
+    /// The two shapes do not share a connectivity (or vertex count).
+    #[error("shapes cannot be joined by a path: {0}")]
+    Mesh(#[from] MeshError),
+    /// A bad option value.
+    #[error("invalid option: {0}")]
+    Option(String),
+    /// The linear system could not be set up or solved.
+    #[error("linear algebra failure: {0}")]
+    LinearAlgebra(String),
+    /// The optimizer failed.
+    #[error("optimizer failure: {0}")]
+    Optimizer(String),
+    /// The energy became NaN or infinite (degenerate poses along the path).
+    #[error("the path energy is not finite ({0}); the poses may be degenerate")]
+    NonFinite(String),
+}
+
+/// A reusable geodesic solver for one (metric, topology, N): the metric's Jacobian pattern and
+/// the Gauss-Newton structure with its symbolic Cholesky factorization are built once and used
+/// for every pair.
+pub struct GeodesicSolver<'m> {
+    energy: PathEnergy<'m>,
+    options: GeodesicOptions,
+    layout: Option<hessian::HessianLayout>,
+}
+
+impl<'m> GeodesicSolver<'m> {
+    /// Prepares a solver. Builds the Gauss-Newton structure now if that solver is chosen.
+    pub fn new(
+        metric: &'m dyn Metric,
+        topo: Arc<Topology>,
+        options: GeodesicOptions,
+    ) -> Result<Self, GeodesicError> {
+        if options.steps == 0 {
+            return Err(GeodesicError::Option("steps must be at least 1".into()));
+        }
+        if !(options.gradient_tolerance >= 0.0 && options.energy_tolerance >= 0.0) {
+            return Err(GeodesicError::Option("tolerances must be non-negative".into()));
+        }
+        let energy = PathEnergy::new(metric, topo, options.steps);
+        let layout = if options.solver == Solver::GaussNewton && energy.n_vars() > 0 {
+            Some(
+                hessian::HessianLayout::new(&energy)
+                    .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
+            )
+        } else {
+            None
+        };
+        Ok(GeodesicSolver {
+            energy,
+            options,
+            layout,
+        })
+    }
+
+    /// The path energy being minimized.
+    pub fn path_energy(&self) -> &PathEnergy<'m> {
+        &self.energy
+    }
+
+    /// Sizes of the Gauss-Newton system: (unknowns, stored entries of the upper triangle of
+    /// `J^T J`, stored values of its Cholesky factor); `None` for L-BFGS.
+    pub fn system_size(&self) -> Option<(usize, usize, usize)> {
+        self.layout
+            .as_ref()
+            .map(|l| (self.energy.n_vars(), l.nnz(), l.factor_len()))
+    }
+
+    /// The options.
+    pub fn options(&self) -> &GeodesicOptions {
+        &self.options
+    }
+
+    /// Geodesic from `a` to `b` (each #V x 3, already scaled), started from the linear path.
+    pub fn solve(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Geodesic, GeodesicError> {
+        let ends = self.ends(a, b)?;
+        let x0 = self.energy.linear_start(&ends);
+        self.solve_from(&ends, x0)
+    }
+
+    /// Geodesic from `a` to `b` started from the given interior poses `P_1 .. P_{N-1}`.
+    pub fn solve_with_start(
+        &self,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        interior: &[Vec<[f64; 3]>],
+    ) -> Result<Geodesic, GeodesicError> {
+        let ends = self.ends(a, b)?;
+        if interior.len() + 1 != self.energy.steps() || interior.iter().any(|p| p.len() != a.len()) {
+            return Err(GeodesicError::Option(format!(
+                "expected {} interior poses of {} vertices",
+                self.energy.steps() - 1,
+                a.len()
+            )));
+        }
+        let x0 = self.energy.pack(interior, &ends);
+        self.solve_from(&ends, x0)
+    }
+
+    fn ends(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Ends, GeodesicError> {
+        let nv = self.energy.n_vertices();
+        for p in [a, b] {
+            if p.len() != nv {
+                return Err(MeshError::VertexCountMismatch {
+                    expected: nv,
+                    got: p.len(),
+                }
+                .into());
+            }
+            if let Some((vertex, v)) = p
+                .iter()
+                .enumerate()
+                .find(|(_, v)| v.iter().any(|c| !c.is_finite()))
+            {
+                return Err(MeshError::NonFinite { vertex, value: *v }.into());
+            }
+        }
+        let frozen = self.energy.metric.frozen_weights(&self.energy.topo, a, b);
+        Ok(Ends {
+            start: a.to_vec(),
+            end: b.to_vec(),
+            frozen,
+        })
+    }
+
+    fn solve_from(&self, ends: &Ends, x0: Vec<f64>) -> Result<Geodesic, GeodesicError> {
+        let t0 = Instant::now();
+        let pe = &self.energy;
+        let initial_energy = pe.energy(&x0, ends);
+        if !initial_energy.is_finite() {
+            return Err(GeodesicError::NonFinite(format!(
+                "initial energy {initial_energy}"
+            )));
+        }
+        let out = if pe.n_vars() == 0 {
+            SolveOutput {
+                x: x0,
+                iterations: 0,
+                stop: StopReason::NothingToOptimize,
+            }
+        } else {
+            match self.options.solver {
+                Solver::GaussNewton => {
+                    let layout = self.layout.as_ref().expect("layout is built for Gauss-Newton");
+                    gauss_newton::minimize(pe, layout, ends, x0, &self.options)?
+                }
+                Solver::Lbfgs => lbfgs::minimize(pe, ends, x0, &self.options)?,
+            }
+        };
+        let mut grad = vec![0.0; pe.n_vars()];
+        let energy = pe.energy_gradient(&out.x, ends, &mut grad);
+        if !energy.is_finite() {
+            return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
+        }
+        let norms = pe.segment_norms(&out.x, ends);
+        let segment_lengths: Vec<f64> = norms
+            .iter()
+            .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
+            .collect();
+        let poses = (0..=pe.steps())
+            .map(|i| pe.pose(&out.x, ends, i).to_vec())
+            .collect();
+        Ok(Geodesic {
+            poses,
+            energy,
+            initial_energy,
+            length: segment_lengths.iter().sum(),
+            segment_lengths,
+            iterations: out.iterations,
+            converged: out.stop.is_converged(),
+            stop: out.stop,
+            gradient_norm: grad.iter().map(|g| g * g).sum::<f64>().sqrt(),
+            scale: 1.0,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// What a minimizer returns.
+pub(crate) struct SolveOutput {
+    pub x: Vec<f64>,
+    pub iterations: usize,
+    pub stop: StopReason,
+}
+
+/// How shapes are scaled before solving (METHOD.md: one common factor for all shapes compared).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Normalization {
+    /// Divide all coordinates by the mean edge length of the first shape (default).
+    MeanEdgeOfFirst,
+    /// Multiply all coordinates by this factor.
+    Factor(f64),
+    /// Use the coordinates as they are.
+    None,
+}
+
+/// The factor that [`Normalization`] applies for a reference pose.
+pub fn normalization_factor(norm: Normalization, topo: &Topology, reference: &[[f64; 3]]) -> f64 {
+    match norm {
+        Normalization::MeanEdgeOfFirst => {
+            1.0 / geometry::mean_edge_length(topo, reference).max(f64::MIN_POSITIVE)
+        }
+        Normalization::Factor(f) => f,
+        Normalization::None => 1.0,
+    }
+}
+
+/// The discrete geodesic from shape `a` to shape `b` for `metric`, after scaling both by the
+/// common factor of `norm` (lengths and energies are reported in the scaled units; the poses
+/// are scaled back to the input's units). Convenience wrapper around [`GeodesicSolver`].
+pub fn geodesic(
+    metric: &dyn Metric,
+    a: &Shape,
+    b: &Shape,
+    options: &GeodesicOptions,
+    norm: Normalization,
+) -> Result<Geodesic, GeodesicError> {
+    a.check_same_topology(b)?;
+    let f = normalization_factor(norm, &a.topology, &a.positions);
+    if !(f.is_finite() && f > 0.0) {
+        return Err(GeodesicError::Option(format!(
+            "normalization factor {f} is not positive"
+        )));
+    }
+    let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
+    let solver = GeodesicSolver::new(metric, a.topology.clone(), options.clone())?;
+    let mut g = solver.solve(&scale(&a.positions), &scale(&b.positions))?;
+    for p in &mut g.poses {
+        for v in p.iter_mut() {
+            *v = v.map(|c| c / f);
+        }
+    }
+    // Keep the ends bit-exact.
+    g.poses[0] = a.positions.clone();
+    let n = g.poses.len() - 1;
+    g.poses[n] = b.positions.clone();
+    g.scale = f;
+    Ok(g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::{Isometric, Regularized, L2};
+    use crate::synth::icosphere;
+
+    fn bent(s: &Shape) -> Shape {
+        let pos = s
+            .positions
+            .iter()
+            .map(|p| [p[0] + 0.3 * p[2] * p[2], p[1] * (1.0 + 0.3 * p[0]), 1.4 * p[2]])
+            .collect();
+        Shape::new(s.topology.clone(), pos).unwrap()
+    }
+
+    #[test]
+    fn gradient_of_path_energy_matches_finite_differences() {
+        let a = icosphere(1);
+        let b = bent(&a);
+        let m = Regularized::new(Box::new(Isometric), 0.5);
+        let pe = PathEnergy::new(&m, a.topology.clone(), 3);
+        let ends = Ends {
+            start: a.positions.clone(),
+            end: b.positions.clone(),
+            frozen: None,
+        };
+        let mut x = pe.linear_start(&ends);
+        for (i, v) in x.iter_mut().enumerate() {
+            *v += 0.01 * ((i * 7919 % 13) as f64 - 6.0);
+        }
+        let mut g = vec![0.0; x.len()];
+        pe.energy_gradient(&x, &ends, &mut g);
+        let h = 1e-6;
+        for i in (0..x.len()).step_by(37) {
+            let mut xp = x.clone();
+            xp[i] += h;
+            let mut xm = x.clone();
+            xm[i] -= h;
+            let fd = (pe.energy(&xp, &ends) - pe.energy(&xm, &ends)) / (2.0 * h);
+            assert!(
+                (fd - g[i]).abs() <= 1e-6 * (1.0 + g[i].abs()),
+                "{i}: {fd} vs {}",
+                g[i]
+            );
+        }
+    }
+
+    #[test]
+    fn gauss_newton_and_lbfgs_agree_on_small_problems() {
+        let a = icosphere(1);
+        let b = bent(&a);
+        for m in [&L2 as &dyn Metric, &Regularized::new(Box::new(Isometric), 0.1)] {
+            let o = |solver| GeodesicOptions {
+                steps: 4,
+                solver,
+                gradient_tolerance: 1e-9,
+                ..Default::default()
+            };
+            let gn = geodesic(m, &a, &b, &o(Solver::GaussNewton), Normalization::MeanEdgeOfFirst).unwrap();
+            let lb = geodesic(m, &a, &b, &o(Solver::Lbfgs), Normalization::MeanEdgeOfFirst).unwrap();
+            assert!(gn.converged, "{:?}", gn.stop);
+            assert!(gn.energy <= gn.initial_energy);
+            let rel = (gn.energy - lb.energy).abs() / gn.energy;
+            assert!(
+                rel < 1e-6,
+                "{}: {} vs {} ({:?}, {} its)",
+                m.name(),
+                gn.energy,
+                lb.energy,
+                lb.stop,
+                lb.iterations
+            );
+            assert_eq!(gn.poses[0], a.positions);
+            assert_eq!(gn.poses[4], b.positions);
+        }
+    }
+}

@@ -1,0 +1,270 @@
+//! Geodesic properties required by the engine issue, on small generated meshes.
+
+use qcshape::mesh::{geometry, Shape};
+use qcshape::metric::{
+    Conformal, ConformalForm, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid, L2,
+};
+use qcshape::path::{geodesic, GeodesicOptions, GeodesicSolver, Normalization, Solver};
+use qcshape::synth::icosphere;
+
+/// A twisted and stretched copy of `s` (twist `k` radians per unit height about z, stretch in z).
+fn twist_stretch(s: &Shape, k: f64, stretch: f64) -> Shape {
+    let pos = s
+        .positions
+        .iter()
+        .map(|p| {
+            let a = k * p[2];
+            let (c, si) = (a.cos(), a.sin());
+            [c * p[0] - si * p[1], si * p[0] + c * p[1], stretch * p[2]]
+        })
+        .collect();
+    Shape::new(s.topology.clone(), pos).unwrap()
+}
+
+fn rigid_motion(s: &Shape, angle: f64, t: [f64; 3]) -> Shape {
+    let (c, si) = (angle.cos(), angle.sin());
+    // Rotation about the axis (1, 1, 1)/sqrt(3) via Rodrigues.
+    let k = [1.0 / 3f64.sqrt(); 3];
+    let pos = s
+        .positions
+        .iter()
+        .map(|&p| {
+            let kxp = geometry::cross(k, p);
+            let kdp = geometry::dot(k, p);
+            [0, 1, 2].map(|i| p[i] * c + kxp[i] * si + k[i] * kdp * (1.0 - c) + t[i])
+        })
+        .collect();
+    Shape::new(s.topology.clone(), pos).unwrap()
+}
+
+fn metrics() -> Vec<Box<dyn Metric>> {
+    let reg = |m: Box<dyn Metric>| -> Box<dyn Metric> { Box::new(Regularized::new(m, 0.1)) };
+    vec![
+        Box::new(L2),
+        reg(Box::new(Isometric)),
+        reg(Box::new(Rigid)),
+        reg(Box::new(Conformal {
+            form: ConformalForm::Quadratic,
+        })),
+        reg(Box::new(QuasiConformal {
+            form: ConformalForm::Quadratic,
+            weights: QcWeights::Endpoints,
+        })),
+    ]
+}
+
+fn opts(solver: Solver, steps: usize) -> GeodesicOptions {
+    GeodesicOptions {
+        steps,
+        solver,
+        gradient_tolerance: 1e-8,
+        max_iterations: 200,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn distance_to_itself_is_zero() {
+    let a = icosphere(1);
+    for m in metrics() {
+        let g = geodesic(
+            m.as_ref(),
+            &a,
+            &a,
+            &opts(Solver::GaussNewton, 4),
+            Normalization::MeanEdgeOfFirst,
+        )
+        .unwrap();
+        assert!(g.length.abs() < 1e-12, "{}: dis(A, A) = {}", m.name(), g.length);
+        assert!(g.converged);
+    }
+}
+
+#[test]
+fn distance_is_symmetric_and_below_linear_energy() {
+    let a = icosphere(2);
+    let b = twist_stretch(&a, 0.8, 1.3);
+    for m in metrics() {
+        // The scale must be common to both directions: use the same fixed factor.
+        let norm = Normalization::Factor(10.0);
+        let ab = geodesic(m.as_ref(), &a, &b, &opts(Solver::GaussNewton, 6), norm).unwrap();
+        let ba = geodesic(m.as_ref(), &b, &a, &opts(Solver::GaussNewton, 6), norm).unwrap();
+        assert!(
+            ab.converged && ba.converged,
+            "{}: {:?} {:?}",
+            m.name(),
+            ab.stop,
+            ba.stop
+        );
+        let rel = (ab.length - ba.length).abs() / ab.length;
+        assert!(
+            rel < 1e-6,
+            "{}: dis(A,B) = {} but dis(B,A) = {}",
+            m.name(),
+            ab.length,
+            ba.length
+        );
+        assert!(ab.energy <= ab.initial_energy * (1.0 + 1e-12), "{}", m.name());
+        if m.name() != "l2" {
+            // L2 geodesics are close to straight lines; others bend.
+            assert!(
+                ab.energy < ab.initial_energy * (1.0 - 1e-4),
+                "{}: {} vs {}",
+                m.name(),
+                ab.energy,
+                ab.initial_energy
+            );
+        }
+    }
+}
+
+#[test]
+fn both_solvers_reach_the_same_energy() {
+    let a = icosphere(1);
+    let b = twist_stretch(&a, 0.6, 1.2);
+    for m in metrics() {
+        let norm = Normalization::MeanEdgeOfFirst;
+        let gn = geodesic(m.as_ref(), &a, &b, &opts(Solver::GaussNewton, 5), norm).unwrap();
+        let lb = geodesic(m.as_ref(), &a, &b, &opts(Solver::Lbfgs, 5), norm).unwrap();
+        assert!(gn.converged, "{}: {:?}", m.name(), gn.stop);
+        let rel = (gn.energy - lb.energy).abs() / gn.energy;
+        assert!(
+            rel < 1e-5,
+            "{}: Gauss-Newton {} vs L-BFGS {} ({:?})",
+            m.name(),
+            gn.energy,
+            lb.energy,
+            lb.stop
+        );
+    }
+}
+
+#[test]
+fn rigid_motion_of_both_ends_keeps_invariant_distances() {
+    let a = icosphere(2);
+    let b = twist_stretch(&a, 0.7, 1.25);
+    let (ra, rb) = (
+        rigid_motion(&a, 0.9, [0.3, -1.0, 2.0]),
+        rigid_motion(&b, 0.9, [0.3, -1.0, 2.0]),
+    );
+    let reg = |m: Box<dyn Metric>| -> Box<dyn Metric> { Box::new(Regularized::new(m, 0.1)) };
+    // L2 regularization is itself rigid-invariant (areas and |X| are), so all of these are.
+    let invariant: Vec<Box<dyn Metric>> = vec![
+        Box::new(Isometric),
+        reg(Box::new(Conformal {
+            form: ConformalForm::Quadratic,
+        })),
+        reg(Box::new(Conformal {
+            form: ConformalForm::Paper,
+        })),
+        reg(Box::new(QuasiConformal {
+            form: ConformalForm::Quadratic,
+            weights: QcWeights::Endpoints,
+        })),
+    ];
+    for m in invariant {
+        let o = opts(Solver::GaussNewton, 4);
+        let d0 = geodesic(m.as_ref(), &a, &b, &o, Normalization::MeanEdgeOfFirst).unwrap();
+        let d1 = geodesic(m.as_ref(), &ra, &rb, &o, Normalization::MeanEdgeOfFirst).unwrap();
+        let rel = (d0.length - d1.length).abs() / d0.length;
+        assert!(
+            rel < 1e-6,
+            "{}: {} vs {} after a rigid motion",
+            m.name(),
+            d0.length,
+            d1.length
+        );
+    }
+}
+
+#[test]
+fn quasi_conformal_segment_length_shrinks_as_the_path_is_refined() {
+    // With the literal `segment` reading the weights K(P_{i+1}) - K(P_i) scale like 1/N, so the
+    // form is quartic in the velocity and the length decreases as N grows (METHOD.md). The
+    // frozen `endpoints` reading does not have this defect.
+    let a = icosphere(1);
+    let b = twist_stretch(&a, 0.5, 1.4);
+    let seg = QuasiConformal {
+        form: ConformalForm::Quadratic,
+        weights: QcWeights::Segment,
+    };
+    let end = QuasiConformal {
+        form: ConformalForm::Quadratic,
+        weights: QcWeights::Endpoints,
+    };
+    let len = |m: &dyn Metric, n: usize| {
+        let g = geodesic(
+            m,
+            &a,
+            &b,
+            &opts(Solver::GaussNewton, n),
+            Normalization::MeanEdgeOfFirst,
+        )
+        .unwrap();
+        g.length
+    };
+    let (s2, s4, s8) = (len(&seg, 2), len(&seg, 4), len(&seg, 8));
+    assert!(
+        s4 < 0.75 * s2 && s8 < 0.75 * s4,
+        "segment lengths {s2} {s4} {s8} should shrink about 1/N"
+    );
+    let (e2, e8) = (len(&end, 2), len(&end, 8));
+    assert!(
+        (e2 - e8).abs() < 0.2 * e8,
+        "endpoints lengths {e2} {e8} should be stable"
+    );
+}
+
+#[test]
+fn solver_reuses_structure_across_pairs() {
+    let a = icosphere(1);
+    let m = Regularized::new(Box::new(Isometric), 0.1);
+    let solver = GeodesicSolver::new(&m, a.topology.clone(), opts(Solver::GaussNewton, 4)).unwrap();
+    let scale = |s: &Shape| -> Vec<[f64; 3]> { s.positions.iter().map(|p| p.map(|c| c * 3.0)).collect() };
+    let mut last = 0.0;
+    for k in 1..4 {
+        let b = twist_stretch(&a, 0.3 * k as f64, 1.0 + 0.1 * k as f64);
+        let g = solver.solve(&scale(&a), &scale(&b)).unwrap();
+        assert!(g.converged);
+        assert!(g.length > last, "larger deformations are farther");
+        last = g.length;
+    }
+}
+
+#[test]
+fn mismatched_vertex_counts_are_an_error() {
+    let a = icosphere(1);
+    let b = icosphere(2);
+    let e = geodesic(
+        &L2,
+        &a,
+        &b,
+        &GeodesicOptions::default(),
+        Normalization::MeanEdgeOfFirst,
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("42") || e.to_string().contains("162"),
+        "{e}"
+    );
+}
+
+#[test]
+fn zero_lambda_conformal_still_returns_a_finite_result() {
+    let a = icosphere(1);
+    let b = twist_stretch(&a, 0.5, 1.2);
+    let m = Conformal {
+        form: ConformalForm::Quadratic,
+    };
+    let g = geodesic(
+        &m,
+        &a,
+        &b,
+        &opts(Solver::GaussNewton, 4),
+        Normalization::MeanEdgeOfFirst,
+    )
+    .unwrap();
+    assert!(g.energy.is_finite() && g.length.is_finite());
+    assert!(g.poses.iter().flatten().all(|p| p.iter().all(|c| c.is_finite())));
+    assert!(g.energy <= g.initial_energy);
+}
