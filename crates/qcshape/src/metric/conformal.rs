@@ -1,1 +1,342 @@
-//! Placeholder module, replaced by the conformal and quasi-conformal metrics.
+//! The conformal metric (eqs. 7-9) and the per-triangle kernel `T_p, T_q, T_r` it shares with
+//! the quasi-conformal metric (eq. 10).
+
+use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use crate::mesh::geometry::{add, dot, scale, sub};
+use crate::mesh::Topology;
+
+/// How the three corner terms `T_p, T_q, T_r` of a triangle enter the squared norm
+/// (METHOD.md "Metrics").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ConformalForm {
+    /// The paper's eqs. 8-9 with `X = Y`: one residual per face, `|T_p| + |T_q| + |T_r|`, so
+    /// the triangle contributes `(|T_p| + |T_q| + |T_r|)^2`. Not smooth where a `T_v` vanishes
+    /// (the derivative of `|T|` is taken as `sign(T) dT`, with `sign(0) = 0`).
+    Paper,
+    /// Three residuals per face, `T_p, T_q, T_r`: the triangle contributes
+    /// `T_p^2 + T_q^2 + T_r^2`, a true quadratic form (smooth for Gauss-Newton).
+    Quadratic,
+}
+
+impl ConformalForm {
+    /// Residuals per face: 1 for [`ConformalForm::Paper`], 3 for [`ConformalForm::Quadratic`].
+    pub fn residuals_per_face(self) -> usize {
+        match self {
+            ConformalForm::Paper => 1,
+            ConformalForm::Quadratic => 3,
+        }
+    }
+
+    /// `"paper"` or `"quadratic"` (used in metric names).
+    pub fn label(self) -> &'static str {
+        match self {
+            ConformalForm::Paper => "paper",
+            ConformalForm::Quadratic => "quadratic",
+        }
+    }
+}
+
+/// Sign with `sign(0) = 0` (the derivative convention for `|T|`).
+#[inline]
+pub(crate) fn sign0(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Value of `T` (eq. 7) at corner `0` of the triangle `(g0, g1, g2)` with displacements
+/// `(x0, x1, x2)`: `<g0-g1, x0-x1> |g0-g2|^2 - <g0-g2, x0-x2> |g0-g1|^2`.
+#[inline]
+fn corner_value(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> f64 {
+    let (e1, e2) = (sub(g[0], g[1]), sub(g[0], g[2]));
+    let (d1, d2) = (sub(x[0], x[1]), sub(x[0], x[2]));
+    dot(e1, d1) * dot(e2, e2) - dot(e2, d2) * dot(e1, e1)
+}
+
+/// Gradient of [`corner_value`] with respect to `(g0, g1, g2)` and `(x0, x1, x2)`.
+#[inline]
+fn corner_gradient(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
+    let (e1, e2) = (sub(g[0], g[1]), sub(g[0], g[2]));
+    let (d1, d2) = (sub(x[0], x[1]), sub(x[0], x[2]));
+    let (l1, l2) = (dot(e1, e1), dot(e2, e2));
+    let (p1, p2) = (dot(e1, d1), dot(e2, d2));
+    // dT/de1 = d1 |e2|^2 - 2 (e2.d2) e1, dT/de2 = 2 (e1.d1) e2 - d2 |e1|^2.
+    let de1 = sub(scale(d1, l2), scale(e1, 2.0 * p2));
+    let de2 = sub(scale(e2, 2.0 * p1), scale(d2, l1));
+    // dT/dd1 = e1 |e2|^2, dT/dd2 = -e2 |e1|^2.
+    let dd1 = scale(e1, l2);
+    let dd2 = scale(e2, -l1);
+    (
+        [add(de1, de2), scale(de1, -1.0), scale(de2, -1.0)],
+        [add(dd1, dd2), scale(dd1, -1.0), scale(dd2, -1.0)],
+    )
+}
+
+/// The three corner terms of one face in face order: `t[k]` is `T` at corner `k` (for corner
+/// `k` the triangle is read as `(f[k], f[k+1], f[k+2])`, the cyclic permutation of eq. 7).
+#[inline]
+pub(crate) fn face_values(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|k| corner_value(rot(g, k), rot(x, k)))
+}
+
+/// Per corner `k` and face slot `m`, a 3-vector: `[k][m]`.
+pub(crate) type FaceGradient = [[[f64; 3]; 3]; 3];
+
+/// Gradients of [`face_values`] in face slots: `dg[k][m] = dT_k/dg_{f[m]}`,
+/// `dx[k][m] = dT_k/dX_{f[m]}`.
+#[inline]
+pub(crate) fn face_gradients(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> (FaceGradient, FaceGradient) {
+    let mut dg = [[[0.0; 3]; 3]; 3];
+    let mut dx = [[[0.0; 3]; 3]; 3];
+    for k in 0..3 {
+        let (cg, cx) = corner_gradient(rot(g, k), rot(x, k));
+        for j in 0..3 {
+            dg[k][(k + j) % 3] = cg[j];
+            dx[k][(k + j) % 3] = cx[j];
+        }
+    }
+    (dg, dx)
+}
+
+/// `[v[k], v[k+1], v[k+2]]` (indices mod 3).
+#[inline]
+fn rot(v: [[f64; 3]; 3], k: usize) -> [[f64; 3]; 3] {
+    [v[k % 3], v[(k + 1) % 3], v[(k + 2) % 3]]
+}
+
+/// Pattern with every residual on its face's three vertices (face order), `per_face` rows per
+/// face.
+pub(crate) fn face_pattern(topo: &Topology, per_face: usize) -> Pattern {
+    Pattern::from_rows(
+        topo.faces()
+            .iter()
+            .flat_map(|f| std::iter::repeat_n(*f, per_face)),
+    )
+}
+
+/// Residuals and Jacobian of the (quasi-)conformal metric with weights that do not depend on
+/// the segment: `w_v = weights[v]` (all 1 when `None`, the conformal metric). Rows are those of
+/// [`face_pattern`] (entry `row * 3 + m` is face slot `m`).
+pub(crate) fn eval_constant_weights(
+    topo: &Topology,
+    form: ConformalForm,
+    seg: &Segment,
+    weights: Option<&[f64]>,
+    r: &mut [f64],
+    mut jac: Option<JacobianMut>,
+) {
+    let (g, x) = geometry_and_displacement(seg);
+    for (fi, f) in topo.faces().iter().enumerate() {
+        let gf = f.map(|i| g[i as usize]);
+        let xf = f.map(|i| x[i as usize]);
+        let w = match weights {
+            Some(w) => f.map(|i| w[i as usize]),
+            None => [1.0; 3],
+        };
+        let t = face_values(gf, xf);
+        let wt = [w[0] * t[0], w[1] * t[1], w[2] * t[2]];
+        // Coefficient of dT_k in each row of this face.
+        let mut coef = [[0.0; 3]; 3];
+        match form {
+            ConformalForm::Quadratic => {
+                for k in 0..3 {
+                    r[3 * fi + k] = wt[k];
+                    coef[k][k] = w[k];
+                }
+            }
+            ConformalForm::Paper => {
+                r[fi] = wt[0].abs() + wt[1].abs() + wt[2].abs();
+                for k in 0..3 {
+                    coef[0][k] = sign0(wt[k]) * w[k];
+                }
+            }
+        }
+        if let Some(j) = jac.as_mut() {
+            let (dg, dx) = face_gradients(gf, xf);
+            let n_rows = form.residuals_per_face();
+            for (i, c) in coef.iter().enumerate().take(n_rows) {
+                let row = n_rows * fi + i;
+                for m in 0..3 {
+                    let mut sg = [0.0; 3];
+                    let mut sx = [0.0; 3];
+                    for k in 0..3 {
+                        if c[k] != 0.0 {
+                            sg = add(sg, scale(dg[k][m], c[k]));
+                            sx = add(sx, scale(dx[k][m], c[k]));
+                        }
+                    }
+                    let (da, db) = split_segment(seg.at, sg, sx);
+                    j.da[row * 3 + m] = da;
+                    j.db[row * 3 + m] = db;
+                }
+            }
+        }
+    }
+}
+
+/// The conformal metric (eqs. 7-9): for every triangle `(p, q, r)` of `M`,
+/// `T_p(X) = <p-q, X_p-X_q> |p-r|^2 - <p-r, X_p-X_r> |p-q|^2` (eq. 7) and `T_q`, `T_r` by the
+/// cyclic permutation `p -> q -> r -> p`; the triangle contributes
+/// `(|T_p| + |T_q| + |T_r|)^2` ([`ConformalForm::Paper`], eqs. 8-9) or
+/// `T_p^2 + T_q^2 + T_r^2` ([`ConformalForm::Quadratic`]).
+///
+/// `T_p` is the (scaled) rate of change of the ratio `|p-q|^2 / |p-r|^2` (eqs. 4-6), so the
+/// metric vanishes on infinitesimal similarities (translations, rotations, uniform scaling)
+/// and on conformal fields; regularize with [`super::Regularized`] when a unique geodesic is
+/// needed. Residuals: 1 (paper) or 3 (quadratic) per face, each on the face's 3 vertices.
+/// Units: a residual is length^4 (positions length^3 times displacement), `G` length^8.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Conformal {
+    /// Which triangle term (paper or quadratic).
+    pub form: ConformalForm,
+}
+
+impl Conformal {
+    /// The conformal metric with the given triangle form.
+    pub fn new(form: ConformalForm) -> Self {
+        Conformal { form }
+    }
+}
+
+impl Metric for Conformal {
+    fn name(&self) -> String {
+        format!("conformal({})", self.form.label())
+    }
+
+    fn pattern(&self, topo: &Topology) -> Pattern {
+        face_pattern(topo, self.form.residuals_per_face())
+    }
+
+    fn n_residuals(&self, topo: &Topology) -> usize {
+        self.form.residuals_per_face() * topo.n_faces()
+    }
+
+    fn residuals(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &mut [f64],
+        jac: Option<JacobianMut>,
+    ) {
+        eval_constant_weights(topo, self.form, seg, None, r, jac);
+    }
+}
+
+/// Segment `a -> b = a + X` at `at`, for tests.
+#[cfg(test)]
+pub(crate) fn test_segment<'a>(a: &'a [[f64; 3]], b: &'a [[f64; 3]], at: super::At) -> Segment<'a> {
+    Segment {
+        a,
+        b,
+        at,
+        aux: &[],
+        frozen: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::geometry::cross;
+    use crate::metric::{fdcheck, At};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    const FORMS: [ConformalForm; 2] = [ConformalForm::Paper, ConformalForm::Quadratic];
+
+    #[test]
+    fn conformal_jacobian_matches_finite_differences() {
+        fdcheck::check_metric(&Conformal::new(ConformalForm::Paper), 13);
+        fdcheck::check_metric(&Conformal::new(ConformalForm::Quadratic), 17);
+    }
+
+    #[test]
+    fn names() {
+        assert_eq!(Conformal::new(ConformalForm::Paper).name(), "conformal(paper)");
+        assert_eq!(
+            Conformal::new(ConformalForm::Quadratic).name(),
+            "conformal(quadratic)"
+        );
+    }
+
+    fn g_of(metric: &dyn Metric, a: &[[f64; 3]], field: impl Fn([f64; 3]) -> [f64; 3], at: At) -> f64 {
+        let s = crate::synth::icosphere(2);
+        assert_eq!(s.positions.len(), a.len());
+        let b: Vec<[f64; 3]> = a.iter().map(|p| add(*p, field(*p))).collect();
+        let pat = metric.pattern(&s.topology);
+        metric.squared_norm(&s.topology, &pat, &test_segment(a, &b, at))
+    }
+
+    #[test]
+    fn conformal_vanishes_on_similarities_and_not_on_a_stretch() {
+        let s = crate::synth::icosphere(2);
+        // A slightly irregular sphere so that nothing vanishes by symmetry.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let a: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| p.map(|c| c + 0.02 * (rng.random::<f64>() - 0.5)))
+            .collect();
+        let noise: Vec<[f64; 3]> = a
+            .iter()
+            .map(|_| [0, 1, 2].map(|_| 0.01 * (rng.random::<f64>() - 0.5)))
+            .collect();
+        let w = [0.3, -0.2, 0.7];
+        for form in FORMS {
+            let m = Conformal::new(form);
+            // Reference: a random field of comparable size (0.01).
+            let b: Vec<[f64; 3]> = a.iter().zip(&noise).map(|(p, n)| add(*p, *n)).collect();
+            let pat = m.pattern(&s.topology);
+            let g_rand = m.squared_norm(&s.topology, &pat, &test_segment(&a, &b, At::Start));
+            assert!(g_rand > 0.0);
+            for at in [At::Start, At::End] {
+                let g_scale = g_of(&m, &a, |p| scale(p, 0.01), at);
+                assert!(
+                    g_scale < 1e-20 * g_rand,
+                    "{form:?} {at:?}: scaling {g_scale} vs {g_rand}"
+                );
+            }
+            let g_rigid = g_of(
+                &m,
+                &a,
+                |p| add(scale(cross(w, p), 0.01), [0.01, -0.02, 0.005]),
+                At::Start,
+            );
+            assert!(g_rigid < 1e-20 * g_rand, "{form:?}: rigid {g_rigid} vs {g_rand}");
+            let g_stretch = g_of(&m, &a, |p| [0.01 * p[0], 0.0, 0.0], At::Start);
+            assert!(
+                g_stretch > 1e-2 * g_rand,
+                "{form:?}: stretch {g_stretch} vs {g_rand}"
+            );
+        }
+    }
+
+    #[test]
+    fn degenerate_triangles_give_finite_values() {
+        let s = crate::synth::icosphere(1);
+        let a = vec![[0.0; 3]; s.positions.len()];
+        let b = s.positions.clone();
+        for form in FORMS {
+            let m = Conformal::new(form);
+            let pat = m.pattern(&s.topology);
+            let mut r = vec![0.0; pat.n_residuals()];
+            let mut jac = super::super::Jacobian::zeros(&pat, 0);
+            for at in [At::Start, At::End] {
+                m.residuals(
+                    &s.topology,
+                    pat.as_ref(),
+                    &test_segment(&a, &b, at),
+                    &mut r,
+                    Some(jac.as_mut()),
+                );
+                assert!(r.iter().all(|v| v.is_finite()));
+                assert!(jac.da.iter().chain(&jac.db).flatten().all(|v| v.is_finite()));
+            }
+        }
+    }
+}

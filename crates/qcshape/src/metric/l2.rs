@@ -52,8 +52,8 @@ impl Metric for L2 {
                     let row = fi * 9 + k * 3 + c3;
                     r[row] = s * xv[c3];
                     if let Some(j) = jac.as_mut() {
-                        for m in 0..3 {
-                            let dg = scale(darea[m], xv[c3] * ds_scale);
+                        for (m, dar) in darea.iter().enumerate() {
+                            let dg = scale(*dar, xv[c3] * ds_scale);
                             let mut dx = [0.0; 3];
                             if m == k {
                                 dx[c3] = s;

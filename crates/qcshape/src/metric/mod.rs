@@ -12,17 +12,22 @@
 //! [`QuasiConformal`] (eq. 10), and [`Regularized`] (`G + lambda * L2`, eq. 11).
 
 mod conformal;
+mod curvature;
 mod isometric;
 mod l2;
+mod quasi_conformal;
 mod regularized;
 mod rigid;
 
 #[cfg(test)]
 pub(crate) mod fdcheck;
 
+pub use conformal::{Conformal, ConformalForm};
 pub use isometric::Isometric;
 pub use l2::L2;
+pub use quasi_conformal::{QcWeights, QuasiConformal};
 pub use regularized::Regularized;
+pub use rigid::Rigid;
 
 use std::fmt::Debug;
 
