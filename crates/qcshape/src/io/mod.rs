@@ -1,0 +1,626 @@
+//! Mesh files: reading OBJ, PLY, OFF, STL and legacy VTK into a triangle soup
+//! ([`MeshData`]) or a validated [`Shape`], and writing OBJ, PLY, OFF, STL and VTK with
+//! optional per-vertex values (heat maps).
+//!
+//! # Why hand-written parsers
+//!
+//! The crates that read these formats (tobj, ply-rs, stl_io, vtkio) were considered. They
+//! either panic or allocate declared counts on malformed input, report problems without a line
+//! or byte position, or pull in large dependency trees for features this crate does not use
+//! (materials, cells other than polygons, XML VTK). The formats are small, so each reader here
+//! is a few hundred lines written against one rule: **no input may panic or allocate more
+//! than the file could hold**. Declared counts are checked against the bytes that remain
+//! before anything is reserved, every number is checked, and every error says where (line for
+//! text, byte offset for binary) and what. `stress` tests (and the `fuzz/` targets) feed
+//! mutated files to [`parse_mesh`] to keep it that way.
+//!
+//! # Guarantees of [`parse_mesh`]
+//!
+//! On success every coordinate is finite and every face index is below
+//! `positions.len()`. Faces are *not* otherwise validated here (repeated indices,
+//! non-manifold edges, orientation, zero area): [`load_shape`] does that through
+//! [`Topology::new`] and [`Shape::new_checked`].
+//!
+//! Polygons with more than three corners are fan-triangulated (`[a, b, c, d]` becomes
+//! `[a, b, c], [a, c, d]`) and reported in [`MeshData::warnings`].
+
+mod color;
+mod obj;
+mod off;
+mod ply;
+mod stl;
+#[cfg(test)]
+mod stress;
+#[cfg(test)]
+mod tests;
+mod text;
+mod vtk;
+
+use std::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use thiserror::Error;
+
+use crate::mesh::{MeshError, Shape, Topology};
+
+pub use color::heat_colors;
+pub use ply::PlyEncoding;
+
+/// Relative area tolerance used by [`load_shape`]: a face whose area is at most
+/// `1e-12 * lbar^2` (`lbar` the mean edge length) is rejected as degenerate.
+pub const DEGENERATE_REL_TOL: f64 = 1e-12;
+
+/// A triangle soup as read from a file, before any topological validation.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MeshData {
+    /// Vertex positions (#V x 3), in the file's length unit; all finite.
+    pub positions: Vec<[f64; 3]>,
+    /// Triangles (#F x 3) of 0-based indices into `positions`, all in range.
+    pub faces: Vec<[u32; 3]>,
+    /// Non-fatal remarks from the reader (fan-triangulated polygons, ignored trailing data,
+    /// welded STL corners), each one sentence.
+    pub warnings: Vec<String>,
+}
+
+/// A mesh file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Wavefront OBJ (text).
+    Obj,
+    /// Stanford PLY (ASCII, binary little endian or binary big endian).
+    Ply,
+    /// Object File Format (text).
+    Off,
+    /// STL (ASCII or binary; unindexed, single precision).
+    Stl,
+    /// Legacy VTK POLYDATA (ASCII or big-endian binary).
+    Vtk,
+}
+
+impl Format {
+    /// Every format, in a fixed order.
+    pub const ALL: [Format; 5] = [Format::Obj, Format::Ply, Format::Off, Format::Stl, Format::Vtk];
+
+    /// The format for a file name extension (`obj`, `ply`, `off`, `stl`, `vtk`; any case).
+    pub fn from_extension(ext: &str) -> Option<Format> {
+        Format::ALL
+            .into_iter()
+            .find(|f| f.extension().eq_ignore_ascii_case(ext))
+    }
+
+    /// The format named by `path`'s extension (case-insensitive), if it is a known one.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        Format::from_extension(path.extension()?.to_str()?)
+    }
+
+    /// The usual file name extension, lower case, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Obj => "obj",
+            Format::Ply => "ply",
+            Format::Off => "off",
+            Format::Stl => "stl",
+            Format::Vtk => "vtk",
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Obj => "OBJ",
+            Format::Ply => "PLY",
+            Format::Off => "OFF",
+            Format::Stl => "STL",
+            Format::Vtk => "VTK",
+        })
+    }
+}
+
+fn at_line(line: &Option<usize>) -> String {
+    match line {
+        Some(l) => format!(" (line {l})"),
+        None => String::new(),
+    }
+}
+
+/// Why a byte buffer is not a readable mesh. Face and vertex numbers are 0-based positions in
+/// the file (a face is a polygon as written, before triangulation); lines are 1-based.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ParseError {
+    /// The input is empty or only whitespace.
+    #[error("the file is empty")]
+    Empty,
+    /// A malformed line or token in a text file (or text header).
+    #[error("line {line}: {message}")]
+    Syntax {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Binary data ends before a declared record does.
+    #[error("the file is truncated: {what} needs {needed} bytes from byte offset {offset}, but the file has only {len} bytes")]
+    Truncated {
+        /// The record being read, e.g. "vertex 17 of 642".
+        what: String,
+        /// Bytes the record needs.
+        needed: u64,
+        /// Where it starts.
+        offset: u64,
+        /// File length in bytes.
+        len: u64,
+    },
+    /// A text file ends before everything its header declared.
+    #[error("the file ends early: expected {expected}")]
+    UnexpectedEnd {
+        /// What was still expected, e.g. "642 vertices, found 100".
+        expected: String,
+    },
+    /// A face index outside `0..n_vertices` (as written: 1-based or negative for OBJ).
+    #[error("face {face} refers to vertex {index}, but there are only {n_vertices} vertices{}", at_line(.line))]
+    IndexOutOfRange {
+        /// Face number in the file.
+        face: usize,
+        /// The index as written.
+        index: i64,
+        /// Number of vertices.
+        n_vertices: usize,
+        /// Line, for text files.
+        line: Option<usize>,
+    },
+    /// A coordinate is NaN or infinite (or overflows `f64`).
+    #[error("vertex {vertex} has a non-finite coordinate ({value}){}", at_line(.line))]
+    NonFinite {
+        /// Vertex number.
+        vertex: usize,
+        /// The offending value.
+        value: f64,
+        /// Line, for text files.
+        line: Option<usize>,
+    },
+    /// A face with fewer than three corners.
+    #[error("face {face} has {count} vertices, but a face needs at least 3{}", at_line(.line))]
+    BadFace {
+        /// Face number.
+        face: usize,
+        /// Its corner count.
+        count: u64,
+        /// Line, for text files.
+        line: Option<usize>,
+    },
+    /// Structurally wrong but not tied to one line (missing element, bad binary header).
+    #[error("{0}")]
+    Invalid(String),
+    /// A valid file using a feature this reader does not support.
+    #[error("unsupported: {0}")]
+    Unsupported(String),
+}
+
+/// Why a mesh cannot be encoded as asked (checked before anything is written).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum WriteError {
+    /// A per-vertex attribute does not have one entry per vertex.
+    #[error("{what} has {got} entries, but there are {expected} vertices")]
+    AttributeLength {
+        /// Which attribute.
+        what: String,
+        /// Its length.
+        got: usize,
+        /// Number of vertices.
+        expected: usize,
+    },
+    /// A face refers to a vertex that does not exist.
+    #[error("face {face} refers to vertex {index}, but there are only {n_vertices} vertices")]
+    IndexOutOfRange {
+        /// Face index.
+        face: usize,
+        /// Vertex index.
+        index: u32,
+        /// Number of vertices.
+        n_vertices: usize,
+    },
+    /// The format cannot store the given per-vertex attribute.
+    #[error("the {format} format cannot store {what}; write .ply or .vtk instead")]
+    Unsupported {
+        /// Target format.
+        format: Format,
+        /// The attribute, e.g. "per-vertex scalars".
+        what: &'static str,
+    },
+}
+
+/// A file-level error: every message starts with the file's path.
+#[derive(Debug, Error)]
+pub enum IoError {
+    /// The file cannot be read (missing, a directory, no permission).
+    #[error("{}: cannot read: {error}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// The file (or its temporary) cannot be written or renamed.
+    #[error("{}: cannot write: {error}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// The extension names no known format.
+    #[error("{}: unknown mesh format: the file name must end in .obj, .ply, .off, .stl or .vtk", path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The bytes are not a valid mesh file.
+    #[error("{}: {error}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The problem.
+        error: ParseError,
+    },
+    /// The file parses, but its mesh is unusable (bad connectivity, degenerate face).
+    #[error("{}: {error}", path.display())]
+    Mesh {
+        /// The file.
+        path: PathBuf,
+        /// The problem.
+        error: MeshError,
+    },
+    /// The mesh cannot be encoded as asked.
+    #[error("{}: {error}", path.display())]
+    Encode {
+        /// The file.
+        path: PathBuf,
+        /// The problem.
+        error: WriteError,
+    },
+}
+
+impl IoError {
+    /// The file the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            IoError::Read { path, .. }
+            | IoError::Write { path, .. }
+            | IoError::UnknownFormat { path }
+            | IoError::Parse { path, .. }
+            | IoError::Mesh { path, .. }
+            | IoError::Encode { path, .. } => path,
+        }
+    }
+}
+
+/// Parses a whole file held in memory. Pure: no file system access, and no panic or
+/// unbounded allocation for any input (this is what the fuzz targets call).
+pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> {
+    if bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(ParseError::Empty);
+    }
+    let data = match format {
+        Format::Obj => obj::parse(bytes),
+        Format::Ply => ply::parse(bytes),
+        Format::Off => off::parse(bytes),
+        Format::Stl => stl::parse(bytes),
+        Format::Vtk => vtk::parse(bytes),
+    }?;
+    debug_assert!(data.positions.iter().flatten().all(|c| c.is_finite()));
+    debug_assert!(data
+        .faces
+        .iter()
+        .flatten()
+        .all(|&i| (i as usize) < data.positions.len()));
+    Ok(data)
+}
+
+/// Reads and parses a mesh file, choosing the format from its extension.
+pub fn read_mesh(path: &Path) -> Result<MeshData, IoError> {
+    let format = Format::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.into() })?;
+    let bytes = std::fs::read(path).map_err(|error| IoError::Read {
+        path: path.into(),
+        error,
+    })?;
+    parse_mesh(&bytes, format).map_err(|error| IoError::Parse {
+        path: path.into(),
+        error,
+    })
+}
+
+/// Reads a mesh file into a validated [`Shape`]: [`read_mesh`], then [`Topology::new`] and
+/// [`Shape::new_checked`] with [`DEGENERATE_REL_TOL`]. Reader warnings are dropped; see
+/// [`load_shape_with_warnings`].
+pub fn load_shape(path: &Path) -> Result<Shape, IoError> {
+    load_shape_with_warnings(path).map(|(s, _)| s)
+}
+
+/// Like [`load_shape`], also returning the reader's warnings.
+pub fn load_shape_with_warnings(path: &Path) -> Result<(Shape, Vec<String>), IoError> {
+    let data = read_mesh(path)?;
+    let shape = shape_from_data(path, data.positions, data.faces)?;
+    Ok((shape, data.warnings))
+}
+
+/// Builds a validated shape from parsed data, wrapping mesh errors with `path`.
+pub(crate) fn shape_from_data(
+    path: &Path,
+    positions: Vec<[f64; 3]>,
+    faces: Vec<[u32; 3]>,
+) -> Result<Shape, IoError> {
+    let wrap = |error| IoError::Mesh {
+        path: path.into(),
+        error,
+    };
+    let topo = Topology::new(positions.len(), faces).map_err(wrap)?;
+    Shape::new_checked(topo, positions, DEGENERATE_REL_TOL).map_err(wrap)
+}
+
+/// Optional per-vertex values written alongside the geometry.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct VertexAttributes<'a> {
+    /// A named scalar per vertex (#V), e.g. `("error", &errors)`; PLY and VTK only.
+    pub scalar: Option<(&'a str, &'a [f64])>,
+    /// An RGB colour per vertex (#V x 3, 0..=255), e.g. from [`heat_colors`]; PLY, VTK and OBJ
+    /// (as the common `v x y z r g b` extension).
+    pub colors: Option<&'a [[u8; 3]]>,
+}
+
+/// Choices for encoding that the file name does not determine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct WriteOptions {
+    /// PLY encoding (default binary little endian).
+    pub ply_encoding: PlyEncoding,
+}
+
+fn validate(
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+) -> Result<(), WriteError> {
+    let n = positions.len();
+    for (face, f) in faces.iter().enumerate() {
+        if let Some(&index) = f.iter().find(|&&i| i as usize >= n) {
+            return Err(WriteError::IndexOutOfRange {
+                face,
+                index,
+                n_vertices: n,
+            });
+        }
+    }
+    if let Some((name, s)) = attrs.scalar {
+        if s.len() != n {
+            return Err(WriteError::AttributeLength {
+                what: format!("scalar {name:?}"),
+                got: s.len(),
+                expected: n,
+            });
+        }
+        if matches!(format, Format::Obj | Format::Off | Format::Stl) {
+            return Err(WriteError::Unsupported {
+                format,
+                what: "per-vertex scalars",
+            });
+        }
+    }
+    if let Some(c) = attrs.colors {
+        if c.len() != n {
+            return Err(WriteError::AttributeLength {
+                what: "colors".into(),
+                got: c.len(),
+                expected: n,
+            });
+        }
+        if matches!(format, Format::Off | Format::Stl) {
+            return Err(WriteError::Unsupported {
+                format,
+                what: "per-vertex colors",
+            });
+        }
+    }
+    Ok(())
+}
+
+fn encode_to(
+    w: &mut dyn Write,
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+    options: &WriteOptions,
+) -> std::io::Result<()> {
+    match format {
+        Format::Obj => obj::write(w, positions, faces, attrs),
+        Format::Ply => ply::write(w, positions, faces, attrs, options.ply_encoding),
+        Format::Off => off::write(w, positions, faces),
+        Format::Stl => stl::write(w, positions, faces),
+        Format::Vtk => vtk::write(w, positions, faces, attrs),
+    }
+}
+
+/// Encodes a mesh (positions #V x 3, faces #F x 3) in memory. Errors if an attribute's length
+/// is not #V, a face index is out of range, or the format cannot hold an attribute.
+pub fn encode_mesh(
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+    options: &WriteOptions,
+) -> Result<Vec<u8>, WriteError> {
+    validate(format, positions, faces, attrs)?;
+    let mut out = Vec::new();
+    encode_to(&mut out, format, positions, faces, attrs, options).expect("writing to a Vec cannot fail");
+    Ok(out)
+}
+
+/// Writes a mesh (positions #V x 3, faces #F x 3) in the format named by `path`'s extension,
+/// atomically (see [`write_atomically`]). PLY is binary little endian; text formats print
+/// shortest round-trip decimals, so reading the file back gives the same `f64`s (STL stores
+/// `f32`).
+pub fn write_mesh(
+    path: &Path,
+    shape_positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+) -> Result<(), IoError> {
+    let format = Format::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.into() })?;
+    write_mesh_with(
+        path,
+        format,
+        shape_positions,
+        faces,
+        attrs,
+        &WriteOptions::default(),
+    )
+}
+
+/// [`write_mesh`] with an explicit format and options.
+pub fn write_mesh_with(
+    path: &Path,
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+    options: &WriteOptions,
+) -> Result<(), IoError> {
+    validate(format, positions, faces, attrs).map_err(|error| IoError::Encode {
+        path: path.into(),
+        error,
+    })?;
+    write_atomically(path, |w| encode_to(w, format, positions, faces, attrs, options))
+}
+
+/// Writes a file so that it is either complete or absent: `write` fills a temporary file in
+/// the same folder (`.NAME.PID-N.tmp`), which is flushed, synced and renamed over `path`.
+/// On any error the temporary is removed and `path` is untouched.
+pub fn write_atomically<F>(path: &Path, write: F) -> Result<(), IoError>
+where
+    F: FnOnce(&mut dyn Write) -> std::io::Result<()>,
+{
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let err = |error| IoError::Write {
+        path: path.into(),
+        error,
+    };
+    let name = path.file_name().ok_or_else(|| {
+        err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "the path has no file name",
+        ))
+    })?;
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".{}-{n}.tmp", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = (|| {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, file);
+        write(&mut w)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e));
+    }
+    Ok(())
+}
+
+/// Collects polygons as triangles, fan-triangulating larger ones and remembering enough to
+/// write one warning about it.
+#[derive(Default)]
+pub(crate) struct FaceBuilder {
+    pub(crate) faces: Vec<[u32; 3]>,
+    n_polygons: usize,
+    n_fanned: usize,
+    first_fanned: Option<(usize, Option<usize>)>,
+}
+
+impl FaceBuilder {
+    /// A builder expecting about `cap` triangles.
+    pub(crate) fn with_capacity(cap: usize) -> Self {
+        FaceBuilder {
+            faces: Vec::with_capacity(cap),
+            ..Default::default()
+        }
+    }
+
+    /// Number of polygons pushed so far (the next polygon's face number).
+    pub(crate) fn n_polygons(&self) -> usize {
+        self.n_polygons
+    }
+
+    /// Adds one polygon (indices already range-checked). Errors if it has fewer than 3 corners.
+    pub(crate) fn push(&mut self, poly: &[u32], line: Option<usize>) -> Result<(), ParseError> {
+        let face = self.n_polygons;
+        if poly.len() < 3 {
+            return Err(ParseError::BadFace {
+                face,
+                count: poly.len() as u64,
+                line,
+            });
+        }
+        if poly.len() > 3 {
+            self.n_fanned += 1;
+            self.first_fanned.get_or_insert((face, line));
+        }
+        for k in 1..poly.len() - 1 {
+            self.faces.push([poly[0], poly[k], poly[k + 1]]);
+        }
+        self.n_polygons += 1;
+        Ok(())
+    }
+
+    /// The faces and the fan-triangulation warning, if any polygon had more than 3 corners.
+    pub(crate) fn finish(self, warnings: &mut Vec<String>) -> Vec<[u32; 3]> {
+        if let Some((face, line)) = self.first_fanned {
+            warnings.push(format!(
+                "fan-triangulated {} polygon(s) with more than 3 vertices into triangles \
+                 ({} triangles from {} faces in all; first polygon: face {face}{})",
+                self.n_fanned,
+                self.faces.len(),
+                self.n_polygons,
+                at_line(&line)
+            ));
+        }
+        self.faces
+    }
+}
+
+/// Checks one coordinate triple, reporting the first non-finite value.
+pub(crate) fn check_finite(vertex: usize, p: [f64; 3], line: Option<usize>) -> Result<[f64; 3], ParseError> {
+    match p.iter().find(|c| !c.is_finite()) {
+        Some(&value) => Err(ParseError::NonFinite { vertex, value, line }),
+        None => Ok(p),
+    }
+}
+
+/// Converts a 0-based index to `u32` if it is within `0..n_vertices`.
+pub(crate) fn check_index(
+    face: usize,
+    index: i64,
+    n_vertices: usize,
+    line: Option<usize>,
+) -> Result<u32, ParseError> {
+    if index >= 0 && (index as u64) < n_vertices as u64 && index <= u32::MAX as i64 {
+        Ok(index as u32)
+    } else {
+        Err(ParseError::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+            line,
+        })
+    }
+}

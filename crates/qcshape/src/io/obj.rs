@@ -1,0 +1,155 @@
+//! Wavefront OBJ: `v` and `f` statements; everything else (normals, texture coordinates,
+//! groups, materials, lines) is ignored.
+//!
+//! Face corners may be written `i`, `i/t`, `i//n` or `i/t/n`; only `i` is used. Indices are
+//! 1-based, and negative indices count back from the last vertex defined so far. Positive
+//! indices are checked against the final vertex count, so faces may precede their vertices.
+//! Extra numbers on a `v` line (a `w` weight or `r g b` colours) are ignored.
+
+use std::io::Write;
+
+use super::text::{self, Float};
+use super::{check_finite, FaceBuilder, MeshData, ParseError, VertexAttributes};
+
+/// A face corner that refers forward to a vertex not yet defined, checked at the end.
+struct Pending {
+    face: usize,
+    written: i64,
+    resolved: u32,
+    line: usize,
+}
+
+pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut faces = FaceBuilder::default();
+    let mut pending: Vec<Pending> = Vec::new();
+    let mut poly: Vec<u32> = Vec::new();
+    let mut n_ignored_v = 0usize;
+    for (line, raw) in text::lines(bytes) {
+        let mut toks = text::tokens(raw);
+        let Some(keyword) = toks.next() else { continue };
+        match keyword {
+            b"v" => {
+                let vertex = positions.len();
+                let mut p = [0.0; 3];
+                for (c, axis) in p.iter_mut().zip(["x", "y", "z"]) {
+                    let tok = toks.next().ok_or_else(|| ParseError::Syntax {
+                        line,
+                        message: format!("vertex {vertex} has no {axis} coordinate"),
+                    })?;
+                    *c = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
+                        line,
+                        message: format!(
+                            "cannot read the {axis} coordinate of vertex {vertex} from {}",
+                            text::show(tok)
+                        ),
+                    })?;
+                }
+                if toks.next().is_some() {
+                    n_ignored_v += 1;
+                }
+                positions.push(check_finite(vertex, p, Some(line))?);
+            }
+            b"f" | b"fo" => {
+                let face = faces.n_polygons();
+                poly.clear();
+                for tok in toks {
+                    let idx_tok = tok.split(|&b| b == b'/').next().unwrap_or(tok);
+                    let written = text::parse_i64(idx_tok).ok_or_else(|| ParseError::Syntax {
+                        line,
+                        message: format!(
+                            "cannot read a vertex index of face {face} from {}",
+                            text::show(tok)
+                        ),
+                    })?;
+                    let n = positions.len() as i64;
+                    let zero_based = match written {
+                        0 => {
+                            return Err(ParseError::Syntax {
+                                line,
+                                message: format!(
+                                    "face {face} uses vertex index 0, but OBJ indices start at 1"
+                                ),
+                            })
+                        }
+                        w if w > 0 => w - 1,
+                        w => n + w,
+                    };
+                    if zero_based < 0 || zero_based > u32::MAX as i64 {
+                        return Err(ParseError::IndexOutOfRange {
+                            face,
+                            index: written,
+                            n_vertices: positions.len(),
+                            line: Some(line),
+                        });
+                    }
+                    if zero_based >= n {
+                        pending.push(Pending {
+                            face,
+                            written,
+                            resolved: zero_based as u32,
+                            line,
+                        });
+                    }
+                    poly.push(zero_based as u32);
+                }
+                faces.push(&poly, Some(line))?;
+            }
+            _ => {}
+        }
+    }
+    for p in &pending {
+        if p.resolved as usize >= positions.len() {
+            return Err(ParseError::IndexOutOfRange {
+                face: p.face,
+                index: p.written,
+                n_vertices: positions.len(),
+                line: Some(p.line),
+            });
+        }
+    }
+    let mut warnings = Vec::new();
+    let faces = faces.finish(&mut warnings);
+    if n_ignored_v > 0 {
+        warnings.push(format!(
+            "ignored extra values (weights or colours) on {n_ignored_v} vertex line(s)"
+        ));
+    }
+    Ok(MeshData {
+        positions,
+        faces,
+        warnings,
+    })
+}
+
+pub(crate) fn write(
+    w: &mut dyn Write,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "# written by qcshape: {} vertices, {} faces",
+        positions.len(),
+        faces.len()
+    )?;
+    for (i, p) in positions.iter().enumerate() {
+        write!(w, "v {} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
+        if let Some(c) = attrs.colors {
+            let c = c[i];
+            write!(
+                w,
+                " {} {} {}",
+                Float(c[0] as f64 / 255.0),
+                Float(c[1] as f64 / 255.0),
+                Float(c[2] as f64 / 255.0)
+            )?;
+        }
+        writeln!(w)?;
+    }
+    for f in faces {
+        writeln!(w, "f {} {} {}", f[0] as u64 + 1, f[1] as u64 + 1, f[2] as u64 + 1)?;
+    }
+    Ok(())
+}

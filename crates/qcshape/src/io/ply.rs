@@ -1,0 +1,542 @@
+//! Stanford PLY: ASCII, binary little endian and binary big endian.
+//!
+//! Reads the `vertex` element's `x`, `y`, `z` (any scalar type) and the `face` element's
+//! `vertex_indices` (or `vertex_index`) list (any count and index type). Every other element
+//! and property is skipped; polygons are fan-triangulated. Writes `double` coordinates, an
+//! optional `double` scalar property and optional `uchar` `red`/`green`/`blue` per vertex.
+
+use std::io::Write;
+
+use super::text::{self, Cursor, Float};
+use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, VertexAttributes};
+
+/// How a PLY file stores its data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlyEncoding {
+    /// Text, one element per line.
+    Ascii,
+    /// Little-endian binary (the usual choice; compact and exact).
+    #[default]
+    BinaryLittleEndian,
+    /// Big-endian binary.
+    BinaryBigEndian,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(name: &[u8]) -> Option<Scalar> {
+        Some(match name {
+            b"char" | b"int8" => Scalar::I8,
+            b"uchar" | b"uint8" => Scalar::U8,
+            b"short" | b"int16" => Scalar::I16,
+            b"ushort" | b"uint16" => Scalar::U16,
+            b"int" | b"int32" => Scalar::I32,
+            b"uint" | b"uint32" => Scalar::U32,
+            b"float" | b"float32" => Scalar::F32,
+            b"double" | b"float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    /// Decodes `b` (exactly `size()` bytes); every PLY scalar is exact in `f64`.
+    fn decode(self, b: &[u8], big: bool) -> f64 {
+        macro_rules! num {
+            ($t:ty, $n:expr) => {{
+                let mut a = [0u8; $n];
+                a.copy_from_slice(b);
+                (if big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }) as f64
+            }};
+        }
+        match self {
+            Scalar::I8 => b[0] as i8 as f64,
+            Scalar::U8 => b[0] as f64,
+            Scalar::I16 => num!(i16, 2),
+            Scalar::U16 => num!(u16, 2),
+            Scalar::I32 => num!(i32, 4),
+            Scalar::U32 => num!(u32, 4),
+            Scalar::F32 => num!(f32, 4),
+            Scalar::F64 => num!(f64, 8),
+        }
+    }
+}
+
+#[derive(Debug)]
+enum Property {
+    Scalar(Scalar),
+    List(Scalar, Scalar),
+}
+
+#[derive(Debug)]
+struct Element {
+    name: Vec<u8>,
+    count: u64,
+    props: Vec<(Vec<u8>, Property)>,
+}
+
+impl Element {
+    /// Fewest bytes one item can take in binary (lists may be empty).
+    fn min_binary_size(&self) -> u64 {
+        self.props
+            .iter()
+            .map(|(_, p)| match p {
+                Property::Scalar(s) | Property::List(s, _) => s.size() as u64,
+            })
+            .sum()
+    }
+}
+
+struct Header {
+    encoding: PlyEncoding,
+    elements: Vec<Element>,
+    /// Byte offset where the data starts.
+    data_start: usize,
+    /// Line number of the first data line (for ASCII messages).
+    data_line: usize,
+    warnings: Vec<String>,
+}
+
+fn syntax(line: usize, message: String) -> ParseError {
+    ParseError::Syntax { line, message }
+}
+
+fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
+    let mut pos = 0;
+    let mut line = 0;
+    let mut encoding = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut warnings = Vec::new();
+    loop {
+        if pos >= bytes.len() {
+            return Err(ParseError::Invalid(
+                "the PLY header has no end_header line (the file is truncated or not PLY)".into(),
+            ));
+        }
+        line += 1;
+        let end = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(bytes.len(), |k| pos + k);
+        let raw = &bytes[pos..end];
+        pos = (end + 1).min(bytes.len());
+        let mut toks = text::tokens(raw);
+        let keyword = toks.next().unwrap_or_default();
+        if line == 1 {
+            if keyword != b"ply" {
+                return Err(syntax(1, "not a PLY file: the first line must be \"ply\"".into()));
+            }
+            continue;
+        }
+        match keyword {
+            b"format" => {
+                let f = toks.next().unwrap_or_default();
+                encoding = Some(match f {
+                    b"ascii" => PlyEncoding::Ascii,
+                    b"binary_little_endian" => PlyEncoding::BinaryLittleEndian,
+                    b"binary_big_endian" => PlyEncoding::BinaryBigEndian,
+                    _ => return Err(syntax(line, format!("unknown PLY format {}", text::show(f)))),
+                });
+            }
+            b"element" => {
+                let (Some(name), Some(count_tok)) = (toks.next(), toks.next()) else {
+                    return Err(syntax(line, "an element line needs a name and a count".into()));
+                };
+                let count = text::parse_count(count_tok).ok_or_else(|| {
+                    syntax(
+                        line,
+                        format!("cannot read the element count from {}", text::show(count_tok)),
+                    )
+                })?;
+                elements.push(Element {
+                    name: name.to_vec(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            b"property" => {
+                let Some(el) = elements.last_mut() else {
+                    return Err(syntax(
+                        line,
+                        "a property line comes before any element line".into(),
+                    ));
+                };
+                let ty = toks.next().unwrap_or_default();
+                let scalar = |t: &[u8]| {
+                    Scalar::parse(t)
+                        .ok_or_else(|| syntax(line, format!("unknown property type {}", text::show(t))))
+                };
+                let prop = if ty == b"list" {
+                    let c = scalar(toks.next().unwrap_or_default())?;
+                    if matches!(c, Scalar::F32 | Scalar::F64) {
+                        return Err(syntax(line, "a list count must have an integer type".into()));
+                    }
+                    Property::List(c, scalar(toks.next().unwrap_or_default())?)
+                } else {
+                    Property::Scalar(scalar(ty)?)
+                };
+                let name = toks
+                    .next()
+                    .ok_or_else(|| syntax(line, "a property line needs a name".into()))?;
+                el.props.push((name.to_vec(), prop));
+            }
+            b"end_header" => break,
+            b"comment" | b"obj_info" | b"" => {}
+            other => warnings.push(format!(
+                "ignored unknown PLY header line {line} starting with {}",
+                text::show(other)
+            )),
+        }
+    }
+    let encoding = encoding.ok_or_else(|| ParseError::Invalid("the PLY header has no format line".into()))?;
+    Ok(Header {
+        encoding,
+        elements,
+        data_start: pos,
+        data_line: line + 1,
+        warnings,
+    })
+}
+
+/// Reads scalars from the data section, in either encoding.
+enum Source<'a> {
+    Ascii(Cursor<'a>),
+    Binary { bytes: &'a [u8], pos: usize, big: bool },
+}
+
+impl Source<'_> {
+    /// The next scalar of type `ty`; `what` describes it for error messages.
+    fn scalar(&mut self, ty: Scalar, what: &dyn Fn() -> String) -> Result<f64, ParseError> {
+        match self {
+            Source::Ascii(c) => {
+                let tok = c
+                    .next_token()
+                    .ok_or_else(|| ParseError::UnexpectedEnd { expected: what() })?;
+                text::parse_f64(tok).ok_or_else(|| {
+                    syntax(
+                        c.line(),
+                        format!("cannot read {} from {}", what(), text::show(tok)),
+                    )
+                })
+            }
+            Source::Binary { bytes, pos, big } => {
+                let n = ty.size();
+                if bytes.len() - *pos < n {
+                    return Err(ParseError::Truncated {
+                        what: what(),
+                        needed: n as u64,
+                        offset: *pos as u64,
+                        len: bytes.len() as u64,
+                    });
+                }
+                let v = ty.decode(&bytes[*pos..*pos + n], *big);
+                *pos += n;
+                Ok(v)
+            }
+        }
+    }
+
+    /// Checks that `count` items of `size` bytes each fit in the rest of a binary file.
+    fn ensure(&self, count: u64, size: u64, what: &dyn Fn() -> String) -> Result<(), ParseError> {
+        if let Source::Binary { bytes, pos, .. } = self {
+            let needed = count.saturating_mul(size);
+            if needed > (bytes.len() - pos) as u64 {
+                return Err(ParseError::Truncated {
+                    what: what(),
+                    needed,
+                    offset: *pos as u64,
+                    len: bytes.len() as u64,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Skips `n` scalars of type `ty` (after [`Source::ensure`] for binary).
+    fn skip(&mut self, ty: Scalar, n: u64, what: &dyn Fn() -> String) -> Result<(), ParseError> {
+        self.ensure(n, ty.size() as u64, what)?;
+        match self {
+            Source::Ascii(_) => {
+                for _ in 0..n {
+                    self.scalar(ty, what)?;
+                }
+            }
+            Source::Binary { pos, .. } => *pos += n as usize * ty.size(),
+        }
+        Ok(())
+    }
+
+    fn line(&self) -> Option<usize> {
+        match self {
+            Source::Ascii(c) => Some(c.line()),
+            Source::Binary { .. } => None,
+        }
+    }
+
+    fn has_trailing_data(&mut self) -> bool {
+        match self {
+            Source::Ascii(c) => c.next_token().is_some(),
+            Source::Binary { bytes, pos, .. } => *pos < bytes.len(),
+        }
+    }
+}
+
+/// Converts a list length read as `f64` to a count.
+fn list_len(v: f64, what: &dyn Fn() -> String, line: Option<usize>) -> Result<u64, ParseError> {
+    if v >= 0.0 && v.fract() == 0.0 && v < 1.8e19 {
+        Ok(v as u64)
+    } else {
+        let message = format!("{} is {v}, not a count", what());
+        Err(match line {
+            Some(line) => syntax(line, message),
+            None => ParseError::Invalid(message),
+        })
+    }
+}
+
+pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
+    let header = parse_header(bytes)?;
+    let mut warnings = header.warnings;
+    let data = &bytes[header.data_start..];
+    let mut src = match header.encoding {
+        PlyEncoding::Ascii => Source::Ascii(Cursor::new(data, header.data_line)),
+        enc => Source::Binary {
+            bytes,
+            pos: header.data_start,
+            big: enc == PlyEncoding::BinaryBigEndian,
+        },
+    };
+
+    let vertex_el = header
+        .elements
+        .iter()
+        .position(|e| e.name == b"vertex")
+        .ok_or_else(|| ParseError::Invalid("the PLY header declares no vertex element".into()))?;
+    let mut xyz = [usize::MAX; 3];
+    for (slot, axis) in xyz.iter_mut().zip(["x", "y", "z"]) {
+        let props = &header.elements[vertex_el].props;
+        *slot = props
+            .iter()
+            .position(|(n, _)| n == axis.as_bytes())
+            .ok_or_else(|| ParseError::Invalid(format!("the PLY vertex element has no {axis} property")))?;
+        if matches!(props[*slot].1, Property::List(..)) {
+            return Err(ParseError::Invalid(format!(
+                "the PLY vertex property {axis} is a list"
+            )));
+        }
+    }
+    let n_vertices = header.elements[vertex_el].count;
+    if n_vertices > u32::MAX as u64 {
+        return Err(ParseError::Invalid(format!(
+            "the PLY header declares {n_vertices} vertices, more than 32-bit indices can address"
+        )));
+    }
+    let n_vertices = n_vertices as usize;
+
+    let face_el = header.elements.iter().position(|e| e.name == b"face");
+    let mut face_list = usize::MAX;
+    if let Some(fe) = face_el {
+        let props = &header.elements[fe].props;
+        let lists: Vec<usize> = (0..props.len())
+            .filter(|&k| matches!(props[k].1, Property::List(..)))
+            .collect();
+        face_list = props
+            .iter()
+            .position(|(n, p)| {
+                (n == b"vertex_indices" || n == b"vertex_index") && matches!(p, Property::List(..))
+            })
+            .or(if lists.len() == 1 { Some(lists[0]) } else { None })
+            .ok_or_else(|| {
+                ParseError::Invalid("the PLY face element has no vertex_indices list property".into())
+            })?;
+    }
+
+    let per_byte = if header.encoding == PlyEncoding::Ascii {
+        2
+    } else {
+        8
+    };
+    let mut positions = Vec::new();
+    let mut faces = FaceBuilder::default();
+    let mut poly: Vec<u32> = Vec::new();
+    for (ei, el) in header.elements.iter().enumerate() {
+        if el.props.is_empty() || el.count == 0 {
+            continue;
+        }
+        let name = String::from_utf8_lossy(&el.name).into_owned();
+        let count = el.count;
+        src.ensure(count, el.min_binary_size(), &|| {
+            format!("{count} {name} elements")
+        })?;
+        if ei == vertex_el {
+            positions.reserve(text::capacity(count, data.len(), 3 * per_byte));
+        } else if Some(ei) == face_el {
+            faces = FaceBuilder::with_capacity(text::capacity(count, data.len(), 4 * per_byte));
+        }
+        for item in 0..count as usize {
+            let mut p = [0.0; 3];
+            for (pi, (pname, prop)) in el.props.iter().enumerate() {
+                let what = || {
+                    format!(
+                        "property {} of {name} {item} (of {count})",
+                        String::from_utf8_lossy(pname)
+                    )
+                };
+                match *prop {
+                    Property::Scalar(ty) => {
+                        let v = src.scalar(ty, &what)?;
+                        if ei == vertex_el {
+                            if let Some(axis) = xyz.iter().position(|&k| k == pi) {
+                                p[axis] = v;
+                            }
+                        }
+                    }
+                    Property::List(cty, ity) => {
+                        let len_what = || format!("the length of {}", what());
+                        let n = list_len(src.scalar(cty, &len_what)?, &len_what, src.line())?;
+                        if Some(ei) == face_el && pi == face_list {
+                            src.ensure(n, ity.size() as u64, &what)?;
+                            if n < 3 {
+                                return Err(ParseError::BadFace {
+                                    face: item,
+                                    count: n,
+                                    line: src.line(),
+                                });
+                            }
+                            poly.clear();
+                            for _ in 0..n {
+                                let v = src.scalar(ity, &what)?;
+                                let index = if v.fract() == 0.0 { v as i64 } else { -1 };
+                                poly.push(check_index(item, index, n_vertices, src.line())?);
+                            }
+                            faces.push(&poly, src.line())?;
+                        } else {
+                            src.skip(ity, n, &what)?;
+                        }
+                    }
+                }
+            }
+            if ei == vertex_el {
+                positions.push(check_finite(item, p, src.line())?);
+            }
+        }
+    }
+    if src.has_trailing_data() {
+        warnings.push("ignored data after the last PLY element".into());
+    }
+    let faces = faces.finish(&mut warnings);
+    Ok(MeshData {
+        positions,
+        faces,
+        warnings,
+    })
+}
+
+/// A property name: ASCII letters, digits and `_` only (PLY names cannot hold spaces).
+fn sanitize(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || matches!(s.as_str(), "x" | "y" | "z" | "red" | "green" | "blue") {
+        format!("scalar_{s}")
+    } else {
+        s
+    }
+}
+
+pub(crate) fn write(
+    w: &mut dyn Write,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+    encoding: PlyEncoding,
+) -> std::io::Result<()> {
+    let big_index = positions.len() > i32::MAX as usize;
+    let format = match encoding {
+        PlyEncoding::Ascii => "ascii",
+        PlyEncoding::BinaryLittleEndian => "binary_little_endian",
+        PlyEncoding::BinaryBigEndian => "binary_big_endian",
+    };
+    writeln!(w, "ply\nformat {format} 1.0\ncomment written by qcshape")?;
+    writeln!(w, "element vertex {}", positions.len())?;
+    writeln!(w, "property double x\nproperty double y\nproperty double z")?;
+    if let Some((name, _)) = attrs.scalar {
+        writeln!(w, "property double {}", sanitize(name))?;
+    }
+    if attrs.colors.is_some() {
+        writeln!(w, "property uchar red\nproperty uchar green\nproperty uchar blue")?;
+    }
+    writeln!(w, "element face {}", faces.len())?;
+    let ity = if big_index { "uint" } else { "int" };
+    writeln!(w, "property list uchar {ity} vertex_indices\nend_header")?;
+    let scalar = attrs.scalar.map(|(_, s)| s);
+    match encoding {
+        PlyEncoding::Ascii => {
+            for (i, p) in positions.iter().enumerate() {
+                write!(w, "{} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
+                if let Some(s) = scalar {
+                    write!(w, " {}", Float(s[i]))?;
+                }
+                if let Some(c) = attrs.colors {
+                    write!(w, " {} {} {}", c[i][0], c[i][1], c[i][2])?;
+                }
+                writeln!(w)?;
+            }
+            for f in faces {
+                writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
+            }
+        }
+        PlyEncoding::BinaryLittleEndian | PlyEncoding::BinaryBigEndian => {
+            let big = encoding == PlyEncoding::BinaryBigEndian;
+            let f64b = |x: f64| if big { x.to_be_bytes() } else { x.to_le_bytes() };
+            let u32b = |x: u32| if big { x.to_be_bytes() } else { x.to_le_bytes() };
+            for (i, p) in positions.iter().enumerate() {
+                for &c in p {
+                    w.write_all(&f64b(c))?;
+                }
+                if let Some(s) = scalar {
+                    w.write_all(&f64b(s[i]))?;
+                }
+                if let Some(c) = attrs.colors {
+                    w.write_all(&c[i])?;
+                }
+            }
+            for f in faces {
+                w.write_all(&[3])?;
+                for &i in f {
+                    w.write_all(&u32b(i))?;
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,423 @@
+//! Legacy VTK (`.vtk`) POLYDATA, ASCII or BINARY (big endian, as the format requires).
+//!
+//! Reads `POINTS` and `POLYGONS` (and `TRIANGLE_STRIPS`, converted to triangles); `VERTICES`
+//! and `LINES` are skipped; reading stops at the first attribute section (`POINT_DATA`,
+//! `CELL_DATA`, `FIELD`, `METADATA`). Cells may use the classic layout (`POLYGONS n size`
+//! followed by `k i1 .. ik` records) or the VTK 5.1 layout (`OFFSETS` and `CONNECTIVITY`
+//! arrays). Writes ASCII, with `POINT_DATA` `SCALARS` and `COLOR_SCALARS` when given.
+
+use std::io::Write;
+
+use super::text::{self, Cursor, Float};
+use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, VertexAttributes};
+
+#[derive(Debug, Clone, Copy)]
+enum Num {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl Num {
+    fn parse(name: &[u8]) -> Option<Num> {
+        let lower = name.to_ascii_lowercase();
+        Some(match lower.as_slice() {
+            b"char" | b"vtktypeint8" => Num::I8,
+            b"unsigned_char" | b"vtktypeuint8" => Num::U8,
+            b"short" | b"vtktypeint16" => Num::I16,
+            b"unsigned_short" | b"vtktypeuint16" => Num::U16,
+            b"int" | b"vtktypeint32" => Num::I32,
+            b"unsigned_int" | b"vtktypeuint32" => Num::U32,
+            b"long" | b"vtktypeint64" | b"vtkidtype" => Num::I64,
+            b"unsigned_long" | b"vtktypeuint64" => Num::U64,
+            b"float" | b"vtktypefloat32" => Num::F32,
+            b"double" | b"vtktypefloat64" => Num::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Num::I8 | Num::U8 => 1,
+            Num::I16 | Num::U16 => 2,
+            Num::I32 | Num::U32 | Num::F32 => 4,
+            Num::I64 | Num::U64 | Num::F64 => 8,
+        }
+    }
+
+    /// Decodes big-endian bytes (exactly `size()` of them). 64-bit integers beyond 2^53 lose
+    /// precision, which only matters for indices that are out of range anyway.
+    fn decode(self, b: &[u8]) -> f64 {
+        macro_rules! be {
+            ($t:ty, $n:expr) => {{
+                let mut a = [0u8; $n];
+                a.copy_from_slice(b);
+                <$t>::from_be_bytes(a) as f64
+            }};
+        }
+        match self {
+            Num::I8 => b[0] as i8 as f64,
+            Num::U8 => b[0] as f64,
+            Num::I16 => be!(i16, 2),
+            Num::U16 => be!(u16, 2),
+            Num::I32 => be!(i32, 4),
+            Num::U32 => be!(u32, 4),
+            Num::I64 => be!(i64, 8),
+            Num::U64 => be!(u64, 8),
+            Num::F32 => be!(f32, 4),
+            Num::F64 => be!(f64, 8),
+        }
+    }
+}
+
+struct Reader<'a> {
+    c: Cursor<'a>,
+    binary: bool,
+    len: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn token(&mut self, expected: &dyn Fn() -> String) -> Result<&'a [u8], ParseError> {
+        self.c
+            .next_token()
+            .ok_or_else(|| ParseError::UnexpectedEnd { expected: expected() })
+    }
+
+    fn count(&mut self, what: &str) -> Result<u64, ParseError> {
+        let tok = self.token(&|| what.to_string())?;
+        text::parse_count(tok).ok_or_else(|| ParseError::Syntax {
+            line: self.c.line(),
+            message: format!("cannot read {what} from {}", text::show(tok)),
+        })
+    }
+
+    fn num_type(&mut self, what: &str) -> Result<Num, ParseError> {
+        let tok = self.token(&|| format!("the data type of {what}"))?;
+        let line = self.c.line();
+        Num::parse(tok).ok_or_else(|| ParseError::Syntax {
+            line,
+            message: format!("unknown data type {} for {what}", text::show(tok)),
+        })
+    }
+
+    /// Reads `n` numbers of type `ty` (tokens, or big-endian bytes starting on the next line).
+    fn numbers(&mut self, n: u64, ty: Num, what: &str) -> Result<Vec<f64>, ParseError> {
+        if self.binary {
+            self.c.skip_line();
+            let needed = n.saturating_mul(ty.size() as u64);
+            if needed > self.c.remaining() as u64 {
+                return Err(ParseError::Truncated {
+                    what: format!("{n} values of {what}"),
+                    needed,
+                    offset: self.c.offset() as u64,
+                    len: self.len as u64,
+                });
+            }
+            let raw = self.c.take(needed as usize).unwrap_or_default();
+            Ok(raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect())
+        } else {
+            // Each value takes at least one character and one separator.
+            if n > (self.c.remaining() as u64).div_ceil(2) {
+                return Err(ParseError::UnexpectedEnd {
+                    expected: format!(
+                        "{n} values of {what}, but only {} bytes remain",
+                        self.c.remaining()
+                    ),
+                });
+            }
+            let mut out = Vec::with_capacity(n as usize);
+            for k in 0..n {
+                let tok = self.token(&|| format!("{n} values of {what}, found {k}"))?;
+                out.push(text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
+                    line: self.c.line(),
+                    message: format!("cannot read value {k} of {what} from {}", text::show(tok)),
+                })?);
+            }
+            Ok(out)
+        }
+    }
+
+    fn line(&self) -> Option<usize> {
+        (!self.binary).then(|| self.c.line())
+    }
+}
+
+fn as_int(v: f64) -> Option<i64> {
+    (v.fract() == 0.0 && v.abs() < 9.2e18).then_some(v as i64)
+}
+
+/// Splits a cell section into cells (lists of point indices, as read).
+fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError> {
+    let n = r.count(&format!("the {keyword} cell count"))?;
+    let size = r.count(&format!("the {keyword} size"))?;
+    let section_line = (!r.binary).then_some(r.c.line());
+    let bad = move |message: String| match section_line {
+        Some(line) => ParseError::Syntax { line, message },
+        None => ParseError::Invalid(message),
+    };
+    // VTK 5.1 layout: OFFSETS and CONNECTIVITY arrays follow.
+    let next = r.c.clone().next_token();
+    if next.is_some_and(|t| t.eq_ignore_ascii_case(b"OFFSETS")) {
+        r.c.next_token();
+        let ty = r.num_type(&format!("the {keyword} offsets"))?;
+        let offsets = r.numbers(n, ty, &format!("the {keyword} offsets"))?;
+        let t = r.token(&|| format!("CONNECTIVITY for {keyword}"))?;
+        if !t.eq_ignore_ascii_case(b"CONNECTIVITY") {
+            return Err(bad(format!(
+                "expected CONNECTIVITY after the {keyword} offsets, found {}",
+                text::show(t)
+            )));
+        }
+        let ty = r.num_type(&format!("the {keyword} connectivity"))?;
+        let conn = r.numbers(size, ty, &format!("the {keyword} connectivity"))?;
+        let mut cells = Vec::with_capacity(offsets.len().saturating_sub(1));
+        for (i, w) in offsets.windows(2).enumerate() {
+            let (a, b) = (as_int(w[0]), as_int(w[1]));
+            let (Some(a), Some(b)) = (a, b) else {
+                return Err(bad(format!("{keyword} offset {i} is not an integer")));
+            };
+            if a < 0 || b < a || b as u64 > conn.len() as u64 {
+                return Err(bad(format!(
+                    "{keyword} offsets {i} and {} ({a}, {b}) do not index the {} connectivity values",
+                    i + 1,
+                    conn.len()
+                )));
+            }
+            cells.push(
+                conn[a as usize..b as usize]
+                    .iter()
+                    .map(|&v| as_int(v).unwrap_or(-1))
+                    .collect(),
+            );
+        }
+        return Ok(cells);
+    }
+    let flat = r.numbers(size, Num::I32, &format!("the {keyword} cells"))?;
+    let mut cells = Vec::with_capacity(text::capacity(n, flat.len(), 1));
+    let mut pos = 0usize;
+    for i in 0..n {
+        let k = flat.get(pos).copied().and_then(as_int).filter(|&k| k >= 0).ok_or_else(|| {
+            bad(format!(
+                "{keyword} cell {i} has no valid vertex count (the section declares {n} cells in {size} values)"
+            ))
+        })?;
+        pos += 1;
+        if k as u64 > (flat.len() - pos) as u64 {
+            return Err(bad(format!(
+                "{keyword} cell {i} lists {k} vertices, but only {} of the declared {size} values remain",
+                flat.len() - pos
+            )));
+        }
+        cells.push(
+            flat[pos..pos + k as usize]
+                .iter()
+                .map(|&v| as_int(v).unwrap_or(-1))
+                .collect(),
+        );
+        pos += k as usize;
+    }
+    if pos != flat.len() {
+        return Err(bad(format!(
+            "{keyword} declares {size} values, but its {n} cells use {pos}"
+        )));
+    }
+    Ok(cells)
+}
+
+pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
+    let mut c = Cursor::new(bytes, 1);
+    let first = c.rest_of_line();
+    let first_l = first.to_ascii_lowercase();
+    if !(first_l.starts_with(b"# vtk datafile") || first_l.starts_with(b"#vtk datafile")) {
+        return Err(ParseError::Syntax {
+            line: 1,
+            message: "not a legacy VTK file: the first line must be \"# vtk DataFile Version ...\"".into(),
+        });
+    }
+    let _title = c.rest_of_line();
+    let mut r = Reader {
+        c,
+        binary: false,
+        len: bytes.len(),
+    };
+    let enc = r.token(&|| "ASCII or BINARY on line 3".into())?;
+    r.binary = if enc.eq_ignore_ascii_case(b"ASCII") {
+        false
+    } else if enc.eq_ignore_ascii_case(b"BINARY") {
+        true
+    } else {
+        return Err(ParseError::Syntax {
+            line: r.c.line(),
+            message: format!("expected ASCII or BINARY, found {}", text::show(enc)),
+        });
+    };
+    let kw = r.token(&|| "DATASET POLYDATA".into())?;
+    let ds = r.token(&|| "the dataset type".into())?;
+    if !kw.eq_ignore_ascii_case(b"DATASET") {
+        return Err(ParseError::Syntax {
+            line: r.c.line(),
+            message: format!("expected DATASET POLYDATA, found {}", text::show(kw)),
+        });
+    }
+    if !ds.eq_ignore_ascii_case(b"POLYDATA") {
+        return Err(ParseError::Unsupported(format!(
+            "VTK dataset type {} (only POLYDATA is read)",
+            text::show(ds)
+        )));
+    }
+
+    let mut positions: Option<Vec<[f64; 3]>> = None;
+    let mut faces = FaceBuilder::default();
+    let mut warnings = Vec::new();
+    let mut skipped = 0usize;
+    let mut strips = 0usize;
+    while let Some(tok) = r.c.next_token() {
+        let line = r.c.line();
+        let kw = tok.to_ascii_uppercase();
+        match kw.as_slice() {
+            b"POINTS" => {
+                if positions.is_some() {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: "a second POINTS section".into(),
+                    });
+                }
+                let n = r.count("the POINTS count")?;
+                if n > u32::MAX as u64 {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("{n} points are more than 32-bit indices can address"),
+                    });
+                }
+                let ty = r.num_type("POINTS")?;
+                let vals = r.numbers(n.saturating_mul(3), ty, "POINTS")?;
+                let mut pos = Vec::with_capacity(n as usize);
+                for (vertex, p) in vals.chunks_exact(3).enumerate() {
+                    pos.push(check_finite(vertex, [p[0], p[1], p[2]], None)?);
+                }
+                positions = Some(pos);
+            }
+            b"POLYGONS" | b"TRIANGLE_STRIPS" | b"VERTICES" | b"LINES" => {
+                let keyword = String::from_utf8_lossy(&kw).into_owned();
+                let cells = read_cells(&mut r, &keyword)?;
+                if matches!(kw.as_slice(), b"VERTICES" | b"LINES") {
+                    skipped += cells.len();
+                    continue;
+                }
+                let Some(pos) = &positions else {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("{keyword} comes before POINTS"),
+                    });
+                };
+                let n = pos.len();
+                let cell_line = r.line().map(|_| line);
+                for cell in cells {
+                    let face = faces.n_polygons();
+                    let idx = cell
+                        .iter()
+                        .map(|&i| check_index(face, i, n, cell_line))
+                        .collect::<Result<Vec<u32>, _>>()?;
+                    if kw.as_slice() == b"POLYGONS" {
+                        faces.push(&idx, cell_line)?;
+                    } else {
+                        strips += 1;
+                        if idx.len() < 3 {
+                            return Err(ParseError::BadFace {
+                                face,
+                                count: idx.len() as u64,
+                                line: cell_line,
+                            });
+                        }
+                        for k in 0..idx.len() - 2 {
+                            let t = if k % 2 == 0 {
+                                [idx[k], idx[k + 1], idx[k + 2]]
+                            } else {
+                                [idx[k + 1], idx[k], idx[k + 2]]
+                            };
+                            faces.push(&t, cell_line)?;
+                        }
+                    }
+                }
+            }
+            b"POINT_DATA" | b"CELL_DATA" | b"FIELD" | b"METADATA" => break,
+            _ => {
+                return Err(ParseError::Syntax {
+                    line,
+                    message: format!("unexpected VTK keyword {}", text::show(tok)),
+                })
+            }
+        }
+    }
+    let positions =
+        positions.ok_or_else(|| ParseError::Invalid("the VTK file has no POINTS section".into()))?;
+    if skipped > 0 {
+        warnings.push(format!("ignored {skipped} VERTICES/LINES cell(s)"));
+    }
+    if strips > 0 {
+        warnings.push(format!("converted {strips} triangle strip(s) to triangles"));
+    }
+    let faces = faces.finish(&mut warnings);
+    Ok(MeshData {
+        positions,
+        faces,
+        warnings,
+    })
+}
+
+/// A VTK array name: no whitespace.
+fn sanitize(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_graphic() { c } else { '_' })
+        .collect();
+    if s.is_empty() {
+        "scalar".into()
+    } else {
+        s
+    }
+}
+
+pub(crate) fn write(
+    w: &mut dyn Write,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    attrs: &VertexAttributes,
+) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "# vtk DataFile Version 3.0\nwritten by qcshape\nASCII\nDATASET POLYDATA"
+    )?;
+    writeln!(w, "POINTS {} double", positions.len())?;
+    for p in positions {
+        writeln!(w, "{} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
+    }
+    writeln!(w, "POLYGONS {} {}", faces.len(), 4 * faces.len())?;
+    for f in faces {
+        writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
+    }
+    if attrs.scalar.is_some() || attrs.colors.is_some() {
+        writeln!(w, "POINT_DATA {}", positions.len())?;
+    }
+    if let Some((name, s)) = attrs.scalar {
+        writeln!(w, "SCALARS {} double 1\nLOOKUP_TABLE default", sanitize(name))?;
+        for &v in s {
+            writeln!(w, "{}", Float(v))?;
+        }
+    }
+    if let Some(c) = attrs.colors {
+        writeln!(w, "COLOR_SCALARS colors 3")?;
+        for c in c {
+            let [r, g, b] = c.map(|v| Float(v as f64 / 255.0));
+            writeln!(w, "{r} {g} {b}")?;
+        }
+    }
+    Ok(())
+}
