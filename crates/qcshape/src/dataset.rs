@@ -1,0 +1,862 @@
+//! Deformation data sets: named sequences of poses (meshes with one connectivity), loaded from
+//! a manifest CSV or a folder layout.
+//!
+//! # Layouts
+//!
+//! - **Manifest**: a CSV file with the header `deformation,label,pose,path` (columns in any
+//!   order; extra columns and `#` comment lines are ignored). `label` may be empty; `pose` is
+//!   an integer that orders the poses of a deformation (gaps allowed, duplicates not); `path`
+//!   is relative to the manifest's folder (or absolute). Deformations keep the order in which
+//!   they first appear.
+//! - **Folder of folders**: one sub-folder per deformation (named after it, natural order),
+//!   each holding its poses as mesh files (`.obj .ply .off .stl .vtk`) whose names sort into
+//!   pose order with [`natural_cmp`] (`pose2` before `pose10`). A folder holding a
+//!   `manifest.csv` is read through the manifest instead.
+//! - **Folder of mesh files**, or an explicit list of files: one deformation
+//!   ([`load_sequence`]).
+//!
+//! Hidden entries (names starting with `.`) are ignored.
+//!
+//! # Checks
+//!
+//! Every pose goes through [`crate::io::read_mesh`] and [`Shape::new_checked`] (finite
+//! coordinates, no zero-area face) and must have exactly the vertex count and face list of the
+//! first pose of its deformation. Deformations whose face lists are equal share one
+//! `Arc<Topology>`.
+
+use std::cmp::Ordering;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::io::{self, Format, IoError, MeshData};
+use crate::mesh::{Shape, Topology};
+
+/// The file name [`Dataset::load`] looks for in a folder before trying the folder layouts.
+pub const MANIFEST_NAME: &str = "manifest.csv";
+
+/// Why a data set cannot be loaded or written. Every message starts with the file or folder
+/// it is about.
+#[derive(Debug, Error)]
+pub enum DatasetError {
+    /// A mesh file failed to read, parse or validate (the message names the file).
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// A file or folder of the layout cannot be read.
+    #[error("{}: cannot read: {error}", path.display())]
+    Read {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// A manifest problem on a given line (1-based; the header is line 1).
+    #[error("{}: line {line}: {message}", path.display())]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// Line number.
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// A pose whose connectivity differs from the first pose of its deformation.
+    #[error("{}: {message}", path.display())]
+    TopologyMismatch {
+        /// The offending pose file.
+        path: PathBuf,
+        /// What differs (vertex count, face count or the first differing face) and the first
+        /// pose's file.
+        message: String,
+    },
+    /// The folder layout is not one of the accepted ones, or nothing to load.
+    #[error("{}: {message}", path.display())]
+    Layout {
+        /// The folder (or file).
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One deformation: poses (each #V x 3) sharing one topology.
+#[derive(Debug, Clone)]
+pub struct Deformation {
+    /// Its name (manifest `deformation` column, or folder name).
+    pub name: String,
+    /// Its class label, if the manifest gives one.
+    pub label: Option<String>,
+    /// Connectivity shared by all poses (and by other deformations with the same faces).
+    pub topology: Arc<Topology>,
+    /// Vertex positions of each pose in order (#poses x #V x 3), in the files' length unit.
+    pub poses: Vec<Vec<[f64; 3]>>,
+    /// The file each pose was read from.
+    pub paths: Vec<PathBuf>,
+    /// Reader warnings, each prefixed with its file.
+    pub warnings: Vec<String>,
+}
+
+impl Deformation {
+    /// Number of poses.
+    pub fn n_poses(&self) -> usize {
+        self.poses.len()
+    }
+
+    /// Pose `i` as a [`Shape`] (copies the positions). Panics if `i >= n_poses()`.
+    pub fn shape(&self, i: usize) -> Shape {
+        Shape {
+            topology: self.topology.clone(),
+            positions: self.poses[i].clone(),
+        }
+    }
+}
+
+/// A collection of deformations.
+#[derive(Debug, Clone, Default)]
+pub struct Dataset {
+    /// The deformations, in manifest or natural folder order.
+    pub deformations: Vec<Deformation>,
+}
+
+impl Dataset {
+    /// Loads a manifest file, or a folder (its `manifest.csv` if present, else the folder
+    /// layouts described in the [module docs](self)).
+    pub fn load(path: &Path) -> Result<Dataset, DatasetError> {
+        let meta = std::fs::metadata(path).map_err(|error| DatasetError::Read {
+            path: path.into(),
+            error,
+        })?;
+        if !meta.is_dir() {
+            return Dataset::from_manifest(path);
+        }
+        let manifest = path.join(MANIFEST_NAME);
+        if manifest.is_file() {
+            return Dataset::from_manifest(&manifest);
+        }
+        Dataset::from_folder(path)
+    }
+
+    /// Loads the deformations listed by a manifest CSV.
+    pub fn from_manifest(path: &Path) -> Result<Dataset, DatasetError> {
+        let rows = read_manifest(path)?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        // Group by deformation in order of first appearance.
+        let mut order: Vec<String> = Vec::new();
+        let mut groups: HashMap<String, Vec<(u64, ManifestRow)>> = HashMap::new();
+        for (line, row) in rows {
+            let group = groups.entry(row.deformation.clone()).or_insert_with(|| {
+                order.push(row.deformation.clone());
+                Vec::new()
+            });
+            group.push((line, row));
+        }
+        let bad = |line: u64, message: String| DatasetError::Manifest {
+            path: path.into(),
+            line,
+            message,
+        };
+        let mut cache = TopologyCache::default();
+        let mut deformations = Vec::with_capacity(order.len());
+        for name in order {
+            let mut group = groups.remove(&name).unwrap_or_default();
+            group.sort_by_key(|(line, row)| (row.pose, *line));
+            for w in group.windows(2) {
+                if w[0].1.pose == w[1].1.pose {
+                    return Err(bad(
+                        w[1].0,
+                        format!(
+                            "deformation {name:?} has pose {} twice (lines {} and {})",
+                            w[0].1.pose, w[0].0, w[1].0
+                        ),
+                    ));
+                }
+            }
+            let (first_line, first) = &group[0];
+            let label = first.label.clone();
+            for (line, row) in &group {
+                if row.label != label {
+                    return Err(bad(
+                        *line,
+                        format!(
+                            "deformation {name:?} has label {:?} here but {:?} on line {first_line}",
+                            row.label.as_deref().unwrap_or(""),
+                            label.as_deref().unwrap_or("")
+                        ),
+                    ));
+                }
+            }
+            let mut files = Vec::with_capacity(group.len());
+            for (line, row) in &group {
+                let file = base.join(&row.path);
+                if !file.is_file() {
+                    return Err(bad(
+                        *line,
+                        format!(
+                            "pose {} of deformation {name:?}: file {} does not exist",
+                            row.pose,
+                            file.display()
+                        ),
+                    ));
+                }
+                files.push(file);
+            }
+            deformations.push(load_deformation(name, label, files, &mut cache)?);
+        }
+        Ok(Dataset { deformations })
+    }
+
+    /// Loads a folder with one sub-folder of mesh files per deformation, or a folder of mesh
+    /// files as a single deformation.
+    pub fn from_folder(dir: &Path) -> Result<Dataset, DatasetError> {
+        let (subdirs, files) = list_dir(dir)?;
+        let mut groups = Vec::new();
+        for sub in subdirs {
+            let meshes = mesh_files(&sub)?;
+            if !meshes.is_empty() {
+                groups.push((folder_name(&sub), meshes));
+            }
+        }
+        let layout = |message: String| DatasetError::Layout {
+            path: dir.into(),
+            message,
+        };
+        match (groups.is_empty(), files.is_empty()) {
+            (true, true) => Err(layout(format!(
+                "contains no mesh files ({}) and no sub-folders with mesh files",
+                known_extensions()
+            ))),
+            (false, false) => Err(layout(
+                "has both mesh files and sub-folders of mesh files; put each deformation in its own \
+                 sub-folder (or list its files explicitly)"
+                    .into(),
+            )),
+            (true, false) => Ok(Dataset {
+                deformations: vec![load_deformation(
+                    folder_name(dir),
+                    None,
+                    files,
+                    &mut TopologyCache::default(),
+                )?],
+            }),
+            (false, true) => {
+                let mut cache = TopologyCache::default();
+                let deformations = groups
+                    .into_iter()
+                    .map(|(name, files)| load_deformation(name, None, files, &mut cache))
+                    .collect::<Result<_, _>>()?;
+                Ok(Dataset { deformations })
+            }
+        }
+    }
+
+    /// Each deformation's label (`None` where the manifest leaves it empty), in order.
+    pub fn labels(&self) -> Vec<Option<&str>> {
+        self.deformations.iter().map(|d| d.label.as_deref()).collect()
+    }
+
+    /// Whether every deformation has the same connectivity (one shared `Arc<Topology>`), as
+    /// comparing deformations across the data set requires. True for an empty data set.
+    pub fn shares_topology(&self) -> bool {
+        match self.deformations.first() {
+            None => true,
+            Some(d0) => self
+                .deformations
+                .iter()
+                .all(|d| Arc::ptr_eq(&d.topology, &d0.topology)),
+        }
+    }
+}
+
+/// Loads one deformation from mesh files in pose order, or from a single folder of mesh files
+/// (sorted with [`natural_cmp`]). Its name is the folder's name (the common parent folder of
+/// the files, else the first file's stem).
+pub fn load_sequence(files: &[PathBuf]) -> Result<Deformation, DatasetError> {
+    if let [dir] = files {
+        if dir.is_dir() {
+            let meshes = mesh_files(dir)?;
+            if meshes.is_empty() {
+                return Err(DatasetError::Layout {
+                    path: dir.clone(),
+                    message: format!("contains no mesh files ({})", known_extensions()),
+                });
+            }
+            return load_deformation(folder_name(dir), None, meshes, &mut TopologyCache::default());
+        }
+    }
+    let Some(first) = files.first() else {
+        return Err(DatasetError::Layout {
+            path: PathBuf::new(),
+            message: "no mesh files given".into(),
+        });
+    };
+    let parent = first.parent().unwrap_or(Path::new(""));
+    let name = if files
+        .iter()
+        .all(|f| f.parent().unwrap_or(Path::new("")) == parent)
+        && parent.file_name().is_some()
+    {
+        folder_name(parent)
+    } else {
+        first
+            .file_stem()
+            .map_or_else(|| "sequence".into(), |s| s.to_string_lossy().into_owned())
+    };
+    load_deformation(name, None, files.to_vec(), &mut TopologyCache::default())
+}
+
+/// The mesh files (known extensions, not hidden) directly in `dir`, in natural order.
+pub fn mesh_files(dir: &Path) -> Result<Vec<PathBuf>, DatasetError> {
+    Ok(list_dir(dir)?.1)
+}
+
+/// Compares names "naturally": runs of digits compare as numbers (`pose2 < pose10`), other
+/// text compares case-insensitively, with a plain byte comparison as the final tie-break.
+pub fn natural_cmp(a: &str, b: &str) -> Ordering {
+    fn chunks(s: &str) -> Vec<(bool, &str)> {
+        let mut out = Vec::new();
+        let mut start = 0;
+        let bytes = s.as_bytes();
+        for i in 1..=bytes.len() {
+            if i == bytes.len() || bytes[i].is_ascii_digit() != bytes[start].is_ascii_digit() {
+                out.push((bytes[start].is_ascii_digit(), &s[start..i]));
+                start = i;
+            }
+        }
+        out
+    }
+    let (ca, cb) = (chunks(a), chunks(b));
+    for (x, y) in ca.iter().zip(&cb) {
+        let ord = match (x, y) {
+            ((true, p), (true, q)) => {
+                let (p, q) = (p.trim_start_matches('0'), q.trim_start_matches('0'));
+                p.len().cmp(&q.len()).then_with(|| p.cmp(q))
+            }
+            ((_, p), (_, q)) => p.to_lowercase().cmp(&q.to_lowercase()),
+        };
+        if ord != Ordering::Equal {
+            return ord;
+        }
+    }
+    ca.len().cmp(&cb.len()).then_with(|| a.cmp(b))
+}
+
+/// One manifest line: a pose of a deformation and the file it is stored in.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ManifestRow {
+    /// Deformation name (non-empty).
+    pub deformation: String,
+    /// Class label, if any.
+    pub label: Option<String>,
+    /// Pose number; orders the poses of a deformation.
+    pub pose: i64,
+    /// Mesh file, relative to the manifest's folder (or absolute).
+    pub path: PathBuf,
+}
+
+/// The manifest's columns, in the order [`write_manifest`] writes them.
+pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"];
+
+/// Reads and checks a manifest's rows (with their line numbers); files are not opened.
+pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
+    let bytes = std::fs::read(path).map_err(|error| DatasetError::Read {
+        path: path.into(),
+        error,
+    })?;
+    let bad = |line: u64, message: String| DatasetError::Manifest {
+        path: path.into(),
+        line,
+        message,
+    };
+    let csv_err = |e: csv::Error| {
+        let line = e.position().map_or(0, |p| p.line());
+        bad(line, format!("malformed CSV: {e}"))
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(bytes.as_slice());
+    let header = rdr.headers().map_err(csv_err)?.clone();
+    let header_line = header.position().map_or(1, |p| p.line());
+    let mut col = [0usize; 4];
+    for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
+        *slot = header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                bad(
+                    header_line,
+                    format!(
+                        "missing column {name:?}: the header must name the columns {}",
+                        MANIFEST_COLUMNS.join(",")
+                    ),
+                )
+            })?;
+    }
+    let mut rows = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(csv_err)?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let field = |k: usize| rec.get(col[k]).unwrap_or("");
+        let deformation = field(0);
+        if deformation.is_empty() {
+            return Err(bad(line, "the deformation name is empty".into()));
+        }
+        let pose_text = field(2);
+        let pose = pose_text
+            .parse::<i64>()
+            .map_err(|_| bad(line, format!("pose {pose_text:?} is not an integer")))?;
+        let file = field(3);
+        if file.is_empty() {
+            return Err(bad(line, "the path is empty".into()));
+        }
+        let label = Some(field(1)).filter(|l| !l.is_empty()).map(str::to_string);
+        rows.push((
+            line,
+            ManifestRow {
+                deformation: deformation.to_string(),
+                label,
+                pose,
+                path: PathBuf::from(file),
+            },
+        ));
+    }
+    if rows.is_empty() {
+        return Err(bad(header_line, "the manifest lists no poses".into()));
+    }
+    Ok(rows)
+}
+
+/// Writes a manifest CSV (header `deformation,label,pose,path`) atomically. Paths are written
+/// as given (use paths relative to the manifest's folder) and must be valid UTF-8.
+pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), DatasetError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let bad = |message: String| DatasetError::Layout {
+        path: path.into(),
+        message,
+    };
+    let write_err = |e: csv::Error| bad(format!("cannot encode the manifest: {e}"));
+    w.write_record(MANIFEST_COLUMNS).map_err(write_err)?;
+    for (i, r) in rows.iter().enumerate() {
+        let p = r
+            .path
+            .to_str()
+            .ok_or_else(|| bad(format!("row {i}: path {} is not valid UTF-8", r.path.display())))?;
+        if r.deformation.is_empty() {
+            return Err(bad(format!("row {i}: the deformation name is empty")));
+        }
+        let pose = r.pose.to_string();
+        w.write_record([&r.deformation, r.label.as_deref().unwrap_or(""), &pose, p])
+            .map_err(write_err)?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| bad(format!("cannot encode the manifest: {e}")))?;
+    io::write_atomically(path, |out| out.write_all(&bytes))?;
+    Ok(())
+}
+
+/// Topologies already built, reused when a deformation has an equal face list.
+#[derive(Default)]
+struct TopologyCache(Vec<Arc<Topology>>);
+
+impl TopologyCache {
+    fn get(&mut self, path: &Path, data: &MeshData) -> Result<Arc<Topology>, DatasetError> {
+        if let Some(t) = self
+            .0
+            .iter()
+            .find(|t| t.n_vertices() == data.positions.len() && t.faces() == data.faces.as_slice())
+        {
+            return Ok(t.clone());
+        }
+        let t = Topology::new(data.positions.len(), data.faces.clone()).map_err(|error| IoError::Mesh {
+            path: path.into(),
+            error,
+        })?;
+        self.0.push(t.clone());
+        Ok(t)
+    }
+}
+
+/// What differs between a pose's connectivity and the first pose's, if anything.
+fn mismatch(topo: &Topology, data: &MeshData, first: &Path) -> Option<String> {
+    let (n0, n) = (topo.n_vertices(), data.positions.len());
+    if n != n0 {
+        return Some(format!(
+            "has {n} vertices, but the first pose of its deformation ({}) has {n0}",
+            first.display()
+        ));
+    }
+    let (f0, f) = (topo.faces(), data.faces.as_slice());
+    if f.len() != f0.len() {
+        return Some(format!(
+            "has {} faces, but the first pose of its deformation ({}) has {}",
+            f.len(),
+            first.display(),
+            f0.len()
+        ));
+    }
+    let i = f.iter().zip(f0).position(|(a, b)| a != b)?;
+    Some(format!(
+        "face {i} is {:?}, but in the first pose of its deformation ({}) it is {:?}",
+        f[i],
+        first.display(),
+        f0[i]
+    ))
+}
+
+fn load_deformation(
+    name: String,
+    label: Option<String>,
+    files: Vec<PathBuf>,
+    cache: &mut TopologyCache,
+) -> Result<Deformation, DatasetError> {
+    let parsed: Vec<Result<MeshData, IoError>> = files.par_iter().map(|f| io::read_mesh(f)).collect();
+    let mut topology: Option<Arc<Topology>> = None;
+    let mut poses = Vec::with_capacity(files.len());
+    let mut warnings = Vec::new();
+    for (file, data) in files.iter().zip(parsed) {
+        let data = data?;
+        let topo = match &topology {
+            Some(t) => {
+                if let Some(message) = mismatch(t, &data, &files[0]) {
+                    return Err(DatasetError::TopologyMismatch {
+                        path: file.clone(),
+                        message,
+                    });
+                }
+                t.clone()
+            }
+            None => {
+                let t = cache.get(file, &data)?;
+                topology = Some(t.clone());
+                t
+            }
+        };
+        warnings.extend(data.warnings.iter().map(|w| format!("{}: {w}", file.display())));
+        let shape = Shape::new_checked(topo, data.positions, io::DEGENERATE_REL_TOL).map_err(|error| {
+            IoError::Mesh {
+                path: file.clone(),
+                error,
+            }
+        })?;
+        poses.push(shape.positions);
+    }
+    let topology = topology.ok_or_else(|| DatasetError::Layout {
+        path: PathBuf::from(&name),
+        message: "the deformation has no poses".into(),
+    })?;
+    Ok(Deformation {
+        name,
+        label,
+        topology,
+        poses,
+        paths: files,
+        warnings,
+    })
+}
+
+fn folder_name(dir: &Path) -> String {
+    dir.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .or_else(|| {
+            std::fs::canonicalize(dir)
+                .ok()
+                .and_then(|p| p.file_name().map(|s| s.to_string_lossy().into_owned()))
+        })
+        .unwrap_or_else(|| "sequence".into())
+}
+
+fn known_extensions() -> String {
+    Format::ALL
+        .iter()
+        .map(|f| format!(".{}", f.extension()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Sub-folders and mesh files directly in `dir` (hidden ones skipped), each naturally sorted.
+fn list_dir(dir: &Path) -> Result<(Vec<PathBuf>, Vec<PathBuf>), DatasetError> {
+    let read_err = |error| DatasetError::Read {
+        path: dir.into(),
+        error,
+    };
+    let mut subdirs = Vec::new();
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(read_err)? {
+        let entry = entry.map_err(read_err)?;
+        let name = entry.file_name();
+        if name.to_string_lossy().starts_with('.') {
+            continue;
+        }
+        let path = entry.path();
+        if path.is_dir() {
+            subdirs.push(path);
+        } else if Format::from_path(&path).is_some() {
+            files.push(path);
+        }
+    }
+    let key = |p: &PathBuf| {
+        p.file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    subdirs.sort_by(|a, b| natural_cmp(&key(a), &key(b)));
+    files.sort_by(|a, b| natural_cmp(&key(a), &key(b)));
+    Ok((subdirs, files))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{write_mesh, VertexAttributes};
+    use crate::synth;
+
+    /// A wobbling sphere: pose `k` scales z by `1 + 0.1 k`.
+    fn poses(n: usize) -> (Vec<[u32; 3]>, Vec<Vec<[f64; 3]>>) {
+        let s = synth::icosphere(1);
+        let faces = s.topology.faces().to_vec();
+        let poses = (0..n)
+            .map(|k| {
+                s.positions
+                    .iter()
+                    .map(|p| [p[0], p[1], p[2] * (1.0 + 0.1 * k as f64)])
+                    .collect()
+            })
+            .collect();
+        (faces, poses)
+    }
+
+    fn write(dir: &Path, rel: &str, pos: &[[f64; 3]], faces: &[[u32; 3]]) -> PathBuf {
+        let p = dir.join(rel);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        write_mesh(&p, pos, faces, &VertexAttributes::default()).unwrap();
+        p
+    }
+
+    #[test]
+    fn natural_order() {
+        let mut v = vec![
+            "pose10.ply",
+            "pose2.ply",
+            "Pose1.ply",
+            "pose02.ply",
+            "a",
+            "pose2a.ply",
+        ];
+        v.sort_by(|a, b| natural_cmp(a, b));
+        assert_eq!(
+            v,
+            [
+                "a",
+                "Pose1.ply",
+                "pose02.ply",
+                "pose2.ply",
+                "pose2a.ply",
+                "pose10.ply"
+            ]
+        );
+        assert_eq!(natural_cmp("x9", "x10"), Ordering::Less);
+        assert_eq!(natural_cmp("", "a"), Ordering::Less);
+    }
+
+    #[test]
+    fn manifest_round_trip_shared_topology_and_pose_order() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(3);
+        let mut rows = Vec::new();
+        for (def, label) in [("walk", Some("a")), ("jump", None)] {
+            // Poses written out of order, numbered with gaps.
+            for k in [2usize, 0, 1] {
+                let rel = format!("meshes/{def}_{k}.{}", if k == 1 { "obj" } else { "ply" });
+                write(d.path(), &rel, &poses[k], &faces);
+                rows.push(ManifestRow {
+                    deformation: def.into(),
+                    label: label.map(Into::into),
+                    pose: 10 * k as i64,
+                    path: rel.into(),
+                });
+            }
+        }
+        let m = d.path().join("set.csv");
+        write_manifest(&m, &rows).unwrap();
+        let text = std::fs::read_to_string(&m).unwrap();
+        assert!(
+            text.starts_with("deformation,label,pose,path\nwalk,a,20,meshes/walk_2.ply\n"),
+            "{text}"
+        );
+        let ds = Dataset::load(&m).unwrap();
+        assert_eq!(ds.deformations.len(), 2);
+        assert_eq!(ds.labels(), vec![Some("a"), None]);
+        assert!(ds.shares_topology());
+        let w = &ds.deformations[0];
+        assert_eq!(w.name, "walk");
+        assert_eq!(w.n_poses(), 3);
+        assert_eq!(w.poses, poses);
+        assert!(w.paths[1].ends_with("meshes/walk_1.obj"));
+        assert_eq!(w.shape(2).positions, poses[2]);
+        // A folder holding manifest.csv loads through it.
+        std::fs::rename(&m, d.path().join(MANIFEST_NAME)).unwrap();
+        assert_eq!(Dataset::load(d.path()).unwrap().deformations.len(), 2);
+    }
+
+    #[test]
+    fn folder_of_folders_and_single_sequences() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(3);
+        for def in ["b_def", "a_def"] {
+            for (k, name) in ["pose2.off", "pose10.vtk", "pose1.ply"].iter().enumerate() {
+                let pose = [1, 2, 0][k];
+                write(d.path(), &format!("{def}/{name}"), &poses[pose], &faces);
+            }
+            std::fs::write(d.path().join(def).join("notes.txt"), "not a mesh").unwrap();
+        }
+        std::fs::create_dir(d.path().join("empty")).unwrap();
+        let ds = Dataset::load(d.path()).unwrap();
+        let names: Vec<&str> = ds.deformations.iter().map(|d| d.name.as_str()).collect();
+        assert_eq!(names, ["a_def", "b_def"]);
+        assert!(ds.shares_topology());
+        assert!(Arc::ptr_eq(
+            &ds.deformations[0].topology,
+            &ds.deformations[1].topology
+        ));
+        assert_eq!(
+            ds.deformations[1].poses, poses,
+            "natural order pose1, pose2, pose10"
+        );
+
+        let seq = load_sequence(&[d.path().join("a_def")]).unwrap();
+        assert_eq!(seq.name, "a_def");
+        assert_eq!(seq.poses, poses);
+        let one = Dataset::load(&d.path().join("a_def")).unwrap();
+        assert_eq!(one.deformations.len(), 1);
+        // An explicit list keeps the given order.
+        let files = [
+            d.path().join("a_def/pose10.vtk"),
+            d.path().join("a_def/pose1.ply"),
+        ];
+        let seq = load_sequence(&files).unwrap();
+        assert_eq!(seq.name, "a_def");
+        assert_eq!(seq.poses, vec![poses[2].clone(), poses[0].clone()]);
+    }
+
+    #[test]
+    fn different_topologies_are_not_shared() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(2);
+        let g = synth::grid(4);
+        for (k, pose) in poses.iter().enumerate() {
+            write(d.path(), &format!("s/{k}.ply"), pose, &faces);
+            write(d.path(), &format!("t/{k}.ply"), &g.positions, g.topology.faces());
+        }
+        let ds = Dataset::load(d.path()).unwrap();
+        assert!(!ds.shares_topology());
+    }
+
+    #[test]
+    fn mismatched_poses_name_the_file_and_the_difference() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(2);
+        write(d.path(), "x/p0.ply", &poses[0], &faces);
+        let mut flipped = faces.clone();
+        flipped[12] = [faces[12][1], faces[12][2], faces[12][0]];
+        let bad = write(d.path(), "x/p1.ply", &poses[1], &flipped);
+        let e = Dataset::load(d.path()).unwrap_err().to_string();
+        assert!(e.starts_with(&bad.display().to_string()), "{e}");
+        assert!(e.contains(&format!("face 12 is {:?}", flipped[12])), "{e}");
+        assert!(e.contains("p0.ply) it is"), "{e}");
+
+        let g = synth::grid(3);
+        let bad = write(d.path(), "x/p1.ply", &g.positions, g.topology.faces());
+        let e = Dataset::load(d.path()).unwrap_err().to_string();
+        assert!(e.starts_with(&bad.display().to_string()), "{e}");
+        assert!(
+            e.contains("has 9 vertices, but the first pose of its deformation"),
+            "{e}"
+        );
+        assert!(e.contains("has 42"), "{e}");
+    }
+
+    #[test]
+    fn manifest_errors_name_the_manifest_and_line() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(1);
+        write(d.path(), "a.ply", &poses[0], &faces);
+        let cases = [
+            (
+                "deformation,pose,path\nw,0,a.ply\n",
+                1,
+                "missing column \"label\"",
+            ),
+            (
+                "deformation,label,pose,path\nw,,0,a.ply\nw,,x1,a.ply\n",
+                3,
+                "pose \"x1\" is not an integer",
+            ),
+            (
+                "deformation,label,pose,path\nw,,0,a.ply\nw,,0,a.ply\n",
+                3,
+                "has pose 0 twice (lines 2 and 3)",
+            ),
+            (
+                "deformation,label,pose,path\nw,,0,a.ply\nw,,1,b.ply\n",
+                3,
+                "b.ply does not exist",
+            ),
+            (
+                "deformation,label,pose,path\nw,A,0,a.ply\nw,B,1,a.ply\n",
+                3,
+                "label \"B\" here but \"A\" on line 2",
+            ),
+            ("deformation,label,pose,path\nw,,0\n", 2, "malformed CSV"),
+            ("deformation,label,pose,path\n", 1, "lists no poses"),
+            (
+                "deformation,label,pose,path\n,,0,a.ply\n",
+                2,
+                "deformation name is empty",
+            ),
+        ];
+        for (i, (text, line, want)) in cases.into_iter().enumerate() {
+            let m = d.path().join(format!("m{i}.csv"));
+            std::fs::write(&m, text).unwrap();
+            let e = Dataset::load(&m).unwrap_err();
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with(&format!("{}: line {line}: ", m.display())),
+                "case {i}: {msg}"
+            );
+            assert!(msg.contains(want), "case {i}: {msg}");
+        }
+        let e = Dataset::load(&d.path().join("nope.csv")).unwrap_err().to_string();
+        assert!(e.contains("nope.csv: cannot read"), "{e}");
+    }
+
+    #[test]
+    fn bad_meshes_and_layouts() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(1);
+        write(d.path(), "w/0.ply", &poses[0], &faces);
+        let bad = d.path().join("w/1.obj");
+        std::fs::write(&bad, "v 0 0 0\nf 1 2 3\n").unwrap();
+        let e = Dataset::load(d.path()).unwrap_err();
+        assert!(matches!(e, DatasetError::Io(_)), "{e}");
+        assert!(e.to_string().starts_with(&bad.display().to_string()), "{e}");
+
+        let e = Dataset::load(&d.path().join("w")).unwrap_err().to_string();
+        assert!(e.contains("1.obj: face 0 refers to vertex 2"), "{e}");
+
+        write(d.path(), "loose.ply", &poses[0], &faces);
+        let e = Dataset::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("has both mesh files and sub-folders"), "{e}");
+
+        let empty = d.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let e = Dataset::load(&empty).unwrap_err().to_string();
+        assert!(e.contains("contains no mesh files"), "{e}");
+        let e = load_sequence(&[]).unwrap_err().to_string();
+        assert!(e.contains("no mesh files given"), "{e}");
+    }
+}
