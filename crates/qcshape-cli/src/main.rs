@@ -1,1 +1,51 @@
-fn main() {}
+//! The `qcshape` command-line tool.
+//!
+//! This file only parses arguments and dispatches: each subcommand lives in its own module
+//! (`info.rs`, ...) with a clap `Args` struct and a `run(&Args) -> anyhow::Result<()>`.
+//! Errors are printed to stderr as `error: ...` with exit status 1; clap's usage errors exit
+//! with status 2.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod info;
+
+/// Deformation similarity in quasi-conformal shape space.
+///
+/// Meshes are read from OBJ, PLY (ASCII or binary), OFF, STL (ASCII or binary) and legacy VTK
+/// files; polygons are fan-triangulated. Run `qcshape help <command>` for a command's options.
+#[derive(Debug, Parser)]
+#[command(name = "qcshape", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    // Help text comes from each `Args` struct's `#[command(about, long_about)]` (a doc comment
+    // here would replace the long help).
+    Info(info::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Info(args) => info::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        // A closed pipe (`qcshape info x.ply | head -1`) is not an error worth reporting.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
