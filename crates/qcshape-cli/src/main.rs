@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod geodesic;
 mod info;
 
 /// Deformation similarity in quasi-conformal shape space.
@@ -27,12 +28,14 @@ enum Command {
     // Help text comes from each `Args` struct's `#[command(about, long_about)]` (a doc comment
     // here would replace the long help).
     Info(info::Args),
+    Geodesic(geodesic::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
+        Command::Geodesic(args) => geodesic::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

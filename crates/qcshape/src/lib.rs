@@ -17,4 +17,5 @@ pub mod dataset;
 pub mod io;
 pub mod mesh;
 pub mod metric;
+pub mod path;
 pub mod synth;

@@ -18,16 +18,18 @@ mod l2;
 mod quasi_conformal;
 mod regularized;
 mod rigid;
+mod spec;
 
 #[cfg(test)]
 pub(crate) mod fdcheck;
 
 pub use conformal::{Conformal, ConformalForm};
 pub use isometric::Isometric;
-pub use l2::L2;
+pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcWeights, QuasiConformal};
 pub use regularized::Regularized;
 pub use rigid::Rigid;
+pub use spec::{MetricKind, MetricSpec};
 
 use std::fmt::Debug;
 

@@ -1,36 +1,63 @@
-use super::{JacobianMut, Metric, Pattern, PatternRef, Segment, L2};
+use super::{FrozenL2, JacobianMut, Metric, Pattern, PatternRef, Segment, L2};
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times
-/// the [`L2`] residuals. Makes conformal-type metrics positive definite (METHOD.md).
+/// the L2 residuals. Makes conformal-type metrics positive definite (METHOD.md).
+///
+/// The L2 part is [`FrozenL2`] (area weights frozen at the path's ends) by default, or the
+/// literal [`L2`] (weights of the pose itself) with [`Regularized::with_pose_areas`]. Frozen
+/// weights are passed as one array: the inner metric's, then the regularizer's (#V).
 #[derive(Debug)]
 pub struct Regularized {
     /// The metric being regularized.
     pub inner: Box<dyn Metric>,
     /// Weight `lambda >= 0` of the L2 term.
     pub lambda: f64,
+    /// Whether the L2 part uses frozen (true, default) or per-pose (false) area weights.
+    pub frozen_areas: bool,
 }
 
 impl Regularized {
-    /// `inner + lambda * L2`.
+    /// `inner + lambda * L2` with frozen area weights ([`FrozenL2`]).
     pub fn new(inner: Box<dyn Metric>, lambda: f64) -> Self {
-        Regularized { inner, lambda }
+        Regularized {
+            inner,
+            lambda,
+            frozen_areas: true,
+        }
+    }
+
+    /// `inner + lambda * L2` with the literal per-pose area weights of eq. 11 ([`L2`]).
+    pub fn with_pose_areas(inner: Box<dyn Metric>, lambda: f64) -> Self {
+        Regularized {
+            inner,
+            lambda,
+            frozen_areas: false,
+        }
+    }
+
+    fn l2(&self) -> &dyn Metric {
+        if self.frozen_areas {
+            &FrozenL2
+        } else {
+            &L2
+        }
     }
 }
 
 impl Metric for Regularized {
     fn name(&self) -> String {
-        format!("{}+{}*l2", self.inner.name(), self.lambda)
+        format!("{}+{}*{}", self.inner.name(), self.lambda, self.l2().name())
     }
 
     fn pattern(&self, topo: &Topology) -> Pattern {
         let mut p = self.inner.pattern(topo);
-        p.append(&L2.pattern(topo));
+        p.append(&self.l2().pattern(topo));
         p
     }
 
     fn n_residuals(&self, topo: &Topology) -> usize {
-        self.inner.n_residuals(topo) + L2.n_residuals(topo)
+        self.inner.n_residuals(topo) + self.l2().n_residuals(topo)
     }
 
     fn n_aux(&self) -> usize {
@@ -38,11 +65,28 @@ impl Metric for Regularized {
     }
 
     fn best_aux(&self, topo: &Topology, seg: &Segment) -> Vec<f64> {
-        self.inner.best_aux(topo, seg)
+        let (inner, _) = self.split_frozen(topo, seg.frozen);
+        self.inner.best_aux(
+            topo,
+            &Segment {
+                frozen: inner,
+                ..*seg
+            },
+        )
     }
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        self.inner.frozen_weights(topo, start, end)
+        let inner = self.inner.frozen_weights(topo, start, end);
+        let l2 = self.l2().frozen_weights(topo, start, end);
+        match (inner, l2) {
+            (None, None) => None,
+            (Some(i), None) => Some(i),
+            (None, Some(l)) => Some(l),
+            (Some(mut i), Some(l)) => {
+                i.extend_from_slice(&l);
+                Some(i)
+            }
+        }
     }
 
     fn residuals(
@@ -65,12 +109,21 @@ impl Metric for Regularized {
             offsets: &l2_offsets,
             vertices: &pattern.vertices[e_in..],
         };
+        let (fr_in, fr_l2) = self.split_frozen(topo, seg.frozen);
+        let seg_in = Segment {
+            frozen: fr_in,
+            ..*seg
+        };
+        let seg_l2 = Segment {
+            frozen: fr_l2,
+            ..*seg
+        };
         let (r_in, r_l2) = r.split_at_mut(n_in);
         let sl = self.lambda.max(0.0).sqrt();
         match jac {
             None => {
-                self.inner.residuals(topo, inner_pat, seg, r_in, None);
-                L2.residuals(topo, l2_pat, seg, r_l2, None);
+                self.inner.residuals(topo, inner_pat, &seg_in, r_in, None);
+                self.l2().residuals(topo, l2_pat, &seg_l2, r_l2, None);
             }
             Some(j) => {
                 let (da_in, da_l2) = j.da.split_at_mut(e_in);
@@ -82,13 +135,13 @@ impl Metric for Regularized {
                     db: db_in,
                     daux: daux_in,
                 };
-                self.inner.residuals(topo, inner_pat, seg, r_in, Some(ji));
+                self.inner.residuals(topo, inner_pat, &seg_in, r_in, Some(ji));
                 let jl = JacobianMut {
                     da: da_l2,
                     db: db_l2,
                     daux: &mut [],
                 };
-                L2.residuals(topo, l2_pat, seg, r_l2, Some(jl));
+                self.l2().residuals(topo, l2_pat, &seg_l2, r_l2, Some(jl));
                 for d in da_l2.iter_mut().chain(db_l2.iter_mut()) {
                     *d = d.map(|v| v * sl);
                 }
@@ -102,13 +155,60 @@ impl Metric for Regularized {
     }
 }
 
+impl Regularized {
+    /// Splits a frozen-weight array into the inner metric's part and the L2 part (#V when the
+    /// areas are frozen).
+    fn split_frozen<'a>(
+        &self,
+        topo: &Topology,
+        frozen: Option<&'a [f64]>,
+    ) -> (Option<&'a [f64]>, Option<&'a [f64]>) {
+        let Some(f) = frozen else { return (None, None) };
+        let nl = if self.frozen_areas { topo.n_vertices() } else { 0 };
+        if f.len() < nl {
+            return (Some(f), None);
+        }
+        let (a, b) = f.split_at(f.len() - nl);
+        (
+            if a.is_empty() { None } else { Some(a) },
+            if b.is_empty() { None } else { Some(b) },
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metric::{fdcheck, Isometric};
+    use crate::metric::{fdcheck, ConformalForm, Isometric, QcWeights, QuasiConformal, Rigid};
 
     #[test]
     fn regularized_jacobian_matches_finite_differences() {
         fdcheck::check_metric(&Regularized::new(Box::new(Isometric), 0.3), 5);
+        fdcheck::check_metric(&Regularized::with_pose_areas(Box::new(Isometric), 0.3), 6);
+        fdcheck::check_metric(&Regularized::new(Box::new(Rigid), 0.2), 7);
+        let qc = QuasiConformal {
+            form: ConformalForm::Quadratic,
+            weights: QcWeights::Endpoints,
+        };
+        fdcheck::check_metric(&Regularized::new(Box::new(qc), 0.2), 8);
+    }
+
+    #[test]
+    fn frozen_weights_are_split_between_inner_and_l2() {
+        let s = crate::synth::icosphere(1);
+        let b: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0] * 1.2, p[1], p[2]]).collect();
+        let qc = QuasiConformal {
+            form: ConformalForm::Quadratic,
+            weights: QcWeights::Endpoints,
+        };
+        let m = Regularized::new(Box::new(qc), 0.5);
+        let f = m.frozen_weights(&s.topology, &s.positions, &b).unwrap();
+        assert_eq!(f.len(), 2 * s.n_vertices());
+        let (i, l) = m.split_frozen(&s.topology, Some(&f));
+        assert_eq!(i.unwrap().len(), s.n_vertices());
+        assert_eq!(
+            l.unwrap(),
+            FrozenL2::weights(&s.topology, &s.positions, &b).as_slice()
+        );
     }
 }

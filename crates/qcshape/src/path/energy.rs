@@ -1,11 +1,17 @@
 //! The discrete path energy (eq. 12) and its exact gradient.
 
+// Index loops mirror the formulas (vertex, coordinate, residual indices) in these kernels.
+#![allow(clippy::needless_range_loop)]
+
 use std::sync::Arc;
 
 use rayon::prelude::*;
 
 use crate::mesh::Topology;
 use crate::metric::{At, Jacobian, Metric, Pattern, Segment};
+
+/// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
+type SegmentGradient = (f64, Vec<f64>, Vec<f64>, Vec<f64>);
 
 /// Fixed data of one path problem: the two end poses and the frozen metric weights.
 #[derive(Debug, Clone)]
@@ -158,7 +164,7 @@ impl<'m> PathEnergy<'m> {
     pub fn energy_gradient(&self, x: &[f64], ends: &Ends, grad: &mut [f64]) -> f64 {
         let nv3 = 3 * self.n_vertices();
         let n_aux = self.metric.n_aux();
-        let parts: Vec<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> = (0..self.steps)
+        let parts: Vec<SegmentGradient> = (0..self.steps)
             .into_par_iter()
             .map_init(
                 || self.new_term_eval(),

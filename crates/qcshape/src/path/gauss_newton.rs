@@ -1,5 +1,8 @@
 //! Levenberg-Marquardt on the stacked residuals of the path energy.
 
+// Index loops mirror the formulas (vertex, coordinate, residual indices) in these kernels.
+#![allow(clippy::needless_range_loop)]
+
 use super::energy::{Ends, PathEnergy};
 use super::hessian::HessianLayout;
 use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
@@ -55,7 +58,8 @@ pub(crate) fn minimize(
                 dscale.push(d);
             }
             let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
-            if layout.solve(&h, &mut dx, par).is_err() || dx.iter().any(|v| !v.is_finite()) {
+            let ok = layout.solve(&h, &mut dx, par);
+            if ok.is_err() || dx.iter().any(|v| !v.is_finite()) {
                 mu *= nu;
                 nu *= 2.0;
                 if mu > 1e16 {

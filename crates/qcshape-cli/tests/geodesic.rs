@@ -1,0 +1,84 @@
+//! End-to-end tests of `qcshape geodesic`.
+
+use std::process::Command;
+
+fn qcshape() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_qcshape"))
+}
+
+fn write_sphere(path: &std::path::Path, level: u32, stretch: f64) {
+    let s = qcshape::synth::icosphere(level);
+    let pos: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0], p[1], stretch * p[2]]).collect();
+    qcshape::io::write_mesh(path, &pos, s.topology.faces(), &Default::default()).unwrap();
+}
+
+#[test]
+fn demo_runs_and_reports_a_converged_distance() {
+    let out = qcshape()
+        .args(["geodesic", "--demo", "--metric", "isometric", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["converged"], true);
+    assert!(v["distance"].as_f64().unwrap() > 0.0);
+    assert!(v["energy"].as_f64().unwrap() < v["linear_energy"].as_f64().unwrap());
+}
+
+#[test]
+fn files_in_poses_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.obj"));
+    write_sphere(&a, 2, 1.0);
+    write_sphere(&b, 2, 1.4);
+    let out_dir = dir.path().join("path");
+    let out = qcshape()
+        .args([
+            "geodesic",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--steps",
+            "4",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("distance") && stdout.contains("converged   true"),
+        "{stdout}"
+    );
+    for i in 0..=4 {
+        let p = out_dir.join(format!("pose_{i:03}.ply"));
+        let s = qcshape::io::load_shape(&p).unwrap();
+        assert_eq!(s.n_vertices(), 162);
+    }
+}
+
+#[test]
+fn mismatched_meshes_and_missing_files_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    write_sphere(&a, 1, 1.0);
+    write_sphere(&b, 2, 1.0);
+    let out = qcshape()
+        .args(["geodesic", a.to_str().unwrap(), b.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cannot be compared") && err.contains("42") && !err.contains("panicked"),
+        "{err}"
+    );
+    let missing = dir.path().join("nope.ply");
+    let out = qcshape()
+        .args(["geodesic", a.to_str().unwrap(), missing.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nope.ply") && !err.contains("panicked"), "{err}");
+}
