@@ -19,6 +19,7 @@ use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
+use super::pairs::VertexPairs;
 use crate::metric::At;
 
 /// Structure of `J^T J` for one path problem, built once, with its symbolic factorization.
@@ -35,13 +36,8 @@ struct Structure {
     nv: usize,
     steps: usize,
     n_aux: usize,
-    /// Vertex-pair set `S`, column-wise CSR: column `v` holds rows `s_rows[s_off[v]..s_off[v+1]]`.
-    s_off: Vec<usize>,
-    s_rows: Vec<usize>,
-    /// Per residual `i` with entries `e_0..e_{L-1}`: `pair_slots[pair_off[i] + k L + l]` is the
-    /// slot of (row vertex of entry `k`, column vertex of entry `l`).
-    pair_off: Vec<usize>,
-    pair_slots: Vec<u32>,
+    /// Vertex pairs sharing a residual, and per-residual pair slots.
+    pairs: VertexPairs,
 }
 
 /// One segment's contribution to `J^T r` and `J^T J` (both terms of the segment).
@@ -71,50 +67,13 @@ impl HessianLayout {
         let nv = pe.n_vertices();
         let steps = pe.steps;
         let n_aux = pe.metric.n_aux();
-        let pat = &pe.pattern;
         // S: every pair of vertices sharing a residual (and every vertex with itself).
-        let mut cols: Vec<Vec<u32>> = (0..nv as u32).map(|v| vec![v]).collect();
-        for i in 0..pat.n_residuals() {
-            let row = &pat.vertices[pat.row(i)];
-            for &u in row {
-                for &v in row {
-                    cols[v as usize].push(u);
-                }
-            }
-        }
-        let mut s_off = Vec::with_capacity(nv + 1);
-        let mut s_rows: Vec<usize> = Vec::new();
-        s_off.push(0);
-        for mut c in cols {
-            c.sort_unstable();
-            c.dedup();
-            s_rows.extend(c.iter().map(|&u| u as usize));
-            s_off.push(s_rows.len());
-        }
-        let slot = |row: u32, col: u32| -> u32 {
-            let r = &s_rows[s_off[col as usize]..s_off[col as usize + 1]];
-            (s_off[col as usize] + r.binary_search(&(row as usize)).expect("pair in S")) as u32
-        };
-        let mut pair_off = Vec::with_capacity(pat.n_residuals() + 1);
-        let mut pair_slots = Vec::new();
-        pair_off.push(0);
-        for i in 0..pat.n_residuals() {
-            let row = &pat.vertices[pat.row(i)];
-            for &u in row {
-                for &v in row {
-                    pair_slots.push(slot(u, v));
-                }
-            }
-            pair_off.push(pair_slots.len());
-        }
+        let pairs = VertexPairs::new(nv, &pe.pattern);
         let st = Structure {
             nv,
             steps,
             n_aux,
-            s_off,
-            s_rows,
-            pair_off,
-            pair_slots,
+            pairs,
         };
         let n = pe.n_vars();
         let mut col_ptr = vec![0usize];
@@ -169,11 +128,14 @@ impl Structure {
     /// far denser factor.
     fn ordering(&self) -> Result<(Vec<usize>, Vec<usize>), faer::sparse::FaerError> {
         let nv = self.nv;
-        let sym = SymbolicSparseColMatRef::new_checked(nv, nv, &self.s_off, None, &self.s_rows);
+        let sym = SymbolicSparseColMatRef::new_checked(nv, nv, &self.pairs.off, None, &self.pairs.rows);
         let mut vf = vec![0usize; nv];
         let mut vi = vec![0usize; nv];
-        let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(nv, self.s_rows.len()))
-            .map_err(|_| faer::sparse::FaerError::OutOfMemory)?;
+        let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(
+            nv,
+            self.pairs.n_slots(),
+        ))
+        .map_err(|_| faer::sparse::FaerError::OutOfMemory)?;
         amd::order_maybe_unsorted(&mut vf, &mut vi, sym, Default::default(), MemStack::new(&mut mem))?;
         let nv3 = 3 * nv;
         let np = nv3 * (self.steps - 1);
@@ -201,12 +163,12 @@ impl Structure {
         let base = |j: usize| (j - 1) * nv3; // first unknown of interior pose j
         for j in 1..self.steps {
             for v in 0..nv {
-                let rows = self.s_off[v]..self.s_off[v + 1];
+                let rows = self.pairs.off[v]..self.pairs.off[v + 1];
                 for c in 0..3 {
                     let col = base(j) + 3 * v + c;
                     if j >= 2 {
                         for idx in rows.clone() {
-                            let u = self.s_rows[idx];
+                            let u = self.pairs.rows[idx];
                             for cr in 0..3 {
                                 f(
                                     col,
@@ -221,7 +183,7 @@ impl Structure {
                         }
                     }
                     for idx in rows.clone() {
-                        let u = self.s_rows[idx];
+                        let u = self.pairs.rows[idx];
                         if u > v {
                             break;
                         }
@@ -291,7 +253,7 @@ impl Structure {
 
     /// Evaluates one segment's two terms with Jacobians and accumulates its blocks.
     fn segment_blocks(&self, pe: &PathEnergy, x: &[f64], ends: &Ends, s: usize) -> SegmentBlocks {
-        let n_slots = self.s_rows.len();
+        let n_slots = self.pairs.n_slots();
         let nv3 = 3 * self.nv;
         let n_aux = self.n_aux;
         let need_a = s >= 1;
@@ -329,7 +291,7 @@ impl Structure {
                 let range = pat.row(i);
                 let l = range.len();
                 let first = range.start;
-                let ps = &self.pair_slots[self.pair_off[i]..self.pair_off[i + 1]];
+                let ps = self.pairs.slots(i);
                 let ri = r[i];
                 for k in 0..l {
                     let vk = pat.vertices[first + k] as usize;

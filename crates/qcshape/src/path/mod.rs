@@ -17,6 +17,7 @@ mod energy;
 mod gauss_newton;
 mod hessian;
 mod lbfgs;
+mod pairs;
 mod plbfgs;
 
 use std::sync::Arc;

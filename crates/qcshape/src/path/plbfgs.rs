@@ -21,6 +21,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use super::energy::{Ends, PathEnergy};
+use super::pairs::VertexPairs;
 use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 use crate::metric::At;
 
@@ -33,49 +34,16 @@ pub(crate) struct SpatialLayout {
     /// For value `k` of the CSC: (slot in the vertex-pair set, 3 x 3 component).
     src: Vec<(usize, usize)>,
     diag_idx: Vec<usize>,
-    /// Per residual, the slots of its entry pairs (as in the Gauss-Newton layout).
-    pair_off: Vec<usize>,
-    pair_slots: Vec<u32>,
-    n_slots: usize,
+    /// Vertex pairs sharing a residual, and per-residual pair slots.
+    pairs: VertexPairs,
     symbolic: SymbolicCholesky<usize>,
 }
 
 impl SpatialLayout {
     pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
         let nv = pe.n_vertices();
-        let pat = &pe.pattern;
-        let mut cols: Vec<Vec<u32>> = (0..nv as u32).map(|v| vec![v]).collect();
-        for i in 0..pat.n_residuals() {
-            let row = &pat.vertices[pat.row(i)];
-            for &u in row {
-                for &v in row {
-                    cols[v as usize].push(u);
-                }
-            }
-        }
-        let mut s_off = vec![0usize];
-        let mut s_rows: Vec<u32> = Vec::new();
-        for mut c in cols {
-            c.sort_unstable();
-            c.dedup();
-            s_rows.extend_from_slice(&c);
-            s_off.push(s_rows.len());
-        }
-        let slot = |row: u32, col: u32| -> u32 {
-            let r = &s_rows[s_off[col as usize]..s_off[col as usize + 1]];
-            (s_off[col as usize] + r.binary_search(&row).expect("pair in S")) as u32
-        };
-        let mut pair_off = vec![0usize];
-        let mut pair_slots = Vec::new();
-        for i in 0..pat.n_residuals() {
-            let row = &pat.vertices[pat.row(i)];
-            for &u in row {
-                for &v in row {
-                    pair_slots.push(slot(u, v));
-                }
-            }
-            pair_off.push(pair_slots.len());
-        }
+        let pairs = VertexPairs::new(nv, &pe.pattern);
+        let (s_off, s_rows) = (&pairs.off, &pairs.rows);
         let n = 3 * nv;
         let mut col_ptr = vec![0usize];
         let mut row_idx = Vec::new();
@@ -84,7 +52,7 @@ impl SpatialLayout {
         for v in 0..nv {
             for c in 0..3 {
                 for idx in s_off[v]..s_off[v + 1] {
-                    let u = s_rows[idx] as usize;
+                    let u = s_rows[idx];
                     if u > v {
                         break;
                     }
@@ -109,9 +77,7 @@ impl SpatialLayout {
             row_idx,
             src,
             diag_idx,
-            pair_off,
-            pair_slots,
-            n_slots: s_rows.len(),
+            pairs,
             symbolic,
         })
     }
@@ -134,7 +100,7 @@ impl<'l> Preconditioner<'l> {
         x: &[f64],
         ends: &Ends,
     ) -> Result<Self, GeodesicError> {
-        let mut blocks = vec![[0.0f64; 9]; layout.n_slots];
+        let mut blocks = vec![[0.0f64; 9]; layout.pairs.n_slots()];
         let mut te = pe.new_term_eval();
         let pat = &pe.pattern;
         let segs: Vec<usize> = (0..pe.steps).collect();
@@ -143,7 +109,7 @@ impl<'l> Preconditioner<'l> {
             for i in 0..pat.n_residuals() {
                 let range = pat.row(i);
                 let l = range.len();
-                let ps = &layout.pair_slots[layout.pair_off[i]..layout.pair_off[i + 1]];
+                let ps = layout.pairs.slots(i);
                 for k in 0..l {
                     let dk = te.jac.db[range.start + k];
                     for ll in 0..l {
