@@ -200,7 +200,7 @@ impl Topology {
     pub fn edges(&self) -> &[[u32; 2]] {
         &self.edges
     }
-    /// The one or two faces beside each edge (#E x 2; [`NO_FACE`] marks a boundary side).
+    /// The one or two faces beside each edge (#E x 2; `u32::MAX` marks a boundary side).
     pub fn edge_faces(&self) -> &[[u32; 2]] {
         &self.edge_faces
     }
