@@ -194,3 +194,23 @@ pub fn bounding_box(pos: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     }
     (lo, hi)
 }
+
+/// `s = sqrt(area / 3)` of triangle `(p, q, r)` (the per-corner L2 weight of eq. 11) and its
+/// gradient with respect to `(p, q, r)`, from `d area / d p = 0.5 (q - r) x n` (cyclic).
+/// The gradient is zero for a degenerate triangle.
+#[inline]
+pub fn sqrt_third_area_gradient(p: [f64; 3], q: [f64; 3], r: [f64; 3]) -> (f64, [[f64; 3]; 3]) {
+    let c = cross(sub(q, p), sub(r, p));
+    let lc = norm(c);
+    let s = (0.5 * lc / 3.0).sqrt();
+    if lc <= 0.0 || s <= 0.0 {
+        return (s, [[0.0; 3]; 3]);
+    }
+    let n = scale(c, 1.0 / lc);
+    // ds = darea / (6 s).
+    let k = 0.5 / (6.0 * s);
+    (
+        s,
+        [cross(sub(q, r), n), cross(sub(r, p), n), cross(sub(p, q), n)].map(|v| scale(v, k)),
+    )
+}

@@ -2,7 +2,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
-use crate::mesh::geometry::{cross, norm, scale, sub};
+use crate::mesh::geometry::{scale, sqrt_third_area_gradient};
 use crate::mesh::Topology;
 
 /// The L2 metric (eq. 11): `G_M(X) = sum_p A_p |X_p|^2`, `A_p` one third of the area of the
@@ -37,26 +37,15 @@ impl Metric for L2 {
         let (g, x) = geometry_and_displacement(seg);
         for (fi, f) in topo.faces().iter().enumerate() {
             let [p, q, rr] = f.map(|i| g[i as usize]);
-            let c = cross(sub(q, p), sub(rr, p));
-            let lc = norm(c);
-            let area = 0.5 * lc;
-            let s = (area / 3.0).sqrt();
-            // d area / d (p, q, r) = 0.5 * (q - r) x n, cyclic.
-            let darea = if lc > 0.0 {
-                let n = scale(c, 1.0 / lc);
-                [cross(sub(q, rr), n), cross(sub(rr, p), n), cross(sub(p, q), n)].map(|v| scale(v, 0.5))
-            } else {
-                [[0.0; 3]; 3]
-            };
-            let ds_scale = if s > 0.0 { 1.0 / (6.0 * s) } else { 0.0 };
+            let (s, ds) = sqrt_third_area_gradient(p, q, rr);
             for k in 0..3 {
                 let xv = x[f[k] as usize];
                 for c3 in 0..3 {
                     let row = fi * 9 + k * 3 + c3;
                     r[row] = s * xv[c3];
                     if let Some(j) = jac.as_mut() {
-                        for (m, dar) in darea.iter().enumerate() {
-                            let dg = scale(*dar, xv[c3] * ds_scale);
+                        for (m, dsm) in ds.iter().enumerate() {
+                            let dg = scale(*dsm, xv[c3]);
                             let mut dx = [0.0; 3];
                             if m == k {
                                 dx[c3] = s;

@@ -3,7 +3,7 @@
 use super::{
     geometry_and_displacement, split_segment, At, JacobianMut, Metric, Pattern, PatternRef, Segment,
 };
-use crate::mesh::geometry::{add, cross, dot, norm, scale, sub};
+use crate::mesh::geometry::{add, cross, dot, norm, scale, sqrt_third_area_gradient, sub};
 use crate::mesh::Topology;
 
 /// The rigid metric (eq. 1): `G_R(X) = min over (t, w) of sum_p A_p |X_p - t - w x p|^2`, the
@@ -151,18 +151,7 @@ impl Metric for Rigid {
         let at: At = seg.at;
         for (fi, f) in topo.faces().iter().enumerate() {
             let [p, q, rr] = f.map(|i| g[i as usize]);
-            let c = cross(sub(q, p), sub(rr, p));
-            let lc = norm(c);
-            let area = 0.5 * lc;
-            let s = (area / 3.0).sqrt();
-            // d area / d (p, q, r) = 0.5 * (q - r) x n, cyclic.
-            let darea = if lc > 0.0 {
-                let n = scale(c, 1.0 / lc);
-                [cross(sub(q, rr), n), cross(sub(rr, p), n), cross(sub(p, q), n)].map(|v| scale(v, 0.5))
-            } else {
-                [[0.0; 3]; 3]
-            };
-            let ds_scale = if s > 0.0 { 1.0 / (6.0 * s) } else { 0.0 };
+            let (s, ds) = sqrt_third_area_gradient(p, q, rr);
             for k in 0..3 {
                 let gv = g[f[k] as usize];
                 let e = sub(sub(x[f[k] as usize], t), cross(w, gv));
@@ -172,8 +161,8 @@ impl Metric for Rigid {
                     if let Some(j) = jac.as_mut() {
                         let mut unit = [0.0; 3];
                         unit[c3] = 1.0;
-                        for (m, dar) in darea.iter().enumerate() {
-                            let mut dg = scale(*dar, e[c3] * ds_scale);
+                        for (m, dsm) in ds.iter().enumerate() {
+                            let mut dg = scale(*dsm, e[c3]);
                             let mut dx = [0.0; 3];
                             if m == k {
                                 // d(w x g)_c / dg = e_c x w; the residual has -s times it.
