@@ -48,14 +48,13 @@ pub(crate) fn minimize(
         let jtj = layout.values(&blocks);
         let dmax = layout.diag_idx().iter().map(|&i| jtj[i]).fold(0.0f64, f64::max);
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+        // Marquardt scaling D = diag(J^T J), floored; independent of mu.
+        let dscale: Vec<f64> = layout.diag_idx().iter().map(|&i| jtj[i].max(floor)).collect();
         // Inner loop: raise mu until a step lowers the energy.
         let accepted = loop {
             let mut h = jtj.clone();
-            let mut dscale = Vec::with_capacity(layout.diag_idx().len());
-            for &i in layout.diag_idx() {
-                let d = jtj[i].max(floor);
+            for (&i, d) in layout.diag_idx().iter().zip(&dscale) {
                 h[i] += mu * d;
-                dscale.push(d);
             }
             let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
             let ok = layout.solve(&h, &mut dx, par);

@@ -93,7 +93,7 @@ struct Preconditioner<'l> {
 
 impl<'l> Preconditioner<'l> {
     /// `A` from the `At::Start` term of segment `s` (its `d r / d b` is `d r / d X` at the
-    /// geometry of `P_s`), averaged over the given segments.
+    /// geometry of `P_s`), averaged over all segments.
     fn new(
         layout: &'l SpatialLayout,
         pe: &PathEnergy,
@@ -103,8 +103,7 @@ impl<'l> Preconditioner<'l> {
         let mut blocks = vec![[0.0f64; 9]; layout.pairs.n_slots()];
         let mut te = pe.new_term_eval();
         let pat = &pe.pattern;
-        let segs: Vec<usize> = (0..pe.steps).collect();
-        for &s in &segs {
+        for s in 0..pe.steps {
             pe.eval_term(x, ends, s, At::Start, &mut te, true);
             for i in 0..pat.n_residuals() {
                 let range = pat.row(i);
@@ -124,7 +123,7 @@ impl<'l> Preconditioner<'l> {
                 }
             }
         }
-        let scale = 1.0 / segs.len() as f64;
+        let scale = 1.0 / pe.steps as f64;
         let mut vals: Vec<f64> = layout
             .src
             .iter()
