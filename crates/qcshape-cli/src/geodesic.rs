@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use qcshape::io;
 use qcshape::mesh::Shape;
-use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
-use qcshape::path::{geodesic, GeodesicOptions, Normalization, Solver};
+use qcshape::path::{geodesic, Normalization};
+
+use crate::args::{MetricArgs, SolverArgs};
 
 /// Compute the discrete geodesic between two meshes of one connectivity and print the
 /// distance.
@@ -26,30 +27,10 @@ pub struct Args {
     /// Use built-in data: an icosphere (642 vertices) and a twisted, stretched copy.
     #[arg(long)]
     demo: bool,
-    /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
-    #[arg(long, default_value = "quasi-conformal")]
-    metric: MetricKind,
-    /// Conformal triangle term: quadratic (T_p^2 + T_q^2 + T_r^2) or paper ((|T_p|+|T_q|+|T_r|)^2).
-    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
-    form: String,
-    /// Quasi-conformal curvature-change weights: endpoints (frozen K(B) - K(A)) or segment.
-    #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
-    weights: String,
-    /// Weight of the L2 regularizer (eq. 11); 0 disables it.
-    #[arg(long, default_value_t = 0.1)]
-    lambda: f64,
-    /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
-    #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
-    l2_areas: String,
-    /// Number of path segments N.
-    #[arg(long, default_value_t = 8)]
-    steps: usize,
-    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), gauss-newton, lbfgs.
-    #[arg(long, default_value = "preconditioned")]
-    solver: Solver,
-    /// Relative gradient tolerance.
-    #[arg(long, default_value_t = 1e-6)]
-    tolerance: f64,
+    #[command(flatten)]
+    metric: MetricArgs,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Write the path's poses (PLY) to this folder.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -94,39 +75,14 @@ pub fn run(args: &Args) -> Result<()> {
         };
         bail!("{names} cannot be compared: {e}");
     }
-    if args.steps == 0 {
-        bail!("--steps must be at least 1");
-    }
-    if args.lambda.is_nan() || args.lambda < 0.0 {
-        bail!("--lambda must be non-negative");
-    }
-    let spec = MetricSpec {
-        kind: args.metric,
-        form: if args.form == "paper" {
-            ConformalForm::Paper
-        } else {
-            ConformalForm::Quadratic
-        },
-        weights: if args.weights == "segment" {
-            QcWeights::Segment
-        } else {
-            QcWeights::Endpoints
-        },
-        lambda: args.lambda,
-        frozen_areas: args.l2_areas == "frozen",
-    };
+    let spec = args.metric.spec()?;
     let metric = spec.build();
-    let opts = GeodesicOptions {
-        steps: args.steps,
-        solver: args.solver,
-        gradient_tolerance: args.tolerance,
-        ..Default::default()
-    };
+    let opts = args.solver.options()?;
     eprintln!(
         "solving {} on {} vertices, N = {} ...",
         metric.name(),
         a.n_vertices(),
-        args.steps
+        opts.steps
     );
     let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::MeanEdgeOfFirst)?;
     if let Some(dir) = &args.out {
@@ -140,8 +96,8 @@ pub fn run(args: &Args) -> Result<()> {
         let v = serde_json::json!({
             "metric": metric.name(),
             "vertices": a.n_vertices(),
-            "steps": args.steps,
-            "solver": format!("{:?}", args.solver),
+            "steps": opts.steps,
+            "solver": format!("{:?}", opts.solver),
             "distance": g.length,
             "energy": g.energy,
             "linear_energy": g.initial_energy,

@@ -1,0 +1,82 @@
+//! Options shared by every command that measures lengths: the metric with its variants and the
+//! geodesic solver.
+
+use anyhow::{bail, Result};
+use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
+use qcshape::path::{GeodesicOptions, Solver};
+
+/// The metric (METHOD.md) and its variants.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MetricArgs {
+    /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
+    #[arg(long, default_value = "quasi-conformal")]
+    pub metric: MetricKind,
+    /// Conformal triangle term: quadratic (T_p^2 + T_q^2 + T_r^2) or paper ((|T_p|+|T_q|+|T_r|)^2).
+    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
+    pub form: String,
+    /// Quasi-conformal curvature-change weights: endpoints (frozen K(B) - K(A)) or segment.
+    #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
+    pub weights: String,
+    /// Weight of the L2 regularizer (eq. 11); 0 disables it.
+    #[arg(long, default_value_t = 0.1)]
+    pub lambda: f64,
+    /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
+    #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
+    pub l2_areas: String,
+}
+
+impl MetricArgs {
+    /// The metric specification, after checking the values.
+    pub fn spec(&self) -> Result<MetricSpec> {
+        if self.lambda.is_nan() || self.lambda < 0.0 {
+            bail!("--lambda must be non-negative");
+        }
+        Ok(MetricSpec {
+            kind: self.metric,
+            form: if self.form == "paper" {
+                ConformalForm::Paper
+            } else {
+                ConformalForm::Quadratic
+            },
+            weights: if self.weights == "segment" {
+                QcWeights::Segment
+            } else {
+                QcWeights::Endpoints
+            },
+            lambda: self.lambda,
+            frozen_areas: self.l2_areas == "frozen",
+        })
+    }
+}
+
+/// The discrete geodesic solver.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SolverArgs {
+    /// Number of path segments N of each geodesic.
+    #[arg(long, default_value_t = 8)]
+    pub steps: usize,
+    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), gauss-newton, lbfgs.
+    #[arg(long, default_value = "preconditioned")]
+    pub solver: Solver,
+    /// Relative gradient tolerance.
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+}
+
+impl SolverArgs {
+    /// The geodesic options, after checking the values.
+    pub fn options(&self) -> Result<GeodesicOptions> {
+        if self.steps == 0 {
+            bail!("--steps must be at least 1");
+        }
+        if !(self.tolerance >= 0.0) {
+            bail!("--tolerance must be non-negative");
+        }
+        Ok(GeodesicOptions {
+            steps: self.steps,
+            solver: self.solver,
+            gradient_tolerance: self.tolerance,
+            ..Default::default()
+        })
+    }
+}
