@@ -69,7 +69,7 @@ impl SolverArgs {
         if self.steps == 0 {
             bail!("--steps must be at least 1");
         }
-        if !(self.tolerance >= 0.0) {
+        if self.tolerance.is_nan() || self.tolerance < 0.0 {
             bail!("--tolerance must be non-negative");
         }
         Ok(GeodesicOptions {
