@@ -18,4 +18,5 @@ pub mod io;
 pub mod mesh;
 pub mod metric;
 pub mod path;
+pub mod similarity;
 pub mod synth;

@@ -1,0 +1,277 @@
+//! Pairwise deformation distances (eq. 13): `similarity(M, N) = sum_i dis(M_i, N_i)` over
+//! corresponding poses of deformations that start from one common base.
+
+use std::collections::HashSet;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::path::{GeodesicError, GeodesicSolver};
+
+/// One pose of a deformation: #V x 3 positions.
+pub type Pose = Vec<[f64; 3]>;
+
+/// Why a similarity computation failed.
+#[derive(Debug, Error)]
+pub enum SimilarityError {
+    /// The deformations cannot be compared pose by pose.
+    #[error("{0}")]
+    Mismatch(String),
+    /// A geodesic between two corresponding poses failed.
+    #[error("deformations '{a}' and '{b}', pose {pose}: {error}")]
+    Geodesic {
+        /// First deformation.
+        a: String,
+        /// Second deformation.
+        b: String,
+        /// The pose index.
+        pose: usize,
+        /// The solver's error.
+        error: GeodesicError,
+    },
+    /// The journal of a resumable run cannot be read or written.
+    #[error("{}: {message}", path.display())]
+    Journal {
+        /// The journal file.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The run was cancelled (finished pairs are in the journal).
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// The distance between two deformations and how it was obtained.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairDistance {
+    /// Index of the first deformation (`i < j`).
+    pub i: usize,
+    /// Index of the second deformation.
+    pub j: usize,
+    /// `sum_k dis(M_k, N_k)` (eq. 13), in the solver's normalized length units.
+    pub distance: f64,
+    /// `dis(M_k, N_k)` for every pose `k`.
+    pub per_pose: Vec<f64>,
+    /// Whether every geodesic converged.
+    pub converged: bool,
+    /// Solver iterations, summed over the poses.
+    pub iterations: usize,
+    /// Wall-clock seconds for this pair.
+    pub seconds: f64,
+}
+
+/// `dis(M_k, N_k)` for every pose `k` of two deformations given as pose lists (each #V x 3,
+/// already multiplied by the common normalization factor). Identical poses (bit for bit, such
+/// as the common base after transfer) have distance 0 without a solve.
+///
+/// Returns the per-pose lengths, whether all solves converged, and the iterations used.
+pub fn pose_distances(
+    solver: &GeodesicSolver,
+    m: &[Pose],
+    n: &[Pose],
+) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
+    let mut out = Vec::with_capacity(m.len());
+    let mut converged = true;
+    let mut iterations = 0;
+    for (k, (a, b)) in m.iter().zip(n).enumerate() {
+        if a == b {
+            out.push(0.0);
+            continue;
+        }
+        let g = solver.solve(a, b).map_err(|e| (k, e))?;
+        converged &= g.converged;
+        iterations += g.iterations;
+        out.push(g.length);
+    }
+    Ok((out, converged, iterations))
+}
+
+/// All pairs `(i, j)`, `i < j`, of `n` items, in row order.
+pub fn all_pairs(n: usize) -> Vec<(usize, usize)> {
+    (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j))).collect()
+}
+
+/// Computes the distance of every pair `i < j` of `deformations` (each a list of poses on the
+/// solver's topology, #V x 3, already scaled by one common factor; all with the same number of
+/// poses) that is not in `done`, in parallel on the current rayon pool.
+///
+/// `on_pair` is called from worker threads as soon as a pair is finished (record it in a
+/// journal, advance a progress bar); an error it returns stops the run. `cancel`, when set,
+/// stops the run between poses with [`SimilarityError::Cancelled`]. Returns the new pairs in
+/// row order.
+pub fn compute_pairs<F>(
+    solver: &GeodesicSolver,
+    names: &[String],
+    deformations: &[Vec<Pose>],
+    done: &HashSet<(usize, usize)>,
+    cancel: Option<&AtomicBool>,
+    on_pair: F,
+) -> Result<Vec<PairDistance>, SimilarityError>
+where
+    F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
+{
+    check_shapes(names, deformations)?;
+    let todo: Vec<(usize, usize)> = all_pairs(deformations.len())
+        .into_iter()
+        .filter(|p| !done.contains(p))
+        .collect();
+    todo.par_iter()
+        .map(|&(i, j)| {
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return Err(SimilarityError::Cancelled);
+            }
+            let t0 = Instant::now();
+            let (per_pose, converged, iterations) =
+                pose_distances(solver, &deformations[i], &deformations[j]).map_err(|(pose, error)| {
+                    SimilarityError::Geodesic {
+                        a: names[i].clone(),
+                        b: names[j].clone(),
+                        pose,
+                        error,
+                    }
+                })?;
+            let pair = PairDistance {
+                i,
+                j,
+                distance: per_pose.iter().sum(),
+                per_pose,
+                converged,
+                iterations,
+                seconds: t0.elapsed().as_secs_f64(),
+            };
+            on_pair(&pair)?;
+            Ok(pair)
+        })
+        .collect()
+}
+
+fn check_shapes(names: &[String], deformations: &[Vec<Pose>]) -> Result<(), SimilarityError> {
+    if names.len() != deformations.len() {
+        return Err(SimilarityError::Mismatch(format!(
+            "{} names for {} deformations",
+            names.len(),
+            deformations.len()
+        )));
+    }
+    let Some(first) = deformations.first() else {
+        return Ok(());
+    };
+    for (name, d) in names.iter().zip(deformations) {
+        if d.len() != first.len() {
+            return Err(SimilarityError::Mismatch(format!(
+                "deformation '{name}' has {} poses, '{}' has {}: interpolate them to one count first",
+                d.len(),
+                names[0],
+                first.len()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Assembles the symmetric `n x n` matrix (row-major, zero diagonal) from pair distances.
+pub fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
+    let mut d = vec![0.0; n * n];
+    for p in pairs {
+        d[p.i * n + p.j] = p.distance;
+        d[p.j * n + p.i] = p.distance;
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::{Isometric, Metric, Regularized};
+    use crate::path::GeodesicOptions;
+    use crate::synth::icosphere;
+
+    fn deformation(base: &[[f64; 3]], amp: f64, poses: usize) -> Vec<Pose> {
+        (0..poses)
+            .map(|k| {
+                let t = amp * k as f64 / (poses - 1).max(1) as f64;
+                base.iter()
+                    .map(|p| [p[0] * (1.0 + t), p[1], p[2] * (1.0 - 0.5 * t)])
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn matrix_is_symmetric_with_zero_diagonal_and_separates_amplitudes() {
+        let s = icosphere(1);
+        let scale = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
+        let base: Vec<[f64; 3]> = s.positions.iter().map(|p| p.map(|c| c * scale)).collect();
+        let metric = Regularized::new(Box::new(Isometric), 0.1);
+        let m: &dyn Metric = &metric;
+        let opts = GeodesicOptions {
+            steps: 3,
+            ..Default::default()
+        };
+        let solver = GeodesicSolver::new(m, s.topology.clone(), opts).unwrap();
+        let defs = vec![
+            deformation(&base, 0.1, 3),
+            deformation(&base, 0.12, 3),
+            deformation(&base, 0.4, 3),
+        ];
+        let names: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let pairs = compute_pairs(&solver, &names, &defs, &HashSet::new(), None, |_| {
+            calls.fetch_add(1, Ordering::Relaxed);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(calls.load(Ordering::Relaxed), 3);
+        let d = assemble(3, &pairs);
+        for i in 0..3 {
+            assert_eq!(d[i * 3 + i], 0.0);
+            for j in 0..3 {
+                assert_eq!(d[i * 3 + j], d[j * 3 + i]);
+            }
+        }
+        // Pose 0 is shared: zero without a solve.
+        assert!(pairs.iter().all(|p| p.per_pose[0] == 0.0 && p.converged));
+        // Close amplitudes are closer than far ones.
+        assert!(d[1] > 0.0 && d[1] < d[2] && d[5] < d[2]);
+
+        // Reversing the order of a pair gives the same distance (symmetry of dis, to solver
+        // tolerance).
+        let (fwd, _, _) = pose_distances(&solver, &defs[0], &defs[2]).unwrap();
+        let (bwd, _, _) = pose_distances(&solver, &defs[2], &defs[0]).unwrap();
+        for (a, b) in fwd.iter().zip(&bwd) {
+            assert!((a - b).abs() <= 1e-6 * a.max(1.0), "{a} vs {b}");
+        }
+
+        // Skipping finished pairs.
+        let done: HashSet<_> = [(0, 1), (0, 2)].into_iter().collect();
+        let rest = compute_pairs(&solver, &names, &defs, &done, None, |_| Ok(())).unwrap();
+        assert_eq!(rest.len(), 1);
+        assert_eq!((rest[0].i, rest[0].j), (1, 2));
+        assert!((rest[0].distance - pairs[2].distance).abs() < 1e-12);
+    }
+
+    #[test]
+    fn unequal_pose_counts_and_cancellation_are_errors() {
+        let s = icosphere(0);
+        let metric = Isometric;
+        let solver = GeodesicSolver::new(&metric, s.topology.clone(), GeodesicOptions::default()).unwrap();
+        let names: Vec<String> = vec!["a".into(), "b".into()];
+        let defs = vec![
+            deformation(&s.positions, 0.1, 3),
+            deformation(&s.positions, 0.1, 2),
+        ];
+        let e = compute_pairs(&solver, &names, &defs, &HashSet::new(), None, |_| Ok(())).unwrap_err();
+        assert!(e.to_string().contains("'b' has 2 poses"), "{e}");
+        let defs = vec![
+            deformation(&s.positions, 0.1, 3),
+            deformation(&s.positions, 0.2, 3),
+        ];
+        let cancel = AtomicBool::new(true);
+        let e =
+            compute_pairs(&solver, &names, &defs, &HashSet::new(), Some(&cancel), |_| Ok(())).unwrap_err();
+        assert!(matches!(e, SimilarityError::Cancelled));
+    }
+}
