@@ -18,6 +18,7 @@ mod l2;
 mod quasi_conformal;
 mod regularized;
 mod rigid;
+mod rigid_frozen;
 mod spec;
 
 #[cfg(test)]
@@ -28,7 +29,8 @@ pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcWeights, QuasiConformal};
 pub use regularized::Regularized;
-pub use rigid::Rigid;
+pub use rigid::{fit_motion_weighted, Rigid};
+pub use rigid_frozen::FrozenRigid;
 pub use spec::{MetricKind, MetricSpec};
 
 use std::fmt::Debug;

@@ -3,7 +3,7 @@
 use super::{
     geometry_and_displacement, split_segment, At, JacobianMut, Metric, Pattern, PatternRef, Segment,
 };
-use crate::mesh::geometry::{add, cross, dot, norm, scale, sqrt_third_area_gradient, sub};
+use crate::mesh::geometry::{add, cross, dot, scale, sqrt_third_area_gradient, sub};
 use crate::mesh::Topology;
 
 /// The rigid metric (eq. 1): `G_R(X) = min over (t, w) of sum_p A_p |X_p - t - w x p|^2`, the
@@ -35,50 +35,49 @@ impl Rigid {
     /// `t = t' - w x c`; a tiny relative ridge keeps a singular inertia (collinear points)
     /// finite. Returns zeros when the total area is zero.
     pub fn fit_motion(topo: &Topology, g: &[[f64; 3]], x: &[[f64; 3]]) -> [f64; 6] {
-        // Face-corner weights area_f / 3 (the same weights as the residuals).
-        let mut total = 0.0;
-        let mut cg = [0.0; 3];
-        let mut cx = [0.0; 3];
-        let corner_weight = |f: &[u32; 3]| {
-            let [p, q, r] = f.map(|i| g[i as usize]);
-            0.5 * norm(cross(sub(q, p), sub(r, p))) / 3.0
-        };
-        for f in topo.faces() {
-            let a = corner_weight(f);
-            for &i in f {
-                total += a;
-                cg = add(cg, scale(g[i as usize], a));
-                cx = add(cx, scale(x[i as usize], a));
-            }
-        }
-        if total <= 0.0 || !total.is_finite() {
-            return [0.0; 6];
-        }
-        let (c, tp) = (scale(cg, 1.0 / total), scale(cx, 1.0 / total));
-        let mut m = [[0.0; 3]; 3];
-        let mut rhs = [0.0; 3];
-        for f in topo.faces() {
-            let a = corner_weight(f);
-            for &i in f {
-                let d = sub(g[i as usize], c);
-                let dd = dot(d, d);
-                for (r, row) in m.iter_mut().enumerate() {
-                    for (s, e) in row.iter_mut().enumerate() {
-                        *e += a * (if r == s { dd } else { 0.0 } - d[r] * d[s]);
-                    }
-                }
-                rhs = add(rhs, scale(cross(d, x[i as usize]), a));
-            }
-        }
-        let w = solve_spd3(m, rhs);
-        let t = sub(tp, cross(w, c));
-        [t[0], t[1], t[2], w[0], w[1], w[2]]
+        fit_motion_weighted(g, x, &crate::mesh::geometry::vertex_areas(topo, g))
     }
+}
+
+/// Weighted least-squares infinitesimal rigid motion `[t_x, t_y, t_z, w_x, w_y, w_z]` fitted to
+/// the displacements `x` (#V x 3) on the positions `g` (#V x 3) with per-vertex weights
+/// `weights` (#V, area units): minimizes `sum_p weights_p |x_p - t - w x g_p|^2` (see
+/// [`Rigid::fit_motion`] for the method). Zeros when the total weight is not positive.
+pub fn fit_motion_weighted(g: &[[f64; 3]], x: &[[f64; 3]], weights: &[f64]) -> [f64; 6] {
+    let mut total = 0.0;
+    let mut cg = [0.0; 3];
+    let mut cx = [0.0; 3];
+    for ((gp, xp), &a) in g.iter().zip(x).zip(weights) {
+        let a = a.max(0.0);
+        total += a;
+        cg = add(cg, scale(*gp, a));
+        cx = add(cx, scale(*xp, a));
+    }
+    if total <= 0.0 || !total.is_finite() {
+        return [0.0; 6];
+    }
+    let (c, tp) = (scale(cg, 1.0 / total), scale(cx, 1.0 / total));
+    let mut m = [[0.0; 3]; 3];
+    let mut rhs = [0.0; 3];
+    for ((gp, xp), &a) in g.iter().zip(x).zip(weights) {
+        let a = a.max(0.0);
+        let d = sub(*gp, c);
+        let dd = dot(d, d);
+        for (r, row) in m.iter_mut().enumerate() {
+            for (s, e) in row.iter_mut().enumerate() {
+                *e += a * (if r == s { dd } else { 0.0 } - d[r] * d[s]);
+            }
+        }
+        rhs = add(rhs, scale(cross(d, *xp), a));
+    }
+    let w = solve_spd3(m, rhs);
+    let t = sub(tp, cross(w, c));
+    [t[0], t[1], t[2], w[0], w[1], w[2]]
 }
 
 /// Solves the symmetric positive semi-definite 3x3 system `m w = rhs` by Cholesky with a tiny
 /// relative ridge; zero if the matrix is zero or not finite.
-fn solve_spd3(mut m: [[f64; 3]; 3], rhs: [f64; 3]) -> [f64; 3] {
+pub(crate) fn solve_spd3(mut m: [[f64; 3]; 3], rhs: [f64; 3]) -> [f64; 3] {
     let tr = m[0][0] + m[1][1] + m[2][2];
     if tr <= 0.0 || !tr.is_finite() {
         return [0.0; 3];

@@ -1,7 +1,8 @@
 //! Building a metric from names (CLI, data files).
 
 use super::{
-    Conformal, ConformalForm, FrozenL2, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid, L2,
+    Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal,
+    Regularized, Rigid, L2,
 };
 
 /// Which metric (paper section 2.1).
@@ -72,7 +73,13 @@ impl MetricSpec {
                     Box::new(L2)
                 };
             }
-            MetricKind::Rigid => Box::new(Rigid),
+            MetricKind::Rigid => {
+                if self.frozen_areas {
+                    Box::new(FrozenRigid)
+                } else {
+                    Box::new(Rigid)
+                }
+            }
             MetricKind::Isometric => Box::new(Isometric),
             MetricKind::Conformal => Box::new(Conformal { form: self.form }),
             MetricKind::QuasiConformal => Box::new(QuasiConformal {

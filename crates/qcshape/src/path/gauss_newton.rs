@@ -26,7 +26,7 @@ pub(crate) fn minimize(
     let mut nu = 2.0;
     let mut iterations = 0;
     let mut stop = StopReason::MaxIterations;
-    if g0 == 0.0 {
+    if g0 == 0.0 || super::at_roundoff(g0, energy) {
         return Ok(SolveOutput {
             x,
             iterations,

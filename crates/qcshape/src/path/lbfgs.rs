@@ -41,9 +41,9 @@ pub(crate) fn minimize(
 ) -> Result<SolveOutput, GeodesicError> {
     let problem = Problem { pe, ends };
     let mut g = vec![0.0; x0.len()];
-    pe.energy_gradient(&x0, ends, &mut g);
+    let e0 = pe.energy_gradient(&x0, ends, &mut g);
     let g0 = g.iter().map(|v| v * v).sum::<f64>().sqrt();
-    if g0 == 0.0 {
+    if g0 == 0.0 || super::at_roundoff(g0, e0) {
         return Ok(SolveOutput {
             x: x0,
             iterations: 0,

@@ -353,6 +353,13 @@ impl<'m> GeodesicSolver<'m> {
     }
 }
 
+/// Whether a gradient norm is zero up to rounding for a path of energy `energy` (normalized
+/// units): then the start is already stationary (e.g. a straight path that is a geodesic by
+/// symmetry) and no solver can make progress, so it counts as converged.
+pub(crate) fn at_roundoff(gradient_norm: f64, energy: f64) -> bool {
+    gradient_norm <= 1e-10 * (1.0 + energy.abs())
+}
+
 /// What a minimizer returns.
 pub(crate) struct SolveOutput {
     pub x: Vec<f64>,

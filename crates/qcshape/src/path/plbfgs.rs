@@ -233,7 +233,7 @@ pub(crate) fn minimize(
     let mut iterations = 0;
     let max_iterations = opts.max_iterations * 10;
     let mut stop = StopReason::MaxIterations;
-    if g0 == 0.0 || np == 0 {
+    if g0 == 0.0 || np == 0 || super::at_roundoff(g0, e) {
         return Ok(SolveOutput {
             x: full,
             iterations,
