@@ -3,6 +3,8 @@
 
 pub mod engine;
 pub mod journal;
+pub mod karcher;
 
 pub use engine::{all_pairs, assemble, compute_pairs, pose_distances, PairDistance, Pose, SimilarityError};
 pub use journal::{fingerprint, Journal};
+pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
