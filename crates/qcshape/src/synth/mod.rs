@@ -1,6 +1,12 @@
 //! Synthetic shapes: template meshes (icosphere, torus, open grid) used by tests, benchmarks
-//! and the synthetic benchmark of the paper (section 3).
+//! and the synthetic benchmark of the paper (section 3): six genus-0 initial shapes
+//! ([`InitialShape`]) and three tori ([`TorusShape`]) deformed by eight analytic deformations
+//! ([`DeformationKind`]).
 
+mod deformations;
 mod primitives;
+mod shapes;
 
+pub use deformations::{deform, DeformParams, DeformationKind, Frame};
 pub use primitives::{grid, icosphere, torus};
+pub use shapes::{initial_shape, template, torus_shape, torus_template, InitialShape, TorusShape, MAX_LEVEL};
