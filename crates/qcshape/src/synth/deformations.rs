@@ -102,8 +102,14 @@ impl DeformParams {
     }
 }
 
-/// The eight deformations (Fig. 3b-i). In the formulas `q = p - c`, `s = q_z / h_z`,
-/// `R = max(h)` and `a = amplitude * t` (see the [module docs](self)); "lateral" is `(q_x, q_y)`.
+/// The eight deformations (Fig. 3b-i): smooth maps `p -> phi(p, t)` with `phi(., 0)` the
+/// identity, none rigid, isometric or conformal, all clearly different motions.
+///
+/// The formulas are written in the shape's own [`Frame`]: `q = p - c` with `c` the centre of
+/// the bounding box, `h` its half-extents, `R = max(h)`, `s = q_z / h_z` in `[-1, 1]`;
+/// `a = amplitude * t`; "lateral" is `(q_x, q_y)`. So the same motion means the same thing on
+/// every initial shape. At `a = 1` the largest displacement is about 0.3-0.5 `R`; amplitudes
+/// in `[0, 1.5]` keep every motion orientation-preserving.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DeformationKind {
     /// Twist about the z axis: `(q_x, q_y)` rotated by `phi = (pi/4) a s` (a quarter turn
@@ -238,7 +244,7 @@ pub fn deform(shape: &Shape, kind: DeformationKind, t: f64, params: &DeformParam
 mod tests {
     use super::*;
     use crate::io::DEGENERATE_REL_TOL;
-    use crate::synth::{initial_shape, template, InitialShape};
+    use crate::synth::{initial_shape, template, torus_shape, torus_template, InitialShape, TorusShape};
 
     #[test]
     fn identity_at_zero_and_names_round_trip() {
@@ -277,11 +283,13 @@ mod tests {
     #[test]
     fn valid_on_every_shape_even_at_the_largest_jittered_amplitude() {
         let t = template(2);
-        for shape in InitialShape::all() {
-            let s = initial_shape(shape, &t);
+        let tt = torus_template(2);
+        let genus0 = InitialShape::all().map(|k| (k.name(), initial_shape(k, &t)));
+        let genus1 = TorusShape::all().map(|k| (k.name(), torus_shape(k, &tt)));
+        for (shape, s) in genus0.iter().chain(&genus1) {
             for kind in DeformationKind::all() {
-                let params = DeformParams::of(&s).with_amplitude(1.5);
-                let pos = deform(&s, kind, 1.0, &params);
+                let params = DeformParams::of(s).with_amplitude(1.5);
+                let pos = deform(s, kind, 1.0, &params);
                 let d = Shape::new_checked(s.topology.clone(), pos.clone(), DEGENERATE_REL_TOL);
                 assert!(d.is_ok(), "{shape} {kind}: {d:?}");
                 // No triangle flips: each face normal stays within 90 degrees of the normal of
