@@ -19,3 +19,4 @@ pub mod mesh;
 pub mod metric;
 pub mod path;
 pub mod synth;
+pub mod transport;
