@@ -280,6 +280,26 @@ fn a_metric_null_space_is_carried_exactly() {
     let t = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
     assert_eq!(t.initial_norm, 0.0);
     assert!(max_dist(&t.vector, &v0) < 1e-12, "{}", max_dist(&t.vector, &v0));
+    // An infinitesimal rotation about z is a null vector at S_0 but not at the other samples;
+    // each step goes to the closest null vector there (the limit mu -> inf), so the result
+    // is (to the CG tolerance) a null vector of the last sample.
+    let v0: Pose = curve[0].iter().map(|p| [-p[1], p[0], 0.0]).collect();
+    let t = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
+    let j = curve.len() - 1;
+    let g = tm.at(&curve[j], None).unwrap();
+    let (before, after) = (g.squared_norm(&v0), g.squared_norm(&t.vector));
+    let norm = |v: &[[f64; 3]]| v.iter().flatten().map(|c| c * c).sum::<f64>().sqrt();
+    println!(
+        "rotation: G_SJ(V_0) {before:.3e}, G_SJ(V_J) {after:.3e}, |V_J|/|V_0| {:.4}, steps {:?}",
+        norm(&t.vector) / norm(&v0),
+        t.steps
+            .iter()
+            .map(|s| (s.multiplier, s.cg_iterations))
+            .collect::<Vec<_>>()
+    );
+    assert!(before > 1.0 && after < 1e-10 * before, "{before:e} -> {after:e}");
+    assert!(t.max_norm_residual() < 1e-12, "{}", t.max_norm_residual());
+    assert!((norm(&t.vector) / norm(&v0) - 1.0).abs() < 0.2);
 }
 
 fn options(steps: usize, factor: f64) -> TransferOptions {

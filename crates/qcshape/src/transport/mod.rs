@@ -7,7 +7,7 @@
 //!   step the closest vector that keeps the inner product with the tangent and the norm), and
 //!   the trivial Euclidean transport;
 //! - [`schild`]: Schild's ladder, built from geodesic midpoints only;
-//! - [`transfer`]: the transfer of a deformation `M_0 .. M_K` to a new base `N_0`.
+//! - [`mod@transfer`]: the transfer of a deformation `M_0 .. M_K` to a new base `N_0`.
 //!
 //! All computations run in the normalized coordinates of the geodesic solver (one common
 //! factor, see [`crate::path::Normalization`]): the forms mix different powers of length (for

@@ -29,8 +29,11 @@
 //! Degenerate cases: `V_0 = 0` gives zeros; a zero tangent (or one in `G`'s null space, `c = 0`)
 //! drops the linear constraint (its residual is reported); if `V_j` already satisfies both
 //! constraints (for example all samples equal: the identity) the step returns it unchanged;
-//! with a metric that has a null space, a target norm below the smallest reachable one (only the
-//! limit `mu -> inf` would reach it) stops at the iteration limit, and the residual is reported.
+//! with a metric that has a null space and `V_0` in it (`n_0 = 0` to rounding, e.g. a rotation for
+//! the unregularized isometric metric), each step takes the limit `mu -> inf` exactly,
+//! `Z = -Q^+ b` (conjugate gradients on the consistent singular system `Q Z = -b`): the closest
+//! null vector of `G_{S_{j+1}}`; any other target norm below the smallest reachable one stops
+//! Newton at `|mu| tr(G) = 1e14` or the iteration limit, and the residual is reported.
 
 use super::inner::{InnerProduct, TransportMetric};
 use super::{difference, dot, flat, unflat, TransportError};
@@ -66,7 +69,8 @@ pub struct StepDiagnostics {
     /// `|<<V, T_{j+1}>>_{S_{j+1}} - a_0|`, relative to `sqrt(n_0 <<T_{j+1}, T_{j+1}>>_{S_{j+1}})`
     /// (the Cauchy-Schwarz bound; absolute if that is 0), evaluated afresh after the step.
     pub inner_residual: f64,
-    /// `|<<V, V>>_{S_{j+1}} - n_0| / n_0` (absolute if `n_0 = 0`), evaluated afresh.
+    /// `|<<V, V>>_{S_{j+1}} - n_0| / n_0`, evaluated afresh; when `V_0` is a null vector
+    /// (`n_0 = 0` to rounding), `<<V, V>> / (tr(G) |V|^2)` instead.
     pub norm_residual: f64,
     /// Whether the inner-product constraint was active (false: zero tangent or tangent in the
     /// metric's null space).
@@ -75,7 +79,8 @@ pub struct StepDiagnostics {
     pub newton_iterations: usize,
     /// Conjugate-gradient iterations in all.
     pub cg_iterations: usize,
-    /// The multiplier `mu` of the norm constraint.
+    /// The multiplier `mu` of the norm constraint (infinite when `V_0` lies in the metric's null
+    /// space: the step is then the limit `mu -> inf`, the closest null vector).
     pub multiplier: f64,
     /// Euclidean change `|V_{j+1} - V_j|` (normalized units).
     pub change: f64,
@@ -173,6 +178,9 @@ pub fn parallel_transport(
         steps: Vec::with_capacity(curve.len().saturating_sub(1)),
     };
     let zero = v.iter().all(|c| *c == 0.0);
+    // V_0 in the metric's null space (to rounding): the target is the null space at each sample.
+    let null_target = n0 <= NULL_RELATIVE * g0.trace_bound() * dot(&v, &v);
+    let targets = Targets { a0, n0, null_target };
     let mut cur = v;
     for w in curve.windows(2) {
         let (next, diag) = if zero {
@@ -180,7 +188,7 @@ pub fn parallel_transport(
         } else {
             let g = metric.at(&w[1], frozen.as_deref())?;
             let t = flat(&difference(&w[0], &w[1]));
-            step(&g, &t, &cur, a0, n0, options)
+            step(&g, &t, &cur, targets, options)
         };
         if next.iter().any(|c| !c.is_finite()) {
             return Err(TransportError::NonFinite(format!(
@@ -201,10 +209,10 @@ fn step(
     g: &InnerProduct,
     t: &[f64],
     prev: &[f64],
-    a0: f64,
-    n0: f64,
+    targets: Targets,
     options: &ParallelOptions,
 ) -> (Vec<f64>, StepDiagnostics) {
+    let Targets { a0, n0, null_target } = targets;
     let n = g.dim();
     let mut c = vec![0.0; n];
     g.apply(t, &mut c);
@@ -237,27 +245,52 @@ fn step(
     } else {
         options.max_cg
     };
+    // x -> x + mu Q x, or Q x alone for mu = inf.
     let op = |mu: f64, x: &[f64], out: &mut [f64]| {
         let mut px = x.to_vec();
         proj(&mut px);
         g.apply(&px, out);
         proj(out);
-        for (o, xi) in out.iter_mut().zip(x) {
-            *o = xi + mu * *o;
+        if mu.is_finite() {
+            for (o, xi) in out.iter_mut().zip(x) {
+                *o = xi + mu * *o;
+            }
         }
     };
     let mut diag = StepDiagnostics {
         tangent_constraint: active,
         ..Default::default()
     };
+    if null_target && h0 > options.tolerance * scale {
+        // The limit mu -> inf: Z = -Q^+ b (b lies in the range of Q), the closest vector of
+        // least norm; conjugate gradients from 0 on the consistent system Q Z = -b give it.
+        let neg_b: Vec<f64> = b.iter().map(|v| -v).collect();
+        if let Some((mut z, it)) = cg(
+            |x, o| op(f64::INFINITY, x, o),
+            &neg_b,
+            options.cg_tolerance,
+            max_cg,
+        ) {
+            diag.cg_iterations = it;
+            diag.multiplier = f64::INFINITY;
+            proj(&mut z);
+            let cand: Vec<f64> = vstar.iter().zip(&z).map(|(a, b)| a + b).collect();
+            return finish(g, t, &c, prev, cand, targets, diag);
+        }
+    }
     let mut best = vstar.clone();
     let mut best_mu = 0.0;
     let mut h = h0;
     let mut best_h = h0.abs();
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
-    let mut mu = 0.0;
+    let mut mu: f64 = 0.0;
     let mut dh = -2.0 * dot(&b, &b);
-    while h.abs() > options.tolerance * scale && diag.newton_iterations < options.max_newton {
+    // Past |mu| tr(G) = 1e14 the systems are numerically singular (a target norm reachable only
+    // in the limit mu -> inf): stop there and report the residual.
+    while h.abs() > options.tolerance * scale
+        && diag.newton_iterations < options.max_newton
+        && mu.abs() * g.trace_bound() < 1e14
+    {
         if dh == 0.0 {
             // b = 0: the norm cannot change within the constraint set (h is constant in mu).
             break;
@@ -309,22 +342,51 @@ fn step(
         }
     }
     diag.multiplier = best_mu;
-    // Diagnostics evaluated afresh on the returned vector.
-    let mut gv = vec![0.0; n];
-    g.apply(&best, &mut gv);
-    let nn = dot(&best, &gv);
-    diag.norm_residual = if n0 > 0.0 { (nn - n0).abs() / n0 } else { nn.abs() };
-    let tt = dot(t, &c);
+    finish(g, t, &c, prev, best, targets, diag)
+}
+
+/// The constraint values of a transport: `a_0`, `n_0`, and whether `V_0` is a null vector.
+#[derive(Debug, Clone, Copy)]
+struct Targets {
+    a0: f64,
+    n0: f64,
+    null_target: bool,
+}
+
+/// Relative size below which `<<V_0, V_0>>` counts as zero: `n_0 <= NULL_RELATIVE tr(G) |V_0|^2`.
+const NULL_RELATIVE: f64 = 1e-24;
+
+/// Fills the step's residuals, evaluated afresh on the returned vector `v` (flat).
+fn finish(
+    g: &InnerProduct,
+    t: &[f64],
+    c: &[f64],
+    prev: &[f64],
+    v: Vec<f64>,
+    targets: Targets,
+    mut diag: StepDiagnostics,
+) -> (Vec<f64>, StepDiagnostics) {
+    let Targets { a0, n0, null_target } = targets;
+    let mut gv = vec![0.0; g.dim()];
+    g.apply(&v, &mut gv);
+    let nn = dot(&v, &gv);
+    diag.norm_residual = if null_target || n0 <= 0.0 {
+        // Relative to the largest value the form can take on v.
+        nn.abs() / (g.trace_bound() * dot(&v, &v)).max(f64::MIN_POSITIVE)
+    } else {
+        (nn - n0).abs() / n0
+    };
+    let tt = dot(t, c);
     let cs = (n0 * tt.max(0.0)).sqrt();
     let inner_err = (dot(&gv, t) - a0).abs();
     diag.inner_residual = if cs > 0.0 { inner_err / cs } else { inner_err };
-    diag.change = best
+    diag.change = v
         .iter()
         .zip(prev)
         .map(|(a, b)| (a - b) * (a - b))
         .sum::<f64>()
         .sqrt();
-    (best, diag)
+    (v, diag)
 }
 
 /// Conjugate gradients for `A x = rhs` with `A` symmetric (applied by `apply(x, out)`), from
