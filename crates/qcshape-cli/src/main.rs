@@ -13,6 +13,7 @@ mod args;
 mod geodesic;
 mod info;
 mod synth;
+mod transfer;
 
 /// Deformation similarity in quasi-conformal shape space.
 ///
@@ -32,6 +33,7 @@ enum Command {
     Info(info::Args),
     Geodesic(geodesic::Args),
     Synth(synth::Args),
+    Transfer(transfer::Args),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
         Command::Synth(args) => synth::run(args),
+        Command::Transfer(args) => transfer::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -20,3 +20,4 @@ pub mod metric;
 pub mod path;
 pub mod similarity;
 pub mod synth;
+pub mod transport;

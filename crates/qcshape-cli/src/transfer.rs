@@ -1,0 +1,213 @@
+//! `qcshape transfer`: carry deformations to a common base pose (paper section 2.2.2).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use qcshape::dataset::{self, Dataset, Deformation, ManifestRow};
+use qcshape::io;
+use qcshape::path::Normalization;
+use qcshape::transport::{TransferOptions, TransferSetup, Transport};
+
+use crate::args::{MetricArgs, SolverArgs};
+
+/// Transfer deformations to a new base pose by parallel transport along geodesics.
+///
+/// For each deformation M_0 .. M_K and k = 0 .. K-1: the geodesic from M_k to N_k (N_0 = the
+/// base), the segment M_{k+1} - M_k transported along it, N_{k+1} = N_k + the transported
+/// segment. `--transport euclidean` gives N_k = N_0 + M_k - M_0. All shapes are scaled by one
+/// common factor (1 / mean edge length of the base) for the geodesics; the poses are written
+/// in the input's units as DIR/<deformation>/pose000.<format> ..., listed in DIR/manifest.csv.
+#[derive(Debug, clap::Args)]
+#[command(about = "Transfer deformations to a common base pose", long_about)]
+pub struct Args {
+    /// A data set (manifest CSV, folder of deformation folders, folder of mesh files) or the
+    /// mesh files of one deformation in pose order.
+    #[arg(required = true, num_args = 1..)]
+    input: Vec<PathBuf>,
+    /// The base pose N_0 (a mesh with the deformations' connectivity).
+    #[arg(long)]
+    to: PathBuf,
+    /// Metric of the geodesics (the transport always uses the quadratic conformal form and the
+    /// endpoint curvature weights of each geodesic).
+    #[command(flatten)]
+    metric: MetricArgs,
+    /// Transport: parallel (the paper's), schild (Schild's ladder) or euclidean.
+    #[arg(long, default_value = "parallel")]
+    transport: Transport,
+    /// Geodesics (N = number of transport steps).
+    #[command(flatten)]
+    solver: SolverArgs,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Mesh format of the written poses.
+    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk"])]
+    format: String,
+    /// Print the per-deformation summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn load_input(input: &[PathBuf]) -> Result<Vec<Deformation>> {
+    let set = match input {
+        [one] if one.is_dir() || one.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) => {
+            Dataset::load(one)?.deformations
+        }
+        _ => vec![dataset::load_sequence(input)?],
+    };
+    if set.is_empty() {
+        bail!("{}: no deformations to transfer", input[0].display());
+    }
+    Ok(set)
+}
+
+/// A folder name for a deformation: letters, digits, `-`, `_`, `.` kept, the rest `_`.
+fn folder_for(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || s.chars().all(|c| c == '.') {
+        "deformation".into()
+    } else {
+        s
+    }
+}
+
+fn progress(n: usize) -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(n as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]") {
+        pb.set_style(style);
+    }
+    pb
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    let spec = args.metric.spec()?;
+    let geodesic = args.solver.options()?;
+    let base = io::load_shape(&args.to)?;
+    let deformations = load_input(&args.input)?;
+    let mut names = std::collections::HashSet::new();
+    for d in &deformations {
+        let probe = d.shape(0);
+        if let Err(e) = base.check_same_topology(&probe) {
+            bail!(
+                "deformation {:?} ({}) cannot be transferred to {}: {e}",
+                d.name,
+                d.paths[0].display(),
+                args.to.display()
+            );
+        }
+        if !names.insert(folder_for(&d.name)) {
+            bail!(
+                "two deformations map to the output folder {:?}; rename one",
+                folder_for(&d.name)
+            );
+        }
+    }
+    let options = TransferOptions {
+        geodesic,
+        normalization: Normalization::MeanEdgeOfFirst,
+        ..Default::default()
+    };
+    let setup = TransferSetup::new(&spec, base.topology.clone(), options)?;
+    let transfer = setup.solver()?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    eprintln!(
+        "transferring {} deformation(s) to {} ({} vertices) with {} transport, {}, N = {} ...",
+        deformations.len(),
+        args.to.display(),
+        base.n_vertices(),
+        args.transport.label(),
+        setup.metric().name(),
+        args.solver.steps
+    );
+    let pb = progress(deformations.len());
+    let mut rows = Vec::new();
+    let mut summaries = Vec::new();
+    for d in &deformations {
+        pb.set_message(d.name.clone());
+        let out = transfer
+            .run(&d.poses, &base.positions, args.transport)
+            .with_context(|| format!("transferring deformation {:?}", d.name))?;
+        let folder = folder_for(&d.name);
+        let dir = args.out.join(&folder);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (k, p) in out.poses.iter().enumerate() {
+            let file = format!("pose{k:03}.{}", args.format);
+            io::write_mesh(&dir.join(&file), p, base.topology.faces(), &Default::default())?;
+            rows.push(ManifestRow {
+                deformation: d.name.clone(),
+                label: d.label.clone(),
+                pose: k as i64,
+                path: Path::new(&folder).join(file),
+            });
+        }
+        let segs = &out.segments;
+        let max =
+            |f: &dyn Fn(&qcshape::transport::SegmentReport) -> f64| segs.iter().map(f).fold(0.0, f64::max);
+        let ratio = max(&|s| {
+            if s.input_norm > 0.0 {
+                (s.output_norm / s.input_norm - 1.0).abs()
+            } else {
+                0.0
+            }
+        });
+        let summary = serde_json::json!({
+            "deformation": d.name,
+            "poses": out.poses.len(),
+            "max_geodesic_length": max(&|s| s.geodesic_length),
+            "geodesics_converged": segs.iter().all(|s| s.geodesic_converged),
+            "max_inner_residual": max(&|s| s.max_inner_residual),
+            "max_norm_residual": max(&|s| s.max_norm_residual),
+            "max_norm_change": ratio,
+            "scale": out.scale,
+            "seconds": out.seconds,
+        });
+        if !args.json {
+            pb.suspend(|| {
+                println!(
+                    "{:<20} poses {:>3}  max geodesic {:.4e}  norm change {:.1e}  residuals {:.1e}/{:.1e}  {}  {:.2}s",
+                    d.name,
+                    out.poses.len(),
+                    summary["max_geodesic_length"].as_f64().unwrap_or(0.0),
+                    ratio,
+                    summary["max_inner_residual"].as_f64().unwrap_or(0.0),
+                    summary["max_norm_residual"].as_f64().unwrap_or(0.0),
+                    if summary["geodesics_converged"] == true {
+                        "converged"
+                    } else {
+                        "NOT converged"
+                    },
+                    out.seconds
+                )
+            });
+        }
+        summaries.push(summary);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let manifest = args.out.join(dataset::MANIFEST_NAME);
+    dataset::write_manifest(&manifest, &rows)?;
+    if args.json {
+        let v = serde_json::json!({
+            "metric": setup.metric().name(),
+            "transport": args.transport,
+            "steps": args.solver.steps,
+            "base": args.to,
+            "manifest": manifest,
+            "deformations": summaries,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("wrote {} pose(s) and {}", rows.len(), manifest.display());
+    }
+    Ok(())
+}

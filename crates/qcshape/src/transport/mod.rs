@@ -1,0 +1,80 @@
+//! Discrete parallel transport and deformation transfer (paper section 2.2.2, METHOD.md
+//! "Deformation transfer").
+//!
+//! - [`inner`]: the metric's inner product `<<U, V>>_S` (the polarization of its quadratic form at
+//!   a pose `S`, #V x 3 tangent vectors) as a sparse operator `G_S = J^T J`;
+//! - [`parallel`]: the paper's discrete parallel transport along the samples of a curve (each
+//!   step the closest vector that keeps the inner product with the tangent and the norm), and
+//!   the trivial Euclidean transport;
+//! - [`schild`]: Schild's ladder, built from geodesic midpoints only;
+//! - [`mod@transfer`]: the transfer of a deformation `M_0 .. M_K` to a new base `N_0`.
+//!
+//! All computations run in the normalized coordinates of the geodesic solver (one common
+//! factor, see [`crate::path::Normalization`]): the forms mix different powers of length (for
+//! example `G + lambda L2`), so the transport depends on the scale.
+
+pub mod inner;
+pub mod parallel;
+pub mod schild;
+pub mod transfer;
+
+pub use inner::{quadratic_companion, InnerProduct, TransportMetric};
+pub use parallel::{euclidean_transport, parallel_transport, ParallelOptions, StepDiagnostics, Transported};
+pub use schild::{schild_ladder, RungDiagnostics, SchildOptions, SchildTransported};
+pub use transfer::{
+    transfer, SegmentReport, Transfer, TransferOptions, TransferSetup, Transferred, Transport,
+};
+
+use thiserror::Error;
+
+use crate::mesh::MeshError;
+use crate::path::GeodesicError;
+
+/// Errors of the transport and transfer computations.
+#[derive(Debug, Error)]
+pub enum TransportError {
+    /// Shapes, curve samples or vectors that do not share one topology / vertex count.
+    #[error("shapes do not share a topology: {0}")]
+    Mesh(#[from] MeshError),
+    /// A shape of the transfer does not have the connectivity of the others.
+    #[error("{what} does not have the topology of the others: {error}")]
+    Mismatch {
+        /// Which shape (e.g. "pose 3 of the deformation", "the base").
+        what: String,
+        /// What differs.
+        error: MeshError,
+    },
+    /// A geodesic (of the transfer or of a Schild rung) failed.
+    #[error("geodesic failed: {0}")]
+    Geodesic(#[from] GeodesicError),
+    /// A bad argument (empty curve, wrong vector length, bad option value).
+    #[error("invalid input: {0}")]
+    Input(String),
+    /// The metric's Jacobian or a transported vector is not finite (degenerate poses).
+    #[error("non-finite values: {0}")]
+    NonFinite(String),
+}
+
+/// Flat copy (3 #V) of a #V x 3 array.
+pub(crate) fn flat(v: &[[f64; 3]]) -> Vec<f64> {
+    v.as_flattened().to_vec()
+}
+
+/// #V x 3 copy of a flat array (length 3 #V).
+pub(crate) fn unflat(v: &[f64]) -> Vec<[f64; 3]> {
+    v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// Euclidean dot product of two flat vectors.
+#[inline]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `b - a` (#V x 3).
+pub(crate) fn difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| [q[0] - p[0], q[1] - p[1], q[2] - p[2]])
+        .collect()
+}
