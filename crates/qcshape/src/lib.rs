@@ -17,5 +17,6 @@ pub mod dataset;
 pub mod io;
 pub mod mesh;
 pub mod metric;
+pub mod multires;
 pub mod path;
 pub mod synth;
