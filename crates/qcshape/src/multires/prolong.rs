@@ -329,7 +329,7 @@ pub(crate) fn closest_point_on_triangle(
         return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
     }
     let denom = va + vb + vc;
-    if !(denom.abs() > 0.0) || !denom.is_finite() {
+    if denom == 0.0 || !denom.is_finite() {
         // Degenerate triangle (all regions' tests failed numerically): nearest corner.
         let corners = [a, b, c];
         let k = (0..3)

@@ -16,6 +16,7 @@
 mod energy;
 mod gauss_newton;
 mod hessian;
+mod interpolate;
 mod lbfgs;
 mod pairs;
 mod plbfgs;
@@ -26,6 +27,11 @@ use std::time::Instant;
 use thiserror::Error;
 
 pub use energy::{Ends, PathEnergy};
+pub use interpolate::{
+    insertion_schedule, interpolate_deformation, interpolate_middle, interpolate_sequence, Interpolated,
+    InterpolationError, InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation,
+    PairStats,
+};
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
 use crate::metric::Metric;
