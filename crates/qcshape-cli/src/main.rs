@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 
 mod geodesic;
 mod info;
+mod interpolate;
 
 /// Deformation similarity in quasi-conformal shape space.
 ///
@@ -29,6 +30,7 @@ enum Command {
     // here would replace the long help).
     Info(info::Args),
     Geodesic(geodesic::Args),
+    Interpolate(interpolate::Args),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +38,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
+        Command::Interpolate(args) => interpolate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
