@@ -82,6 +82,9 @@ pub struct LevelStats {
     pub vertices: usize,
     /// Number of segments `N` of each solve on this level, in order.
     pub steps: Vec<usize>,
+    /// Path energy (eq. 12, normalized units) of the start of the level's last solve (the
+    /// prolonged coarse path, or the refined path of the insertion schedule).
+    pub start_energy: f64,
     /// Path energy (eq. 12, normalized units) after the level's last solve.
     pub energy: f64,
     /// Iterations summed over the level's solves.
@@ -302,6 +305,7 @@ impl<'m> Interpolator<'m> {
         let mut levels = vec![LevelStats {
             vertices: level.n_vertices(),
             steps: self.schedule.iter().map(|s| s.path_energy().steps()).collect(),
+            start_energy: g.initial_energy,
             energy: g.energy,
             iterations,
             seconds: t_level.elapsed().as_secs_f64(),
@@ -325,6 +329,7 @@ impl<'m> Interpolator<'m> {
             levels.push(LevelStats {
                 vertices: fine.n_vertices(),
                 steps: vec![n],
+                start_energy: g.initial_energy,
                 energy: g.energy,
                 iterations: g.iterations,
                 seconds: t_level.elapsed().as_secs_f64(),

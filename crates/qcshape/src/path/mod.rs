@@ -12,6 +12,9 @@
 //!
 //! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
 //! distance `dis(A, B)` is the length of the discrete geodesic.
+//!
+//! Temporal interpolation between key poses (section 2.2.1) with spatial multiresolution is in
+//! [`Interpolator`] and [`interpolate_sequence`].
 
 mod energy;
 mod gauss_newton;
