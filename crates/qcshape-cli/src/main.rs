@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 mod args;
 mod geodesic;
 mod info;
+mod interpolate;
 mod synth;
 mod transfer;
 
@@ -34,6 +35,7 @@ enum Command {
     Geodesic(geodesic::Args),
     Synth(synth::Args),
     Transfer(transfer::Args),
+    Interpolate(interpolate::Args),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Command::Geodesic(args) => geodesic::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Transfer(args) => transfer::run(args),
+        Command::Interpolate(args) => interpolate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,6 +17,7 @@ pub mod dataset;
 pub mod io;
 pub mod mesh;
 pub mod metric;
+pub mod multires;
 pub mod path;
 pub mod similarity;
 pub mod synth;

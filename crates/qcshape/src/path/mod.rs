@@ -12,10 +12,14 @@
 //!
 //! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
 //! distance `dis(A, B)` is the length of the discrete geodesic.
+//!
+//! Temporal interpolation between key poses (section 2.2.1) with spatial multiresolution is in
+//! [`Interpolator`] and [`interpolate_sequence`].
 
 mod energy;
 mod gauss_newton;
 mod hessian;
+mod interpolate;
 mod lbfgs;
 mod pairs;
 mod plbfgs;
@@ -26,6 +30,11 @@ use std::time::Instant;
 use thiserror::Error;
 
 pub use energy::{Ends, PathEnergy};
+pub use interpolate::{
+    insertion_schedule, interpolate_deformation, interpolate_middle, interpolate_sequence, Interpolated,
+    InterpolationError, InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation,
+    PairStats,
+};
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
 use crate::metric::Metric;

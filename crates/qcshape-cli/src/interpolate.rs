@@ -1,0 +1,237 @@
+//! `qcshape interpolate`: temporal interpolation of deformations (paper section 2.2.1).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
+use qcshape::io;
+use qcshape::mesh::Topology;
+use qcshape::path::{
+    normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
+    Solver,
+};
+
+use crate::args::MetricArgs;
+
+/// Insert poses between consecutive poses of each deformation, along discrete geodesics.
+///
+/// Between two key poses, the midpoint is optimized first, then new poses are inserted by
+/// averaging neighbours and all are re-optimized until --insert poses are in; this runs on the
+/// coarsest of --levels mesh resolutions and is refined level by level. Key poses are written
+/// unchanged. All poses of the data set are scaled by one common factor while solving (1 / mean
+/// edge length of the first pose); segment lengths are reported in those units.
+///
+/// Writes DIR/<deformation>/pose000.ply ..., DIR/manifest.csv (readable as a data set; its
+/// extra column `key` marks the key poses) and DIR/segments.csv (deformation, segment, from,
+/// to, length).
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Insert interpolated poses between the poses of deformations",
+    long_about
+)]
+pub struct Args {
+    /// A data set (manifest CSV or folder), or the mesh files of one deformation in order.
+    #[arg(required = true)]
+    input: Vec<PathBuf>,
+    /// Number of poses inserted between two consecutive poses.
+    #[arg(long)]
+    insert: usize,
+    /// Spatial resolution levels (1 = no multiresolution).
+    #[arg(long, default_value_t = 3)]
+    levels: usize,
+    /// Share of vertices kept by each coarsening step.
+    #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO)]
+    ratio: f64,
+    #[command(flatten)]
+    metric: MetricArgs,
+    /// Optimizer: preconditioned, gauss-newton, lbfgs.
+    #[arg(long, default_value = "preconditioned")]
+    solver: Solver,
+    /// Relative gradient tolerance.
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// Iteration limit (see `qcshape geodesic`).
+    #[arg(long, default_value_t = 100)]
+    max_iterations: usize,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Mesh format of the written poses.
+    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk"])]
+    format: String,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    let spec = args.metric.spec()?;
+    if args.levels == 0 {
+        bail!("--levels must be at least 1");
+    }
+    let data = if let [one] = args.input.as_slice() {
+        if one.is_dir() || !has_mesh_extension(one) {
+            Dataset::load(one)?
+        } else {
+            bail!("{} is a single mesh: give two or more poses", one.display());
+        }
+    } else {
+        Dataset {
+            deformations: vec![load_sequence(&args.input)?],
+        }
+    };
+    let Some(first) = data.deformations.first() else {
+        bail!("the input has no deformations");
+    };
+    let metric = spec.build();
+    // One scale for the whole data set.
+    let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &first.topology, &first.poses[0]);
+    let options = InterpolationOptions {
+        insert: args.insert,
+        levels: args.levels,
+        ratio: args.ratio,
+        geodesic: GeodesicOptions {
+            solver: args.solver,
+            gradient_tolerance: args.tolerance,
+            max_iterations: args.max_iterations,
+            ..Default::default()
+        },
+        normalization: Normalization::Factor(factor),
+    };
+    let n_pairs: usize = data
+        .deformations
+        .iter()
+        .map(|d| d.n_poses().saturating_sub(1))
+        .sum();
+    eprintln!(
+        "interpolating {} deformation(s), {n_pairs} pose pair(s), {} per pair, with {} ...",
+        data.deformations.len(),
+        args.insert,
+        metric.name()
+    );
+    let bar = ProgressBar::new(n_pairs as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} pairs, {elapsed} (eta {eta})")
+            .expect("valid progress template"),
+    );
+    // One interpolator (hierarchy and solvers) per distinct topology.
+    let mut interpolators: Vec<(Arc<Topology>, Interpolator)> = Vec::new();
+    let mut results: Vec<Interpolated> = Vec::with_capacity(data.deformations.len());
+    for d in &data.deformations {
+        let k = match interpolators
+            .iter()
+            .position(|(t, _)| Arc::ptr_eq(t, &d.topology))
+        {
+            Some(k) => k,
+            None => {
+                let ip = Interpolator::new(metric.as_ref(), &d.topology, &d.poses[0], options.clone())
+                    .with_context(|| format!("deformation {:?}", d.name))?;
+                if let Some(why) = ip.hierarchy().stopped() {
+                    if args.insert > 0 {
+                        bar.suspend(|| {
+                            eprintln!(
+                                "note: {} level(s) {:?} for {:?}: {why}",
+                                ip.hierarchy().n_levels(),
+                                ip.hierarchy().vertex_counts(),
+                                d.name
+                            )
+                        });
+                    }
+                }
+                interpolators.push((d.topology.clone(), ip));
+                interpolators.len() - 1
+            }
+        };
+        let out = interpolators[k]
+            .1
+            .interpolate_sequence(&d.poses, &|| bar.inc(1))
+            .with_context(|| format!("deformation {:?}", d.name))?;
+        results.push(out);
+    }
+    bar.finish_and_clear();
+    write_outputs(args, &data, &results)?;
+    println!("deformation,key_poses,poses,length,energy,converged_pairs,seconds");
+    for (d, r) in data.deformations.iter().zip(&results) {
+        println!(
+            "{},{},{},{:.9e},{:.9e},{}/{},{:.3}",
+            d.name,
+            d.n_poses(),
+            r.poses.len(),
+            r.segment_lengths.iter().sum::<f64>(),
+            r.pairs.iter().map(|p| p.energy).sum::<f64>(),
+            r.pairs.iter().filter(|p| p.converged).count(),
+            r.pairs.len(),
+            r.pairs.iter().map(|p| p.seconds).sum::<f64>()
+        );
+    }
+    Ok(())
+}
+
+fn has_mesh_extension(p: &Path) -> bool {
+    io::Format::from_path(p).is_some()
+}
+
+/// A file-name-safe version of a deformation name.
+fn folder_for(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || s.starts_with('.') {
+        format!("d{s}")
+    } else {
+        s
+    }
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) || s.starts_with('#') || s.trim() != s {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn write_outputs(args: &Args, data: &Dataset, results: &[Interpolated]) -> Result<()> {
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let mut manifest = String::from("deformation,label,pose,path,key\n");
+    let mut segments = String::from("deformation,segment,from,to,length\n");
+    let mut used: HashMap<String, usize> = HashMap::new();
+    for (d, r) in data.deformations.iter().zip(results) {
+        let mut folder = folder_for(&d.name);
+        let count = used.entry(folder.clone()).or_insert(0);
+        *count += 1;
+        if *count > 1 {
+            folder = format!("{folder}-{count}");
+        }
+        let dir = args.out.join(&folder);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (i, (pose, key)) in r.poses.iter().zip(&r.is_key).enumerate() {
+            let file = format!("pose{i:03}.{}", args.format);
+            io::write_mesh(&dir.join(&file), pose, d.topology.faces(), &Default::default())?;
+            manifest.push_str(&format!(
+                "{},{},{i},{},{key}\n",
+                csv_field(&d.name),
+                csv_field(d.label.as_deref().unwrap_or("")),
+                csv_field(&format!("{folder}/{file}"))
+            ));
+        }
+        for (s, len) in r.segment_lengths.iter().enumerate() {
+            segments.push_str(&format!("{},{s},{s},{},{len:.12e}\n", csv_field(&d.name), s + 1));
+        }
+    }
+    io::write_atomically(&args.out.join(MANIFEST_NAME), |w| {
+        w.write_all(manifest.as_bytes())
+    })?;
+    io::write_atomically(&args.out.join("segments.csv"), |w| {
+        w.write_all(segments.as_bytes())
+    })?;
+    Ok(())
+}
