@@ -174,6 +174,19 @@ fn transport_along_a_zero_length_curve_is_the_identity() {
         assert!(max_dist(&t.vector, &v0) <= 1e-14, "{}", max_dist(&t.vector, &v0));
         assert!(t.steps.iter().all(|d| !d.tangent_constraint));
     }
+    // A curve of rounding noise (samples agreeing to ~1e-15 relative, as for the geodesic
+    // between two poses that differ only in the last bits) is constant too.
+    let noisy: Vec<Pose> = (0..5)
+        .map(|k| {
+            p.iter()
+                .enumerate()
+                .map(|(i, v)| v.map(|c| c * (1.0 + 1e-15 * (((i * 7 + k * 13) % 5) as f64 - 2.0))))
+                .collect()
+        })
+        .collect();
+    let tm = TransportMetric::new(&spec(MetricKind::QuasiConformal, 0.1), s.topology.clone());
+    let t = parallel_transport(&tm, &noisy, &v0, &ParallelOptions::default()).unwrap();
+    assert!(max_dist(&t.vector, &v0) <= 1e-14, "{}", max_dist(&t.vector, &v0));
     // Zero vector stays zero, along any curve.
     let tm = TransportMetric::new(&spec(MetricKind::Isometric, 0.1), s.topology.clone());
     let curve = vec![p.clone(), scaled(&icosphere(2).positions, f)];

@@ -4,7 +4,9 @@
 pub mod engine;
 pub mod journal;
 pub mod karcher;
+pub mod pipeline;
 
 pub use engine::{all_pairs, assemble, compute_pairs, pose_distances, PairDistance, Pose, SimilarityError};
 pub use journal::{fingerprint, Journal};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
+pub use pipeline::{prepare, settings_key, similarities, PipelineError, PipelineOptions, Prepared, Stage};

@@ -177,7 +177,15 @@ pub fn parallel_transport(
         initial_norm: n0,
         steps: Vec::with_capacity(curve.len().saturating_sub(1)),
     };
-    let zero = v.iter().all(|c| *c == 0.0);
+    // A curve whose length is at the rounding level of its samples (e.g. the geodesic between
+    // two poses that agree to the last bits) has no resolvable tangent: the tangent constraint
+    // would compare directions of rounding noise, so transport along it is the identity.
+    let length: f64 = curve
+        .windows(2)
+        .map(|w| dot(&flat(&difference(&w[0], &w[1])), &flat(&difference(&w[0], &w[1]))).sqrt())
+        .sum();
+    let size = dot(&flat(&curve[0]), &flat(&curve[0])).sqrt();
+    let zero = v.iter().all(|c| *c == 0.0) || length <= CONSTANT_CURVE_RELATIVE * size;
     // V_0 in the metric's null space (to rounding): the target is the null space at each sample.
     let null_target = n0 <= NULL_RELATIVE * g0.trace_bound() * dot(&v, &v);
     let targets = Targets { a0, n0, null_target };
@@ -352,6 +360,10 @@ struct Targets {
     n0: f64,
     null_target: bool,
 }
+
+/// Length of a curve, relative to the Euclidean norm of its first sample, below which it counts
+/// as constant (transport = identity).
+const CONSTANT_CURVE_RELATIVE: f64 = 1e-10;
 
 /// Relative size below which `<<V_0, V_0>>` counts as zero: `n_0 <= NULL_RELATIVE tr(G) |V_0|^2`.
 const NULL_RELATIVE: f64 = 1e-24;

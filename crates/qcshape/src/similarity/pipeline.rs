@@ -1,0 +1,420 @@
+//! The deformation-similarity pipeline of the paper (Fig. 1, eq. 13): temporal interpolation,
+//! transfer to one common base, pairwise similarity.
+
+use std::collections::HashSet;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::dataset::Deformation;
+use crate::mesh::{MeshError, Topology};
+use crate::metric::MetricSpec;
+use crate::path::{
+    normalization_factor, GeodesicError, GeodesicOptions, GeodesicSolver, InterpolationError,
+    InterpolationOptions, Interpolator, Normalization,
+};
+use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError};
+
+use super::engine::{compute_pairs, PairDistance, Pose, SimilarityError};
+
+/// Options of the whole pipeline.
+#[derive(Debug, Clone)]
+pub struct PipelineOptions {
+    /// The metric (with its variants and `lambda`).
+    pub metric: MetricSpec,
+    /// Geodesic solver options of the transfer and similarity geodesics (`steps` = N).
+    pub geodesic: GeodesicOptions,
+    /// Poses inserted between consecutive key poses (section 2.2.1); 0 = none.
+    pub insert: usize,
+    /// Spatial levels of the interpolation (1 = none; see the README for the measurement that
+    /// made 1 the default).
+    pub levels: usize,
+    /// How deformations are carried to the common base (section 2.2.2).
+    pub transport: Transport,
+    /// Index of the reference deformation whose first pose is the common base (METHOD.md).
+    pub base: usize,
+}
+
+impl Default for PipelineOptions {
+    fn default() -> Self {
+        PipelineOptions {
+            metric: MetricSpec::new(crate::metric::MetricKind::QuasiConformal),
+            geodesic: GeodesicOptions::default(),
+            insert: 0,
+            levels: 1,
+            transport: Transport::Parallel,
+            base: 0,
+        }
+    }
+}
+
+/// Why the pipeline failed.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    /// The data set cannot go through the pipeline as given.
+    #[error("{0}")]
+    Input(String),
+    /// A deformation's pose does not have the connectivity of the base.
+    #[error("deformation '{name}': {error}")]
+    Mesh {
+        /// The deformation.
+        name: String,
+        /// What differs.
+        error: MeshError,
+    },
+    /// The interpolation of a deformation failed.
+    #[error("interpolating '{name}': {error}")]
+    Interpolation {
+        /// The deformation.
+        name: String,
+        /// The error.
+        error: InterpolationError,
+    },
+    /// The transfer of a deformation failed.
+    #[error("transferring '{name}': {error}")]
+    Transfer {
+        /// The deformation.
+        name: String,
+        /// The error.
+        error: TransportError,
+    },
+    /// A geodesic solver could not be set up.
+    #[error(transparent)]
+    Geodesic(#[from] GeodesicError),
+    /// The similarity computation failed.
+    #[error(transparent)]
+    Similarity(#[from] SimilarityError),
+}
+
+/// The pipeline stage a progress report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Temporal interpolation (one report per deformation).
+    Interpolation,
+    /// Transfer to the base (one report per deformation).
+    Transfer,
+    /// Pairwise similarity (one report per pair).
+    Similarity,
+}
+
+/// Deformations ready for comparison: interpolated and transferred to one base.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Names, in input order.
+    pub names: Vec<String>,
+    /// Class labels, if known.
+    pub labels: Vec<Option<String>>,
+    /// The shared connectivity.
+    pub topology: Arc<Topology>,
+    /// The common factor coordinates are multiplied by for every geodesic (1 / mean edge length
+    /// of the base pose); distances are in those units.
+    pub factor: f64,
+    /// Interpolated deformations before transfer (#deformations x #poses x #V x 3; input units).
+    pub interpolated: Vec<Vec<Pose>>,
+    /// Whether each pose of the interpolated sequences is a key (input) pose.
+    pub is_key: Vec<bool>,
+    /// Transferred deformations (same shape; every one starts at the base pose).
+    pub transferred: Vec<Vec<Pose>>,
+    /// Seconds spent interpolating each deformation.
+    pub interpolation_seconds: Vec<f64>,
+    /// Seconds spent transferring each deformation.
+    pub transfer_seconds: Vec<f64>,
+    /// Whether every geodesic of interpolation and transfer converged.
+    pub converged: bool,
+}
+
+impl Prepared {
+    /// The transferred deformations multiplied by [`Prepared::factor`] (solver units).
+    pub fn scaled(&self) -> Vec<Vec<Pose>> {
+        let f = self.factor;
+        self.transferred
+            .iter()
+            .map(|d| {
+                d.iter()
+                    .map(|p| p.iter().map(|v| v.map(|c| c * f)).collect())
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Checks that the deformations can be compared (one connectivity, one pose count, at least
+/// two poses) and returns the shared topology.
+fn check(defs: &[Deformation], base: usize) -> Result<Arc<Topology>, PipelineError> {
+    let Some(b) = defs.get(base) else {
+        return Err(PipelineError::Input(format!(
+            "base deformation {base} does not exist ({} deformations)",
+            defs.len()
+        )));
+    };
+    let topo = b.topology.clone();
+    let reference = b.shape(0);
+    for d in defs {
+        if d.poses.len() != b.poses.len() {
+            return Err(PipelineError::Input(format!(
+                "deformation '{}' has {} poses but '{}' has {}: all deformations need the same number of key poses",
+                d.name,
+                d.poses.len(),
+                b.name,
+                b.poses.len()
+            )));
+        }
+        if d.poses.len() < 2 {
+            return Err(PipelineError::Input(format!(
+                "deformation '{}' has fewer than two poses",
+                d.name
+            )));
+        }
+        if !Arc::ptr_eq(&d.topology, &topo) {
+            reference
+                .check_same_topology(&d.shape(0))
+                .map_err(|error| PipelineError::Mesh {
+                    name: d.name.clone(),
+                    error,
+                })?;
+        }
+    }
+    Ok(topo)
+}
+
+/// Interpolates every deformation (`opts.insert` poses between key poses) and transfers it to
+/// the first pose of deformation `opts.base`, deformations in parallel. `progress(stage, name)`
+/// is called as each deformation finishes a stage.
+pub fn prepare(
+    defs: &[Deformation],
+    opts: &PipelineOptions,
+    progress: &(dyn Fn(Stage, &str) + Sync),
+) -> Result<Prepared, PipelineError> {
+    let topo = check(defs, opts.base)?;
+    let base_pose = &defs[opts.base].poses[0];
+    let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &topo, base_pose);
+    let metric = opts.metric.build();
+    let mut converged = true;
+
+    // Interpolation.
+    let interp = Interpolator::new(
+        metric.as_ref(),
+        &topo,
+        base_pose,
+        InterpolationOptions {
+            insert: opts.insert,
+            levels: opts.levels.max(1),
+            geodesic: opts.geodesic.clone(),
+            normalization: Normalization::Factor(factor),
+            ..Default::default()
+        },
+    )
+    .map_err(|error| PipelineError::Interpolation {
+        name: defs[opts.base].name.clone(),
+        error,
+    })?;
+    let interpolated: Vec<(Vec<Pose>, Vec<bool>, f64, bool)> = defs
+        .par_iter()
+        .map(|d| {
+            let t0 = std::time::Instant::now();
+            let r = interp.interpolate_sequence(&d.poses, &|| {}).map_err(|error| {
+                PipelineError::Interpolation {
+                    name: d.name.clone(),
+                    error,
+                }
+            })?;
+            progress(Stage::Interpolation, &d.name);
+            let ok = r.pairs.iter().all(|p| p.converged);
+            Ok((r.poses, r.is_key, t0.elapsed().as_secs_f64(), ok))
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    let is_key = interpolated[0].1.clone();
+    converged &= interpolated.iter().all(|x| x.3);
+
+    // Transfer to the base.
+    let setup = TransferSetup::new(
+        &opts.metric,
+        topo.clone(),
+        TransferOptions {
+            geodesic: opts.geodesic.clone(),
+            normalization: Normalization::Factor(factor),
+            ..Default::default()
+        },
+    )
+    .map_err(|error| PipelineError::Transfer {
+        name: defs[opts.base].name.clone(),
+        error,
+    })?;
+    let transfer = setup.solver().map_err(|error| PipelineError::Transfer {
+        name: defs[opts.base].name.clone(),
+        error,
+    })?;
+    let transferred: Vec<(Vec<Pose>, f64, bool)> =
+        defs.par_iter()
+            .zip(&interpolated)
+            .map(|(d, (poses, _, _, _))| {
+                let t0 = std::time::Instant::now();
+                let r = transfer.run(poses, base_pose, opts.transport).map_err(|error| {
+                    PipelineError::Transfer {
+                        name: d.name.clone(),
+                        error,
+                    }
+                })?;
+                progress(Stage::Transfer, &d.name);
+                let ok = r.segments.iter().all(|s| s.geodesic_converged);
+                Ok((r.poses, t0.elapsed().as_secs_f64(), ok))
+            })
+            .collect::<Result<_, PipelineError>>()?;
+    converged &= transferred.iter().all(|x| x.2);
+
+    Ok(Prepared {
+        names: defs.iter().map(|d| d.name.clone()).collect(),
+        labels: defs.iter().map(|d| d.label.clone()).collect(),
+        topology: topo,
+        factor,
+        interpolation_seconds: interpolated.iter().map(|x| x.2).collect(),
+        interpolated: interpolated.into_iter().map(|x| x.0).collect(),
+        is_key,
+        transfer_seconds: transferred.iter().map(|x| x.1).collect(),
+        transferred: transferred.into_iter().map(|x| x.0).collect(),
+        converged,
+    })
+}
+
+/// The pairwise similarities (eq. 13) of prepared deformations: pairs in `done` are skipped,
+/// `on_pair` sees each new pair as it finishes (journal, progress). Returns the new pairs.
+pub fn similarities<F>(
+    prepared: &Prepared,
+    opts: &PipelineOptions,
+    done: &HashSet<(usize, usize)>,
+    cancel: Option<&AtomicBool>,
+    on_pair: F,
+) -> Result<Vec<PairDistance>, PipelineError>
+where
+    F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
+{
+    let metric = opts.metric.build();
+    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
+    Ok(compute_pairs(
+        &solver,
+        &prepared.names,
+        &prepared.scaled(),
+        done,
+        cancel,
+        on_pair,
+    )?)
+}
+
+/// A settings string for [`super::fingerprint`]: everything that changes the distances.
+pub fn settings_key(opts: &PipelineOptions) -> String {
+    let g = &opts.geodesic;
+    format!(
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|insert={}|levels={}|transport={:?}|base={}",
+        opts.metric,
+        g.steps,
+        g.solver,
+        g.gradient_tolerance,
+        g.energy_tolerance,
+        g.max_iterations,
+        g.lbfgs_memory,
+        opts.insert,
+        opts.levels,
+        opts.transport,
+        opts.base
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::MetricKind;
+    use crate::similarity::assemble;
+    use crate::synth::{genus0_benchmark, SynthOptions};
+
+    #[test]
+    fn synthetic_pipeline_gives_a_symmetric_matrix_that_groups_deformations() {
+        let defs = genus0_benchmark(&SynthOptions {
+            level: 1,
+            ..Default::default()
+        })
+        .unwrap();
+        // Two deformation types on three shapes each.
+        let pick: Vec<Deformation> = defs
+            .into_iter()
+            .filter(|d| {
+                (d.label.as_deref() == Some("twist") || d.label.as_deref() == Some("bulge"))
+                    && ["sphere-", "ellipsoid-", "pear-"]
+                        .iter()
+                        .any(|s| d.name.starts_with(s))
+            })
+            .collect();
+        assert_eq!(pick.len(), 6);
+        let opts = PipelineOptions {
+            metric: MetricSpec::new(MetricKind::Isometric),
+            geodesic: GeodesicOptions {
+                steps: 3,
+                ..Default::default()
+            },
+            insert: 1,
+            ..Default::default()
+        };
+        let calls = std::sync::Mutex::new(Vec::new());
+        let prepared = prepare(&pick, &opts, &|stage, name| {
+            calls.lock().unwrap().push((stage, name.to_string()))
+        })
+        .unwrap();
+        assert_eq!(calls.lock().unwrap().len(), 12);
+        // 3 key poses + 1 inserted between each pair.
+        assert_eq!(prepared.is_key, vec![true, false, true, false, true]);
+        for (d, t) in pick.iter().zip(&prepared.transferred) {
+            assert_eq!(t.len(), 5);
+            // Every transferred deformation starts at the base.
+            assert_eq!(t[0], pick[0].poses[0], "{}", d.name);
+        }
+        // The reference deformation transferred to its own first pose is itself.
+        for (a, b) in prepared.transferred[0].iter().zip(&prepared.interpolated[0]) {
+            for (p, q) in a.iter().zip(b) {
+                for c in 0..3 {
+                    assert!((p[c] - q[c]).abs() < 1e-9, "{p:?} vs {q:?}");
+                }
+            }
+        }
+        let pairs = similarities(&prepared, &opts, &HashSet::new(), None, |_| Ok(())).unwrap();
+        let d = assemble(6, &pairs);
+        // Same-type pairs are closer on average than cross-type pairs.
+        let label = |i: usize| pick[i].label.clone();
+        let (mut same, mut ns, mut cross, mut nc) = (0.0, 0, 0.0, 0);
+        for i in 0..6 {
+            for j in i + 1..6 {
+                if label(i) == label(j) {
+                    same += d[i * 6 + j];
+                    ns += 1;
+                } else {
+                    cross += d[i * 6 + j];
+                    nc += 1;
+                }
+            }
+        }
+        assert!(same / (ns as f64) < cross / (nc as f64), "{d:?}");
+    }
+
+    #[test]
+    fn mismatched_inputs_are_named() {
+        let defs = genus0_benchmark(&SynthOptions {
+            level: 0,
+            ..Default::default()
+        })
+        .unwrap();
+        let mut short = defs[1].clone();
+        short.poses.pop();
+        let e = prepare(&[defs[0].clone(), short], &PipelineOptions::default(), &|_, _| {}).unwrap_err();
+        assert!(e.to_string().contains("has 2 poses"), "{e}");
+        let e = prepare(
+            &defs[..2],
+            &PipelineOptions {
+                base: 5,
+                ..Default::default()
+            },
+            &|_, _| {},
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("base deformation 5"), "{e}");
+    }
+}
