@@ -9,6 +9,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod classify;
+mod embed;
 mod geodesic;
 mod info;
 
@@ -29,6 +31,8 @@ enum Command {
     // here would replace the long help).
     Info(info::Args),
     Geodesic(geodesic::Args),
+    Classify(classify::Args),
+    Embed(embed::Args),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +40,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
+        Command::Classify(args) => classify::run(args),
+        Command::Embed(args) => embed::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,6 +4,7 @@ use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{msg, render, Figure, PlotError, FAMILY};
 use crate::io::heat_colors;
@@ -98,7 +99,7 @@ impl Figure for Heatmap {
         let named = n <= MAX_NAMED;
         let label_area = if named {
             let longest = self.names.iter().map(|s| s.chars().count()).max().unwrap_or(0);
-            (longest as u32 * 7 + 12).min(200)
+            (longest as u32 * 6 + 16).min(200)
         } else {
             30
         };
@@ -127,9 +128,9 @@ impl Figure for Heatmap {
             .disable_mesh()
             .x_labels(n)
             .y_labels(n)
-            .x_label_formatter(&|v| name_at(*v, false))
+            // x names are drawn below, rotated (the mesh centres rotated labels on the tick).
+            .x_label_formatter(&|_| String::new())
             .y_label_formatter(&|v| name_at(*v, true))
-            .x_label_style((FAMILY, 10).into_font().transform(FontTransform::Rotate90))
             .y_label_style((FAMILY, 10))
             .draw()
             .map_err(msg)?;
@@ -141,6 +142,20 @@ impl Figure for Heatmap {
                 Rectangle::new([(x, y - 2), (x + 2, y)], RGBColor(red, g, b).filled())
             }))
             .map_err(msg)?;
+        if named {
+            let style = TextStyle::from((FAMILY, 10).into_font().transform(FontTransform::Rotate90))
+                .pos(Pos::new(HPos::Left, VPos::Center));
+            for c in 0..n {
+                // `main` starts at the backend's origin, so chart pixels are root pixels.
+                let (px, py) = chart.backend_coord(&(2 * c as i32 + 1, 0));
+                root.draw(&Text::new(
+                    name_at(2 * c as i32, false),
+                    (px, py + 8),
+                    style.clone(),
+                ))
+                .map_err(msg)?;
+            }
+        }
         let line = WHITE.stroke_width(2);
         for &b in &self.boundaries {
             let (x, y) = (2 * b as i32, span - 2 * b as i32);
