@@ -10,6 +10,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
+mod classify;
+mod embed;
 mod geodesic;
 mod info;
 mod interpolate;
@@ -36,6 +38,8 @@ enum Command {
     Synth(synth::Args),
     Transfer(transfer::Args),
     Interpolate(interpolate::Args),
+    Classify(classify::Args),
+    Embed(embed::Args),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +50,8 @@ fn main() -> ExitCode {
         Command::Synth(args) => synth::run(args),
         Command::Transfer(args) => transfer::run(args),
         Command::Interpolate(args) => interpolate::run(args),
+        Command::Classify(args) => classify::run(args),
+        Command::Embed(args) => embed::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -13,12 +13,16 @@
 //! Lengths are in the units of the input coordinates unless a function says it normalizes.
 #![warn(missing_docs)]
 
+pub mod cluster;
 pub mod dataset;
+pub mod embed;
+pub mod eval;
 pub mod io;
 pub mod mesh;
 pub mod metric;
 pub mod multires;
 pub mod path;
+pub mod plot;
 pub mod similarity;
 pub mod synth;
 pub mod transport;

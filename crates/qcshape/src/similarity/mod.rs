@@ -1,12 +1,15 @@
 //! Similarity of deformations (eq. 13): pairwise distances of deformations transferred to one
-//! common base, computed in parallel and resumable through a journal.
+//! common base, computed in parallel and resumable through a journal, and the distance matrix
+//! they fill.
 
 pub mod engine;
 pub mod journal;
 pub mod karcher;
+pub mod matrix;
 pub mod pipeline;
 
 pub use engine::{all_pairs, assemble, compute_pairs, pose_distances, PairDistance, Pose, SimilarityError};
 pub use journal::{fingerprint, Journal};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
+pub use matrix::*;
 pub use pipeline::{prepare, settings_key, similarities, PipelineError, PipelineOptions, Prepared, Stage};
