@@ -15,6 +15,7 @@ mod embed;
 mod geodesic;
 mod info;
 mod interpolate;
+mod similarity;
 mod synth;
 mod transfer;
 
@@ -35,6 +36,7 @@ enum Command {
     // here would replace the long help).
     Info(info::Args),
     Geodesic(geodesic::Args),
+    Similarity(similarity::Args),
     Synth(synth::Args),
     Transfer(transfer::Args),
     Interpolate(interpolate::Args),
@@ -47,6 +49,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
+        Command::Similarity(args) => similarity::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Transfer(args) => transfer::run(args),
         Command::Interpolate(args) => interpolate::run(args),

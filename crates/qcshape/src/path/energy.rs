@@ -131,9 +131,10 @@ impl<'m> PathEnergy<'m> {
         out.r.iter().map(|v| v * v).sum()
     }
 
-    /// The energy `E(x)` (eq. 12).
+    /// The energy `E(x)` (eq. 12). Segments are evaluated in parallel and summed in order, so
+    /// the result does not depend on the thread count or scheduling.
     pub fn energy(&self, x: &[f64], ends: &Ends) -> f64 {
-        (0..self.steps)
+        let parts: Vec<f64> = (0..self.steps)
             .into_par_iter()
             .map_init(
                 || self.new_term_eval(),
@@ -142,7 +143,8 @@ impl<'m> PathEnergy<'m> {
                         + self.eval_term(x, ends, s, At::End, te, false)
                 },
             )
-            .sum()
+            .collect();
+        parts.iter().sum()
     }
 
     /// Per segment `(G_{P_i}(X_i), G_{P_{i+1}}(X_i))`, with the auxiliary unknowns at their

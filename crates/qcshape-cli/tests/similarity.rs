@@ -1,0 +1,134 @@
+//! End-to-end tests of `qcshape similarity`: the matrix, and interruption + `--resume`.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use qcshape::similarity::DistanceMatrix;
+use qcshape::synth::{genus0_benchmark, write_benchmark, SynthOptions};
+
+fn qcshape() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_qcshape"))
+}
+
+/// Writes the synthetic set at `level` and a manifest of its first `n` deformations.
+fn dataset(dir: &Path, level: u32, n: usize) -> std::path::PathBuf {
+    let defs = genus0_benchmark(&SynthOptions {
+        level,
+        ..Default::default()
+    })
+    .unwrap();
+    // Interleave the classes so that the subset has several of each.
+    let mut picked: Vec<_> = (0..6).flat_map(|s| (0..8).map(move |c| c * 6 + s)).collect();
+    picked.truncate(n);
+    let subset: Vec<_> = picked.iter().map(|&i| defs[i].clone()).collect();
+    write_benchmark(dir, &subset, qcshape::io::Format::Ply).unwrap()
+}
+
+fn args<'a>(manifest: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    vec![
+        "similarity",
+        manifest.to_str().unwrap(),
+        "--metric",
+        "isometric",
+        "--steps",
+        "4",
+        "--threads",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]
+}
+
+#[test]
+fn matrix_is_symmetric_with_zero_diagonal_and_bad_input_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dataset(dir.path(), 1, 8);
+    let out = dir.path().join("D.csv");
+    let details = dir.path().join("poses.csv");
+    let mut a = args(&manifest, &out);
+    a.extend(["--insert", "1", "--details", details.to_str().unwrap()]);
+    let r = qcshape().args(&a).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let d = DistanceMatrix::read_csv(&out).unwrap();
+    assert_eq!(d.len(), 8);
+    for i in 0..8 {
+        assert_eq!(d.get(i, i), 0.0);
+        for j in 0..8 {
+            assert_eq!(d.get(i, j), d.get(j, i));
+            if i != j {
+                assert!(d.get(i, j) > 0.0);
+            }
+        }
+    }
+    // 28 pairs x 5 poses (3 key poses, 1 inserted between each), pose 0 at distance 0.
+    let text = std::fs::read_to_string(&details).unwrap();
+    assert_eq!(text.lines().count(), 1 + 28 * 5);
+    assert!(text
+        .lines()
+        .skip(1)
+        .step_by(5)
+        .all(|l| l.split(',').nth(3) == Some("0.0")));
+    assert!(!dir.path().join("D.csv.journal").exists());
+
+    // An unknown base and a one-deformation set are clear errors.
+    let mut a = args(&manifest, &out);
+    a.extend(["--base", "nope"]);
+    let r = qcshape().args(&a).output().unwrap();
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--base \"nope\""));
+}
+
+#[test]
+fn an_interrupted_run_resumes_to_the_same_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dataset(dir.path(), 2, 16);
+    let full = dir.path().join("full.csv");
+    let r = qcshape().args(args(&manifest, &full)).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+
+    // Kill a second run once some pairs are in its journal.
+    let out = dir.path().join("D.csv");
+    let journal = dir.path().join("D.csv.journal");
+    let mut child = qcshape()
+        .args(args(&manifest, &out))
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let mut killed_with = 0;
+    loop {
+        let pairs = std::fs::read_to_string(&journal)
+            .map(|t| t.lines().filter(|l| l.starts_with("pair,")).count())
+            .unwrap_or(0);
+        if pairs >= 3 {
+            child.kill().unwrap();
+            killed_with = pairs;
+            break;
+        }
+        if child.try_wait().unwrap().is_some() || t0.elapsed() > Duration::from_secs(120) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.wait().unwrap();
+    assert!(
+        killed_with >= 3,
+        "the run finished before it could be interrupted"
+    );
+    assert!(!out.exists(), "no partial output after a kill");
+    assert!(journal.exists());
+
+    let mut a = args(&manifest, &out);
+    a.push("--resume");
+    let r = qcshape().args(&a).output().unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(stderr.contains("resuming:"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        std::fs::read_to_string(&full).unwrap(),
+        "resumed matrix differs from the uninterrupted one"
+    );
+    assert!(!journal.exists());
+}
