@@ -71,17 +71,17 @@ pub(crate) fn load_labels(path: &Path, d: &DistanceMatrix) -> Result<Vec<String>
 }
 
 /// Scores of a clustering against known classes.
-struct Scores {
-    classes: Vec<String>,
-    class_of: Vec<usize>,
-    matching: Matching,
-    confusion: ConfusionMatrix,
-    eq15: OneVsRest,
-    nn_accuracy: f64,
-    ari: f64,
+pub(crate) struct Scores {
+    pub(crate) classes: Vec<String>,
+    pub(crate) class_of: Vec<usize>,
+    pub(crate) matching: Matching,
+    pub(crate) confusion: ConfusionMatrix,
+    pub(crate) eq15: OneVsRest,
+    pub(crate) nn_accuracy: f64,
+    pub(crate) ari: f64,
 }
 
-fn score(d: &DistanceMatrix, c: &Clustering, labels: &[String]) -> Result<Scores> {
+pub(crate) fn score(d: &DistanceMatrix, c: &Clustering, labels: &[String]) -> Result<Scores> {
     let (class_of, classes) = encode_labels(labels);
     if classes.len() < 2 {
         bail!(

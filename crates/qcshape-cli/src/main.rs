@@ -15,6 +15,7 @@ mod embed;
 mod geodesic;
 mod info;
 mod interpolate;
+mod reproduce;
 mod similarity;
 mod synth;
 mod transfer;
@@ -36,6 +37,7 @@ enum Command {
     // here would replace the long help).
     Info(info::Args),
     Geodesic(geodesic::Args),
+    Reproduce(reproduce::Args),
     Similarity(similarity::Args),
     Synth(synth::Args),
     Transfer(transfer::Args),
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
+        Command::Reproduce(args) => reproduce::run(args),
         Command::Similarity(args) => similarity::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Transfer(args) => transfer::run(args),
