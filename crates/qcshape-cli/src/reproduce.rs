@@ -299,8 +299,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
                     .iter()
                     .enumerate()
                     .map(|(i, d)| {
-                        let seed =
-                            args.seed ^ (i as u64) << 16 ^ (level * 1000.0) as u64 ^ kind as u64 * 0x9e37;
+                        let seed = args.seed
+                            ^ ((i as u64) << 16)
+                            ^ ((level * 1000.0) as u64)
+                            ^ (kind as u64 * 0x9e37);
                         Deformation {
                             poses: add_noise(&d.topology, &d.poses, kind, level, seed),
                             ..d.clone()
