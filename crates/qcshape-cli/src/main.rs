@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 mod args;
 mod classify;
 mod embed;
+mod experiment;
 mod geodesic;
 mod info;
 mod interpolate;
@@ -44,6 +45,7 @@ enum Command {
     Interpolate(interpolate::Args),
     Classify(classify::Args),
     Embed(embed::Args),
+    Experiment(experiment::Args),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Command::Interpolate(args) => interpolate::run(args),
         Command::Classify(args) => classify::run(args),
         Command::Embed(args) => embed::run(args),
+        Command::Experiment(args) => experiment::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,288 @@
+//! `qcshape experiment`: the paper's experiments (section 3), one subcommand each.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Subcommand;
+use indicatif::{ProgressBar, ProgressStyle};
+use qcshape::dataset::{load_sequence, mesh_files, Dataset, Deformation};
+use qcshape::experiment::interpolation::InterpolationExperiment;
+use qcshape::metric::MetricKind;
+use qcshape::path::{GeodesicOptions, Solver};
+use qcshape::synth::{genus0_benchmark, SynthOptions};
+
+use crate::args::MetricArgs;
+
+/// Run one of the paper's experiments and write its tables and figures.
+#[derive(Debug, clap::Args)]
+#[command(about = "Run one of the paper's experiments (tables and figures)", long_about)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Experiment,
+}
+
+#[derive(Debug, Subcommand)]
+enum Experiment {
+    Interpolation(InterpolationArgs),
+}
+
+/// Runs the chosen experiment.
+pub fn run(args: &Args) -> Result<()> {
+    match &args.command {
+        Experiment::Interpolation(a) => run_interpolation(a),
+    }
+}
+
+/// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
+///
+/// The middle pose of each deformation is interpolated from its first and last pose along each
+/// metric's discrete geodesic and compared with the true middle pose; the error of a vertex is
+/// its distance to the true position divided by the mean edge length of the true pose. Per
+/// deformation type and metric, the mean and SD over the deformations of that type are
+/// reported, with the linear interpolation (average of first and last) as the baseline.
+/// Without INPUT the built-in genus-0 benchmark (6 shapes x 8 deformations, 3 poses) is used.
+///
+/// With --real, each interior frame k of a real sequence is also interpolated from frames
+/// k - 1 and k + 1 (leave-one-frame-out). The biv-me example in ../shared/data/real/
+/// biv-me-patient1 (1572 vertices, 25 frames) is not run unless given, as it is slow:
+/// `--real ../shared/data/real/biv-me-patient1 --real-pattern LV_ENDO --real-frames 8`.
+///
+/// Writes DIR/interpolation.{csv,md,svg,png}, DIR/interpolation_cases.csv, error-map PLYs of
+/// one deformation (Fig. 4a-b: predicted middle pose with the error as scalar `error` and as
+/// colours on one shared scale), and with --real DIR/leave_one_out{,_frames}.csv and .md.
+/// The Markdown tables are printed.
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Interpolation error of each metric (paper section 3.1, Fig. 4)",
+    long_about
+)]
+pub struct InterpolationArgs {
+    /// A data set (manifest CSV or folder); default: the built-in genus-0 benchmark.
+    input: Option<PathBuf>,
+    /// Icosphere level of the built-in benchmark (10 * 4^level + 2 vertices: 2 gives 162).
+    #[arg(long, default_value_t = 2)]
+    level: u32,
+    /// Seed of the built-in benchmark's amplitude jitter.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Relative amplitude jitter of the built-in benchmark.
+    #[arg(long, default_value_t = 0.1)]
+    jitter: f64,
+    /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "quasi-conformal,conformal,isometric,l2"
+    )]
+    metrics: Vec<MetricKind>,
+    #[command(flatten)]
+    variants: VariantArgs,
+    /// Poses inserted between the two known poses (odd; the middle one is compared).
+    #[arg(long, default_value_t = 1)]
+    insert: usize,
+    /// Spatial resolution levels of the interpolation (1 = no multiresolution).
+    #[arg(long, default_value_t = 1)]
+    levels: usize,
+    /// Optimizer: preconditioned, gauss-newton, lbfgs.
+    #[arg(long, default_value = "preconditioned")]
+    solver: Solver,
+    /// Relative gradient tolerance.
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// Iteration limit (see `qcshape geodesic`).
+    #[arg(long, default_value_t = 100)]
+    max_iterations: usize,
+    /// Deformation whose predicted poses are written as error maps (default: the first `bend`).
+    #[arg(long)]
+    showcase: Option<String>,
+    /// A folder of mesh files of one real sequence (or the files' common folder): also run
+    /// leave-one-frame-out on it.
+    #[arg(long)]
+    real: Option<PathBuf>,
+    /// Use only the files of --real whose names contain this text (e.g. LV_ENDO); empty: all.
+    #[arg(long, default_value = "ENDO")]
+    real_pattern: String,
+    /// Predict at most this many interior frames of --real, evenly spaced (0 = all).
+    #[arg(long, default_value_t = 8)]
+    real_frames: usize,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Metric variants shared by all compared metrics (as in `qcshape geodesic`).
+#[derive(Debug, Clone, clap::Args)]
+struct VariantArgs {
+    /// Conformal triangle term: quadratic or paper.
+    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
+    form: String,
+    /// Quasi-conformal curvature-change weights: endpoints or segment.
+    #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
+    weights: String,
+    /// Weight of the L2 regularizer (eq. 11); 0 disables it.
+    #[arg(long, default_value_t = 0.1)]
+    lambda: f64,
+    /// L2 area weights: frozen at the path's ends, or taken from each pose.
+    #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
+    l2_areas: String,
+}
+
+fn progress_bar(n: usize, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(n as u64);
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} (eta {{eta}})"
+        ))
+        .expect("valid progress template"),
+    );
+    bar
+}
+
+/// `count` interior frames of a sequence of `poses` poses, evenly spaced (all if 0 or more
+/// than there are).
+fn pick_frames(poses: usize, count: usize) -> Vec<usize> {
+    let interior = poses.saturating_sub(2);
+    if count == 0 || count >= interior {
+        return (1..=interior).collect();
+    }
+    if count == 1 {
+        return vec![1 + (interior - 1) / 2];
+    }
+    (0..count)
+        .map(|i| 1 + (i * (interior - 1) + (count - 1) / 2) / (count - 1))
+        .collect()
+}
+
+fn load_real(dir: &Path, pattern: &str) -> Result<Deformation> {
+    let files = if dir.is_dir() {
+        mesh_files(dir)?
+    } else {
+        bail!("--real {}: not a folder", dir.display());
+    };
+    let chosen: Vec<PathBuf> = files
+        .into_iter()
+        .filter(|f| {
+            f.file_name()
+                .is_some_and(|n| n.to_string_lossy().contains(pattern))
+        })
+        .collect();
+    if chosen.len() < 3 {
+        bail!(
+            "--real {}: {} mesh file(s) match --real-pattern {pattern:?}; leave-one-out needs 3 or more",
+            dir.display(),
+            chosen.len()
+        );
+    }
+    load_sequence(&chosen).with_context(|| {
+        format!(
+            "--real {}: the files matching {pattern:?} must be one sequence on one mesh (narrow --real-pattern)",
+            dir.display()
+        )
+    })
+}
+
+fn run_interpolation(args: &InterpolationArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let metrics = args
+        .metrics
+        .iter()
+        .map(|&kind| {
+            MetricArgs {
+                metric: kind,
+                form: args.variants.form.clone(),
+                weights: args.variants.weights.clone(),
+                lambda: args.variants.lambda,
+                l2_areas: args.variants.l2_areas.clone(),
+            }
+            .spec()
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if metrics.is_empty() {
+        bail!("--metrics must name at least one metric");
+    }
+    if args.tolerance.is_nan() || args.tolerance < 0.0 {
+        bail!("--tolerance must be non-negative");
+    }
+    let exp = InterpolationExperiment {
+        metrics,
+        insert: args.insert,
+        levels: args.levels,
+        geodesic: GeodesicOptions {
+            solver: args.solver,
+            gradient_tolerance: args.tolerance,
+            max_iterations: args.max_iterations,
+            ..Default::default()
+        },
+        showcase: args.showcase.clone(),
+    };
+    let defs = match &args.input {
+        Some(p) => Dataset::load(p)?.deformations,
+        None => genus0_benchmark(&SynthOptions {
+            level: args.level,
+            seed: args.seed,
+            poses: 3,
+            jitter: args.jitter,
+        })?,
+    };
+    // Read the real sequence before the long synthetic run, so that a bad path fails fast.
+    let real = match &args.real {
+        Some(dir) => Some(load_real(dir, &args.real_pattern)?),
+        None => None,
+    };
+    let n = exp.synthetic_cases(&defs);
+    eprintln!(
+        "interpolating the middle pose of {} deformation(s) with {} metric(s) ({n} geodesics) ...",
+        n / exp.metrics.len().max(1),
+        exp.metrics.len()
+    );
+    let bar = progress_bar(n, "interpolations");
+    let report = exp.run_synthetic(&defs, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let report = report?;
+    for s in &report.skipped {
+        eprintln!("note: skipped {s}");
+    }
+    report.write(&args.out)?;
+    println!("{}", report.to_markdown());
+    eprintln!("synthetic experiment: {:.1} s", t0.elapsed().as_secs_f64());
+
+    if let Some(seq) = real {
+        let t1 = Instant::now();
+        let frames = pick_frames(seq.n_poses(), args.real_frames);
+        eprintln!(
+            "leave-one-frame-out on {:?} ({} vertices, {} poses): frames {frames:?} ...",
+            seq.name,
+            seq.topology.n_vertices(),
+            seq.n_poses()
+        );
+        let bar = progress_bar(frames.len() * exp.metrics.len(), "interpolations");
+        let loo = exp.run_leave_one_out(&seq, Some(&frames), &|| bar.inc(1));
+        bar.finish_and_clear();
+        let loo = loo?;
+        loo.write(&args.out)?;
+        println!("{}", loo.to_markdown());
+        eprintln!("leave-one-out: {:.1} s", t1.elapsed().as_secs_f64());
+    }
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pick_frames;
+
+    #[test]
+    fn frames_are_interior_and_evenly_spaced() {
+        assert_eq!(pick_frames(25, 0), (1..=23).collect::<Vec<_>>());
+        assert_eq!(pick_frames(5, 8), vec![1, 2, 3]);
+        assert_eq!(pick_frames(25, 3), vec![1, 12, 23]);
+        let f = pick_frames(25, 8);
+        assert_eq!(f.len(), 8);
+        assert!(
+            f[0] == 1 && f[7] == 23 && f.windows(2).all(|w| w[0] < w[1]),
+            "{f:?}"
+        );
+        assert_eq!(pick_frames(25, 1), vec![12]);
+    }
+}
