@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 mod args;
 mod geodesic;
 mod info;
+mod lv;
 
 /// Deformation similarity in quasi-conformal shape space.
 ///
@@ -30,6 +31,7 @@ enum Command {
     // here would replace the long help).
     Info(info::Args),
     Geodesic(geodesic::Args),
+    Lv(lv::Args),
 }
 
 fn main() -> ExitCode {
@@ -37,6 +39,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
+        Command::Lv(args) => lv::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

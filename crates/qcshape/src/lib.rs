@@ -15,6 +15,7 @@
 
 pub mod dataset;
 pub mod io;
+pub mod lv;
 pub mod mesh;
 pub mod metric;
 pub mod path;
