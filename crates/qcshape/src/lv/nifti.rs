@@ -640,9 +640,10 @@ mod tests {
 
     fn oblique() -> Volume {
         let mut v = Volume::filled([3, 4, 5], [0.5, 0.5, 0.625], [10.0, -20.0, 5.0], 0.0);
-        // Rotate 30 degrees about z and flip x (negative determinant: qfac = -1).
+        // Rotate 30 degrees about z and flip z (negative determinant: qfac = -1). (A flip of
+        // x instead makes a half-turn quaternion, whose a = 0 is only float32-accurate.)
         let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-        let r = [[-c, -s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]];
+        let r = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, -1.0]];
         for (row, rr) in r.iter().enumerate() {
             for (col, x) in rr.iter().enumerate() {
                 v.affine[row][col] = x * v.spacing[col];
