@@ -98,6 +98,9 @@ struct MeshArgs {
     /// Taubin smoothing iterations before decimation.
     #[arg(long, default_value_t = 10)]
     smooth: usize,
+    /// Tangential relaxation sweeps after decimation (more regular triangles).
+    #[arg(long, default_value_t = 5)]
+    relax: usize,
     /// Number of landmarks for the registration (uses DIR/<subject>/tps_nNN.json if present).
     #[arg(long, default_value_t = 16)]
     landmarks: usize,
@@ -251,6 +254,7 @@ fn mesh(a: &MeshArgs) -> Result<()> {
         threshold: a.threshold,
         smoothing_iterations: a.smooth,
         target_vertices: (a.vertices > 0).then_some(a.vertices),
+        relax_iterations: a.relax,
     };
     let sector = SectorOptions {
         centre_deg: a.sector_centre,

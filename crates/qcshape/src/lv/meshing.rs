@@ -19,6 +19,8 @@ pub struct SurfaceOptions {
     pub smoothing_iterations: usize,
     /// Target vertex count after decimation; `None` keeps every vertex.
     pub target_vertices: Option<usize>,
+    /// Tangential relaxation sweeps after decimation ([`tangential_relax`]).
+    pub relax_iterations: usize,
 }
 
 impl Default for SurfaceOptions {
@@ -27,6 +29,7 @@ impl Default for SurfaceOptions {
             threshold: None,
             smoothing_iterations: 10,
             target_vertices: Some(1000),
+            relax_iterations: 5,
         }
     }
 }
@@ -67,6 +70,33 @@ pub fn taubin_smooth(topo: &Topology, positions: &mut [[f64; 3]], iterations: us
     }
 }
 
+/// Tangential relaxation: each vertex moves half-way towards the centroid of its one-ring,
+/// with the normal component of the move removed (area-weighted vertex normals), so the
+/// triangles become more regular while the surface stays in place. `iterations` sweeps.
+pub fn tangential_relax(topo: &Topology, positions: &mut [[f64; 3]], iterations: usize) {
+    for _ in 0..iterations {
+        let normals = crate::mesh::geometry::vertex_normals(topo, positions);
+        let next: Vec<[f64; 3]> = (0..positions.len())
+            .map(|v| {
+                let nb = topo.neighbors(v);
+                if nb.is_empty() {
+                    return positions[v];
+                }
+                let mut d = [0.0; 3];
+                for &u in nb {
+                    for c in 0..3 {
+                        d[c] += (positions[u as usize][c] - positions[v][c]) / nb.len() as f64;
+                    }
+                }
+                let n = normals[v];
+                let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                std::array::from_fn(|c| positions[v][c] + 0.5 * (d[c] - dn * n[c]))
+            })
+            .collect();
+        positions.copy_from_slice(&next);
+    }
+}
+
 /// Checks that a mesh is one closed surface (of Euler characteristic `chi` when given; 2 is
 /// a sphere) without isolated vertices or zero-area faces, and returns its topology.
 pub fn check_closed(mesh: &TriMesh, chi: Option<i64>) -> Result<Arc<Topology>, SurfaceError> {
@@ -103,7 +133,7 @@ pub fn decimate(mesh: &TriMesh, target: usize) -> TriMesh {
             &verts,
             target_indices,
             1.0,
-            meshopt::SimplifyOptions::RegularizeLight,
+            meshopt::SimplifyOptions::Regularize,
             None,
         );
         let faces: Vec<[u32; 3]> = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
@@ -122,7 +152,7 @@ pub fn decimate(mesh: &TriMesh, target: usize) -> TriMesh {
 }
 
 /// The cavity surface of a volume: threshold (given or Otsu), iso-surface, largest
-/// component, Taubin smoothing, decimation, validation (closed, one component, outward
+/// component, Taubin smoothing, decimation, tangential relaxation, validation (closed, one component, outward
 /// normals, no zero-area face; decimation keeps the genus). Positions in world mm.
 pub fn extract_surface(vol: &Volume, opts: &SurfaceOptions) -> Result<Surface, SurfaceError> {
     let threshold = match opts.threshold {
@@ -140,6 +170,8 @@ pub fn extract_surface(vol: &Volume, opts: &SurfaceOptions) -> Result<Surface, S
     if let Some(target) = opts.target_vertices {
         mesh = decimate(&mesh, target);
     }
+    let topo = check_closed(&mesh, Some(chi))?;
+    tangential_relax(&topo, &mut mesh.positions, opts.relax_iterations);
     let topo = check_closed(&mesh, Some(chi))?;
     if mesh.signed_volume() <= 0.0 {
         return Err(SurfaceError::Topology("the surface encloses no volume".into()));
