@@ -5,11 +5,12 @@
 //! by solving the `(n + 4)` square system
 //!
 //! ```text
-//! [ K + lambda I   P ] [ W ]   [ Y ]
+//! [ K - lambda I   P ] [ W ]   [ Y ]
 //! [ P^T            0 ] [ a ] = [ 0 ]      K_ij = |c_i - c_j|,  P_i = [1, c_i]
 //! ```
 //!
-//! (dense LU with full pivoting, faer). With `lambda = 0` the map interpolates the landmarks
+//! (dense LU with full pivoting, faer). `K` is conditionally *negative* definite for `U = r`, so
+//! the smoothing term enters with a minus sign (it is `+lambda` for the usual `-r` kernel). With `lambda = 0` the map interpolates the landmarks
 //! exactly; `lambda > 0` trades exactness for smoothness. Coordinates are centred and scaled
 //! to unit RMS radius before solving (for conditioning), and the coefficients are mapped back,
 //! so [`Tps`] evaluates directly in world mm.
@@ -136,7 +137,9 @@ impl Tps {
         let mut rhs = Mat::<f64>::zeros(m, 3);
         for i in 0..n {
             for j in 0..n {
-                a[(i, j)] = dist(u[i], u[j]) + if i == j { lambda } else { 0.0 };
+                // U(r) = r is minus the (conditionally positive definite) biharmonic Green's
+                // function, so smoothing subtracts lambda on the diagonal.
+                a[(i, j)] = dist(u[i], u[j]) - if i == j { lambda } else { 0.0 };
             }
             a[(i, n)] = 1.0;
             a[(n, i)] = 1.0;
@@ -196,8 +199,8 @@ impl Tps {
         points.iter().map(|p| self.apply(*p)).collect()
     }
 
-    /// Bending energy `sum_ij w_i . w_j U(|c_i - c_j|)` summed over the output components
-    /// (up to the kernel's constant; 0 for an affine map).
+    /// Bending energy `-sum_ij w_i . w_j U(|c_i - c_j|)` summed over the output components
+    /// (>= 0, up to the kernel's constant `1 / 8 pi`; 0 for an affine map).
     pub fn bending_energy(&self) -> f64 {
         let mut e = 0.0;
         for (ci, wi) in self.centres.iter().zip(&self.weights) {
@@ -205,6 +208,6 @@ impl Tps {
                 e += dist(*ci, *cj) * (wi[0] * wj[0] + wi[1] * wj[1] + wi[2] * wj[2]);
             }
         }
-        e.abs()
+        (-e).max(0.0)
     }
 }
