@@ -1,7 +1,7 @@
 //! Iso-surfaces of a volume: marching tetrahedra, threshold calibration (Otsu) and the
 //! clean-up that makes the result a valid closed [`Topology`].
 //!
-//! The paper uses marching cubes (section 4.2, ref. [48]). Classic marching-cubes tables have
+//! The paper uses marching cubes (section 4.2, ref. 48). Classic marching-cubes tables have
 //! ambiguous cases that can leave cracks, so this is the marching-cubes variant on the
 //! Freudenthal (Kuhn) split of each cube into six tetrahedra along its main diagonal: the
 //! split is consistent across neighbouring cubes, the interpolated field is piecewise

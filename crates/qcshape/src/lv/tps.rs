@@ -1,5 +1,5 @@
 //! Three-dimensional thin-plate splines from corresponding landmarks (Bookstein; the paper's
-//! registration step, section 4.2, ref. [47]).
+//! registration step, section 4.2, ref. 47).
 //!
 //! `f(x) = A x + b + sum_i w_i U(|x - c_i|)` with the 3D biharmonic kernel `U(r) = r`, fitted
 //! by solving the `(n + 4)` square system
