@@ -16,6 +16,7 @@ mod experiment;
 mod geodesic;
 mod info;
 mod interpolate;
+mod lv;
 mod reproduce;
 mod similarity;
 mod synth;
@@ -46,6 +47,7 @@ enum Command {
     Classify(classify::Args),
     Embed(embed::Args),
     Experiment(experiment::Args),
+    Lv(lv::Args),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +63,7 @@ fn main() -> ExitCode {
         Command::Classify(args) => classify::run(args),
         Command::Embed(args) => embed::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Lv(args) => lv::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::cluster::{kmeans, ClusterOptions, Clustering};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::embed::{smacof, MdsOptions};
+use qcshape::experiment::interpolation::InterpolationExperiment;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::path::GeodesicOptions;
 use qcshape::similarity::{assemble, similarities, DistanceMatrix, PipelineOptions, Prepared};
@@ -284,6 +285,32 @@ fn run_in_pool(args: &Args) -> Result<()> {
         runs.push(r);
     }
 
+    // Fig. 4: interpolation of the middle pose from the first and the last.
+    let fig4 = {
+        let exp = InterpolationExperiment {
+            metrics: [
+                MetricKind::QuasiConformal,
+                MetricKind::Conformal,
+                MetricKind::Isometric,
+                MetricKind::L2,
+            ]
+            .into_iter()
+            .map(|k| {
+                let mut spec = MetricSpec::new(k);
+                spec.lambda = args.lambda;
+                spec
+            })
+            .collect(),
+            ..Default::default()
+        };
+        let pb = bar(defs.len(), "interp. error");
+        let r = exp.run_synthetic(&defs, &|| pb.inc(1))?;
+        pb.finish_and_clear();
+        r.write(&args.out.join("fig4"))?;
+        eprintln!("{:>16}: {}", "Fig. 4", r.claim());
+        r.to_markdown()
+    };
+
     // Table 3 with the quasi-conformal metric (or the last metric run).
     let noise_kind = runs
         .iter()
@@ -332,8 +359,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
         &s,
         &defs,
         &runs,
-        noise_kind,
-        &noise_rows,
+        (noise_kind, &noise_rows),
+        &fig4,
         t_all.elapsed().as_secs_f64(),
     )?;
     let path = args.out.join("report.md");
@@ -377,8 +404,8 @@ fn report(
     s: &Settings,
     defs: &[Deformation],
     runs: &[MetricRun],
-    noise_kind: usize,
-    noise: &[(f64, f64, f64)],
+    (noise_kind, noise): (usize, &[(f64, f64, f64)]),
+    fig4: &str,
     seconds: f64,
 ) -> Result<String> {
     let mut md = String::new();
@@ -522,6 +549,18 @@ fn report(
              matching of the clusters."
         )?;
     }
+
+    writeln!(
+        md,
+        "\n## Fig. 4: interpolation of the middle pose (files in `fig4/`)\n"
+    )?;
+    writeln!(
+        md,
+        "The middle pose of every deformation is interpolated from its first and last poses \
+         (one inserted pose) and compared per vertex with the true middle pose. Error bars: \
+         `fig4/interpolation.svg`; error maps of one case per metric: `fig4/*.ply`.\n"
+    )?;
+    writeln!(md, "{}", fig4.trim_end())?;
 
     writeln!(md, "\n## Fig. 6: MDS maps\n")?;
     for r in runs {

@@ -19,6 +19,7 @@ pub mod embed;
 pub mod eval;
 pub mod experiment;
 pub mod io;
+pub mod lv;
 pub mod mesh;
 pub mod metric;
 pub mod multires;

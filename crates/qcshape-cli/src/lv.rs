@@ -1,0 +1,343 @@
+//! `qcshape lv phantom | register | mesh`: the left-ventricle pipeline from 4D images and
+//! landmarks to one deformation per subject (paper section 4.2).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use indicatif::ProgressBar;
+use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
+use qcshape::io;
+use qcshape::lv::cohort::{
+    self, read_frame0, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
+};
+use qcshape::lv::freewall::{free_wall, LvAxis, SectorOptions};
+use qcshape::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
+use qcshape::lv::meshing::{extract_surface, SurfaceOptions};
+use qcshape::lv::phantom::{roster, subject, PhantomOptions};
+use qcshape::lv::LvError;
+
+/// Arguments of `qcshape lv`.
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Left-ventricle pipeline: phantom cohort, landmark registration, meshes per frame",
+    long_about = "Left-ventricle pipeline (paper section 4.2). A cohort folder holds labels.csv \
+(subject,label) and one folder per subject with its frames (frameNN.nii[.gz], or one 4D .nii[.gz]) \
+and landmarks.csv (frame,landmark,x,y,z in world mm; landmark 0 = apex, 1 = base centre, 3 = \
+septum). 'phantom' makes such a cohort, 'register' fits the frame-0 -> frame-k thin-plate splines, \
+'mesh' extracts the cavity surface of frame 0 and carries it to every frame."
+)]
+pub struct Args {
+    #[command(subcommand)]
+    command: LvCommand,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum LvCommand {
+    /// Generate a phantom cohort of 4D CT-like volumes (controls and HCM) with landmarks.
+    Phantom(PhantomArgs),
+    /// Fit landmark thin-plate splines from frame 0 to every frame (writes tps_nNN.json).
+    Register(RegisterArgs),
+    /// Extract the frame-0 cavity surface and carry it to every frame; write a manifest.
+    Mesh(MeshArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct PhantomArgs {
+    /// Output folder (created).
+    #[arg(long)]
+    out: PathBuf,
+    /// Number of control subjects.
+    #[arg(long, default_value_t = 14)]
+    controls: usize,
+    /// Number of HCM subjects.
+    #[arg(long, default_value_t = 9)]
+    hcm: usize,
+    /// Frames per cycle (end-systole near frame 3/8, end-diastole near 7/8 of the cycle).
+    #[arg(long, default_value_t = 8)]
+    frames: usize,
+    /// Voxels per side of the cubic volume (field of view 104 x 104 x 130 mm).
+    #[arg(long, default_value_t = 48)]
+    size: usize,
+    /// Standard deviation of the Gaussian image noise (HU).
+    #[arg(long, default_value_t = 25.0)]
+    noise: f64,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Write one 4D image.nii.gz per subject instead of one file per frame.
+    #[arg(long = "4d")]
+    four_d: bool,
+}
+
+#[derive(Debug, clap::Args)]
+struct RegisterArgs {
+    /// Cohort folder.
+    dir: PathBuf,
+    /// Number of landmarks used (the first N of each frame; the paper uses 16, Table 5 8-32).
+    #[arg(long, default_value_t = 16)]
+    landmarks: usize,
+    /// Thin-plate-spline regularization (0: exact at the landmarks).
+    #[arg(long, default_value_t = 0.0)]
+    lambda: f64,
+}
+
+#[derive(Debug, clap::Args)]
+struct MeshArgs {
+    /// Cohort folder.
+    dir: PathBuf,
+    /// Output folder: OUT/<subject>/poseNN.ply and OUT/manifest.csv.
+    #[arg(long)]
+    out: PathBuf,
+    /// Cavity threshold (image units); default: upper two-level Otsu threshold of frame 0.
+    #[arg(long)]
+    threshold: Option<f64>,
+    /// Target vertex count of the whole surface after decimation (0: no decimation).
+    #[arg(long, default_value_t = 1000)]
+    vertices: usize,
+    /// Taubin smoothing iterations before decimation.
+    #[arg(long, default_value_t = 10)]
+    smooth: usize,
+    /// Tangential relaxation sweeps after decimation (more regular triangles).
+    #[arg(long, default_value_t = 5)]
+    relax: usize,
+    /// Number of landmarks for the registration (uses DIR/<subject>/tps_nNN.json if present).
+    #[arg(long, default_value_t = 16)]
+    landmarks: usize,
+    /// Thin-plate-spline regularization when fitting here.
+    #[arg(long, default_value_t = 0.0)]
+    lambda: f64,
+    /// Region written: the whole closed surface or the free-wall submesh.
+    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "whole"])]
+    region: String,
+    /// Free-wall sector centre, degrees from the septum landmark about the long axis.
+    #[arg(long, default_value_t = 180.0)]
+    sector_centre: f64,
+    /// Free-wall sector width (degrees).
+    #[arg(long, default_value_t = 180.0)]
+    sector_width: f64,
+    /// Free-wall height band LO,HI (0 apex, 1 base centre).
+    #[arg(long, default_value = "0.15,0.9", value_delimiter = ',', num_args = 2)]
+    heights: Vec<f64>,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    match &args.command {
+        LvCommand::Phantom(a) => phantom(a),
+        LvCommand::Register(a) => register(a),
+        LvCommand::Mesh(a) => mesh(a),
+    }
+}
+
+fn progress(n: usize) -> ProgressBar {
+    ProgressBar::new(n as u64)
+}
+
+fn phantom(a: &PhantomArgs) -> Result<()> {
+    if a.size < 16 || a.size > 512 {
+        bail!("--size {} must be between 16 and 512", a.size);
+    }
+    if a.frames < 4 {
+        bail!("--frames {} must be at least 4", a.frames);
+    }
+    if a.controls + a.hcm == 0 {
+        bail!("the cohort is empty: give --controls and/or --hcm");
+    }
+    if !(a.noise.is_finite() && a.noise >= 0.0) {
+        bail!("--noise {} must be a non-negative number", a.noise);
+    }
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let opts = PhantomOptions {
+        size: a.size,
+        frames: a.frames,
+        noise_hu: a.noise,
+        seed: a.seed,
+    };
+    let names = roster(a.controls, a.hcm, a.seed);
+    let bar = progress(names.len());
+    let mut summary = String::from(
+        "subject,label,edv_ml,esv_ml,ef,wall_mm,free_wall_mm,long_strain,circ_strain,free_wall_motion,twist_deg,seconds\n",
+    );
+    for (i, (name, group)) in names.iter().enumerate() {
+        let t0 = Instant::now();
+        let s = subject(name, *group, i as u64, &opts);
+        write_subject(&a.out, &s, a.four_d)?;
+        let m = &s.model;
+        let max = s.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
+        let min = s.cavity_ml.iter().copied().fold(f64::MAX, f64::min);
+        summary.push_str(&format!(
+            "{name},{},{max:.1},{min:.1},{:.3},{:.1},{:.1},{:.3},{:.3},{:.2},{:.1},{:.2}\n",
+            group.label(),
+            s.ejection_fraction(),
+            m.wall,
+            m.free_wall,
+            m.long_strain,
+            m.circ_strain,
+            m.free_wall_motion,
+            m.twist_apex_deg - m.twist_base_deg,
+            t0.elapsed().as_secs_f64()
+        ));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let labels: Vec<(String, Option<String>)> = names
+        .iter()
+        .map(|(n, g)| (n.clone(), Some(g.label().to_string())))
+        .collect();
+    write_labels(&a.out.join(cohort::LABELS_NAME), &labels)?;
+    io::write_atomically(&a.out.join("phantom.csv"), |w| w.write_all(summary.as_bytes()))?;
+    println!(
+        "wrote {} subjects ({} control, {} hcm), {} frames of {}^3 voxels, to {}",
+        names.len(),
+        a.controls,
+        a.hcm,
+        a.frames,
+        a.size,
+        a.out.display()
+    );
+    Ok(())
+}
+
+fn register(a: &RegisterArgs) -> Result<()> {
+    let subs = subjects(&a.dir)?;
+    let bar = progress(subs.len());
+    for s in &subs {
+        let (lm, path) = read_subject_landmarks(&s.path)?;
+        let reg = Registration::fit(&lm, a.landmarks, a.lambda, &path)?;
+        let out = s.path.join(Registration::file_name(a.landmarks));
+        reg.write(&out)?;
+        // Largest landmark residual over frames (0 up to rounding when lambda = 0).
+        let sub = lm.first(a.landmarks).context("landmark subset")?;
+        let mut worst = 0.0f64;
+        for (m, f) in reg.maps.iter().zip(&sub.frames) {
+            for (p, q) in sub.frames[0].iter().zip(f) {
+                let r = m.apply(*p);
+                worst =
+                    worst.max(((r[0] - q[0]).powi(2) + (r[1] - q[1]).powi(2) + (r[2] - q[2]).powi(2)).sqrt());
+            }
+        }
+        bar.suspend(|| {
+            println!(
+                "{}: {} frames, {} landmarks, max landmark residual {worst:.3e} mm -> {}",
+                s.name,
+                reg.maps.len(),
+                a.landmarks,
+                out.display()
+            )
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(())
+}
+
+fn registration_for(s: &cohort::SubjectDir, n: usize, lambda: f64) -> Result<(Registration, bool), LvError> {
+    let saved = s.path.join(Registration::file_name(n));
+    if saved.is_file() {
+        let r = Registration::read(&saved)?;
+        if r.landmarks == n {
+            return Ok((r, true));
+        }
+    }
+    let (lm, path) = read_subject_landmarks(&s.path)?;
+    Ok((Registration::fit(&lm, n, lambda, &path)?, false))
+}
+
+fn mesh(a: &MeshArgs) -> Result<()> {
+    if a.heights.len() != 2 {
+        bail!("--heights takes two numbers LO,HI");
+    }
+    let subs = subjects(&a.dir)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let opts = SurfaceOptions {
+        threshold: a.threshold,
+        smoothing_iterations: a.smooth,
+        target_vertices: (a.vertices > 0).then_some(a.vertices),
+        relax_iterations: a.relax,
+    };
+    let sector = SectorOptions {
+        centre_deg: a.sector_centre,
+        width_deg: a.sector_width,
+        heights: (a.heights[0], a.heights[1]),
+    };
+    let mut rows = Vec::new();
+    let bar = progress(subs.len());
+    for s in &subs {
+        let t0 = Instant::now();
+        let (vol, file) = read_frame0(&s.path)?;
+        let surface = extract_surface(&vol, &opts).map_err(|error| LvError::Surface { path: file, error })?;
+        let (reg, saved) = registration_for(s, a.landmarks, a.lambda)?;
+        let (lm, lm_path) = read_subject_landmarks(&s.path)?;
+        if lm.n_frames() != reg.maps.len() {
+            bail!(
+                "{}: {} frames of landmarks but {} registration maps",
+                lm_path.display(),
+                lm.n_frames(),
+                reg.maps.len()
+            );
+        }
+        let mut poses = reg.carry(&surface.shape.positions);
+        let mut faces = surface.shape.topology.faces().to_vec();
+        if a.region == "free-wall" {
+            let pick = |id| {
+                lm.get(0, id).with_context(|| {
+                    format!(
+                        "{}: landmark {id} is missing (needed for the long axis)",
+                        lm_path.display()
+                    )
+                })
+            };
+            let axis = LvAxis::new(pick(APEX)?, pick(BASE_CENTRE)?, pick(SEPTUM)?).map_err(|error| {
+                LvError::FreeWall {
+                    path: s.path.clone(),
+                    error,
+                }
+            })?;
+            let sub = free_wall(&surface.shape.topology, &surface.shape.positions, &axis, &sector).map_err(
+                |error| LvError::FreeWall {
+                    path: s.path.clone(),
+                    error,
+                },
+            )?;
+            poses = poses.iter().map(|p| sub.restrict(p)).collect();
+            faces = sub.topology.faces().to_vec();
+        }
+        let dir = a.out.join(&s.name);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (k, p) in poses.iter().enumerate() {
+            let name = format!("pose{k:02}.ply");
+            io::write_mesh(&dir.join(&name), p, &faces, &Default::default())?;
+            rows.push(ManifestRow {
+                deformation: s.name.clone(),
+                label: s.label.clone(),
+                pose: k as i64,
+                path: Path::new(&s.name).join(name),
+            });
+        }
+        bar.suspend(|| {
+            println!(
+                "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses, {} landmarks{}, {:.2} s",
+                s.name,
+                surface.threshold,
+                surface.raw_vertices,
+                surface.shape.n_vertices(),
+                poses[0].len(),
+                a.region,
+                poses.len(),
+                reg.landmarks,
+                if saved { " (saved maps)" } else { "" },
+                t0.elapsed().as_secs_f64()
+            )
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
+    println!(
+        "wrote {} deformations to {}",
+        subs.len(),
+        a.out.join(MANIFEST_NAME).display()
+    );
+    Ok(())
+}

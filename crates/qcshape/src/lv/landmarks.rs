@@ -1,0 +1,208 @@
+//! Landmark files: CSV `frame,landmark,x,y,z` (world mm), one row per landmark and frame.
+//!
+//! Every frame `0 .. F-1` must list the same landmark ids (any non-negative integers, sorted
+//! on reading). Subsets for registration are the first `n` ids ([`Landmarks::first`]); the
+//! phantom orders its 32 landmarks so that the first 8, 16, 24 and 32 each cover the apex,
+//! the base and both walls (section 4.2 uses 16). Two ids have a fixed meaning, used to find
+//! the long axis: [`APEX`] and [`BASE_CENTRE`]; [`SEPTUM`] is the angular reference of the
+//! free-wall sector.
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::io::write_atomically;
+
+/// Id of the (endocardial) apex landmark.
+pub const APEX: u32 = 0;
+/// Id of the base-centre landmark (centre of the mitral valve plane).
+pub const BASE_CENTRE: u32 = 1;
+/// Id of a landmark on the septum (endocardium near the base), the angular reference.
+pub const SEPTUM: u32 = 3;
+
+/// Why a landmark file cannot be used. Messages start with the file.
+#[derive(Debug, Error)]
+pub enum LandmarkError {
+    /// The file cannot be read.
+    #[error("{}: cannot read: {error}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// A malformed, non-numeric or non-finite row (1-based line; the header is line 1).
+    #[error("{}: line {line}: {message}", path.display())]
+    Row {
+        /// The file.
+        path: PathBuf,
+        /// Line number.
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// The rows do not form a complete frames x landmarks table.
+    #[error("{}: {message}", path.display())]
+    Incomplete {
+        /// The file.
+        path: PathBuf,
+        /// Which frame or landmark is missing or repeated.
+        message: String,
+    },
+    /// The landmarks cannot be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::IoError),
+}
+
+/// Landmark positions: `frames[t][k]` is landmark `ids[k]` in frame `t` (#frames x #ids x 3,
+/// world mm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Landmarks {
+    /// Landmark ids, ascending.
+    pub ids: Vec<u32>,
+    /// Positions per frame.
+    pub frames: Vec<Vec<[f64; 3]>>,
+}
+
+impl Landmarks {
+    /// Number of frames.
+    pub fn n_frames(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The first `n` landmarks (by id) of every frame; `None` if there are fewer than `n`.
+    pub fn first(&self, n: usize) -> Option<Landmarks> {
+        (n <= self.ids.len()).then(|| Landmarks {
+            ids: self.ids[..n].to_vec(),
+            frames: self.frames.iter().map(|f| f[..n].to_vec()).collect(),
+        })
+    }
+
+    /// Position of landmark `id` in frame `t`, if both exist.
+    pub fn get(&self, t: usize, id: u32) -> Option<[f64; 3]> {
+        let k = self.ids.binary_search(&id).ok()?;
+        self.frames.get(t).map(|f| f[k])
+    }
+}
+
+/// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
+pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
+    let bytes = std::fs::read(path).map_err(|error| LandmarkError::Read {
+        path: path.into(),
+        error,
+    })?;
+    let row_err = |line: u64, message: String| LandmarkError::Row {
+        path: path.into(),
+        line,
+        message,
+    };
+    let incomplete = |message: String| LandmarkError::Incomplete {
+        path: path.into(),
+        message,
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(bytes.as_slice());
+    let header = rdr
+        .headers()
+        .map_err(|e| row_err(1, format!("malformed CSV: {e}")))?
+        .clone();
+    const COLS: [&str; 5] = ["frame", "landmark", "x", "y", "z"];
+    let mut col = [0usize; 5];
+    for (slot, name) in col.iter_mut().zip(COLS) {
+        *slot = header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                row_err(
+                    1,
+                    format!("missing column {name:?}: the header must be frame,landmark,x,y,z"),
+                )
+            })?;
+    }
+    let mut rows: Vec<(usize, u32, [f64; 3], u64)> = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            row_err(line, format!("malformed CSV: {e}"))
+        })?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let field = |k: usize| rec.get(col[k]).unwrap_or("");
+        let frame = field(0).parse::<usize>().map_err(|_| {
+            row_err(
+                line,
+                format!("frame {:?} is not a non-negative integer", field(0)),
+            )
+        })?;
+        let id = field(1).parse::<u32>().map_err(|_| {
+            row_err(
+                line,
+                format!("landmark {:?} is not a non-negative integer", field(1)),
+            )
+        })?;
+        let mut p = [0.0; 3];
+        for (c, slot) in p.iter_mut().enumerate() {
+            let text = field(2 + c);
+            *slot = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| row_err(line, format!("{} = {text:?} is not a finite number", COLS[2 + c])))?;
+        }
+        rows.push((frame, id, p, line));
+    }
+    if rows.is_empty() {
+        return Err(incomplete("no landmark rows".into()));
+    }
+    let mut ids: Vec<u32> = rows.iter().map(|r| r.1).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let n_frames = rows.iter().map(|r| r.0).max().unwrap_or(0) + 1;
+    type Cell = Option<([f64; 3], u64)>;
+    let mut table: Vec<Vec<Cell>> = vec![vec![None; ids.len()]; n_frames];
+    for (frame, id, p, line) in rows {
+        let k = ids.binary_search(&id).unwrap_or(0);
+        if let Some((_, first)) = table[frame][k] {
+            return Err(row_err(
+                line,
+                format!("landmark {id} of frame {frame} is given twice (also on line {first})"),
+            ));
+        }
+        table[frame][k] = Some((p, line));
+    }
+    let mut frames = Vec::with_capacity(n_frames);
+    for (t, row) in table.into_iter().enumerate() {
+        let missing: Vec<u32> = row
+            .iter()
+            .zip(&ids)
+            .filter(|(v, _)| v.is_none())
+            .map(|(_, &id)| id)
+            .collect();
+        if missing.len() == ids.len() {
+            return Err(incomplete(format!(
+                "frame {t} has no landmarks (frames must be numbered 0 .. {})",
+                n_frames - 1
+            )));
+        }
+        if !missing.is_empty() {
+            return Err(incomplete(format!(
+                "frame {t} is missing landmark(s) {missing:?} that other frames have"
+            )));
+        }
+        frames.push(row.into_iter().map(|v| v.map_or([0.0; 3], |x| x.0)).collect());
+    }
+    Ok(Landmarks { ids, frames })
+}
+
+/// Writes landmarks as CSV `frame,landmark,x,y,z` (shortest round-trip decimals), atomically.
+pub fn write_landmarks(path: &Path, lm: &Landmarks) -> Result<(), LandmarkError> {
+    let mut s = String::from("frame,landmark,x,y,z\n");
+    for (t, f) in lm.frames.iter().enumerate() {
+        for (id, p) in lm.ids.iter().zip(f) {
+            s.push_str(&format!("{t},{id},{},{},{}\n", p[0], p[1], p[2]));
+        }
+    }
+    write_atomically(path, |w| w.write_all(s.as_bytes()))?;
+    Ok(())
+}

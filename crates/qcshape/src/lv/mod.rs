@@ -1,0 +1,29 @@
+//! The left-ventricle pipeline's image side (paper section 4; METHOD.md "Left ventricle"):
+//! 4D images and landmarks in, one deformation (a pose per frame on one connectivity) per
+//! subject out.
+//!
+//! 1. [`nifti`]: NIfTI-1 volumes with their voxel-to-world affine.
+//! 2. [`phantom`] + [`anatomy`]: a CT-like phantom cohort (controls and HCM) with landmarks.
+//! 3. [`tps`]: landmark thin-plate splines from frame 0 to every frame (section 4.2 step 1).
+//! 4. [`surface`] + [`meshing`]: the cavity surface of frame 0 at a threshold (step 2),
+//!    carried to every frame through the splines (step 3, [`cohort::Registration::carry`]).
+//! 5. [`freewall`]: the free-wall faces as an open submesh (section 4.3).
+//!
+//! [`cohort`] holds the folder layout and the per-subject steps.
+
+pub mod anatomy;
+pub mod cohort;
+pub mod freewall;
+pub mod landmarks;
+pub mod meshing;
+pub mod nifti;
+pub mod phantom;
+pub mod surface;
+pub mod tps;
+
+pub use cohort::{LvError, Registration, SubjectDir};
+pub use freewall::{free_wall, LvAxis, SectorOptions, Submesh};
+pub use landmarks::{read_landmarks, write_landmarks, Landmarks};
+pub use meshing::{extract_surface, Surface, SurfaceOptions};
+pub use nifti::{read_series, read_volume, write_series, write_volume, Volume};
+pub use tps::Tps;
