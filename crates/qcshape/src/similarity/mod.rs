@@ -3,12 +3,14 @@
 //! they fill.
 
 pub mod engine;
+pub mod intrinsic;
 pub mod journal;
 pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
 
 pub use engine::{all_pairs, assemble, compute_pairs, pose_distances, PairDistance, Pose, SimilarityError};
+pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
 pub use journal::{fingerprint, Journal};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use matrix::*;
