@@ -198,7 +198,7 @@ fn kasa_centre(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
     let det = |m: &[[f64; 3]; 3]| geometry::dot(m[0], geometry::cross(m[1], m[2]));
     let d = det(&a);
     let scale = a[0][0].abs().max(a[1][1].abs()).max(a[2][2].abs()).powi(3);
-    if !(d.abs() > 1e-12 * scale) {
+    if d.abs().is_nan() || d.abs() <= 1e-12 * scale {
         return None;
     }
     let solve = |k: usize| {
@@ -291,6 +291,9 @@ pub fn radial_features(
     })
 }
 
+/// A triangle surface given by its positions (#V x 3, mm) and triangles (#F x 3 vertex ids).
+pub type SurfaceRef<'a> = (&'a [[f64; 3]], &'a [[u32; 3]]);
+
 /// Carries a template mesh (frame-0 positions #V x 3 of the template subject) to another
 /// subject: the landmark thin-plate spline from the template's frame-0 landmarks to the
 /// subject's (`lambda` its regularization), then, when `surface` is given (the subject's own
@@ -304,7 +307,7 @@ pub fn carry_template(
     from: &[[f64; 3]],
     to: &[[f64; 3]],
     lambda: f64,
-    surface: Option<(&[[f64; 3]], &[[u32; 3]])>,
+    surface: Option<SurfaceRef<'_>>,
 ) -> Result<(Pose, bool), AnalysisError> {
     let tps = Tps::fit(from, to, lambda)?;
     let warped = tps.apply_all(template);
@@ -373,7 +376,7 @@ pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -
         return add(b, scale(sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6))));
     }
     let denom = va + vb + vc;
-    if !(denom.abs() > 0.0) {
+    if denom.is_nan() || denom == 0.0 {
         return a;
     }
     let (v, w) = (vb / denom, vc / denom);
