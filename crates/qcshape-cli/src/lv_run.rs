@@ -178,6 +178,8 @@ pub(crate) struct Binary {
     pub(crate) counts: [f64; 4],
     /// Eq. 15 on the averaged one-vs-rest matrices (the `classify` reading).
     pub(crate) eq15: (f64, f64),
+    /// Leave-one-out 1-nearest-neighbour accuracy on the distances (no clustering).
+    pub(crate) nn_accuracy: f64,
 }
 
 /// Scores a 2-means clustering: `hcm` (else the second class in order of appearance) is the
@@ -201,6 +203,7 @@ pub(crate) fn binary(d: &DistanceMatrix, c: &Clustering, labels: &[String]) -> R
         accuracy: s.confusion.accuracy(),
         counts: [b.tp, b.fn_, b.fp, b.tn],
         eq15: (s.eq15.sensitivity, s.eq15.specificity),
+        nn_accuracy: s.nn_accuracy,
     })
 }
 
@@ -237,6 +240,7 @@ fn analyse(
     restarts: usize,
     seed: u64,
 ) -> Result<Analysis> {
+    let labels = labels_of(defs)?;
     let data = Dataset {
         deformations: defs
             .iter()
@@ -270,7 +274,6 @@ fn analyse(
     let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
     let t2 = Instant::now();
     let clustering = two_means(&matrix, restarts, seed)?;
-    let labels = labels_of(defs)?;
     let scores = binary(&matrix, &clustering, &labels)?;
     Ok(Analysis {
         unconverged: pairs.iter().filter(|p| !p.converged).count() + usize::from(!prepared.converged),
