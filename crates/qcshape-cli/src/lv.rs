@@ -40,6 +40,10 @@ enum LvCommand {
     Register(RegisterArgs),
     /// Extract the frame-0 cavity surface and carry it to every frame; write a manifest.
     Mesh(MeshArgs),
+    /// Classify a cohort's wall motion (Tables 4 and 5, Fig. 9), from images or meshes.
+    Run(crate::lv_run::RunArgs),
+    /// MDS map of one heart cycle with interpolated poses (Fig. 9) from mesh files.
+    Cycle(crate::lv_run::CycleArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -127,6 +131,8 @@ pub fn run(args: &Args) -> Result<()> {
         LvCommand::Phantom(a) => phantom(a),
         LvCommand::Register(a) => register(a),
         LvCommand::Mesh(a) => mesh(a),
+        LvCommand::Run(a) => crate::lv_run::run(a),
+        LvCommand::Cycle(a) => crate::lv_run::cycle(a),
     }
 }
 

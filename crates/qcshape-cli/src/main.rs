@@ -17,6 +17,7 @@ mod geodesic;
 mod info;
 mod interpolate;
 mod lv;
+mod lv_run;
 mod reproduce;
 mod similarity;
 mod synth;

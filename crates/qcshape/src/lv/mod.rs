@@ -11,6 +11,7 @@
 //!
 //! [`cohort`] holds the folder layout and the per-subject steps.
 
+pub mod analysis;
 pub mod anatomy;
 pub mod cohort;
 pub mod freewall;
