@@ -101,7 +101,12 @@ pub(crate) fn score(d: &DistanceMatrix, c: &Clustering, labels: &[String]) -> Re
     })
 }
 
-fn write_assignments(path: &Path, d: &DistanceMatrix, c: &Clustering, scores: Option<&Scores>) -> Result<()> {
+pub(crate) fn write_assignments(
+    path: &Path,
+    d: &DistanceMatrix,
+    c: &Clustering,
+    scores: Option<&Scores>,
+) -> Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
     match scores {
         Some(_) => w.write_record(["name", "cluster", "label", "matched_label"])?,
@@ -123,7 +128,7 @@ fn write_assignments(path: &Path, d: &DistanceMatrix, c: &Clustering, scores: Op
     Ok(())
 }
 
-fn write_confusion(path: &Path, s: &Scores) -> Result<()> {
+pub(crate) fn write_confusion(path: &Path, s: &Scores) -> Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["actual".to_string()];
     header.extend(s.classes.iter().cloned());

@@ -19,6 +19,7 @@ mod interpolate;
 mod lv;
 mod lv_run;
 mod reproduce;
+mod run;
 mod similarity;
 mod synth;
 mod transfer;
@@ -41,6 +42,7 @@ enum Command {
     Info(info::Args),
     Geodesic(geodesic::Args),
     Reproduce(reproduce::Args),
+    Run(run::Args),
     Similarity(similarity::Args),
     Synth(synth::Args),
     Transfer(transfer::Args),
@@ -57,6 +59,7 @@ fn main() -> ExitCode {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),
         Command::Reproduce(args) => reproduce::run(args),
+        Command::Run(args) => run::run(args),
         Command::Similarity(args) => similarity::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Transfer(args) => transfer::run(args),
