@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 mod args;
 mod classify;
 mod embed;
+mod experiment_transfer;
 mod geodesic;
 mod info;
 mod interpolate;
@@ -40,6 +41,8 @@ enum Command {
     Interpolate(interpolate::Args),
     Classify(classify::Args),
     Embed(embed::Args),
+    // Temporary name of `qcshape experiment transfer` (the lead merges it into that group).
+    ExperimentTransfer(experiment_transfer::Args),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Interpolate(args) => interpolate::run(args),
         Command::Classify(args) => classify::run(args),
         Command::Embed(args) => embed::run(args),
+        Command::ExperimentTransfer(args) => experiment_transfer::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

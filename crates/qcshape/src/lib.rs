@@ -17,6 +17,7 @@ pub mod cluster;
 pub mod dataset;
 pub mod embed;
 pub mod eval;
+pub mod experiment;
 pub mod io;
 pub mod mesh;
 pub mod metric;
