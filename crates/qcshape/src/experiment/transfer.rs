@@ -21,7 +21,7 @@
 
 mod report;
 
-pub use report::{Comparison, Stat, TransferReport};
+pub use report::{Comparison, Measure, Stat, TransferReport};
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -126,6 +126,10 @@ pub struct PoseError {
     pub max: f64,
     /// Mean over vertices of `|N_k[i] - N*_k[i]|` over the base's bounding radius.
     pub mean_radius: f64,
+    /// Mean per-vertex error (mean-edge units) after the best rigid alignment (rotation and
+    /// translation, least squares) of `N_k` onto `N*_k`: the part of the error that is not a
+    /// rigid motion of the whole pose.
+    pub mean_rigid: f64,
 }
 
 /// One transferred deformation: a (kind, base, metric, transport).
@@ -235,6 +239,68 @@ fn distances(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
     a.iter()
         .zip(b)
         .map(|(p, q)| geometry::norm(geometry::sub(*p, *q)))
+        .collect()
+}
+
+/// Per-vertex `|R a[i] + t - b[i]|` (#V) for the rotation `R` and translation `t` that best
+/// align `a` onto `b` in least squares (Horn's quaternion method: `R` from the leading
+/// eigenvector of a 4 x 4 symmetric matrix). Falls back to translation only if the
+/// eigensolver fails.
+fn rigid_residuals(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
+    let n = a.len().max(1) as f64;
+    let centroid =
+        |p: &[[f64; 3]]| geometry::scale(p.iter().fold([0.0; 3], |s, q| geometry::add(s, *q)), 1.0 / n);
+    let (ca, cb) = (centroid(a), centroid(b));
+    let mut m = [[0.0; 3]; 3];
+    for (p, q) in a.iter().zip(b) {
+        let (u, v) = (geometry::sub(*p, ca), geometry::sub(*q, cb));
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += u[i] * v[j];
+            }
+        }
+    }
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = m;
+    let k = [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ];
+    let rot = faer::Mat::<f64>::from_fn(4, 4, |i, j| k[i][j])
+        .self_adjoint_eigen(faer::Side::Lower)
+        .ok()
+        .and_then(|evd| {
+            // Eigenvalues come in nondecreasing order: the last is the largest.
+            let u = evd.U();
+            let [w, x, y, z] = [0, 1, 2, 3].map(|i| u[(i, 3)]);
+            let r = [
+                [
+                    1.0 - 2.0 * (y * y + z * z),
+                    2.0 * (x * y - w * z),
+                    2.0 * (x * z + w * y),
+                ],
+                [
+                    2.0 * (x * y + w * z),
+                    1.0 - 2.0 * (x * x + z * z),
+                    2.0 * (y * z - w * x),
+                ],
+                [
+                    2.0 * (x * z - w * y),
+                    2.0 * (y * z + w * x),
+                    1.0 - 2.0 * (x * x + y * y),
+                ],
+            ];
+            r.iter().flatten().all(|c| c.is_finite()).then_some(r)
+        })
+        .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            let u = geometry::sub(*p, ca);
+            let ru = rot.map(|row| geometry::dot(row, u));
+            geometry::norm(geometry::sub(ru, geometry::sub(*q, cb)))
+        })
         .collect()
 }
 
@@ -409,6 +475,11 @@ impl TransferExperiment {
                         mean: mean / l,
                         max: max / l,
                         mean_radius: mean / radii[bi],
+                        mean_rigid: rigid_residuals(&out.poses[k], &ideals[ki][bi][k])
+                            .iter()
+                            .sum::<f64>()
+                            / d.len().max(1) as f64
+                            / l,
                     });
                     if k == k_last {
                         last_errors = d.iter().map(|x| x / l).collect();
@@ -533,6 +604,37 @@ mod tests {
     }
 
     #[test]
+    fn rigid_residuals_vanish_for_a_rigid_motion_only() {
+        let s = initial_shape(InitialShape::Pear, &template(1));
+        let (sn, cs) = 0.7f64.sin_cos();
+        let moved: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| {
+                // A rotation about the axis (1, 1, 0) / sqrt(2) composed with one about z.
+                let q = [cs * p[0] - sn * p[1], sn * p[0] + cs * p[1], p[2]];
+                let h = std::f64::consts::FRAC_1_SQRT_2;
+                let (a, b) = (1.1f64.sin(), 1.1f64.cos());
+                let along = (q[0] + q[1]) * h;
+                let perp = [q[0] - along * h, q[1] - along * h, q[2]];
+                let cross = [h * q[2], -h * q[2], h * (q[1] - q[0])];
+                [
+                    along * h + b * perp[0] + a * cross[0] + 2.0,
+                    along * h + b * perp[1] + a * cross[1] - 1.0,
+                    b * perp[2] + a * cross[2] + 0.5,
+                ]
+            })
+            .collect();
+        assert!(distances(&s.positions, &moved).iter().any(|d| *d > 1.0));
+        assert!(rigid_residuals(&s.positions, &moved).iter().all(|d| *d < 1e-9));
+        // A non-rigid change keeps a residual.
+        let stretched: Vec<[f64; 3]> = moved.iter().map(|p| [p[0], p[1], 1.2 * p[2]]).collect();
+        assert!(rigid_residuals(&s.positions, &stretched)
+            .iter()
+            .any(|d| *d > 1e-2));
+    }
+
+    #[test]
     fn labels_are_unique() {
         let mut a = MetricSpec::new(MetricKind::QuasiConformal);
         let b = MetricSpec::new(MetricKind::Isometric);
@@ -646,10 +748,10 @@ mod tests {
         assert_eq!(labels, ["quasi-conformal-parallel", "euclidean"]);
         // Euclidean transfer of a non-trivial deformation to a different shape is not exact, and
         // its error is what the summary reports.
-        let eu = r.summary(0, Transport::Euclidean, None).unwrap();
+        let eu = r.summary(0, Transport::Euclidean, None, Measure::Raw).unwrap();
         assert_eq!(eu.n, 2);
         assert!(eu.mean > 1e-3);
-        let c = r.comparison(0, Transport::Parallel).unwrap();
+        let c = r.comparison(0, Transport::Parallel, Measure::Raw).unwrap();
         assert_eq!(c.n, 2);
         assert!((c.euclidean_mean - eu.mean).abs() < 1e-12);
         let csv = r.to_csv();

@@ -83,6 +83,25 @@ pub struct TransferReport {
     pub seconds: f64,
 }
 
+/// Which error of the last pose a summary uses (mean over vertices, mean-edge units).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Measure {
+    /// `|N_K - N*_K|` as it is ([`PoseError::mean`](super::PoseError::mean)).
+    Raw,
+    /// After the best rigid alignment of `N_K` onto `N*_K` ([`PoseError::mean_rigid`](super::PoseError::mean_rigid)).
+    Rigid,
+}
+
+impl Measure {
+    /// The case's last-pose error by this measure.
+    pub fn of(self, case: &TransferCase) -> f64 {
+        case.errors.last().map_or(0.0, |e| match self {
+            Measure::Raw => e.mean,
+            Measure::Rigid => e.mean_rigid,
+        })
+    }
+}
+
 impl TransferReport {
     /// The cases of `(metric, transport)`: for Euclidean transfer, the metric-free cases.
     pub fn cases_of(&self, metric: usize, transport: Transport) -> impl Iterator<Item = &TransferCase> {
@@ -91,35 +110,37 @@ impl TransferReport {
         })
     }
 
-    /// Mean and SD over cases (of one `kind` if given) of the mean per-vertex error at the last
-    /// pose (mean-edge units); `None` if there are no such cases.
+    /// Mean and SD over cases (of one `kind` if given) of `measure` at the last pose
+    /// (mean-edge units); `None` if there are no such cases.
     pub fn summary(
         &self,
         metric: usize,
         transport: Transport,
         kind: Option<DeformationKind>,
+        measure: Measure,
     ) -> Option<Stat> {
         let v: Vec<f64> = self
             .cases_of(metric, transport)
             .filter(|c| kind.is_none_or(|k| c.kind == k.name()))
-            .map(TransferCase::last_error)
+            .map(|c| measure.of(c))
             .collect();
         Stat::of(&v)
     }
 
-    /// `transport` with `metric` against Euclidean transfer, case by case at the last pose;
-    /// `None` without Euclidean cases or cases of `(metric, transport)`.
-    pub fn comparison(&self, metric: usize, transport: Transport) -> Option<Comparison> {
+    /// `transport` with `metric` against Euclidean transfer, case by case (same kind and base)
+    /// by `measure` at the last pose; `None` without Euclidean cases or cases of
+    /// `(metric, transport)`.
+    pub fn comparison(&self, metric: usize, transport: Transport, measure: Measure) -> Option<Comparison> {
         let euclid: HashMap<(&str, &str), f64> = self
             .cases_of(metric, Transport::Euclidean)
-            .map(|c| ((c.kind.as_str(), c.base.as_str()), c.last_error()))
+            .map(|c| ((c.kind.as_str(), c.base.as_str()), measure.of(c)))
             .collect();
         let pairs: Vec<(f64, f64)> = self
             .cases_of(metric, transport)
             .filter_map(|c| {
                 euclid
                     .get(&(c.kind.as_str(), c.base.as_str()))
-                    .map(|e| (c.last_error(), *e))
+                    .map(|e| (measure.of(c), *e))
             })
             .collect();
         if pairs.is_empty() {
@@ -139,7 +160,7 @@ impl TransferReport {
     /// [module docs](self); metric `none` for Euclidean transfer).
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "kind,base,metric,lambda,transport,pose,t,mean_error,max_error,mean_error_radius,converged,seconds\n",
+            "kind,base,metric,lambda,transport,pose,t,mean_error,max_error,mean_error_radius,mean_error_rigid,converged,seconds\n",
         );
         for c in &self.cases {
             let (metric, lambda) = match c.metric {
@@ -149,7 +170,7 @@ impl TransferReport {
             for (k, e) in c.errors.iter().enumerate() {
                 let _ = writeln!(
                     s,
-                    "{},{},{},{},{},{},{},{:.6e},{:.6e},{:.6e},{},{:.3}",
+                    "{},{},{},{},{},{},{},{:.6e},{:.6e},{:.6e},{:.6e},{},{:.3}",
                     c.kind,
                     c.base,
                     metric,
@@ -160,6 +181,7 @@ impl TransferReport {
                     e.mean,
                     e.max,
                     e.mean_radius,
+                    e.mean_rigid,
                     c.converged,
                     c.seconds
                 );
@@ -174,7 +196,8 @@ impl TransferReport {
 
     /// The report in Markdown: settings, the metric x transport table (mean ± SD over cases of
     /// the last pose's mean per-vertex error), one sentence per metric on parallel transport
-    /// (and Schild's ladder) against Euclidean transfer, and a per-kind table.
+    /// (and Schild's ladder) against Euclidean transfer, the same after the best rigid
+    /// alignment ([`Measure::Rigid`]), and a per-kind table.
     pub fn to_markdown(&self) -> String {
         let mut s = String::new();
         let n_cases = self.kinds.len() * self.bases.len();
@@ -204,59 +227,15 @@ impl TransferReport {
             "Error: mean over vertices of |N_K - N*_K| / mean edge length of N*_K at the last pose; \
              mean ± SD over the {n_cases} cases. Euclidean transfer does not depend on the metric.\n"
         );
-        let _ = write!(s, "| metric | lambda |");
-        for t in &self.transports {
-            let _ = write!(s, " {} |", t.label());
-        }
-        let _ = write!(s, "\n|---|---|");
-        for _ in &self.transports {
-            let _ = write!(s, "---|");
-        }
-        s.push('\n');
-        for (m, label) in self.metrics.iter().enumerate() {
-            let _ = write!(s, "| {label} | {} |", self.specs[m].lambda);
-            for &t in &self.transports {
-                let _ = write!(s, " {} |", Self::cell(self.summary(m, t, None)));
-            }
-            s.push('\n');
-        }
-        s.push('\n');
-        for (m, label) in self.metrics.iter().enumerate() {
-            let mut parts = Vec::new();
-            for &t in self.transports.iter().filter(|t| **t != Transport::Euclidean) {
-                if let Some(c) = self.comparison(m, t) {
-                    let rel = if c.euclidean_mean > 0.0 {
-                        (c.euclidean_mean - c.mean) / c.euclidean_mean * 100.0
-                    } else {
-                        0.0
-                    };
-                    let verdict = if c.mean < c.euclidean_mean {
-                        format!("{:.1}% lower", rel)
-                    } else {
-                        format!("{:.1}% higher", -rel)
-                    };
-                    let beats = if c.wins * 2 > c.n {
-                        "beats"
-                    } else {
-                        "does not beat"
-                    };
-                    parts.push(format!(
-                        "{} transport {beats} Euclidean transfer: lower error in {} of {} cases, mean \
-                         error {:.4} against {:.4} ({verdict})",
-                        t.label(),
-                        c.wins,
-                        c.n,
-                        c.mean,
-                        c.euclidean_mean
-                    ));
-                }
-            }
-            if parts.is_empty() {
-                let _ = writeln!(s, "- **{label}**: no comparison with Euclidean transfer was run.");
-            } else {
-                let _ = writeln!(s, "- **{label}**: {}.", parts.join("; "));
-            }
-        }
+        self.metric_table(&mut s, Measure::Raw);
+        self.sentences(&mut s, Measure::Raw);
+        let _ = writeln!(
+            s,
+            "\nAfter the best rigid alignment of N_K onto N*_K (rotation and translation, least \
+             squares), i.e. the part of the error that is not a rigid motion of the whole pose:\n"
+        );
+        self.metric_table(&mut s, Measure::Rigid);
+        self.sentences(&mut s, Measure::Rigid);
         let failed = self.cases.iter().filter(|c| !c.converged).count();
         if failed > 0 {
             let _ = writeln!(
@@ -283,7 +262,11 @@ impl TransferReport {
         for &k in &self.kinds {
             let _ = write!(s, "| {k} |");
             for (_, m, t) in &columns {
-                let _ = write!(s, " {} |", Self::cell(self.summary(*m, *t, Some(k))));
+                let _ = write!(
+                    s,
+                    " {} |",
+                    Self::cell(self.summary(*m, *t, Some(k), Measure::Raw))
+                );
             }
             s.push('\n');
         }
@@ -294,6 +277,68 @@ impl TransferReport {
             self.figure.kind, self.source, self.figure.base, self.seconds
         );
         s
+    }
+
+    /// The metric x transport table of `measure`.
+    fn metric_table(&self, s: &mut String, measure: Measure) {
+        let _ = write!(s, "| metric | lambda |");
+        for t in &self.transports {
+            let _ = write!(s, " {} |", t.label());
+        }
+        let _ = write!(s, "\n|---|---|");
+        for _ in &self.transports {
+            let _ = write!(s, "---|");
+        }
+        s.push('\n');
+        for (m, label) in self.metrics.iter().enumerate() {
+            let _ = write!(s, "| {label} | {} |", self.specs[m].lambda);
+            for &t in &self.transports {
+                let _ = write!(s, " {} |", Self::cell(self.summary(m, t, None, measure)));
+            }
+            s.push('\n');
+        }
+        s.push('\n');
+    }
+
+    /// One sentence per metric: each non-Euclidean transport against Euclidean transfer.
+    fn sentences(&self, s: &mut String, measure: Measure) {
+        for (m, label) in self.metrics.iter().enumerate() {
+            let mut parts = Vec::new();
+            for &t in self.transports.iter().filter(|t| **t != Transport::Euclidean) {
+                let Some(c) = self.comparison(m, t, measure) else {
+                    continue;
+                };
+                let rel = if c.euclidean_mean > 0.0 {
+                    (c.mean - c.euclidean_mean) / c.euclidean_mean * 100.0
+                } else {
+                    0.0
+                };
+                let verdict = if c.mean < c.euclidean_mean {
+                    format!("{:.1}% lower", -rel)
+                } else {
+                    format!("{rel:.1}% higher")
+                };
+                let beats = if c.wins * 2 > c.n {
+                    "beats"
+                } else {
+                    "does not beat"
+                };
+                parts.push(format!(
+                    "{} transport {beats} Euclidean transfer: lower error in {} of {} cases, mean \
+                     error {:.4} against {:.4} ({verdict})",
+                    t.label(),
+                    c.wins,
+                    c.n,
+                    c.mean,
+                    c.euclidean_mean
+                ));
+            }
+            if parts.is_empty() {
+                let _ = writeln!(s, "- **{label}**: no comparison with Euclidean transfer was run.");
+            } else {
+                let _ = writeln!(s, "- **{label}**: {}.", parts.join("; "));
+            }
+        }
     }
 
     /// The (name, metric, transport) series: every metric with every non-Euclidean transport,
@@ -345,7 +390,7 @@ impl TransferReport {
                     .transports
                     .iter()
                     .filter_map(|&t| {
-                        self.summary(m, t, None)
+                        self.summary(m, t, None, Measure::Raw)
                             .map(|s| (t.label().to_string(), s.mean, s.sd))
                     })
                     .collect();
@@ -360,7 +405,7 @@ impl TransferReport {
                 let bars = columns
                     .iter()
                     .filter_map(|(name, m, t)| {
-                        self.summary(*m, *t, Some(k))
+                        self.summary(*m, *t, Some(k), Measure::Raw)
                             .map(|s| (name.clone(), s.mean, s.sd))
                     })
                     .collect();
