@@ -52,7 +52,7 @@ pub struct Comparison {
     pub euclidean_mean: f64,
 }
 
-/// The experiment's results (see the [module docs](self)).
+/// The experiment's results (see the [module docs](super)).
 #[derive(Debug, Clone)]
 pub struct TransferReport {
     /// The source shape's name.
@@ -157,7 +157,7 @@ impl TransferReport {
 
     /// One row per transferred pose `k >= 1`: `kind, base, metric, lambda, transport, pose, t,
     /// mean_error, max_error, mean_error_radius, converged, seconds` (errors as in the
-    /// [module docs](self); metric `none` for Euclidean transfer).
+    /// [module docs](super); metric `none` for Euclidean transfer).
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
             "kind,base,metric,lambda,transport,pose,t,mean_error,max_error,mean_error_radius,mean_error_rigid,converged,seconds\n",
