@@ -1,18 +1,21 @@
 //! The deformation-transfer experiment (paper section 3.2, Fig. 5).
 //!
 //! An analytic deformation (a [`DeformationKind`] of the synthetic benchmark) is applied to a
-//! source shape (the sphere), `M_k = phi(M_0, t_k)` with `t_k = k / (K)`, `k = 0 .. K`; the
+//! source shape (the sphere), `M_k = phi(M_0, t_k)` with `t_k = k / K`, `k = 0 .. K`; the
 //! same analytic deformation applied to a base `N_0` directly (in the base's own frame,
 //! [`DeformParams::of`]) is the ideal answer `N*_k`. The deformation `M_0 .. M_K` is transferred
 //! to `N_0` ([`crate::transport`]) with every metric and every transport, giving `N_0 .. N_K`,
 //! and compared vertex by vertex with `N*_k`:
 //!
-//! `e_i(k) = |N_k[i] - N*_k[i]| / lbar(N*_k)` (eq. for this report; `lbar` the mean edge length),
+//! `e_i(k) = |N_k[i] - N*_k[i]| / lbar(N*_k)` (`lbar` the mean edge length; not an equation of the
+//! paper, which shows the error only as colours),
 //!
 //! i.e. the error in units of the ideal pose's mean edge length; it is also given in units of the
 //! base's bounding radius (`max_i |N_0[i] - c|`, `c` the bounding-box centre; 1 for the
 //! benchmark's shapes). A *case* is one (kind, base); the headline number of a (metric,
-//! transport) is the mean and SD over cases of the mean per-vertex error at the last pose.
+//! transport) is the mean and SD over cases of the mean per-vertex error at the last pose. A
+//! second measure ([`Measure::Rigid`]) takes the error after the best rigid alignment of `N_k`
+//! onto `N*_k`, to separate a rigid drift of the whole pose from a wrong shape.
 //!
 //! All geodesics and transports use one common normalization, `1 / lbar(M_0)` (the source's
 //! mean edge length), so the metrics' regularizer `lambda L2` has the same meaning for every
