@@ -25,12 +25,14 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 enum Experiment {
     Interpolation(InterpolationArgs),
+    Transfer(super::experiment_transfer::Args),
 }
 
 /// Runs the chosen experiment.
 pub fn run(args: &Args) -> Result<()> {
     match &args.command {
         Experiment::Interpolation(a) => run_interpolation(a),
+        Experiment::Transfer(a) => super::experiment_transfer::run(a),
     }
 }
 

@@ -1,0 +1,133 @@
+//! `qcshape experiment transfer`: the deformation-transfer experiment (paper section 3.2, Fig. 5).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use qcshape::experiment::transfer::TransferExperiment;
+use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
+use qcshape::synth::{DeformationKind, InitialShape, MAX_LEVEL};
+use qcshape::transport::{SchildOptions, Transport};
+
+use crate::args::SolverArgs;
+
+/// Transfer analytic deformations from a sphere to other shapes and measure the error.
+///
+/// Each deformation kind is applied to the source shape (poses at t = 0 .. 1) and transferred
+/// to each base with every metric and transport; the result is compared, vertex by vertex, with
+/// the same deformation applied to the base directly. The error of a pose is the mean over
+/// vertices of |N_k - N*_k| divided by the mean edge length of the ideal pose N*_k. Writes
+/// DIR/transfer.csv (every transferred pose), DIR/transfer.md (printed too), the figures
+/// DIR/transfer.svg/.png (per metric) and DIR/transfer-kinds.svg/.png (per kind), and the
+/// Fig. 5 meshes DIR/fig5/*.ply (per-vertex error as scalar and heat colours).
+#[derive(Debug, clap::Args)]
+#[command(about = "Deformation-transfer experiment (paper Fig. 5)", long_about)]
+pub struct Args {
+    /// Icosphere level of the shapes (10 * 4^level + 2 vertices).
+    #[arg(long, default_value_t = 2)]
+    level: u32,
+    /// Metrics, comma-separated: l2, rigid, isometric, conformal, quasi-conformal.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "quasi-conformal,isometric,conformal"
+    )]
+    metrics: Vec<MetricKind>,
+    /// Transports, comma-separated: parallel, schild, euclidean.
+    #[arg(long, value_delimiter = ',', default_value = "parallel,schild,euclidean")]
+    transports: Vec<Transport>,
+    /// Deformation kinds, comma-separated (default: all eight).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "twist,bend,taper,stretch,bulge,shear,dent,ripple"
+    )]
+    kinds: Vec<DeformationKind>,
+    /// The shape the deformations are applied to first.
+    #[arg(long, default_value = "sphere")]
+    source: InitialShape,
+    /// Bases, comma-separated: sphere, ellipsoid, oblate-ellipsoid, rounded-box, pear, peanut.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "ellipsoid,oblate-ellipsoid,pear"
+    )]
+    bases: Vec<InitialShape>,
+    /// Poses per deformation (t = k / (poses - 1)).
+    #[arg(long, default_value_t = 3)]
+    poses: usize,
+    /// Weight of the L2 regularizer (eq. 11) of every metric; 0 disables it.
+    #[arg(long, default_value_t = 0.1)]
+    lambda: f64,
+    /// Conformal triangle term: quadratic or paper.
+    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
+    form: String,
+    /// Fixed-point corrections of each Schild rung's doubling.
+    #[arg(long, default_value_t = SchildOptions::default().doubling_iterations)]
+    doubling_iterations: usize,
+    /// Geodesics (N = number of transport steps per segment).
+    #[command(flatten)]
+    solver: SolverArgs,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    if args.level > MAX_LEVEL {
+        bail!("--level must be at most {MAX_LEVEL}");
+    }
+    if args.lambda.is_nan() || args.lambda < 0.0 {
+        bail!("--lambda must be non-negative");
+    }
+    let metrics = args
+        .metrics
+        .iter()
+        .map(|&kind| MetricSpec {
+            lambda: args.lambda,
+            form: if args.form == "paper" {
+                ConformalForm::Paper
+            } else {
+                ConformalForm::Quadratic
+            },
+            weights: QcWeights::Endpoints,
+            ..MetricSpec::new(kind)
+        })
+        .collect();
+    let experiment = TransferExperiment {
+        metrics,
+        transports: args.transports.clone(),
+        kinds: args.kinds.clone(),
+        source: args.source,
+        bases: args.bases.clone(),
+        level: args.level,
+        poses: args.poses,
+        geodesic: args.solver.options()?,
+        schild: SchildOptions {
+            doubling_iterations: args.doubling_iterations,
+            ..Default::default()
+        },
+    };
+    let n = experiment.n_transfers();
+    eprintln!(
+        "{} transfers ({} kinds x {} bases; lambda = {}, N = {}) ...",
+        n,
+        args.kinds.len(),
+        args.bases.len(),
+        args.lambda,
+        args.solver.steps
+    );
+    let pb = indicatif::ProgressBar::new(n as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} [{elapsed}<{eta}]") {
+        pb.set_style(style);
+    }
+    let report = experiment.run(&|| pb.inc(1));
+    pb.finish_and_clear();
+    let report = report?;
+    let files = report
+        .write(&args.out)
+        .with_context(|| format!("writing the report to {}", args.out.display()))?;
+    print!("{}", report.to_markdown());
+    eprintln!("wrote {} files to {}", files.len(), args.out.display());
+    Ok(())
+}
