@@ -44,8 +44,9 @@ pub struct Args {
     /// Spatial levels of the interpolation (1 = single level, the measured fastest).
     #[arg(long, default_value_t = 1)]
     levels: usize,
-    /// Transport to the common base: parallel, schild or euclidean.
-    #[arg(long, default_value = "parallel")]
+    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
+    /// better classification in the measurements, README), parallel (the paper's) or schild.
+    #[arg(long, default_value = "euclidean")]
     transport: Transport,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
