@@ -26,6 +26,7 @@ pub struct Args {
 enum Experiment {
     Interpolation(InterpolationArgs),
     Transfer(super::experiment_transfer::Args),
+    Noise(super::experiment_noise::Args),
 }
 
 /// Runs the chosen experiment.
@@ -33,6 +34,7 @@ pub fn run(args: &Args) -> Result<()> {
     match &args.command {
         Experiment::Interpolation(a) => run_interpolation(a),
         Experiment::Transfer(a) => super::experiment_transfer::run(a),
+        Experiment::Noise(a) => super::experiment_noise::run(a),
     }
 }
 

@@ -13,6 +13,7 @@ mod args;
 mod classify;
 mod embed;
 mod experiment;
+mod experiment_noise;
 mod experiment_transfer;
 mod geodesic;
 mod info;

@@ -170,17 +170,117 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
     (m, v.sqrt())
 }
 
-/// Interpolation, transfer, similarity and k-means of `defs` for one metric.
-fn run_metric(
+/// A data set classified by the pipeline: similarity matrix, kernel k-means and the intrinsic
+/// k-means started from it.
+pub(crate) struct Classified {
+    pub(crate) prepared: Prepared,
+    pub(crate) matrix: DistanceMatrix,
+    /// The best kernel k-means partition (the start of the intrinsic k-means).
+    pub(crate) kernel: Clustering,
+    /// k-means with intrinsic means (eq. 14).
+    pub(crate) clustering: Clustering,
+    pub(crate) pair_seconds: Vec<f64>,
+    /// Elapsed seconds: interpolation, transfer, similarity, intrinsic k-means.
+    pub(crate) wall: [f64; 4],
+    pub(crate) unconverged: usize,
+}
+
+/// Interpolation, transfer, similarity, kernel k-means (`restarts` seeded runs) and k-means with
+/// intrinsic means of `defs` into `k` classes.
+pub(crate) fn classify_set(
     defs: &[Deformation],
-    labels: &[String],
-    kind: MetricKind,
-    s: &Settings,
-    args: &Args,
-) -> Result<MetricRun> {
+    opts: &PipelineOptions,
+    k: usize,
+    restarts: usize,
+    seed: u64,
+    what: &str,
+) -> Result<Classified> {
+    let data = Dataset {
+        deformations: defs.to_vec(),
+    };
+    let t0 = Instant::now();
+    let prepared = prepare_with_progress(&data, opts)?;
+    let t_prepare = t0.elapsed().as_secs_f64();
+    let n = defs.len();
+    let pb = bar(n * (n - 1) / 2, what);
+    let t1 = Instant::now();
+    let pairs = similarities(&prepared, opts, &Default::default(), None, |_| {
+        pb.inc(1);
+        Ok(())
+    })?;
+    pb.finish_and_clear();
+    let t_sim = t1.elapsed().as_secs_f64();
+    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    let kernel = kmeans(
+        &matrix,
+        &ClusterOptions {
+            k,
+            restarts,
+            seed,
+            max_iterations: 100,
+        },
+    )?;
+    // The paper's k-means with intrinsic means (eq. 14), started from the kernel k-means
+    // partition of the similarity matrix.
+    let t2 = Instant::now();
+    let metric = opts.metric.build();
+    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
+    let intrinsic = intrinsic_kmeans(
+        &solver,
+        &prepared.scaled(),
+        &kernel.assignments,
+        k,
+        &IntrinsicOptions::default(),
+    )?;
+    let t_kmeans = t2.elapsed().as_secs_f64();
+    let clustering = Clustering {
+        k,
+        assignments: intrinsic.assignments,
+        medoids: None,
+        objective: intrinsic.objective,
+        iterations: intrinsic.iterations,
+        converged: intrinsic.converged,
+        restart: 0,
+        restart_objectives: Vec::new(),
+    };
+    // Interpolation and transfer share one parallel pass each; split the measured wall time of
+    // `prepare` in proportion to their summed per-deformation times.
+    let (ti, tt): (f64, f64) = (
+        prepared.interpolation_seconds.iter().sum(),
+        prepared.transfer_seconds.iter().sum(),
+    );
+    let share = if ti + tt > 0.0 { ti / (ti + tt) } else { 0.5 };
+    Ok(Classified {
+        unconverged: pairs.iter().filter(|p| !p.converged).count(),
+        pair_seconds: pairs.iter().map(|p| p.seconds).collect(),
+        wall: [t_prepare * share, t_prepare * (1.0 - share), t_sim, t_kmeans],
+        prepared,
+        matrix,
+        kernel,
+        clustering,
+    })
+}
+
+/// `defs` with noise of `kind` and variance `level` % (METHOD.md) added to every pose; each
+/// deformation gets its own seed derived from `seed`, its index, the level and the kind.
+pub(crate) fn noisy_set(defs: &[Deformation], kind: NoiseKind, level: f64, seed: u64) -> Vec<Deformation> {
+    defs.iter()
+        .enumerate()
+        .map(|(i, d)| {
+            let seed = seed ^ ((i as u64) << 16) ^ ((level * 1000.0) as u64) ^ (kind as u64 * 0x9e37);
+            Deformation {
+                poses: add_noise(&d.topology, &d.poses, kind, level, seed),
+                ..d.clone()
+            }
+        })
+        .collect()
+}
+
+/// The pipeline options of the reproduction for one metric.
+fn options_for(kind: MetricKind, s: &Settings, args: &Args) -> PipelineOptions {
     let mut spec = MetricSpec::new(kind);
     spec.lambda = args.lambda;
-    let opts = PipelineOptions {
+    PipelineOptions {
         metric: spec,
         geodesic: GeodesicOptions {
             steps: s.steps,
@@ -190,76 +290,31 @@ fn run_metric(
         levels: 1,
         transport: args.transport,
         base: 0,
-    };
-    let data = Dataset {
-        deformations: defs.to_vec(),
-    };
-    let t0 = Instant::now();
-    let prepared = prepare_with_progress(&data, &opts)?;
-    let t_prepare = t0.elapsed().as_secs_f64();
-    let n = defs.len();
-    let pb = bar(n * (n - 1) / 2, metric_name(kind));
-    let t1 = Instant::now();
-    let pairs = similarities(&prepared, &opts, &Default::default(), None, |_| {
-        pb.inc(1);
-        Ok(())
-    })?;
-    pb.finish_and_clear();
-    let t_sim = t1.elapsed().as_secs_f64();
-    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
-    let clustering = kmeans(
-        &matrix,
-        &ClusterOptions {
-            k: 8,
-            restarts: s.restarts,
-            seed: args.seed,
-            max_iterations: 100,
-        },
-    )?;
-    let kernel_scores = score(&matrix, &clustering, labels)?;
-    // The paper's k-means with intrinsic means (eq. 14), started from the kernel k-means
-    // partition of the similarity matrix.
-    let t2 = Instant::now();
-    let metric = opts.metric.build();
-    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-    let intrinsic = intrinsic_kmeans(
-        &solver,
-        &prepared.scaled(),
-        &clustering.assignments,
-        8,
-        &IntrinsicOptions::default(),
-    )?;
-    let t_kmeans = t2.elapsed().as_secs_f64();
-    let clustering = Clustering {
-        k: 8,
-        assignments: intrinsic.assignments.clone(),
-        medoids: None,
-        objective: intrinsic.objective,
-        iterations: intrinsic.iterations,
-        converged: intrinsic.converged,
-        restart: 0,
-        restart_objectives: Vec::new(),
-    };
-    let scores = score(&matrix, &clustering, labels)?;
-    // Interpolation and transfer share one parallel pass each; split the measured wall time of
-    // `prepare` in proportion to their summed per-deformation times.
-    let (ti, tt): (f64, f64) = (
-        prepared.interpolation_seconds.iter().sum(),
-        prepared.transfer_seconds.iter().sum(),
-    );
-    let share = if ti + tt > 0.0 { ti / (ti + tt) } else { 0.5 };
+    }
+}
+
+/// Interpolation, transfer, similarity and k-means of `defs` for one metric, scored.
+fn run_metric(
+    defs: &[Deformation],
+    labels: &[String],
+    kind: MetricKind,
+    s: &Settings,
+    args: &Args,
+) -> Result<MetricRun> {
+    let opts = options_for(kind, s, args);
+    let c = classify_set(defs, &opts, 8, s.restarts, args.seed, metric_name(kind))?;
     Ok(MetricRun {
         kind,
         metric: opts.metric.build().name(),
-        unconverged: pairs.iter().filter(|p| !p.converged).count(),
-        pair_seconds: pairs.iter().map(|p| p.seconds).collect(),
-        wall: [t_prepare * share, t_prepare * (1.0 - share), t_sim, t_kmeans],
-        kernel_scores,
-        intrinsic_iterations: intrinsic.iterations,
-        matrix,
-        clustering,
-        scores,
-        prepared,
+        kernel_scores: score(&c.matrix, &c.kernel, labels)?,
+        scores: score(&c.matrix, &c.clustering, labels)?,
+        intrinsic_iterations: c.clustering.iterations,
+        unconverged: c.unconverged,
+        pair_seconds: c.pair_seconds,
+        wall: c.wall,
+        matrix: c.matrix,
+        clustering: c.clustering,
+        prepared: c.prepared,
     })
 }
 
@@ -376,20 +431,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         for &level in &s.noise_levels {
             let mut row = (level, 0.0, 0.0);
             for kind in [NoiseKind::Uniform, NoiseKind::Gaussian] {
-                let noisy: Vec<Deformation> = defs
-                    .iter()
-                    .enumerate()
-                    .map(|(i, d)| {
-                        let seed = args.seed
-                            ^ ((i as u64) << 16)
-                            ^ ((level * 1000.0) as u64)
-                            ^ (kind as u64 * 0x9e37);
-                        Deformation {
-                            poses: add_noise(&d.topology, &d.poses, kind, level, seed),
-                            ..d.clone()
-                        }
-                    })
-                    .collect();
+                let noisy = noisy_set(&defs, kind, level, args.seed);
                 let r = run_metric(&noisy, &labels, reference.kind, &s, args)?;
                 let t = qcshape::eval::tau(&reference.clustering.assignments, &r.clustering.assignments)?;
                 eprintln!(

@@ -1,0 +1,147 @@
+//! `qcshape experiment noise`: noise resistance of the classification (paper section 3.5,
+//! Table 3, eq. 17).
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use qcshape::dataset::{Dataset, Deformation};
+use qcshape::path::GeodesicOptions;
+use qcshape::similarity::PipelineOptions;
+use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
+use qcshape::transport::Transport;
+
+use crate::args::MetricArgs;
+use crate::reproduce::{classify_set, noisy_set};
+
+/// Noise resistance of the classification (Table 3, eq. 17).
+///
+/// Classifies the data set (interpolation, transfer, similarity, k-means with intrinsic means
+/// started from seeded kernel k-means), then adds noise to every pose (per-coordinate variance
+/// `level/100 * lbar^2`, lbar the pose's mean edge length; Gaussian or uniform with the same
+/// variance; METHOD.md), classifies again, and reports tau (eq. 17): the share of deformations
+/// whose cluster is unchanged, after Hungarian matching of the clusters. Writes DIR/noise.csv
+/// and DIR/noise.md.
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Noise resistance of the classification (Table 3, eq. 17)",
+    long_about
+)]
+pub struct Args {
+    /// A data set (manifest CSV or folder); default: the built-in synthetic set at --level.
+    input: Option<PathBuf>,
+    /// Icosphere level of the built-in synthetic set.
+    #[arg(long, default_value_t = 1)]
+    level: u32,
+    /// Noise variances in percent.
+    #[arg(long, value_delimiter = ',', default_value = "1,2.5,5,10,20")]
+    levels: Vec<f64>,
+    /// Noise distributions.
+    #[arg(long, value_delimiter = ',', default_value = "uniform,gaussian")]
+    kinds: Vec<NoiseKind>,
+    #[command(flatten)]
+    metric: MetricArgs,
+    /// Segments N of every geodesic.
+    #[arg(long, default_value_t = 4)]
+    steps: usize,
+    /// Poses inserted between consecutive key poses.
+    #[arg(long, default_value_t = 0)]
+    insert: usize,
+    /// Transport to the common base: euclidean (the measured best), parallel or schild.
+    #[arg(long, default_value = "euclidean")]
+    transport: Transport,
+    /// Number of classes (default: the number of distinct labels).
+    #[arg(long)]
+    k: Option<usize>,
+    /// Kernel k-means restarts.
+    #[arg(long, default_value_t = 10)]
+    restarts: usize,
+    /// Seed of the noise and the clustering.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    let defs: Vec<Deformation> = match &args.input {
+        Some(p) => Dataset::load(p)?.deformations,
+        None => genus0_benchmark(&SynthOptions {
+            level: args.level,
+            seed: args.seed,
+            ..Default::default()
+        })?,
+    };
+    if defs.len() < 2 {
+        bail!("the noise experiment needs at least two deformations");
+    }
+    if args.levels.iter().any(|l| !(l.is_finite() && *l >= 0.0)) {
+        bail!("--levels must be non-negative percentages");
+    }
+    let classes: HashSet<&str> = defs.iter().filter_map(|d| d.label.as_deref()).collect();
+    let k = match args.k {
+        Some(k) => k,
+        None if classes.len() >= 2 => classes.len(),
+        None => bail!("the data set has no labels: give the number of classes with --k"),
+    };
+    if k == 0 || k > defs.len() {
+        bail!(
+            "--k must be between 1 and the number of deformations ({})",
+            defs.len()
+        );
+    }
+    if args.steps == 0 || args.restarts == 0 {
+        bail!("--steps and --restarts must be at least 1");
+    }
+    let opts = PipelineOptions {
+        metric: args.metric.spec()?,
+        geodesic: GeodesicOptions {
+            steps: args.steps,
+            ..Default::default()
+        },
+        insert: args.insert,
+        levels: 1,
+        transport: args.transport,
+        base: 0,
+    };
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let reference = classify_set(&defs, &opts, k, args.restarts, args.seed, "noise-free")?;
+    let mut csv = String::from("level,kind,tau\n");
+    let mut md = format!(
+        "# Noise resistance ({}, {} deformations, k = {k})\n\n| noise variance (%) | {} |\n|---|{}\n",
+        opts.metric.build().name(),
+        defs.len(),
+        args.kinds
+            .iter()
+            .map(|k| format!("{} tau (%)", k.name()))
+            .collect::<Vec<_>>()
+            .join(" | "),
+        "---|".repeat(args.kinds.len())
+    );
+    for &level in &args.levels {
+        let mut row = format!("| {level} |");
+        for &kind in &args.kinds {
+            let noisy = noisy_set(&defs, kind, level, args.seed);
+            let c = classify_set(&noisy, &opts, k, args.restarts, args.seed, kind.name())?;
+            let tau = qcshape::eval::tau(&reference.clustering.assignments, &c.clustering.assignments)?;
+            writeln!(csv, "{level},{},{tau:?}", kind.name())?;
+            write!(row, " {:.1} |", 100.0 * tau)?;
+        }
+        writeln!(md, "{row}")?;
+    }
+    writeln!(
+        md,
+        "\ntau (eq. 17): share of deformations whose cluster is unchanged against the noise-free run, \
+         after Hungarian matching of the clusters."
+    )?;
+    for (name, text) in [("noise.csv", &csv), ("noise.md", &md)] {
+        let path = args.out.join(name);
+        qcshape::io::write_atomically(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    print!("{md}");
+    Ok(())
+}
