@@ -5,17 +5,26 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use qcshape::cluster::{kmeans, kmedoids, ClusterOptions, Clustering};
+use qcshape::dataset::Dataset;
 use qcshape::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
     ConfusionMatrix, Matching, OneVsRest,
 };
 use qcshape::io::write_atomically;
-use qcshape::similarity::{read_labels, DistanceMatrix};
+use qcshape::path::GeodesicOptions;
+use qcshape::similarity::{read_labels, DistanceMatrix, PipelineOptions};
+use qcshape::transport::Transport;
 
-/// Cluster deformations into K classes from a distance matrix (eq. 14).
+use crate::args::MetricArgs;
+use crate::reproduce::classify_set;
+
+/// Cluster deformations into K classes from a distance matrix or a data set (eq. 14).
 ///
-/// The matrix is a CSV with the header name,<name_1>,...,<name_n> and one row per
-/// deformation. k-means runs on squared distances (kernel k-means: the distance to a cluster's
+/// INPUT is a distance matrix CSV with the header name,<name_1>,...,<name_n> and one row per
+/// deformation (`qcshape similarity`), or a data set (manifest CSV or folder): then its
+/// similarity matrix is computed first (interpolation, transfer, eq. 13, with the metric and
+/// solver options below), k-means uses intrinsic means (eq. 14, started from the best kernel
+/// k-means run), and the data set's labels are used unless --labels is given. k-means runs on squared distances (kernel k-means: the distance to a cluster's
 /// implicit centroid); k-medoids is PAM (BUILD + SWAP). Both keep the best of --restarts
 /// seeded runs. With --labels (a data set manifest or a name,label CSV) the clusters are
 /// matched to the classes by the Hungarian algorithm and the matched confusion matrix, the
@@ -27,8 +36,19 @@ use qcshape::similarity::{read_labels, DistanceMatrix};
     long_about
 )]
 pub struct Args {
-    /// Distance matrix CSV (name,<name_1>,...,<name_n>).
+    /// Distance matrix CSV (name,<name_1>,...,<name_n>), or a data set (manifest CSV or folder).
     matrix: PathBuf,
+    #[command(flatten)]
+    metric: MetricArgs,
+    /// Data set input only: segments N of every geodesic.
+    #[arg(long, default_value_t = 4)]
+    steps: usize,
+    /// Data set input only: poses inserted between consecutive key poses.
+    #[arg(long, default_value_t = 0)]
+    insert: usize,
+    /// Data set input only: transport to the common base (euclidean, parallel or schild).
+    #[arg(long, default_value = "euclidean")]
+    transport: Transport,
     /// Number of clusters.
     #[arg(long)]
     k: usize,
@@ -56,6 +76,24 @@ pub struct Args {
     /// Print the result as JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// Whether INPUT is a distance matrix CSV rather than a data set (a folder, or a manifest whose
+/// header names the `deformation` column).
+fn is_matrix(path: &Path) -> Result<bool> {
+    if path.is_dir() {
+        return Ok(false);
+    }
+    // An unreadable file is left to the matrix reader, whose error names the file.
+    let Ok(file) = std::fs::File::open(path) else {
+        return Ok(true);
+    };
+    let mut first = String::new();
+    if std::io::BufRead::read_line(&mut std::io::BufReader::new(file), &mut first).is_err() {
+        return Ok(true);
+    }
+    let first = first.trim_start_matches('\u{feff}');
+    Ok(first.starts_with("name,") || !first.contains("deformation"))
 }
 
 /// Reads the distance matrix of the deformations to classify.
@@ -146,25 +184,62 @@ pub(crate) fn write_confusion(path: &Path, s: &Scores) -> Result<()> {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
-    let d = load_matrix(&args.matrix)?;
-    let labels = match &args.labels {
-        Some(p) => Some(load_labels(p, &d)?),
-        None => None,
-    };
-    if args.confusion.is_some() && labels.is_none() {
-        bail!("--confusion needs --labels");
-    }
     let opts = ClusterOptions {
         k: args.k,
         restarts: args.restarts,
         seed: args.seed,
         max_iterations: args.max_iterations,
     };
-    let c = match args.method.as_str() {
-        "kmedoids" => kmedoids(&d, &opts),
-        _ => kmeans(&d, &opts),
+    let (d, c, data_labels) = if is_matrix(&args.matrix)? {
+        let d = load_matrix(&args.matrix)?;
+        let c = match args.method.as_str() {
+            "kmedoids" => kmedoids(&d, &opts),
+            _ => kmeans(&d, &opts),
+        }
+        .with_context(|| format!("{}: cannot cluster", args.matrix.display()))?;
+        (d, c, None)
+    } else {
+        let data = Dataset::load(&args.matrix)?;
+        if args.steps == 0 {
+            bail!("--steps must be at least 1");
+        }
+        let popts = PipelineOptions {
+            metric: args.metric.spec()?,
+            geodesic: GeodesicOptions {
+                steps: args.steps,
+                ..Default::default()
+            },
+            insert: args.insert,
+            levels: 1,
+            transport: args.transport,
+            base: 0,
+        };
+        let r = classify_set(
+            &data.deformations,
+            &popts,
+            args.k,
+            args.restarts,
+            args.seed,
+            "pairs",
+        )?;
+        let c = match args.method.as_str() {
+            "kmedoids" => kmedoids(&r.matrix, &opts)?,
+            _ => r.clustering,
+        };
+        let labels: Option<Vec<String>> = data
+            .deformations
+            .iter()
+            .map(|d| d.label.clone().filter(|l| !l.is_empty()))
+            .collect();
+        (r.matrix, c, labels)
+    };
+    let labels = match (&args.labels, data_labels) {
+        (Some(p), _) => Some(load_labels(p, &d)?),
+        (None, l) => l,
+    };
+    if args.confusion.is_some() && labels.is_none() {
+        bail!("--confusion needs labels (--labels, or a data set with labels)");
     }
-    .with_context(|| format!("{}: cannot cluster", args.matrix.display()))?;
     let scores = labels.as_deref().map(|l| score(&d, &c, l)).transpose()?;
     if let Some(out) = &args.out {
         write_assignments(out, &d, &c, scores.as_ref())?;

@@ -180,3 +180,42 @@ fn bad_matrices_are_errors_naming_file_and_line() {
         "{e}"
     );
 }
+
+#[test]
+fn a_data_set_is_compared_then_classified_with_its_own_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let defs = qcshape::synth::genus0_benchmark(&qcshape::synth::SynthOptions {
+        level: 1,
+        ..Default::default()
+    })
+    .unwrap();
+    let pick: Vec<_> = defs
+        .into_iter()
+        .filter(|d| matches!(d.label.as_deref(), Some("twist") | Some("bulge")) && !d.name.starts_with("pe"))
+        .collect();
+    assert_eq!(pick.len(), 8);
+    let manifest =
+        qcshape::synth::write_benchmark(&dir.path().join("data"), &pick, qcshape::io::Format::Ply).unwrap();
+    let out = dir.path().join("a.csv");
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_qcshape"))
+        .args([
+            "classify",
+            manifest.to_str().unwrap(),
+            "--k",
+            "2",
+            "--metric",
+            "isometric",
+            "--steps",
+            "2",
+        ])
+        .args(["--json", "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(v["n"], 8);
+    assert_eq!(v["sensitivity"], 1.0, "{v}");
+    assert!(std::fs::read_to_string(&out)
+        .unwrap()
+        .starts_with("name,cluster,label,matched_label"));
+}
