@@ -1,7 +1,7 @@
 //! Options shared by every command that measures lengths: the metric with its variants and the
 //! geodesic solver.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
 use qcshape::path::{GeodesicOptions, Solver};
 
@@ -79,4 +79,16 @@ impl SolverArgs {
             ..Default::default()
         })
     }
+}
+
+/// Runs `f` in a worker pool of `threads` threads (default: all cores).
+pub(crate) fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> Result<T> + Send) -> Result<T> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        if t == 0 {
+            bail!("--threads must be at least 1");
+        }
+        b = b.num_threads(t);
+    }
+    b.build().context("cannot start the worker threads")?.install(f)
 }

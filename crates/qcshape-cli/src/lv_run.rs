@@ -22,7 +22,7 @@ use qcshape::path::{
 use qcshape::similarity::{assemble, similarities, DistanceMatrix, PipelineOptions, Prepared};
 use qcshape::transport::Transport;
 
-use crate::args::MetricArgs;
+use crate::args::{in_pool, MetricArgs};
 use crate::classify::score;
 use crate::similarity::{bar, prepare_with_progress};
 use mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
@@ -140,18 +140,6 @@ pub struct CycleArgs {
     /// Seed of the MDS.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-}
-
-/// Runs `f` in a worker pool of `threads` threads (default: all cores).
-fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> Result<T> + Send) -> Result<T> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = threads {
-        if t == 0 {
-            bail!("--threads must be at least 1");
-        }
-        b = b.num_threads(t);
-    }
-    b.build().context("cannot start the worker threads")?.install(f)
 }
 
 fn geodesic_options(c: &CycleCommon) -> Result<GeodesicOptions> {

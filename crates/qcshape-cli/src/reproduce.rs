@@ -19,6 +19,7 @@ use qcshape::similarity::{
 use qcshape::synth::{add_noise, genus0_benchmark, write_benchmark, NoiseKind, SynthOptions};
 use qcshape::transport::Transport;
 
+use crate::args::in_pool;
 use crate::classify::{score, Scores};
 use crate::similarity::{bar, prepare_with_progress};
 
@@ -211,38 +212,9 @@ pub(crate) fn classify_set(
     pb.finish_and_clear();
     let t_sim = t1.elapsed().as_secs_f64();
     let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
-    let kernel = kmeans(
-        &matrix,
-        &ClusterOptions {
-            k,
-            restarts,
-            seed,
-            max_iterations: 100,
-        },
-    )?;
-    // The paper's k-means with intrinsic means (eq. 14), started from the kernel k-means
-    // partition of the similarity matrix.
     let t2 = Instant::now();
-    let metric = opts.metric.build();
-    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-    let intrinsic = intrinsic_kmeans(
-        &solver,
-        &prepared.scaled(),
-        &kernel.assignments,
-        k,
-        &IntrinsicOptions::default(),
-    )?;
+    let (kernel, clustering) = cluster_intrinsic(&matrix, &prepared, opts, k, restarts, seed)?;
     let t_kmeans = t2.elapsed().as_secs_f64();
-    let clustering = Clustering {
-        k,
-        assignments: intrinsic.assignments,
-        medoids: None,
-        objective: intrinsic.objective,
-        iterations: intrinsic.iterations,
-        converged: intrinsic.converged,
-        restart: 0,
-        restart_objectives: Vec::new(),
-    };
     // Interpolation and transfer share one parallel pass each; split the measured wall time of
     // `prepare` in proportion to their summed per-deformation times.
     let (ti, tt): (f64, f64) = (
@@ -274,6 +246,47 @@ pub(crate) fn noisy_set(defs: &[Deformation], kind: NoiseKind, level: f64, seed:
             }
         })
         .collect()
+}
+
+/// Kernel k-means of `matrix` (the best of `restarts` seeded runs), then k-means with intrinsic
+/// means (eq. 14) of the prepared deformations started from it. Returns both partitions.
+pub(crate) fn cluster_intrinsic(
+    matrix: &DistanceMatrix,
+    prepared: &Prepared,
+    opts: &PipelineOptions,
+    k: usize,
+    restarts: usize,
+    seed: u64,
+) -> Result<(Clustering, Clustering)> {
+    let kernel = kmeans(
+        matrix,
+        &ClusterOptions {
+            k,
+            restarts,
+            seed,
+            max_iterations: 100,
+        },
+    )?;
+    let metric = opts.metric.build();
+    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
+    let intrinsic = intrinsic_kmeans(
+        &solver,
+        &prepared.scaled(),
+        &kernel.assignments,
+        k,
+        &IntrinsicOptions::default(),
+    )?;
+    let clustering = Clustering {
+        k,
+        assignments: intrinsic.assignments,
+        medoids: None,
+        objective: intrinsic.objective,
+        iterations: intrinsic.iterations,
+        converged: intrinsic.converged,
+        restart: 0,
+        restart_objectives: Vec::new(),
+    };
+    Ok((kernel, clustering))
 }
 
 /// The pipeline options of the reproduction for one metric.
@@ -320,17 +333,7 @@ fn run_metric(
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
-    let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(t) = args.threads {
-            if t == 0 {
-                bail!("--threads must be at least 1");
-            }
-            b = b.num_threads(t);
-        }
-        b.build().context("cannot start the worker threads")?
-    };
-    pool.install(|| run_in_pool(args))
+    in_pool(args.threads, || run_in_pool(args))
 }
 
 fn run_in_pool(args: &Args) -> Result<()> {

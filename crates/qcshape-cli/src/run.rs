@@ -6,19 +6,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::cluster::{kmeans, ClusterOptions, Clustering};
 use qcshape::dataset::Dataset;
 use qcshape::embed::{smacof, MdsOptions};
-use qcshape::path::GeodesicSolver;
-use qcshape::similarity::{
-    assemble, fingerprint, intrinsic_kmeans, settings_key, similarities, DistanceMatrix, IntrinsicOptions,
-    Journal,
-};
 use qcshape::transport::Transport;
 
-use crate::args::{MetricArgs, SolverArgs};
+use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::classify::{score, write_assignments, write_confusion};
-use crate::similarity::{bar, journal_path, pipeline_options, prepare_with_progress};
+use crate::reproduce::cluster_intrinsic;
+use crate::similarity::{journaled_matrix, pipeline_options, prepare_with_progress};
 
 /// Run the whole analysis of a data set: interpolation, transfer, similarity, classification,
 /// projection and a report.
@@ -72,16 +67,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = args.threads {
-        if t == 0 {
-            bail!("--threads must be at least 1");
-        }
-        b = b.num_threads(t);
-    }
-    b.build()
-        .context("cannot start the worker threads")?
-        .install(|| run_in_pool(args))
+    in_pool(args.threads, || run_in_pool(args))
 }
 
 fn run_in_pool(args: &Args) -> Result<()> {
@@ -128,53 +114,14 @@ fn run_in_pool(args: &Args) -> Result<()> {
 
     let ts = Instant::now();
     let matrix_path = args.out.join("similarity.csv");
-    let key = fingerprint(&prepared.names, &prepared.transferred, &settings_key(&opts));
-    let (journal, done_pairs) = Journal::open(&journal_path(&matrix_path), key, n, args.resume)?;
-    let done: HashSet<(usize, usize)> = done_pairs.iter().map(|p| (p.i, p.j)).collect();
-    let pb = bar(n * (n - 1) / 2, "pairs");
-    pb.set_position(done.len() as u64);
-    let mut pairs = done_pairs;
-    pairs.extend(similarities(&prepared, &opts, &done, None, |p| {
-        journal.record(p)?;
-        pb.inc(1);
-        Ok(())
-    })?);
-    pb.finish_and_clear();
-    pairs.sort_by_key(|p| (p.i, p.j));
-    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    let (matrix, _, journal) = journaled_matrix(&prepared, &opts, &matrix_path, args.resume)?;
     matrix.write_csv(&matrix_path)?;
     journal.remove()?;
     let t_sim = ts.elapsed().as_secs_f64();
 
     let tk = Instant::now();
-    let kernel = kmeans(
-        &matrix,
-        &ClusterOptions {
-            k,
-            restarts: args.restarts,
-            seed: args.seed,
-            max_iterations: 100,
-        },
-    )?;
+    let (_, clustering) = cluster_intrinsic(&matrix, &prepared, &opts, k, args.restarts, args.seed)?;
     let metric = opts.metric.build();
-    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-    let intrinsic = intrinsic_kmeans(
-        &solver,
-        &prepared.scaled(),
-        &kernel.assignments,
-        k,
-        &IntrinsicOptions::default(),
-    )?;
-    let clustering = Clustering {
-        k,
-        assignments: intrinsic.assignments.clone(),
-        medoids: None,
-        objective: intrinsic.objective,
-        iterations: intrinsic.iterations,
-        converged: intrinsic.converged,
-        restart: 0,
-        restart_objectives: Vec::new(),
-    };
     let t_cluster = tk.elapsed().as_secs_f64();
     let scores = labels
         .as_deref()
@@ -254,7 +201,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     writeln!(
         md,
         "| clustering ({} intrinsic rounds) | {t_cluster:.2} |",
-        intrinsic.iterations
+        clustering.iterations
     )?;
     writeln!(md, "\n## Classification (k = {k})\n")?;
     match &scores {

@@ -8,12 +8,12 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
-    assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PipelineOptions,
-    Prepared, Stage,
+    assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PairDistance,
+    PipelineOptions, Prepared, Stage,
 };
 use qcshape::transport::Transport;
 
-use crate::args::{MetricArgs, SolverArgs};
+use crate::args::{in_pool, MetricArgs, SolverArgs};
 
 /// Compute the similarity matrix of the deformations of a data set.
 ///
@@ -125,17 +125,7 @@ pub(crate) fn prepare_with_progress(data: &Dataset, opts: &PipelineOptions) -> R
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
-    let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(t) = args.threads {
-            if t == 0 {
-                bail!("--threads must be at least 1");
-            }
-            b = b.num_threads(t);
-        }
-        b.build().context("cannot start the worker threads")?
-    };
-    pool.install(|| run_in_pool(args))
+    in_pool(args.threads, || run_in_pool(args))
 }
 
 fn run_in_pool(args: &Args) -> Result<()> {
@@ -164,35 +154,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         opts.metric.build().name()
     );
     let prepared = prepare_with_progress(&data, &opts)?;
-    let key = fingerprint(&prepared.names, &prepared.transferred, &settings_key(&opts));
-    let journal_path = journal_path(&args.output);
-    if journal_path.exists() && !args.resume {
-        eprintln!(
-            "note: {} exists from an earlier run; starting over (use --resume to keep its pairs)",
-            journal_path.display()
-        );
-    }
-    let (journal, done_pairs) = Journal::open(&journal_path, key, n, args.resume)?;
-    if args.resume {
-        eprintln!(
-            "resuming: {} of {} pairs already done",
-            done_pairs.len(),
-            n * (n - 1) / 2
-        );
-    }
-    let done: HashSet<(usize, usize)> = done_pairs.iter().map(|p| (p.i, p.j)).collect();
-    let pb = bar(n * (n - 1) / 2, "pairs");
-    pb.set_position(done.len() as u64);
-    let new_pairs = similarities(&prepared, &opts, &done, None, |p| {
-        journal.record(p)?;
-        pb.inc(1);
-        Ok(())
-    })?;
-    pb.finish_and_clear();
-    let mut pairs = done_pairs;
-    pairs.extend(new_pairs);
-    pairs.sort_by_key(|p| (p.i, p.j));
-    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
     matrix.write_csv(&args.output)?;
     if let Some(path) = &args.details {
         write_details(path, &prepared, &pairs)?;
@@ -210,6 +172,49 @@ fn run_in_pool(args: &Args) -> Result<()> {
         }
     );
     Ok(())
+}
+
+/// The similarity matrix (eq. 13) of prepared deformations, with a progress bar. Finished pairs
+/// are appended to `OUTPUT.journal` as they complete; with `resume`, the pairs of an earlier
+/// run with the same inputs and settings are taken from it. Returns the matrix, all pairs in row
+/// order, and the journal, to be removed once the outputs are written.
+pub(crate) fn journaled_matrix(
+    prepared: &Prepared,
+    opts: &PipelineOptions,
+    output: &Path,
+    resume: bool,
+) -> Result<(DistanceMatrix, Vec<PairDistance>, Journal)> {
+    let n = prepared.names.len();
+    let key = fingerprint(&prepared.names, &prepared.transferred, &settings_key(opts));
+    let journal_path = journal_path(output);
+    if journal_path.exists() && !resume {
+        eprintln!(
+            "note: {} exists from an earlier run; starting over (use --resume to keep its pairs)",
+            journal_path.display()
+        );
+    }
+    let (journal, done_pairs) = Journal::open(&journal_path, key, n, resume)?;
+    if resume {
+        eprintln!(
+            "resuming: {} of {} pairs already done",
+            done_pairs.len(),
+            n * (n - 1) / 2
+        );
+    }
+    let done: HashSet<(usize, usize)> = done_pairs.iter().map(|p| (p.i, p.j)).collect();
+    let pb = bar(n * (n - 1) / 2, "pairs");
+    pb.set_position(done.len() as u64);
+    let new_pairs = similarities(prepared, opts, &done, None, |p| {
+        journal.record(p)?;
+        pb.inc(1);
+        Ok(())
+    })?;
+    pb.finish_and_clear();
+    let mut pairs = done_pairs;
+    pairs.extend(new_pairs);
+    pairs.sort_by_key(|p| (p.i, p.j));
+    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    Ok((matrix, pairs, journal))
 }
 
 /// `OUTPUT.journal` beside the output.
