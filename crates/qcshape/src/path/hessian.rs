@@ -31,32 +31,33 @@ pub(crate) struct HessianLayout {
     symbolic: SymbolicCholesky<usize>,
 }
 
-/// Vertex-pair structure and per-residual slots (no factorization).
-struct Structure {
-    nv: usize,
-    steps: usize,
-    n_aux: usize,
+/// Vertex-pair structure and per-residual slots (no factorization): enough to assemble the
+/// blocks of `J^T J` and to multiply with them.
+pub(crate) struct Structure {
+    pub nv: usize,
+    pub steps: usize,
+    pub n_aux: usize,
     /// Vertex pairs sharing a residual, and per-residual pair slots.
-    pairs: VertexPairs,
+    pub pairs: VertexPairs,
 }
 
 /// One segment's contribution to `J^T r` and `J^T J` (both terms of the segment).
 pub(crate) struct SegmentBlocks {
     /// `sum da_u da_v^T` per slot (row u, column v), row-major 3 x 3.
-    aa: Vec<[f64; 9]>,
+    pub aa: Vec<[f64; 9]>,
     /// `sum db_u db_v^T` per slot.
-    bb: Vec<[f64; 9]>,
+    pub bb: Vec<[f64; 9]>,
     /// `sum da_u db_v^T` per slot (row: vertex u of the first pose, column: v of the second).
-    ab: Vec<[f64; 9]>,
+    pub ab: Vec<[f64; 9]>,
     /// `J^T r` for the first and second pose (3 #V each).
-    ga: Vec<f64>,
-    gb: Vec<f64>,
+    pub ga: Vec<f64>,
+    pub gb: Vec<f64>,
     /// Per term (2): coupling of each aux unknown with the first / second pose (3 #V x n_aux),
     /// aux-aux block (n_aux x n_aux), and `J^T r` of the aux unknowns.
-    aux_a: [Vec<f64>; 2],
-    aux_b: [Vec<f64>; 2],
-    aux_aux: [Vec<f64>; 2],
-    aux_g: [Vec<f64>; 2],
+    pub aux_a: [Vec<f64>; 2],
+    pub aux_b: [Vec<f64>; 2],
+    pub aux_aux: [Vec<f64>; 2],
+    pub aux_g: [Vec<f64>; 2],
     /// Energy of the two terms.
     pub energy: f64,
 }
@@ -64,17 +65,7 @@ pub(crate) struct SegmentBlocks {
 impl HessianLayout {
     /// Builds the structure and the symbolic factorization (AMD ordering).
     pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
-        let nv = pe.n_vertices();
-        let steps = pe.steps;
-        let n_aux = pe.metric.n_aux();
-        // S: every pair of vertices sharing a residual (and every vertex with itself).
-        let pairs = VertexPairs::new(nv, &pe.pattern);
-        let st = Structure {
-            nv,
-            steps,
-            n_aux,
-            pairs,
-        };
+        let st = Structure::new(pe);
         let n = pe.n_vars();
         let mut col_ptr = vec![0usize];
         let mut row_idx = Vec::new();
@@ -122,6 +113,18 @@ impl HessianLayout {
 }
 
 impl Structure {
+    /// The pair set `S` of `pe`'s metric pattern: every pair of vertices sharing a residual
+    /// (and every vertex with itself).
+    pub fn new(pe: &PathEnergy) -> Self {
+        let nv = pe.n_vertices();
+        Structure {
+            nv,
+            steps: pe.steps,
+            n_aux: pe.metric.n_aux(),
+            pairs: VertexPairs::new(nv, &pe.pattern),
+        }
+    }
+
     /// Fill-reducing ordering: AMD on the vertex graph `S`, then every vertex's unknowns (all
     /// interior poses, 3 coordinates) kept together, auxiliary unknowns last. Ordering the
     /// scalar graph directly treats the path dimension like a third space dimension and gives a
@@ -341,36 +344,8 @@ impl Structure {
 impl HessianLayout {
     /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
     pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
-        let st = &self.st;
-        let blocks: Vec<SegmentBlocks> = (0..st.steps)
-            .into_par_iter()
-            .map(|s| st.segment_blocks(pe, x, ends, s))
-            .collect();
-        let nv3 = 3 * st.nv;
-        let np = nv3 * (st.steps - 1);
-        let n_aux = st.n_aux;
-        let mut g = vec![0.0; pe.n_vars()];
-        let mut energy = 0.0;
-        for (s, b) in blocks.iter().enumerate() {
-            energy += b.energy;
-            if s >= 1 {
-                for (gi, v) in g[(s - 1) * nv3..s * nv3].iter_mut().zip(&b.ga) {
-                    *gi += v;
-                }
-            }
-            if s + 1 < st.steps {
-                for (gi, v) in g[s * nv3..(s + 1) * nv3].iter_mut().zip(&b.gb) {
-                    *gi += v;
-                }
-            }
-            for e in 0..2 {
-                let t = 2 * s + e;
-                g[np + t * n_aux..np + (t + 1) * n_aux].copy_from_slice(&b.aux_g[e]);
-            }
-        }
-        (blocks, energy, g)
+        self.st.assemble(pe, x, ends)
     }
-
     /// Values of the upper triangle of `J^T J` in the layout's order.
     pub fn values(&self, blocks: &[SegmentBlocks]) -> Vec<f64> {
         let mut vals = Vec::with_capacity(self.nnz());
@@ -425,6 +400,40 @@ impl HessianLayout {
     }
 }
 
+impl Structure {
+    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
+    pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
+        let st = self;
+        let blocks: Vec<SegmentBlocks> = (0..st.steps)
+            .into_par_iter()
+            .map(|s| st.segment_blocks(pe, x, ends, s))
+            .collect();
+        let nv3 = 3 * st.nv;
+        let np = nv3 * (st.steps - 1);
+        let n_aux = st.n_aux;
+        let mut g = vec![0.0; pe.n_vars()];
+        let mut energy = 0.0;
+        for (s, b) in blocks.iter().enumerate() {
+            energy += b.energy;
+            if s >= 1 {
+                for (gi, v) in g[(s - 1) * nv3..s * nv3].iter_mut().zip(&b.ga) {
+                    *gi += v;
+                }
+            }
+            if s + 1 < st.steps {
+                for (gi, v) in g[s * nv3..(s + 1) * nv3].iter_mut().zip(&b.gb) {
+                    *gi += v;
+                }
+            }
+            for e in 0..2 {
+                let t = 2 * s + e;
+                g[np + t * n_aux..np + (t + 1) * n_aux].copy_from_slice(&b.aux_g[e]);
+            }
+        }
+        (blocks, energy, g)
+    }
+}
+
 #[derive(Clone, Copy)]
 enum Source {
     Off { seg: usize, slot: usize, k: usize },
@@ -444,12 +453,12 @@ fn outer_add(b: &mut [f64; 9], u: [f64; 3], v: [f64; 3]) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::metric::{Isometric, Metric, Regularized, Rigid};
 
     /// Dense `J^T J` and `J^T r` from the per-term Jacobians, for comparison.
-    fn dense(pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<Vec<f64>>, Vec<f64>) {
+    pub(in crate::path) fn dense(pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<Vec<f64>>, Vec<f64>) {
         let n = pe.n_vars();
         let nv3 = 3 * pe.n_vertices();
         let n_aux = pe.metric.n_aux();

@@ -1,12 +1,15 @@
 //! L-BFGS preconditioned by the path's Kronecker structure (the default solver).
 //!
 //! Near a path with similar metric matrices at every pose, the Gauss-Newton matrix of the path
-//! energy (eq. 12) in the pose unknowns is close to `4 (T (x) A)`: `T = tridiag(-1, 2, -1)` of
-//! size `N - 1` (the discrete second derivative along the path) and `A = J_X^T J_X`, the
-//! metric's quadratic form at one pose (3 #V x 3 #V, sparse with the mesh's vertex pattern).
+//! energy (eq. 12) in the pose unknowns is close to `4 (T_c (x) A)`: `T_c` the weighted
+//! second difference along the path (`N - 1` x `N - 1`, diagonal `c_{j-1} + c_j`, off-diagonal
+//! `-c_j`, with `c_s` the trace of segment `s`'s metric matrix relative to the mean: the metric
+//! may grow or shrink along the path) and `A = J_X^T J_X`, the metric's quadratic form averaged
+//! over the segments (3 #V x 3 #V, sparse with the mesh's vertex pattern).
 //! Its inverse `T^{-1} (x) A^{-1}` costs one sparse Cholesky of size 3 #V, built with a symbolic
 //! factorization made once per topology, and `N - 1` triangular solve pairs per application.
-//! L-BFGS with this initial inverse Hessian learns the rest (the pose-to-pose variation of
+//! The model is refitted at the current path every [`GeodesicOptions::preconditioner_refresh`]
+//! iterations. L-BFGS with this initial inverse Hessian learns the rest (the pose-to-pose variation of
 //! the metric and the large-residual curvature terms that Gauss-Newton leaves out). Auxiliary
 //! unknowns (rigid motions) are eliminated: they are set to their optimum at every evaluation,
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
@@ -81,9 +84,59 @@ impl SpatialLayout {
             symbolic,
         })
     }
+
+    /// Cholesky factor values of the 3 #V x 3 #V matrix whose 3 x 3 block at vertex pair slot
+    /// `k` (row `u`, column `v`, row-major; slots of [`VertexPairs::new`] on the metric's
+    /// pattern) is `blocks[k]`; the diagonal is floored at `1e-8`
+    /// times its largest entry (the matrix is only semi-definite for metrics with null spaces
+    /// and `lambda = 0`).
+    pub fn factorize(&self, blocks: &[[f64; 9]]) -> Result<Vec<f64>, GeodesicError> {
+        let mut vals: Vec<f64> = self.src.iter().map(|&(slot, k)| blocks[slot][k]).collect();
+        let dmax = self.diag_idx.iter().map(|&i| vals[i]).fold(0.0f64, f64::max);
+        let ridge = 1e-8 * dmax.max(f64::MIN_POSITIVE);
+        for &i in &self.diag_idx {
+            vals[i] += ridge;
+        }
+        let n = 3 * self.nv;
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let mut l_values = vec![0.0; self.symbolic.len_val()];
+        let par = Par::Seq;
+        let mut mem = MemBuffer::new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        );
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut l_values,
+                SparseColMatRef::new(sym, &vals),
+                Side::Upper,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| GeodesicError::LinearAlgebra(format!("spatial preconditioner: {e:?}")))?;
+        Ok(l_values)
+    }
+
+    /// `q <- A^{-1} q` for every column of `q` (column-major, 3 #V rows), `A` factorized by
+    /// [`Self::factorize`] into `l_values`.
+    pub fn solve(&self, l_values: &[f64], q: &mut [f64]) {
+        let n = 3 * self.nv;
+        let m = q.len() / n;
+        let par = Par::Seq;
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(m, par));
+        let llt = faer::sparse::linalg::cholesky::LltRef::new(&self.symbolic, l_values);
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(q, n, m),
+            par,
+            MemStack::new(&mut mem),
+        );
+    }
 }
 
-/// The factorized preconditioner `(4 T (x) A)^{-1}` for one solve.
+/// The factorized preconditioner `(4 T_c (x) A)^{-1}`.
 struct Preconditioner<'l> {
     layout: &'l SpatialLayout,
     l_values: Vec<f64>,
@@ -103,6 +156,8 @@ impl<'l> Preconditioner<'l> {
         let mut blocks = vec![[0.0f64; 9]; layout.pairs.n_slots()];
         let mut te = pe.new_term_eval();
         let pat = &pe.pattern;
+        // Per-segment trace of the blocks: the weights c_s of T_c.
+        let mut c = vec![0.0f64; pe.steps];
         for s in 0..pe.steps {
             pe.eval_term(x, ends, s, At::Start, &mut te, true);
             for i in 0..pat.n_residuals() {
@@ -111,12 +166,13 @@ impl<'l> Preconditioner<'l> {
                 let ps = layout.pairs.slots(i);
                 for k in 0..l {
                     let dk = te.jac.db[range.start + k];
+                    c[s] += dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
                     for ll in 0..l {
                         let dl = te.jac.db[range.start + ll];
                         let b = &mut blocks[ps[k * l + ll] as usize];
                         for r in 0..3 {
-                            for c in 0..3 {
-                                b[r * 3 + c] += dk[r] * dl[c];
+                            for cc in 0..3 {
+                                b[r * 3 + cc] += dk[r] * dl[cc];
                             }
                         }
                     }
@@ -124,47 +180,17 @@ impl<'l> Preconditioner<'l> {
             }
         }
         let scale = 1.0 / pe.steps as f64;
-        let mut vals: Vec<f64> = layout
-            .src
+        blocks.iter_mut().flatten().for_each(|v| *v *= scale);
+        let l_values = layout.factorize(&blocks)?;
+        let mean = c.iter().sum::<f64>() * scale;
+        let c: Vec<f64> = c
             .iter()
-            .map(|&(slot, k)| blocks[slot][k] * scale)
+            .map(|v| (v / mean.max(f64::MIN_POSITIVE)).max(1e-6))
             .collect();
-        // A is only semi-definite for metrics with null spaces and lambda = 0: floor its diagonal.
-        let dmax = layout.diag_idx.iter().map(|&i| vals[i]).fold(0.0f64, f64::max);
-        let ridge = 1e-8 * dmax.max(f64::MIN_POSITIVE);
-        for &i in &layout.diag_idx {
-            vals[i] += ridge;
-        }
-        let n = 3 * layout.nv;
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &layout.col_ptr, None, &layout.row_idx);
-        let mut l_values = vec![0.0; layout.symbolic.len_val()];
-        let par = Par::Seq;
-        let mut mem = MemBuffer::new(
-            layout
-                .symbolic
-                .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        );
-        layout
-            .symbolic
-            .factorize_numeric_llt(
-                &mut l_values,
-                SparseColMatRef::new(sym, &vals),
-                Side::Upper,
-                LltRegularization::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| GeodesicError::LinearAlgebra(format!("spatial preconditioner: {e:?}")))?;
-        // T^{-1} for T = tridiag(-1, 2, -1) of size m: (T^{-1})_{ij} = min(i,j) (m+1-max(i,j)) / (m+1), 1-based.
         let m = pe.steps - 1;
-        let mut tinv = vec![0.0; m * m];
-        for i in 0..m {
-            for j in 0..m {
-                let (a, b) = ((i.min(j) + 1) as f64, (i.max(j) + 1) as f64);
-                tinv[i * m + j] = a * (m as f64 + 1.0 - b) / (m as f64 + 1.0);
-            }
-        }
+        let d: Vec<f64> = (0..m).map(|i| c[i] + c[i + 1]).collect();
+        let e: Vec<f64> = (0..m.saturating_sub(1)).map(|i| -c[i + 1]).collect();
+        let tinv = tridiagonal_inverse(&d, &e);
         Ok(Preconditioner {
             layout,
             l_values,
@@ -173,19 +199,11 @@ impl<'l> Preconditioner<'l> {
         })
     }
 
-    /// `q <- (4 T (x) A)^{-1} q` on the pose part (length 3 #V (N - 1)).
+    /// `q <- (4 T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1)).
     fn apply(&self, q: &mut [f64]) {
         let n = 3 * self.layout.nv;
         let m = self.m;
-        let par = Par::Seq;
-        let mut mem = MemBuffer::new(self.layout.symbolic.solve_in_place_scratch::<f64>(m, par));
-        let llt = faer::sparse::linalg::cholesky::LltRef::new(&self.layout.symbolic, &self.l_values);
-        llt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(q, n, m),
-            par,
-            MemStack::new(&mut mem),
-        );
+        self.layout.solve(&self.l_values, q);
         let y = q.to_vec();
         for i in 0..m {
             let out = &mut q[i * n..(i + 1) * n];
@@ -198,6 +216,35 @@ impl<'l> Preconditioner<'l> {
             }
         }
     }
+}
+
+/// Inverse of the symmetric tridiagonal `T` with diagonal `d` and off-diagonal `e` (m x m,
+/// row-major), column by column (Thomas algorithm).
+pub(crate) fn tridiagonal_inverse(d: &[f64], e: &[f64]) -> Vec<f64> {
+    let m = d.len();
+    let mut inv = vec![0.0; m * m];
+    for c in 0..m {
+        let mut cp = vec![0.0; m];
+        let mut rhs: Vec<f64> = (0..m).map(|i| if i == c { 1.0 } else { 0.0 }).collect();
+        let mut piv = d[0];
+        for i in 0..m {
+            if i > 0 {
+                piv = d[i] - e[i - 1] * cp[i - 1];
+                rhs[i] -= e[i - 1] * rhs[i - 1];
+            }
+            if i + 1 < m {
+                cp[i] = e[i] / piv;
+            }
+            rhs[i] /= piv;
+        }
+        for i in (0..m.saturating_sub(1)).rev() {
+            rhs[i] -= cp[i] * rhs[i + 1];
+        }
+        for i in 0..m {
+            inv[i * m + c] = rhs[i];
+        }
+    }
+    inv
 }
 
 /// Energy and pose gradient with the auxiliary unknowns at their optimum (variable projection).
@@ -227,7 +274,8 @@ pub(crate) fn minimize(
     let mut x = x0[..np].to_vec();
     let (mut e, mut g) = eval(pe, ends, &x, &mut full, &mut gfull);
     let g0 = dot(&g, &g).sqrt();
-    let pre = Preconditioner::new(layout, pe, &full, ends)?;
+    let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
+    let refresh = opts.preconditioner_refresh;
     let mem = opts.lbfgs_memory.max(1);
     let mut hist: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> = std::collections::VecDeque::new();
     let mut iterations = 0;
@@ -252,6 +300,13 @@ pub(crate) fn minimize(
             break;
         }
         iterations += 1;
+        // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
+        // valid secant information).
+        if refresh > 0 && iterations % refresh == 0 {
+            full[..np].copy_from_slice(&x);
+            pe.reset_aux(&mut full, ends);
+            pre = Preconditioner::new(layout, pe, &full, ends)?;
+        }
         // Two-loop recursion with H0 = preconditioner.
         let mut q = g.clone();
         let mut alphas = Vec::with_capacity(hist.len());

@@ -1,0 +1,539 @@
+//! Truncated (inexact) Gauss-Newton: the Gauss-Newton step of the path energy solved by
+//! preconditioned conjugate gradients instead of a factorization of the full system.
+//!
+//! Every outer iteration assembles the 3 x 3 vertex blocks of `J^T J` (block-tridiagonal in the
+//! poses, [`Structure::assemble`]) and solves `J^T J p = -J^T r` approximately by conjugate
+//! gradients, with products taken directly on the blocks. The preconditioner is the Kronecker
+//! model of the same matrix refitted at every outer iteration: `T_c (x) A`, where `A` is the
+//! mean of the diagonal pose blocks (one sparse Cholesky of size 3 #V, symbolic factorization
+//! made once per topology) and `T_c = tridiag(-c_{j}, c_{j-1} + c_j, -c_j)` carries one weight
+//! per segment (the trace of its blocks relative to `A`'s), so that a metric that grows or
+//! shrinks along the path is still modelled. Applying it costs `N - 1` triangular solve pairs.
+//! The inner solve stops at a relative residual `eta_k = min(0.1, sqrt(|g_k| / |g_0|))`
+//! (Eisenstat-Walker), and a backtracking line search on the true energy globalizes the step.
+//! Auxiliary unknowns (rigid motions) are eliminated: they are reset to their optimum after
+//! every step, and the conjugate gradients run on the Schur complement of their blocks.
+//!
+//! Compared with the direct factorization of the full block-tridiagonal system, whose fill
+//! grows with the path length times the spatial factor, memory and time per iteration stay
+//! linear in `N` times one spatial factorization.
+
+// Index loops mirror the formulas (pose, vertex, coordinate indices) in these kernels.
+#![allow(clippy::needless_range_loop)]
+
+use rayon::prelude::*;
+
+use super::energy::{Ends, PathEnergy};
+use super::hessian::{SegmentBlocks, Structure};
+use super::plbfgs::{tridiagonal_inverse, SpatialLayout};
+use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+
+/// Structure of the blocks and the spatial symbolic factorization, built once per
+/// (topology, metric, N).
+pub(crate) struct TruncatedLayout {
+    st: Structure,
+    spatial: SpatialLayout,
+}
+
+impl TruncatedLayout {
+    pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
+        let st = Structure::new(pe);
+        let spatial = SpatialLayout::new(pe)?;
+        Ok(TruncatedLayout { st, spatial })
+    }
+}
+
+/// Conjugate-gradient iterations allowed per Gauss-Newton step.
+const MAX_CG: usize = 250;
+
+/// The Gauss-Newton matrix at one iterate, reduced to the pose unknowns, and its preconditioner.
+struct Model<'a> {
+    st: &'a Structure,
+    spatial: &'a SpatialLayout,
+    blocks: Vec<SegmentBlocks>,
+    /// Per term `t = 2 s + e`: the inverse of its aux-aux block (n_aux x n_aux).
+    aux_inv: Vec<Vec<f64>>,
+    /// Cholesky values of `A`.
+    l_values: Vec<f64>,
+    /// `T_c^{-1}` (m x m, row-major).
+    tinv: Vec<f64>,
+}
+
+fn add_mul(y: &mut [f64], b: &[f64; 9], x: &[f64]) {
+    for r in 0..3 {
+        y[r] += b[3 * r] * x[0] + b[3 * r + 1] * x[1] + b[3 * r + 2] * x[2];
+    }
+}
+
+fn add_mul_t(y: &mut [f64], b: &[f64; 9], x: &[f64]) {
+    for c in 0..3 {
+        y[c] += b[c] * x[0] + b[3 + c] * x[1] + b[6 + c] * x[2];
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Inverse of a small symmetric positive semi-definite matrix (n x n, row-major) by Cholesky,
+/// with a ridge of `1e-12` times its largest diagonal entry.
+fn spd_inverse(a: &[f64], n: usize) -> Vec<f64> {
+    let dmax = (0..n).map(|i| a[i * n + i]).fold(0.0f64, f64::max);
+    let ridge = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+    let mut l = vec![0.0; n * n];
+    for j in 0..n {
+        let mut d = a[j * n + j] + ridge - (0..j).map(|k| l[j * n + k] * l[j * n + k]).sum::<f64>();
+        if d <= ridge {
+            d = ridge;
+        }
+        let d = d.sqrt();
+        l[j * n + j] = d;
+        for i in j + 1..n {
+            let s = a[i * n + j] - (0..j).map(|k| l[i * n + k] * l[j * n + k]).sum::<f64>();
+            l[i * n + j] = s / d;
+        }
+    }
+    // Columns of the inverse: solve L L^T x = e_c.
+    let mut inv = vec![0.0; n * n];
+    for c in 0..n {
+        let mut y = vec![0.0; n];
+        for i in 0..n {
+            let s = if i == c { 1.0 } else { 0.0 } - (0..i).map(|k| l[i * n + k] * y[k]).sum::<f64>();
+            y[i] = s / l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let s = y[i] - (i + 1..n).map(|k| l[k * n + i] * y[k]).sum::<f64>();
+            y[i] = s / l[i * n + i];
+        }
+        for i in 0..n {
+            inv[i * n + c] = y[i];
+        }
+    }
+    inv
+}
+
+impl<'a> Model<'a> {
+    fn new(layout: &'a TruncatedLayout, blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
+        let st = &layout.st;
+        let (steps, n_aux) = (st.steps, st.n_aux);
+        let m = steps - 1;
+        let n_slots = st.pairs.n_slots();
+        // A: mean of the diagonal pose blocks, halved (T has 2 on its diagonal).
+        let mut a = vec![[0.0f64; 9]; n_slots];
+        for s in 0..steps {
+            for part in [&blocks[s].aa, &blocks[s].bb] {
+                for (ai, bi) in a.iter_mut().zip(part.iter()) {
+                    for k in 0..9 {
+                        ai[k] += bi[k];
+                    }
+                }
+            }
+        }
+        let scale = 0.5 / m as f64;
+        a.iter_mut().flatten().for_each(|v| *v *= scale);
+        let diag_slots: Vec<usize> = (0..st.nv)
+            .map(|v| {
+                let r = &st.pairs.rows[st.pairs.off[v]..st.pairs.off[v + 1]];
+                st.pairs.off[v] + r.binary_search(&v).expect("diagonal pair")
+            })
+            .collect();
+        let trace = |blk: &[[f64; 9]]| -> f64 {
+            diag_slots
+                .iter()
+                .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
+                .sum()
+        };
+        let tr_a = trace(&a).max(f64::MIN_POSITIVE);
+        // Segment weights c_s: trace of the segment's pose blocks relative to A's.
+        let c: Vec<f64> = (0..steps)
+            .map(|s| {
+                let b = &blocks[s];
+                let parts = [&b.aa, &b.bb].iter().filter(|p| !p.is_empty()).count().max(1);
+                let t = if b.aa.is_empty() { 0.0 } else { trace(&b.aa) }
+                    + if b.bb.is_empty() { 0.0 } else { trace(&b.bb) };
+                (t / (parts as f64 * tr_a)).max(1e-6)
+            })
+            .collect();
+        let d: Vec<f64> = (0..m).map(|i| c[i] + c[i + 1]).collect();
+        let e: Vec<f64> = (0..m.saturating_sub(1)).map(|i| -c[i + 1]).collect();
+        let tinv = tridiagonal_inverse(&d, &e);
+        let l_values = layout.spatial.factorize(&a)?;
+        let aux_inv = if n_aux == 0 {
+            Vec::new()
+        } else {
+            (0..2 * steps)
+                .map(|t| spd_inverse(&blocks[t / 2].aux_aux[t % 2], n_aux))
+                .collect()
+        };
+        Ok(Model {
+            st,
+            spatial: &layout.spatial,
+            blocks,
+            aux_inv,
+            l_values,
+            tinv,
+        })
+    }
+
+    fn nv3(&self) -> usize {
+        3 * self.st.nv
+    }
+
+    /// `w_t = H_aa,t^{-1} (H_ap,t x + h_t)` for every term (`h`: per-term offsets or zero).
+    fn aux_solve(&self, x: &[f64], h: Option<&[f64]>) -> Vec<Vec<f64>> {
+        let (steps, n_aux, nv3) = (self.st.steps, self.st.n_aux, self.nv3());
+        (0..2 * steps)
+            .map(|t| {
+                let (s, e) = (t / 2, t % 2);
+                let b = &self.blocks[s];
+                let mut rhs = match h {
+                    Some(h) => h[t * n_aux..(t + 1) * n_aux].to_vec(),
+                    None => vec![0.0; n_aux],
+                };
+                for (pose, coup) in [(s, &b.aux_a[e]), (s + 1, &b.aux_b[e])] {
+                    if pose == 0 || pose == steps {
+                        continue;
+                    }
+                    let xp = &x[(pose - 1) * nv3..pose * nv3];
+                    for q in 0..nv3 {
+                        for k in 0..n_aux {
+                            rhs[k] += coup[q * n_aux + k] * xp[q];
+                        }
+                    }
+                }
+                let inv = &self.aux_inv[t];
+                (0..n_aux)
+                    .map(|i| (0..n_aux).map(|k| inv[i * n_aux + k] * rhs[k]).sum())
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// `y -= H_pa w` for per-term aux vectors `w`.
+    fn aux_back(&self, w: &[Vec<f64>], y: &mut [f64]) {
+        let (steps, n_aux, nv3) = (self.st.steps, self.st.n_aux, self.nv3());
+        for (t, wt) in w.iter().enumerate() {
+            let (s, e) = (t / 2, t % 2);
+            let b = &self.blocks[s];
+            for (pose, coup) in [(s, &b.aux_a[e]), (s + 1, &b.aux_b[e])] {
+                if pose == 0 || pose == steps {
+                    continue;
+                }
+                let yp = &mut y[(pose - 1) * nv3..pose * nv3];
+                for q in 0..nv3 {
+                    yp[q] -= (0..n_aux).map(|k| coup[q * n_aux + k] * wt[k]).sum::<f64>();
+                }
+            }
+        }
+    }
+
+    /// `y = S x`, `S = H_pp - H_pa H_aa^{-1} H_ap` (just `H_pp` without auxiliary unknowns).
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        let (steps, nv3) = (self.st.steps, self.nv3());
+        let pairs = &self.st.pairs;
+        y.par_chunks_mut(nv3).enumerate().for_each(|(i, yj)| {
+            let j = i + 1;
+            yj.fill(0.0);
+            let xj = &x[i * nv3..(i + 1) * nv3];
+            let (dl, dr) = (&self.blocks[j - 1].bb, &self.blocks[j].aa);
+            let next = (j + 1 < steps).then(|| (&self.blocks[j].ab, &x[(i + 1) * nv3..(i + 2) * nv3]));
+            let prev = (j >= 2).then(|| (&self.blocks[j - 1].ab, &x[(i - 1) * nv3..i * nv3]));
+            for v in 0..self.st.nv {
+                for idx in pairs.off[v]..pairs.off[v + 1] {
+                    let u = pairs.rows[idx];
+                    let yu = &mut yj[3 * u..3 * u + 3];
+                    add_mul(yu, &dl[idx], &xj[3 * v..3 * v + 3]);
+                    add_mul(yu, &dr[idx], &xj[3 * v..3 * v + 3]);
+                    if let Some((ab, xn)) = next {
+                        add_mul(yu, &ab[idx], &xn[3 * v..3 * v + 3]);
+                    }
+                }
+                if let Some((ab, xp)) = prev {
+                    let yv = &mut yj[3 * v..3 * v + 3];
+                    for idx in pairs.off[v]..pairs.off[v + 1] {
+                        let u = pairs.rows[idx];
+                        add_mul_t(yv, &ab[idx], &xp[3 * u..3 * u + 3]);
+                    }
+                }
+            }
+        });
+        if self.st.n_aux > 0 {
+            let w = self.aux_solve(x, None);
+            self.aux_back(&w, y);
+        }
+    }
+
+    /// Reduced half gradient `g_p - H_pa H_aa^{-1} g_a` from the full `J^T r`.
+    fn reduced_gradient(&self, g: &[f64]) -> Vec<f64> {
+        let np = self.nv3() * (self.st.steps - 1);
+        let mut gp = g[..np].to_vec();
+        if self.st.n_aux > 0 {
+            // H_aa^{-1} (H_ap 0 + g_a).
+            let zero = vec![0.0; np];
+            let w = self.aux_solve(&zero, Some(&g[np..]));
+            self.aux_back(&w, &mut gp);
+        }
+        gp
+    }
+
+    /// `q <- (T_c (x) A)^{-1} q`.
+    fn precondition(&self, q: &mut [f64]) {
+        let nv3 = self.nv3();
+        let m = self.st.steps - 1;
+        self.spatial.solve(&self.l_values, q);
+        let y = q.to_vec();
+        for i in 0..m {
+            let out = &mut q[i * nv3..(i + 1) * nv3];
+            out.fill(0.0);
+            for j in 0..m {
+                let t = self.tinv[i * m + j];
+                for (o, v) in out.iter_mut().zip(&y[j * nv3..(j + 1) * nv3]) {
+                    *o += t * v;
+                }
+            }
+        }
+    }
+
+    /// Preconditioned conjugate gradients on `S p = -g` to relative residual `eta`.
+    /// Returns the step and the number of iterations.
+    fn step(&self, g: &[f64], eta: f64) -> (Vec<f64>, usize) {
+        let n = g.len();
+        let mut p = vec![0.0; n];
+        let mut res: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut z = res.clone();
+        self.precondition(&mut z);
+        let mut d = z.clone();
+        let mut rz = dot(&res, &z);
+        let mut hd = vec![0.0; n];
+        let target = eta * norm(g);
+        let mut it = 0;
+        while it < MAX_CG {
+            it += 1;
+            self.apply(&d, &mut hd);
+            let dhd = dot(&d, &hd);
+            if dhd.is_nan() || dhd <= 0.0 || !rz.is_finite() {
+                if it == 1 {
+                    // No curvature information: the preconditioned gradient direction.
+                    p.copy_from_slice(&d);
+                }
+                break;
+            }
+            let alpha = rz / dhd;
+            for k in 0..n {
+                p[k] += alpha * d[k];
+                res[k] -= alpha * hd[k];
+            }
+            if norm(&res) <= target {
+                break;
+            }
+            z.copy_from_slice(&res);
+            self.precondition(&mut z);
+            let rz_new = dot(&res, &z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for k in 0..n {
+                d[k] = z[k] + beta * d[k];
+            }
+        }
+        (p, it)
+    }
+}
+
+/// Minimizes the path energy from `x` (see the module docs).
+pub(crate) fn minimize(
+    pe: &PathEnergy,
+    layout: &TruncatedLayout,
+    ends: &Ends,
+    mut x: Vec<f64>,
+    opts: &GeodesicOptions,
+) -> Result<SolveOutput, GeodesicError> {
+    let np = pe.n_pose_vars();
+    pe.reset_aux(&mut x, ends);
+    if np == 0 {
+        return Ok(SolveOutput {
+            x,
+            iterations: 0,
+            stop: StopReason::GradientTolerance,
+        });
+    }
+    let (blocks, mut energy, g_full) = layout.st.assemble(pe, &x, ends);
+    let mut model = Model::new(layout, blocks)?;
+    let mut g = model.reduced_gradient(&g_full);
+    // The energy gradient is 2 J^T r.
+    let g0 = 2.0 * norm(&g);
+    let mut iterations = 0;
+    let mut stop = StopReason::MaxIterations;
+    if g0 == 0.0 || super::at_roundoff(g0, energy) {
+        return Ok(SolveOutput {
+            x,
+            iterations,
+            stop: StopReason::GradientTolerance,
+        });
+    }
+    while iterations < opts.max_iterations {
+        if let Some(t) = opts.target_energy {
+            if energy <= t {
+                stop = StopReason::TargetEnergy;
+                break;
+            }
+        }
+        let gn = 2.0 * norm(&g);
+        if gn <= opts.gradient_tolerance * g0 {
+            stop = StopReason::GradientTolerance;
+            break;
+        }
+        iterations += 1;
+        let eta = (gn / g0).sqrt().min(0.1);
+        let (p, _) = model.step(&g, eta);
+        // Backtracking line search on the true energy (Armijo), full step first.
+        let slope = 2.0 * dot(&g, &p);
+        let mut t = 1.0;
+        let accepted = loop {
+            if slope.is_nan() || slope >= 0.0 {
+                break None;
+            }
+            let mut xn = x.clone();
+            for (a, b) in xn[..np].iter_mut().zip(&p) {
+                *a += t * b;
+            }
+            pe.reset_aux(&mut xn, ends);
+            let en = pe.energy(&xn, ends);
+            if en.is_finite() && en <= energy + 1e-4 * t * slope {
+                break Some((xn, en));
+            }
+            t *= 0.5;
+            if t < 1e-10 {
+                break None;
+            }
+        };
+        let Some((xn, en)) = accepted else {
+            stop = StopReason::NoProgress;
+            break;
+        };
+        let decrease = energy - en;
+        x = xn;
+        let (blocks, e, g_full) = layout.st.assemble(pe, &x, ends);
+        energy = e;
+        model = Model::new(layout, blocks)?;
+        g = model.reduced_gradient(&g_full);
+        if decrease <= opts.energy_tolerance * energy.abs() {
+            stop = StopReason::EnergyTolerance;
+            break;
+        }
+    }
+    if stop == StopReason::MaxIterations && 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
+        stop = StopReason::GradientTolerance;
+    }
+    if !energy.is_finite() {
+        return Err(GeodesicError::NonFinite(format!("energy {energy}")));
+    }
+    Ok(SolveOutput { x, iterations, stop })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::{Isometric, Metric, Regularized, Rigid};
+
+    /// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
+    fn dense_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+        let n = b.len();
+        for k in 0..n {
+            let p = (k..n)
+                .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+                .unwrap();
+            a.swap(k, p);
+            b.swap(k, p);
+            for i in k + 1..n {
+                let f = a[i][k] / a[k][k];
+                for j in k..n {
+                    a[i][j] -= f * a[k][j];
+                }
+                b[i] -= f * b[k];
+            }
+        }
+        for k in (0..n).rev() {
+            b[k] = (b[k] - (k + 1..n).map(|j| a[k][j] * b[j]).sum::<f64>()) / a[k][k];
+        }
+        b
+    }
+
+    #[test]
+    fn block_products_match_the_dense_reduced_system() {
+        let a = crate::synth::icosphere(0);
+        let b: Vec<[f64; 3]> = a
+            .positions
+            .iter()
+            .map(|p| [p[0] * 1.3, p[1] + 0.2 * p[2], p[2]])
+            .collect();
+        let metrics: Vec<Box<dyn Metric>> = vec![
+            Box::new(Regularized::new(Box::new(Isometric), 0.3)),
+            Box::new(Regularized::new(Box::new(Rigid), 0.3)),
+        ];
+        for m in &metrics {
+            let pe = PathEnergy::new(m.as_ref(), a.topology.clone(), 4);
+            let frozen = m.frozen_weights(&a.topology, &a.positions, &b);
+            let ends = Ends {
+                start: a.positions.clone(),
+                end: b.clone(),
+                frozen,
+            };
+            let mut x = pe.linear_start(&ends);
+            for (i, v) in x.iter_mut().enumerate() {
+                *v += 0.05 * ((i * 7919 % 17) as f64 - 8.0) / 8.0;
+            }
+            let layout = TruncatedLayout::new(&pe).unwrap();
+            let (blocks, _, g) = layout.st.assemble(&pe, &x, &ends);
+            let model = Model::new(&layout, blocks).unwrap();
+            let (h, gd) = crate::path::hessian::tests::dense(&pe, &x, &ends);
+            let (n, np) = (pe.n_vars(), pe.n_pose_vars());
+            // Dense reduced operator: S v = H_pp v - H_pa H_aa^{-1} H_ap v.
+            let v: Vec<f64> = (0..np).map(|i| ((i * 31 % 11) as f64 - 5.0) / 5.0).collect();
+            let mut want: Vec<f64> = (0..np).map(|i| (0..np).map(|j| h[i][j] * v[j]).sum()).collect();
+            let mut want_g = gd[..np].to_vec();
+            if n > np {
+                let haa: Vec<Vec<f64>> = (np..n).map(|i| h[i][np..n].to_vec()).collect();
+                let hap_v: Vec<f64> = (np..n).map(|i| (0..np).map(|j| h[i][j] * v[j]).sum()).collect();
+                let w = dense_solve(haa.clone(), hap_v);
+                let wg = dense_solve(haa, gd[np..].to_vec());
+                for i in 0..np {
+                    want[i] -= (np..n).map(|k| h[i][k] * w[k - np]).sum::<f64>();
+                    want_g[i] -= (np..n).map(|k| h[i][k] * wg[k - np]).sum::<f64>();
+                }
+            }
+            let mut got = vec![0.0; np];
+            model.apply(&v, &mut got);
+            let got_g = model.reduced_gradient(&g);
+            let scale = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            for i in 0..np {
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-8 * (1.0 + scale),
+                    "{}: (S v)[{i}] {} vs {}",
+                    m.name(),
+                    got[i],
+                    want[i]
+                );
+                assert!(
+                    (got_g[i] - want_g[i]).abs() < 1e-8 * (1.0 + scale),
+                    "{}: g[{i}] {} vs {}",
+                    m.name(),
+                    got_g[i],
+                    want_g[i]
+                );
+            }
+            // The preconditioner is symmetric positive definite: v . M^{-1} v > 0 and
+            // u . M^{-1} v = v . M^{-1} u.
+            let u: Vec<f64> = (0..np).map(|i| ((i * 17 % 7) as f64 - 3.0) / 3.0).collect();
+            let (mut mu, mut mv) = (u.clone(), v.clone());
+            model.precondition(&mut mu);
+            model.precondition(&mut mv);
+            assert!(dot(&v, &mv) > 0.0);
+            let (a1, a2) = (dot(&u, &mv), dot(&v, &mu));
+            assert!((a1 - a2).abs() < 1e-8 * (a1.abs() + a2.abs()), "{a1} vs {a2}");
+        }
+    }
+}
