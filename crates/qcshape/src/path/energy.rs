@@ -171,29 +171,44 @@ impl<'m> PathEnergy<'m> {
             .map_init(
                 || self.new_term_eval(),
                 |te, s| {
-                    let mut ga = vec![0.0; nv3];
-                    let mut gb = vec![0.0; nv3];
+                    // Per-vertex accumulators: one bounds check per entry.
+                    let nv = nv3 / 3;
+                    let mut ga = vec![[0.0f64; 3]; nv];
+                    let mut gb = vec![[0.0f64; 3]; nv];
                     let mut gaux = vec![0.0; 2 * n_aux];
                     let mut e = 0.0;
+                    let offsets = &self.pattern.offsets;
+                    let vertices = &self.pattern.vertices;
                     for (k, at) in [At::Start, At::End].into_iter().enumerate() {
                         e += self.eval_term(x, ends, s, at, te, true);
-                        for i in 0..self.pattern.n_residuals() {
-                            let ri = 2.0 * te.r[i];
+                        let (da, db) = (&te.jac.da, &te.jac.db);
+                        for (i, (w, &r)) in offsets.windows(2).zip(&te.r).enumerate() {
+                            let ri = 2.0 * r;
                             if ri == 0.0 {
                                 continue;
                             }
-                            for e_ in self.pattern.row(i) {
-                                let v = self.pattern.vertices[e_] as usize;
+                            let range = w[0] as usize..w[1] as usize;
+                            for ((&v, a), b) in vertices[range.clone()]
+                                .iter()
+                                .zip(&da[range.clone()])
+                                .zip(&db[range])
+                            {
+                                let (pa, pb) = (&mut ga[v as usize], &mut gb[v as usize]);
                                 for c in 0..3 {
-                                    ga[3 * v + c] += ri * te.jac.da[e_][c];
-                                    gb[3 * v + c] += ri * te.jac.db[e_][c];
+                                    pa[c] += ri * a[c];
+                                    pb[c] += ri * b[c];
                                 }
                             }
-                            for m in 0..n_aux {
-                                gaux[k * n_aux + m] += ri * te.jac.daux[i * n_aux + m];
+                            if n_aux > 0 {
+                                let daux = &te.jac.daux[i * n_aux..(i + 1) * n_aux];
+                                for (g, d) in gaux[k * n_aux..(k + 1) * n_aux].iter_mut().zip(daux) {
+                                    *g += ri * d;
+                                }
                             }
                         }
                     }
+                    let ga: Vec<f64> = ga.into_iter().flatten().collect();
+                    let gb: Vec<f64> = gb.into_iter().flatten().collect();
                     (e, ga, gb, gaux)
                 },
             )
