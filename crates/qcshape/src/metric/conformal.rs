@@ -80,7 +80,12 @@ fn corner_gradient(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> ([[f64; 3]; 3], [[f64;
 /// `k` the triangle is read as `(f[k], f[k+1], f[k+2])`, the cyclic permutation of eq. 7).
 #[inline]
 pub(crate) fn face_values(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|k| corner_value(rot(g, k), rot(x, k)))
+    // Written out: `array::map` compiles to a slower loop in this hot path.
+    [
+        corner_value(g, x),
+        corner_value(rot(g, 1), rot(x, 1)),
+        corner_value(rot(g, 2), rot(x, 2)),
+    ]
 }
 
 /// Per corner `k` and face slot `m`, a 3-vector: `[k][m]`.
@@ -95,17 +100,24 @@ pub(crate) fn face_gradients(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> (FaceGradien
     for k in 0..3 {
         let (cg, cx) = corner_gradient(rot(g, k), rot(x, k));
         for j in 0..3 {
-            dg[k][(k + j) % 3] = cg[j];
-            dx[k][(k + j) % 3] = cx[j];
+            dg[k][NEXT[k][j]] = cg[j];
+            dx[k][NEXT[k][j]] = cx[j];
         }
     }
     (dg, dx)
 }
 
-/// `[v[k], v[k+1], v[k+2]]` (indices mod 3).
+/// `NEXT[k][j] = (k + j) mod 3` (a table: the hot loops avoid integer division).
+const NEXT: [[usize; 3]; 3] = [[0, 1, 2], [1, 2, 0], [2, 0, 1]];
+
+/// `[v[k], v[k+1], v[k+2]]` (indices mod 3), for `k < 3`.
 #[inline]
 fn rot(v: [[f64; 3]; 3], k: usize) -> [[f64; 3]; 3] {
-    [v[k % 3], v[(k + 1) % 3], v[(k + 2) % 3]]
+    match k {
+        0 => v,
+        1 => [v[1], v[2], v[0]],
+        _ => [v[2], v[0], v[1]],
+    }
 }
 
 /// Pattern with every residual on its face's three vertices (face order), `per_face` rows per
@@ -131,10 +143,11 @@ pub(crate) fn eval_constant_weights(
 ) {
     let (g, x) = geometry_and_displacement(seg);
     for (fi, f) in topo.faces().iter().enumerate() {
-        let gf = f.map(|i| g[i as usize]);
-        let xf = f.map(|i| x[i as usize]);
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let gf = [g[i0], g[i1], g[i2]];
+        let xf = [x[i0], x[i1], x[i2]];
         let w = match weights {
-            Some(w) => f.map(|i| w[i as usize]),
+            Some(w) => [w[i0], w[i1], w[i2]],
             None => [1.0; 3],
         };
         let t = face_values(gf, xf);
