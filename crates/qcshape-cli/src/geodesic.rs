@@ -24,9 +24,13 @@ pub struct Args {
     /// Second mesh, same connectivity as A.
     #[arg(required_unless_present = "demo")]
     b: Option<PathBuf>,
-    /// Use built-in data: an icosphere (642 vertices) and a twisted, stretched copy.
+    /// Use built-in data: an icosphere (642 vertices) and a copy twisted by 1.2 rad per unit
+    /// height and stretched 1.5x along z (the benchmark pair).
     #[arg(long)]
     demo: bool,
+    /// Subdivision level of the demo icosphere: 2 = 162, 3 = 642, 4 = 2,562 vertices.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=6))]
+    demo_level: u32,
     #[command(flatten)]
     metric: MetricArgs,
     #[command(flatten)]
@@ -39,8 +43,8 @@ pub struct Args {
     json: bool,
 }
 
-fn demo_pair() -> (Shape, Shape) {
-    let a = qcshape::synth::icosphere(3);
+fn demo_pair(level: u32) -> (Shape, Shape) {
+    let a = qcshape::synth::icosphere(level);
     let pos = a
         .positions
         .iter()
@@ -65,7 +69,7 @@ fn load(p: &Path) -> Result<Shape> {
 pub fn run(args: &Args) -> Result<()> {
     let (a, b) = match (&args.a, &args.b) {
         (Some(pa), Some(pb)) => (load(pa)?, load(pb)?),
-        _ if args.demo => demo_pair(),
+        _ if args.demo => demo_pair(args.demo_level),
         _ => bail!("give two meshes A and B, or --demo"),
     };
     if let Err(e) = a.check_same_topology(&b) {
