@@ -1,7 +1,7 @@
 //! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
-//! path with `N` segments, started from the linear interpolation. Two solvers:
+//! path with `N` segments, started from the linear interpolation. Four solvers:
 //! - [`Solver::GaussNewton`]: truncated Gauss-Newton on the stacked residuals; the normal
 //!   equations `J^T J p = -J^T r` (block-tridiagonal in the poses) are solved by conjugate
 //!   gradients on the assembled 3 x 3 vertex blocks, preconditioned by a Kronecker model
@@ -11,6 +11,8 @@
 //! - [`Solver::GaussNewtonDirect`]: Levenberg-Marquardt with a sparse Cholesky factorization
 //!   of the full block-tridiagonal normal equations `J^T J + mu D` (exact steps; the factor
 //!   grows with `N` times the spatial fill, practical up to a few hundred vertices);
+//! - [`Solver::Preconditioned`] (default): L-BFGS whose initial inverse Hessian is the same
+//!   Kronecker model, refitted periodically;
 //! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
 //!   line search) on the exact gradient.
 //!
@@ -24,6 +26,7 @@ mod energy;
 mod gauss_newton;
 mod hessian;
 mod interpolate;
+mod kronecker;
 mod lbfgs;
 mod pairs;
 mod plbfgs;
@@ -47,8 +50,10 @@ use crate::metric::Metric;
 /// Which optimizer minimizes the path energy.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Solver {
-    /// L-BFGS preconditioned by the path's Kronecker structure `4 (T (x) A)` (one sparse
-    /// Cholesky of size 3 #V per solve). The default: the fastest in the benchmark.
+    /// L-BFGS preconditioned by the Kronecker model `2 T_c (x) A` of the Gauss-Newton Hessian
+    /// (one sparse Cholesky of size 3 #V per refit, every
+    /// [`GeodesicOptions::preconditioner_refresh`] iterations), scaled by the newest curvature
+    /// pair. The default: the fastest in the benchmark.
     #[default]
     Preconditioned,
     /// Truncated Gauss-Newton: the Gauss-Newton step by preconditioned conjugate gradients
@@ -99,8 +104,9 @@ pub struct GeodesicOptions {
     /// Number of correction pairs kept by L-BFGS. Default 10.
     pub lbfgs_memory: usize,
     /// The preconditioned solver refits its Kronecker model `T_c (x) A` at the current path
-    /// every this many iterations (0: only at the start). Default 30 (2,562-vertex benchmark:
-    /// isometric 2.3x faster than without refits, conformal 1.4x slower; README "Benchmark").
+    /// every this many iterations (0: only at the start). Default 30 (2,562-vertex benchmark,
+    /// time to the converged energy: isometric 1.7x and conformal 1.9x faster than without
+    /// refits, and faster than refitting every 10; README "Benchmark").
     pub preconditioner_refresh: usize,
 }
 
@@ -206,8 +212,8 @@ pub struct GeodesicSolver<'m> {
     energy: PathEnergy<'m>,
     options: GeodesicOptions,
     layout: Option<hessian::HessianLayout>,
-    spatial: Option<plbfgs::SpatialLayout>,
-    truncated: Option<truncated::TruncatedLayout>,
+    /// The spatial structure of the Kronecker model (preconditioned and truncated solvers).
+    spatial: Option<kronecker::SpatialLayout>,
 }
 
 impl<'m> GeodesicSolver<'m> {
@@ -232,17 +238,11 @@ impl<'m> GeodesicSolver<'m> {
         } else {
             None
         };
-        let spatial = if options.solver == Solver::Preconditioned && energy.n_vars() > 0 {
+        let spatial = if matches!(options.solver, Solver::Preconditioned | Solver::GaussNewton)
+            && energy.n_vars() > 0
+        {
             Some(
-                plbfgs::SpatialLayout::new(&energy)
-                    .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
-            )
-        } else {
-            None
-        };
-        let truncated = if options.solver == Solver::GaussNewton && energy.n_vars() > 0 {
-            Some(
-                truncated::TruncatedLayout::new(&energy)
+                kronecker::SpatialLayout::new(&energy)
                     .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
             )
         } else {
@@ -253,7 +253,6 @@ impl<'m> GeodesicSolver<'m> {
             options,
             layout,
             spatial,
-            truncated,
         })
     }
 
@@ -345,7 +344,7 @@ impl<'m> GeodesicSolver<'m> {
         } else {
             match self.options.solver {
                 Solver::GaussNewton => {
-                    let layout = self.truncated.as_ref().expect("layout is built for Gauss-Newton");
+                    let layout = self.spatial.as_ref().expect("layout is built for Gauss-Newton");
                     truncated::minimize(pe, layout, ends, x0, &self.options)?
                 }
                 Solver::GaussNewtonDirect => {

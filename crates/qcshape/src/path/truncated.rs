@@ -25,23 +25,8 @@ use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{SegmentBlocks, Structure};
-use super::plbfgs::{tridiagonal_inverse, SpatialLayout};
+use super::kronecker::{KroneckerModel, SpatialLayout};
 use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
-
-/// Structure of the blocks and the spatial symbolic factorization, built once per
-/// (topology, metric, N).
-pub(crate) struct TruncatedLayout {
-    st: Structure,
-    spatial: SpatialLayout,
-}
-
-impl TruncatedLayout {
-    pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
-        let st = Structure::new(pe);
-        let spatial = SpatialLayout::new(pe)?;
-        Ok(TruncatedLayout { st, spatial })
-    }
-}
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
 const MAX_CG: usize = 250;
@@ -53,10 +38,8 @@ struct Model<'a> {
     blocks: Vec<SegmentBlocks>,
     /// Per term `t = 2 s + e`: the inverse of its aux-aux block (n_aux x n_aux).
     aux_inv: Vec<Vec<f64>>,
-    /// Cholesky values of `A`.
-    l_values: Vec<f64>,
-    /// `T_c^{-1}` (m x m, row-major).
-    tinv: Vec<f64>,
+    /// The preconditioner.
+    kron: KroneckerModel,
 }
 
 fn add_mul(y: &mut [f64], b: &[f64; 9], x: &[f64]) {
@@ -117,51 +100,10 @@ fn spd_inverse(a: &[f64], n: usize) -> Vec<f64> {
 }
 
 impl<'a> Model<'a> {
-    fn new(layout: &'a TruncatedLayout, blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
-        let st = &layout.st;
+    fn new(layout: &'a SpatialLayout, blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
+        let st = layout.structure();
         let (steps, n_aux) = (st.steps, st.n_aux);
-        let m = steps - 1;
-        let n_slots = st.pairs.n_slots();
-        // A: mean of the diagonal pose blocks, halved (T has 2 on its diagonal).
-        let mut a = vec![[0.0f64; 9]; n_slots];
-        for s in 0..steps {
-            for part in [&blocks[s].aa, &blocks[s].bb] {
-                for (ai, bi) in a.iter_mut().zip(part.iter()) {
-                    for k in 0..9 {
-                        ai[k] += bi[k];
-                    }
-                }
-            }
-        }
-        let scale = 0.5 / m as f64;
-        a.iter_mut().flatten().for_each(|v| *v *= scale);
-        let diag_slots: Vec<usize> = (0..st.nv)
-            .map(|v| {
-                let r = &st.pairs.rows[st.pairs.off[v]..st.pairs.off[v + 1]];
-                st.pairs.off[v] + r.binary_search(&v).expect("diagonal pair")
-            })
-            .collect();
-        let trace = |blk: &[[f64; 9]]| -> f64 {
-            diag_slots
-                .iter()
-                .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
-                .sum()
-        };
-        let tr_a = trace(&a).max(f64::MIN_POSITIVE);
-        // Segment weights c_s: trace of the segment's pose blocks relative to A's.
-        let c: Vec<f64> = (0..steps)
-            .map(|s| {
-                let b = &blocks[s];
-                let parts = [&b.aa, &b.bb].iter().filter(|p| !p.is_empty()).count().max(1);
-                let t = if b.aa.is_empty() { 0.0 } else { trace(&b.aa) }
-                    + if b.bb.is_empty() { 0.0 } else { trace(&b.bb) };
-                (t / (parts as f64 * tr_a)).max(1e-6)
-            })
-            .collect();
-        let d: Vec<f64> = (0..m).map(|i| c[i] + c[i + 1]).collect();
-        let e: Vec<f64> = (0..m.saturating_sub(1)).map(|i| -c[i + 1]).collect();
-        let tinv = tridiagonal_inverse(&d, &e);
-        let l_values = layout.spatial.factorize(&a)?;
+        let kron = KroneckerModel::fit(layout, &blocks)?;
         let aux_inv = if n_aux == 0 {
             Vec::new()
         } else {
@@ -171,11 +113,10 @@ impl<'a> Model<'a> {
         };
         Ok(Model {
             st,
-            spatial: &layout.spatial,
+            spatial: layout,
             blocks,
             aux_inv,
-            l_values,
-            tinv,
+            kron,
         })
     }
 
@@ -282,20 +223,7 @@ impl<'a> Model<'a> {
 
     /// `q <- (T_c (x) A)^{-1} q`.
     fn precondition(&self, q: &mut [f64]) {
-        let nv3 = self.nv3();
-        let m = self.st.steps - 1;
-        self.spatial.solve(&self.l_values, q);
-        let y = q.to_vec();
-        for i in 0..m {
-            let out = &mut q[i * nv3..(i + 1) * nv3];
-            out.fill(0.0);
-            for j in 0..m {
-                let t = self.tinv[i * m + j];
-                for (o, v) in out.iter_mut().zip(&y[j * nv3..(j + 1) * nv3]) {
-                    *o += t * v;
-                }
-            }
-        }
+        self.kron.apply(self.spatial, q, 1.0);
     }
 
     /// Preconditioned conjugate gradients on `S p = -g` to relative residual `eta`.
@@ -346,7 +274,7 @@ impl<'a> Model<'a> {
 /// Minimizes the path energy from `x` (see the module docs).
 pub(crate) fn minimize(
     pe: &PathEnergy,
-    layout: &TruncatedLayout,
+    layout: &SpatialLayout,
     ends: &Ends,
     mut x: Vec<f64>,
     opts: &GeodesicOptions,
@@ -360,7 +288,7 @@ pub(crate) fn minimize(
             stop: StopReason::GradientTolerance,
         });
     }
-    let (blocks, mut energy, g_full) = layout.st.assemble(pe, &x, ends);
+    let (blocks, mut energy, g_full) = layout.structure().assemble(pe, &x, ends);
     let mut model = Model::new(layout, blocks)?;
     let mut g = model.reduced_gradient(&g_full);
     // The energy gradient is 2 J^T r.
@@ -416,7 +344,7 @@ pub(crate) fn minimize(
         };
         let decrease = energy - en;
         x = xn;
-        let (blocks, e, g_full) = layout.st.assemble(pe, &x, ends);
+        let (blocks, e, g_full) = layout.structure().assemble(pe, &x, ends);
         energy = e;
         model = Model::new(layout, blocks)?;
         g = model.reduced_gradient(&g_full);
@@ -486,8 +414,8 @@ mod tests {
             for (i, v) in x.iter_mut().enumerate() {
                 *v += 0.05 * ((i * 7919 % 17) as f64 - 8.0) / 8.0;
             }
-            let layout = TruncatedLayout::new(&pe).unwrap();
-            let (blocks, _, g) = layout.st.assemble(&pe, &x, &ends);
+            let layout = SpatialLayout::new(&pe).unwrap();
+            let (blocks, _, g) = layout.structure().assemble(&pe, &x, &ends);
             let model = Model::new(&layout, blocks).unwrap();
             let (h, gd) = crate::path::hessian::tests::dense(&pe, &x, &ends);
             let (n, np) = (pe.n_vars(), pe.n_pose_vars());
