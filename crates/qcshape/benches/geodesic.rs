@@ -13,7 +13,8 @@ use std::time::Instant;
 
 use qcshape::mesh::Shape;
 use qcshape::metric::{
-    Conformal, ConformalForm, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid, L2,
+    Conformal, ConformalForm, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid,
+    L2,
 };
 use qcshape::path::{geodesic, GeodesicOptions, Normalization, Solver};
 use qcshape::synth::icosphere;
@@ -37,6 +38,7 @@ fn metric(name: &str, lambda: f64) -> Box<dyn Metric> {
         "l2" => Box::new(qcshape::metric::FrozenL2),
         "l2-pose" => Box::new(L2),
         "rigid" => reg(Box::new(Rigid)),
+        "rigid-frozen" => reg(Box::new(FrozenRigid)),
         "isometric" => reg(Box::new(Isometric)),
         "conformal-paper" => reg(Box::new(Conformal {
             form: ConformalForm::Paper,
@@ -68,6 +70,7 @@ const ALL: &[&str] = &[
     "l2",
     "l2-pose",
     "rigid",
+    "rigid-frozen",
     "isometric",
     "conformal-paper",
     "conformal-quadratic",
