@@ -6,7 +6,7 @@
 //! Levenberg-Marquardt with a factorization of the full system (minutes at 642 vertices).
 //!
 //! `cargo bench -p qcshape --bench geodesic [-- --levels 3,4 --metrics all --lbfgs-cap 3000
-//! --gn-cap 100 --skip-gn --gn-direct --lambda 0.1 --refresh 30]`
+//! --gn-cap 100 --skip-gn --gn-direct --lambda 0.1 --refresh 30 --memory 10]`
 //! Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;
@@ -106,6 +106,8 @@ fn main() {
         rayon::current_num_threads()
     );
     let gn_cap: usize = get("--gn-cap").map_or(100, |s| s.parse().unwrap());
+    let memory: usize =
+        get("--memory").map_or(GeodesicOptions::default().lbfgs_memory, |s| s.parse().unwrap());
     let refresh: usize = get("--refresh").map_or(GeodesicOptions::default().preconditioner_refresh, |s| {
         s.parse().unwrap()
     });
@@ -129,6 +131,7 @@ fn main() {
                 steps: 8,
                 solver: Solver::Preconditioned,
                 preconditioner_refresh: refresh,
+                lbfgs_memory: memory,
                 ..Default::default()
             });
             let target = pc.energy * (1.0 + 1e-6);
@@ -142,7 +145,7 @@ fn main() {
                     gradient_tolerance: 0.0,
                     energy_tolerance: 0.0,
                     preconditioner_refresh: refresh,
-                    ..Default::default()
+                    lbfgs_memory: memory,
                 });
                 let reached = g.energy <= target;
                 (t, g.iterations, reached)

@@ -1,7 +1,10 @@
 //! The conformal metric (eqs. 7-9) and the per-triangle kernel `T_p, T_q, T_r` it shares with
 //! the quasi-conformal metric (eq. 10).
 
-use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use super::{
+    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
+    Scratch, Segment,
+};
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
 
@@ -130,6 +133,14 @@ pub(crate) fn face_pattern(topo: &Topology, per_face: usize) -> Pattern {
     )
 }
 
+/// Where [`face_kernel`] puts each face's residuals and derivatives.
+pub(crate) enum FaceOut<'r, 'j, 's, 'g> {
+    /// Residuals in [`face_pattern`] order, and the Jacobian if given.
+    Residuals(&'r mut [f64], Option<JacobianMut<'j>>),
+    /// `weight * 2 J^T r` accumulated per vertex (the Jacobian is never stored).
+    Gradient(&'s mut GradientSink<'g>),
+}
+
 /// Residuals and Jacobian of the (quasi-)conformal metric with weights that do not depend on
 /// the segment: `w_v = weights[v]` (all 1 when `None`, the conformal metric). Rows are those of
 /// [`face_pattern`] (entry `row * 3 + m` is face slot `m`).
@@ -139,9 +150,23 @@ pub(crate) fn eval_constant_weights(
     seg: &Segment,
     weights: Option<&[f64]>,
     r: &mut [f64],
-    mut jac: Option<JacobianMut>,
+    jac: Option<JacobianMut>,
 ) {
+    face_kernel(topo, form, seg, weights, FaceOut::Residuals(r, jac));
+}
+
+/// The per-face kernel of [`eval_constant_weights`], writing residuals (and Jacobian) or
+/// accumulating the gradient. Returns `|r|^2` (times the sink's weight for a gradient).
+pub(crate) fn face_kernel(
+    topo: &Topology,
+    form: ConformalForm,
+    seg: &Segment,
+    weights: Option<&[f64]>,
+    mut out: FaceOut,
+) -> f64 {
     let (g, x) = geometry_and_displacement(seg);
+    let n_rows = form.residuals_per_face();
+    let mut value = 0.0;
     for (fi, f) in topo.faces().iter().enumerate() {
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
         let gf = [g[i0], g[i1], g[i2]];
@@ -152,42 +177,61 @@ pub(crate) fn eval_constant_weights(
         };
         let t = face_values(gf, xf);
         let wt = [w[0] * t[0], w[1] * t[1], w[2] * t[2]];
-        // Coefficient of dT_k in each row of this face.
+        // Residuals of this face, and the coefficient of dT_k in each.
+        let mut rows = [0.0; 3];
         let mut coef = [[0.0; 3]; 3];
         match form {
             ConformalForm::Quadratic => {
                 for k in 0..3 {
-                    r[3 * fi + k] = wt[k];
+                    rows[k] = wt[k];
                     coef[k][k] = w[k];
                 }
             }
             ConformalForm::Paper => {
-                r[fi] = wt[0].abs() + wt[1].abs() + wt[2].abs();
+                rows[0] = wt[0].abs() + wt[1].abs() + wt[2].abs();
                 for k in 0..3 {
                     coef[0][k] = sign0(wt[k]) * w[k];
                 }
             }
         }
-        if let Some(j) = jac.as_mut() {
-            let (dg, dx) = face_gradients(gf, xf);
-            let n_rows = form.residuals_per_face();
-            for (i, c) in coef.iter().enumerate().take(n_rows) {
-                let row = n_rows * fi + i;
-                for m in 0..3 {
-                    let mut sg = [0.0; 3];
-                    let mut sx = [0.0; 3];
-                    for k in 0..3 {
-                        if c[k] != 0.0 {
-                            sg = add(sg, scale(dg[k][m], c[k]));
-                            sx = add(sx, scale(dx[k][m], c[k]));
-                        }
+        value += rows[..n_rows].iter().map(|v| v * v).sum::<f64>();
+        let need_jac = match &mut out {
+            FaceOut::Residuals(r, jac) => {
+                r[n_rows * fi..n_rows * (fi + 1)].copy_from_slice(&rows[..n_rows]);
+                jac.is_some()
+            }
+            FaceOut::Gradient(_) => true,
+        };
+        if !need_jac {
+            continue;
+        }
+        let (dg, dx) = face_gradients(gf, xf);
+        for (i, c) in coef.iter().enumerate().take(n_rows) {
+            let row = n_rows * fi + i;
+            for m in 0..3 {
+                let mut sg = [0.0; 3];
+                let mut sx = [0.0; 3];
+                for k in 0..3 {
+                    if c[k] != 0.0 {
+                        sg = add(sg, scale(dg[k][m], c[k]));
+                        sx = add(sx, scale(dx[k][m], c[k]));
                     }
-                    let (da, db) = split_segment(seg.at, sg, sx);
-                    j.da[row * 3 + m] = da;
-                    j.db[row * 3 + m] = db;
+                }
+                let (da, db) = split_segment(seg.at, sg, sx);
+                match &mut out {
+                    FaceOut::Residuals(_, Some(j)) => {
+                        j.da[row * 3 + m] = da;
+                        j.db[row * 3 + m] = db;
+                    }
+                    FaceOut::Residuals(_, None) => {}
+                    FaceOut::Gradient(sink) => sink.add(f[m] as usize, rows[i], da, db),
                 }
             }
         }
+    }
+    match out {
+        FaceOut::Gradient(sink) => sink.weight * value,
+        FaceOut::Residuals(..) => value,
     }
 }
 
@@ -237,6 +281,17 @@ impl Metric for Conformal {
         jac: Option<JacobianMut>,
     ) {
         eval_constant_weights(topo, self.form, seg, None, r, jac);
+    }
+
+    fn gradient(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        _scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        face_kernel(topo, self.form, seg, None, FaceOut::Gradient(sink))
     }
 }
 

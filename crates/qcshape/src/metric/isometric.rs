@@ -1,4 +1,7 @@
-use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use super::{
+    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
+    Scratch, Segment,
+};
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
 
@@ -45,6 +48,29 @@ impl Metric for Isometric {
                 j.db[2 * ei + 1] = db;
             }
         }
+    }
+
+    fn gradient(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        _scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        let (g, x) = geometry_and_displacement(seg);
+        let mut value = 0.0;
+        for e in topo.edges() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let de = sub(g[p], g[q]);
+            let dx = sub(x[p], x[q]);
+            let r = dot(dx, de);
+            value += r * r;
+            let (da, db) = split_segment(seg.at, dx, de);
+            sink.add(p, r, da, db);
+            sink.add(q, -r, da, db);
+        }
+        sink.weight * value
     }
 }
 

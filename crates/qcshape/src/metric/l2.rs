@@ -1,7 +1,10 @@
 // Index loops mirror the formulas (vertex, coordinate, residual indices) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use super::{
+    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
+    Scratch, Segment,
+};
 use crate::mesh::geometry::{scale, sqrt_third_area_gradient};
 use crate::mesh::Topology;
 
@@ -159,6 +162,40 @@ impl Metric for FrozenL2 {
                 }
             }
         }
+    }
+    fn gradient(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        _scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        let own;
+        let w = match seg.frozen {
+            Some(w) if w.len() == topo.n_vertices() => w,
+            _ => {
+                own = Self::weights(topo, seg.a, seg.b);
+                &own
+            }
+        };
+        let mut value = 0.0;
+        for v in 0..topo.n_vertices() {
+            // r_c = s X_c, dr_c/db = s e_c: the gradient is 2 weight w X (and minus for a).
+            let wv = w[v].max(0.0);
+            let x = [
+                seg.b[v][0] - seg.a[v][0],
+                seg.b[v][1] - seg.a[v][1],
+                seg.b[v][2] - seg.a[v][2],
+            ];
+            value += wv * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+            let f = 2.0 * sink.weight * wv;
+            for c in 0..3 {
+                sink.ga[v][c] -= f * x[c];
+                sink.gb[v][c] += f * x[c];
+            }
+        }
+        sink.weight * value
     }
 }
 

@@ -13,6 +13,7 @@
 
 mod conformal;
 mod curvature;
+mod gradient;
 mod isometric;
 mod l2;
 mod quasi_conformal;
@@ -25,6 +26,7 @@ mod spec;
 pub(crate) mod fdcheck;
 
 pub use conformal::{Conformal, ConformalForm};
+pub use gradient::{gradient_from_jacobian, GradientSink, Scratch};
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcWeights, QuasiConformal};
@@ -225,6 +227,22 @@ pub trait Metric: Send + Sync + Debug {
         r: &mut [f64],
         jac: Option<JacobianMut>,
     );
+
+    /// `weight |r|^2` of the segment term, adding its gradient `weight * 2 J^T r` (with
+    /// respect to `a`, `b` and the auxiliary unknowns) into `sink` (eq. 12's gradient, one
+    /// term). The default goes through [`Metric::residuals`] and the stored Jacobian
+    /// ([`gradient_from_jacobian`]); metrics override it with a fused kernel that never stores
+    /// the Jacobian. `scratch` holds at least `pattern`'s residuals and entries.
+    fn gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        seg: &Segment,
+        scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        gradient_from_jacobian(self, topo, pattern, seg, scratch, sink)
+    }
 
     /// The squared norm `G_M(X) = |r|^2` of the segment (with the optimal auxiliary unknowns).
     fn squared_norm(&self, topo: &Topology, pattern: &Pattern, seg: &Segment) -> f64 {

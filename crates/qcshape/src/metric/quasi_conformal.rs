@@ -1,11 +1,13 @@
 //! The quasi-conformal metric (eq. 10): the conformal corner terms weighted by the change of
 //! angle-defect curvature, in the two readings of METHOD.md ("segment" and "endpoints").
 
-use super::conformal::{eval_constant_weights, face_gradients, face_pattern, face_values, sign0};
+use super::conformal::{
+    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_values, sign0, FaceOut,
+};
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
 use super::{
-    geometry_and_displacement, split_segment, ConformalForm, JacobianMut, Metric, Pattern, PatternRef,
-    Segment,
+    geometry_and_displacement, gradient_from_jacobian, split_segment, ConformalForm, GradientSink,
+    JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment,
 };
 use crate::mesh::geometry::{add, angle_defect, scale};
 use crate::mesh::Topology;
@@ -116,6 +118,23 @@ impl Metric for QuasiConformal {
                 }
             },
             QcWeights::Segment => eval_segment(topo, self.form, pattern, seg, r, jac),
+        }
+    }
+
+    fn gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        seg: &Segment,
+        scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        match (self.weights, seg.frozen) {
+            (QcWeights::Endpoints, Some(w)) if w.len() == topo.n_vertices() => {
+                face_kernel(topo, self.form, seg, Some(w), FaceOut::Gradient(sink))
+            }
+            // The fallback weights and the segment weights: through the Jacobian.
+            _ => gradient_from_jacobian(self, topo, pattern, seg, scratch, sink),
         }
     }
 }

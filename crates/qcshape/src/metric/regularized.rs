@@ -1,4 +1,4 @@
-use super::{FrozenL2, JacobianMut, Metric, Pattern, PatternRef, Segment, L2};
+use super::{FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment, L2};
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times
@@ -98,25 +98,11 @@ impl Metric for Regularized {
         jac: Option<JacobianMut>,
     ) {
         // The inner pattern is a prefix of the combined one (rows and entries).
-        let n_in = self.inner.n_residuals(topo);
-        let e_in = pattern.offsets[n_in] as usize;
-        let inner_pat = PatternRef {
-            offsets: &pattern.offsets[..=n_in],
-            vertices: &pattern.vertices[..e_in],
-        };
-        let l2_offsets: Vec<u32> = pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect();
+        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
+        let (n_in, e_in) = (inner_pat.n_residuals(), inner_pat.vertices.len());
         let l2_pat = PatternRef {
             offsets: &l2_offsets,
             vertices: &pattern.vertices[e_in..],
-        };
-        let (fr_in, fr_l2) = self.split_frozen(topo, seg.frozen);
-        let seg_in = Segment {
-            frozen: fr_in,
-            ..*seg
-        };
-        let seg_l2 = Segment {
-            frozen: fr_l2,
-            ..*seg
         };
         let (r_in, r_l2) = r.split_at_mut(n_in);
         let sl = self.lambda.max(0.0).sqrt();
@@ -153,9 +139,66 @@ impl Metric for Regularized {
             *v *= sl;
         }
     }
+
+    /// The inner metric's gradient plus `lambda` times the L2 part's (residuals scaled by
+    /// `sqrt(lambda)`), each by its own (fused where available) kernel.
+    fn gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        seg: &Segment,
+        scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
+        let l2_pat = PatternRef {
+            offsets: &l2_offsets,
+            vertices: &pattern.vertices[inner_pat.vertices.len()..],
+        };
+        let v_in = self.inner.gradient(topo, inner_pat, &seg_in, scratch, sink);
+        let weight = sink.weight;
+        sink.weight = weight * self.lambda.max(0.0);
+        // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
+        let mut no_aux = GradientSink {
+            ga: &mut *sink.ga,
+            gb: &mut *sink.gb,
+            gaux: &mut [],
+            weight: sink.weight,
+        };
+        let v_l2 = self.l2().gradient(topo, l2_pat, &seg_l2, scratch, &mut no_aux);
+        sink.weight = weight;
+        v_in + v_l2
+    }
 }
 
 impl Regularized {
+    /// The inner metric's rows of `pattern`, the L2 rows' offsets rebased to their first
+    /// entry, and the segment as seen by each part (with its own frozen weights).
+    fn split<'p, 'a>(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef<'p>,
+        seg: &Segment<'a>,
+    ) -> (PatternRef<'p>, Vec<u32>, Segment<'a>, Segment<'a>) {
+        let n_in = self.inner.n_residuals(topo);
+        let e_in = pattern.offsets[n_in] as usize;
+        let inner = PatternRef {
+            offsets: &pattern.offsets[..=n_in],
+            vertices: &pattern.vertices[..e_in],
+        };
+        let l2_offsets = pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect();
+        let (fr_in, fr_l2) = self.split_frozen(topo, seg.frozen);
+        let seg_in = Segment {
+            frozen: fr_in,
+            ..*seg
+        };
+        let seg_l2 = Segment {
+            frozen: fr_l2,
+            ..*seg
+        };
+        (inner, l2_offsets, seg_in, seg_l2)
+    }
+
     /// Splits a frozen-weight array into the inner metric's part and the L2 part (#V when the
     /// areas are frozen).
     fn split_frozen<'a>(

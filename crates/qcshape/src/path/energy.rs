@@ -8,7 +8,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use crate::mesh::Topology;
-use crate::metric::{At, Jacobian, Metric, Pattern, Segment};
+use crate::metric::{At, GradientSink, Jacobian, Metric, Pattern, Scratch, Segment};
 
 /// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
 type SegmentGradient = (f64, Vec<f64>, Vec<f64>, Vec<f64>);
@@ -169,43 +169,25 @@ impl<'m> PathEnergy<'m> {
         let parts: Vec<SegmentGradient> = (0..self.steps)
             .into_par_iter()
             .map_init(
-                || self.new_term_eval(),
-                |te, s| {
-                    // Per-vertex accumulators: one bounds check per entry.
+                || Scratch::new(&self.pattern, n_aux),
+                |scratch, s| {
+                    // Per-vertex accumulators, filled by the metric's (fused) gradient kernel.
                     let nv = nv3 / 3;
                     let mut ga = vec![[0.0f64; 3]; nv];
                     let mut gb = vec![[0.0f64; 3]; nv];
                     let mut gaux = vec![0.0; 2 * n_aux];
                     let mut e = 0.0;
-                    let offsets = &self.pattern.offsets;
-                    let vertices = &self.pattern.vertices;
                     for (k, at) in [At::Start, At::End].into_iter().enumerate() {
-                        e += self.eval_term(x, ends, s, at, te, true);
-                        let (da, db) = (&te.jac.da, &te.jac.db);
-                        for (i, (w, &r)) in offsets.windows(2).zip(&te.r).enumerate() {
-                            let ri = 2.0 * r;
-                            if ri == 0.0 {
-                                continue;
-                            }
-                            let range = w[0] as usize..w[1] as usize;
-                            for ((&v, a), b) in vertices[range.clone()]
-                                .iter()
-                                .zip(&da[range.clone()])
-                                .zip(&db[range])
-                            {
-                                let (pa, pb) = (&mut ga[v as usize], &mut gb[v as usize]);
-                                for c in 0..3 {
-                                    pa[c] += ri * a[c];
-                                    pb[c] += ri * b[c];
-                                }
-                            }
-                            if n_aux > 0 {
-                                let daux = &te.jac.daux[i * n_aux..(i + 1) * n_aux];
-                                for (g, d) in gaux[k * n_aux..(k + 1) * n_aux].iter_mut().zip(daux) {
-                                    *g += ri * d;
-                                }
-                            }
-                        }
+                        let seg = self.segment(x, ends, s, at);
+                        let mut sink = GradientSink {
+                            ga: &mut ga,
+                            gb: &mut gb,
+                            gaux: &mut gaux[k * n_aux..(k + 1) * n_aux],
+                            weight: 1.0,
+                        };
+                        e +=
+                            self.metric
+                                .gradient(&self.topo, self.pattern.as_ref(), &seg, scratch, &mut sink);
                     }
                     let ga: Vec<f64> = ga.into_iter().flatten().collect();
                     let gb: Vec<f64> = gb.into_iter().flatten().collect();

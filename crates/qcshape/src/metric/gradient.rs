@@ -1,0 +1,189 @@
+//! The gradient of one segment term, `weight * 2 J^T r`, accumulated without storing the
+//! Jacobian ([`Metric::gradient`]); the generic form goes through [`Metric::residuals`].
+
+use super::{Jacobian, JacobianMut, Metric, Pattern, PatternRef, Segment};
+use crate::mesh::Topology;
+
+/// Accumulators of `weight * 2 J^T r` for one segment term.
+pub struct GradientSink<'a> {
+    /// Derivative with respect to the first pose `a` (#V x 3).
+    pub ga: &'a mut [[f64; 3]],
+    /// Derivative with respect to the second pose `b` (#V x 3).
+    pub gb: &'a mut [[f64; 3]],
+    /// Derivative with respect to the term's auxiliary unknowns ([`Metric::n_aux`]).
+    pub gaux: &'a mut [f64],
+    /// Factor applied to the value and the gradient.
+    pub weight: f64,
+}
+
+impl GradientSink<'_> {
+    /// Adds `2 weight r (dr/da_v, dr/db_v)` for vertex `v`.
+    #[inline]
+    pub fn add(&mut self, v: usize, r: f64, da: [f64; 3], db: [f64; 3]) {
+        let s = 2.0 * self.weight * r;
+        let (pa, pb) = (&mut self.ga[v], &mut self.gb[v]);
+        for c in 0..3 {
+            pa[c] += s * da[c];
+            pb[c] += s * db[c];
+        }
+    }
+}
+
+/// Residual and Jacobian storage for a metric pattern, reused across evaluations.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    /// Residuals (#residuals).
+    pub r: Vec<f64>,
+    /// Jacobian in pattern order.
+    pub jac: Jacobian,
+}
+
+impl Scratch {
+    /// Storage for `pattern` with `n_aux` auxiliary unknowns per term.
+    pub fn new(pattern: &Pattern, n_aux: usize) -> Self {
+        Scratch {
+            r: vec![0.0; pattern.n_residuals()],
+            jac: Jacobian::zeros(pattern, n_aux),
+        }
+    }
+}
+
+/// [`Metric::gradient`] through the stored Jacobian: residuals and Jacobian into `scratch`
+/// (which must hold at least `pattern`'s residuals and entries), then `weight * 2 J^T r` into
+/// `sink`. Returns `weight |r|^2`.
+pub fn gradient_from_jacobian<M: Metric + ?Sized>(
+    metric: &M,
+    topo: &Topology,
+    pattern: PatternRef,
+    seg: &Segment,
+    scratch: &mut Scratch,
+    sink: &mut GradientSink,
+) -> f64 {
+    let n_res = pattern.n_residuals();
+    let n_ent = pattern.offsets.last().map_or(0, |&o| o as usize);
+    let n_aux = metric.n_aux();
+    let r = &mut scratch.r[..n_res];
+    let jac = JacobianMut {
+        da: &mut scratch.jac.da[..n_ent],
+        db: &mut scratch.jac.db[..n_ent],
+        daux: &mut scratch.jac.daux[..n_res * n_aux],
+    };
+    metric.residuals(topo, pattern, seg, r, Some(jac));
+    let (da, db, daux) = (&scratch.jac.da, &scratch.jac.db, &scratch.jac.daux);
+    let mut value = 0.0;
+    for (i, (w, &ri)) in pattern.offsets.windows(2).zip(r.iter()).enumerate() {
+        value += ri * ri;
+        if ri == 0.0 {
+            continue;
+        }
+        let range = w[0] as usize..w[1] as usize;
+        for ((&v, a), b) in pattern.vertices[range.clone()]
+            .iter()
+            .zip(&da[range.clone()])
+            .zip(&db[range])
+        {
+            sink.add(v as usize, ri, *a, *b);
+        }
+        let s = 2.0 * sink.weight * ri;
+        for (g, d) in sink.gaux.iter_mut().zip(&daux[i * n_aux..(i + 1) * n_aux]) {
+            *g += s * d;
+        }
+    }
+    sink.weight * value
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metric::{
+        At, Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, QcWeights, QuasiConformal,
+        Regularized, Rigid, L2,
+    };
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Every metric's [`Metric::gradient`] (fused where overridden) equals the generic form.
+    #[test]
+    fn fused_gradients_match_the_jacobian_form() {
+        let s = crate::synth::icosphere(1);
+        let topo = &s.topology;
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let b: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| p.map(|c| c * 1.2 + rng.random_range(-0.1..0.1)))
+            .collect();
+        let metrics: Vec<Box<dyn Metric>> = vec![
+            Box::new(Isometric),
+            Box::new(FrozenL2),
+            Box::new(L2),
+            Box::new(Conformal::new(ConformalForm::Quadratic)),
+            Box::new(Conformal::new(ConformalForm::Paper)),
+            Box::new(QuasiConformal {
+                form: ConformalForm::Quadratic,
+                weights: QcWeights::Endpoints,
+            }),
+            Box::new(Regularized::new(Box::new(Isometric), 0.3)),
+            Box::new(Regularized::new(
+                Box::new(Conformal::new(ConformalForm::Quadratic)),
+                0.3,
+            )),
+            Box::new(Regularized::with_pose_areas(Box::new(Isometric), 0.3)),
+            Box::new(Regularized::new(Box::new(Rigid), 0.3)),
+            Box::new(Regularized::new(Box::new(FrozenRigid), 0.3)),
+        ];
+        for m in &metrics {
+            let pat = m.pattern(topo);
+            let frozen = m.frozen_weights(topo, &s.positions, &b);
+            let aux: Vec<f64> = (0..m.n_aux()).map(|k| 0.01 * k as f64).collect();
+            for at in [At::Start, At::End] {
+                let seg = Segment {
+                    a: &s.positions,
+                    b: &b,
+                    at,
+                    aux: &aux,
+                    frozen: frozen.as_deref(),
+                };
+                let run = |fused: bool| {
+                    let nv = topo.n_vertices();
+                    let (mut ga, mut gb) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+                    let mut gaux = vec![0.0; m.n_aux()];
+                    let mut scratch = Scratch::new(&pat, m.n_aux());
+                    let mut sink = GradientSink {
+                        ga: &mut ga,
+                        gb: &mut gb,
+                        gaux: &mut gaux,
+                        weight: 0.7,
+                    };
+                    let v = if fused {
+                        m.gradient(topo, pat.as_ref(), &seg, &mut scratch, &mut sink)
+                    } else {
+                        gradient_from_jacobian(m.as_ref(), topo, pat.as_ref(), &seg, &mut scratch, &mut sink)
+                    };
+                    (v, ga, gb, gaux)
+                };
+                let (v0, ga0, gb0, gx0) = run(false);
+                let (v1, ga1, gb1, gx1) = run(true);
+                let tol = |x: f64| 1e-10 * (1.0 + x.abs());
+                assert!((v0 - v1).abs() < tol(v0), "{} {at:?}: {v0} vs {v1}", m.name());
+                let flat = |g: &[[f64; 3]]| g.iter().flatten().copied().collect::<Vec<f64>>();
+                let scale = flat(&ga0)
+                    .iter()
+                    .chain(&flat(&gb0))
+                    .fold(0.0f64, |a, b| a.max(b.abs()));
+                for (x, y) in flat(&ga0)
+                    .iter()
+                    .chain(&flat(&gb0))
+                    .chain(&gx0)
+                    .zip(flat(&ga1).iter().chain(&flat(&gb1)).chain(&gx1))
+                {
+                    assert!(
+                        (x - y).abs() < 1e-10 * (1.0 + scale),
+                        "{} {at:?}: {x} vs {y}",
+                        m.name()
+                    );
+                }
+            }
+        }
+    }
+}
