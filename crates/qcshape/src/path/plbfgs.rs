@@ -11,6 +11,8 @@
 //! unknowns (rigid motions) are eliminated: they are set to their optimum at every evaluation,
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
 
+use std::collections::VecDeque;
+
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, SpatialLayout};
 use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
@@ -54,6 +56,16 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// One L-BFGS correction pair with its preconditioned `y`.
+struct Pair {
+    s: Vec<f64>,
+    y: Vec<f64>,
+    /// `1 / s.y`.
+    rho: f64,
+    /// `M^{-1} y` for the current preconditioner `M`.
+    my: Vec<f64>,
+}
+
 /// Minimizes the path energy from `x0` (see the module docs).
 pub(crate) fn minimize(
     pe: &PathEnergy,
@@ -72,7 +84,17 @@ pub(crate) fn minimize(
     let refresh = opts.preconditioner_refresh;
     let mut gamma = 1.0f64;
     let mem = opts.lbfgs_memory.max(1);
-    let mut hist: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> = std::collections::VecDeque::new();
+    // M^{-1} g for the current gradient, and the history (s, y, 1 / s.y, M^{-1} y): by
+    // linearity the two-loop recursion's `H0 q` is `gamma (M^{-1} g - sum_i alpha_i M^{-1} y_i)`,
+    // so one preconditioner application per iteration suffices (`M^{-1} y` is the difference
+    // of two consecutive `M^{-1} g`).
+    let precondition = |pre: &Preconditioner, v: &[f64]| {
+        let mut z = v.to_vec();
+        pre.apply(&mut z);
+        z
+    };
+    let mut mg = precondition(&pre, &g);
+    let mut hist: VecDeque<Pair> = VecDeque::new();
     let mut iterations = 0;
     let max_iterations = opts.max_iterations * 10;
     let mut stop = StopReason::MaxIterations;
@@ -96,38 +118,45 @@ pub(crate) fn minimize(
         }
         iterations += 1;
         // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
-        // valid secant information).
+        // valid secant information; their `M^{-1} y` are recomputed).
         if refresh > 0 && iterations % refresh == 0 {
             full[..np].copy_from_slice(&x);
             pe.reset_aux(&mut full, ends);
             pre = Preconditioner::new(layout, pe, &full, ends)?;
+            mg = precondition(&pre, &g);
+            for pair in hist.iter_mut() {
+                pair.my = precondition(&pre, &pair.y);
+            }
         }
-        // Two-loop recursion with H0 = preconditioner.
+        // Two-loop recursion with H0 = gamma M^{-1}.
         let mut q = g.clone();
         let mut alphas = Vec::with_capacity(hist.len());
-        for (s, y, rho) in hist.iter().rev() {
-            let a = rho * dot(s, &q);
-            for (qi, yi) in q.iter_mut().zip(y) {
+        for pair in hist.iter().rev() {
+            let a = pair.rho * dot(&pair.s, &q);
+            for (qi, yi) in q.iter_mut().zip(&pair.y) {
                 *qi -= a * yi;
             }
             alphas.push(a);
         }
-        pre.apply(&mut q);
-        q.iter_mut().for_each(|v| *v *= gamma);
-        for ((s, y, rho), a) in hist.iter().zip(alphas.iter().rev()) {
-            let b = rho * dot(y, &q);
-            for (qi, si) in q.iter_mut().zip(s) {
-                *qi += (a - b) * si;
+        let mut r = mg.clone();
+        for (pair, a) in hist.iter().rev().zip(&alphas) {
+            for (ri, mi) in r.iter_mut().zip(&pair.my) {
+                *ri -= a * mi;
             }
         }
-        let mut d: Vec<f64> = q.iter().map(|v| -v).collect();
+        r.iter_mut().for_each(|v| *v *= gamma);
+        for (pair, a) in hist.iter().zip(alphas.iter().rev()) {
+            let b = pair.rho * dot(&pair.y, &r);
+            for (ri, si) in r.iter_mut().zip(&pair.s) {
+                *ri += (a - b) * si;
+            }
+        }
+        let mut d: Vec<f64> = r.iter().map(|v| -v).collect();
         let mut slope = dot(&g, &d);
         if slope >= 0.0 {
             // Not a descent direction (can happen with a stale history): restart.
             hist.clear();
-            d = g.clone();
-            pre.apply(&mut d);
-            d.iter_mut().for_each(|v| *v = -*v);
+            d = mg.iter().map(|v| -gamma * v).collect();
             slope = dot(&g, &d);
         }
         // Backtracking line search (Armijo), full step first.
@@ -147,6 +176,7 @@ pub(crate) fn minimize(
             stop = StopReason::NoProgress;
             break;
         };
+        let mg_new = precondition(&pre, &gn);
         let s: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
         let y: Vec<f64> = gn.iter().zip(&g).map(|(a, b)| a - b).collect();
         let sy = dot(&s, &y);
@@ -154,20 +184,25 @@ pub(crate) fn minimize(
             if hist.len() == mem {
                 hist.pop_front();
             }
-            // Scale H0 to the newest pair's curvature along y: gamma = s.y / y.H0 y (the
+            let my: Vec<f64> = mg_new.iter().zip(&mg).map(|(a, b)| a - b).collect();
+            // Scale H0 to the newest pair's curvature along y: gamma = s.y / y.M^{-1} y (the
             // preconditioned form of Nocedal & Wright's eq. 7.20).
-            let mut hy = y.clone();
-            pre.apply(&mut hy);
-            let yhy = dot(&y, &hy);
-            if yhy > 0.0 {
-                gamma = sy / yhy;
+            let ymy = dot(&y, &my);
+            if ymy > 0.0 {
+                gamma = sy / ymy;
             }
-            hist.push_back((s, y, 1.0 / sy));
+            hist.push_back(Pair {
+                s,
+                y,
+                rho: 1.0 / sy,
+                my,
+            });
         }
         let decrease = e - en;
         x = xn;
         e = en;
         g = gn;
+        mg = mg_new;
         if decrease <= opts.energy_tolerance * e.abs() {
             stop = StopReason::EnergyTolerance;
             break;
