@@ -396,6 +396,22 @@ impl<'m> GeodesicSolver<'m> {
 /// Whether a gradient norm is zero up to rounding for a path of energy `energy` (normalized
 /// units): then the start is already stationary (e.g. a straight path that is a geodesic by
 /// symmetry) and no solver can make progress, so it counts as converged.
+/// Dot product of two equally long vectors, summed in 8 interleaved lanes (vectorizes; the
+/// order is fixed, so results are deterministic).
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    debug_assert_eq!(a.len(), b.len());
+    let mut acc = [0.0f64; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[4]) + (acc[1] + acc[5]) + (acc[2] + acc[6]) + (acc[3] + acc[7]) + tail
+}
+
 pub(crate) fn at_roundoff(gradient_norm: f64, energy: f64) -> bool {
     gradient_norm <= 1e-10 * (1.0 + energy.abs())
 }

@@ -15,7 +15,7 @@ use std::collections::VecDeque;
 
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, SpatialLayout};
-use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{dot, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1}` (the energy's Gauss-Newton Hessian is
 /// `2 J^T J ~ 2 T_c (x) A`), fitted at one path.
@@ -50,10 +50,6 @@ fn eval(pe: &PathEnergy, ends: &Ends, xp: &[f64], full: &mut [f64], grad: &mut [
     pe.reset_aux(full, ends);
     let e = pe.energy_gradient(full, ends, grad);
     (e, grad[..np].to_vec())
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// One L-BFGS correction pair with its preconditioned `y`.

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{SegmentBlocks, Structure};
 use super::kronecker::{KroneckerModel, SpatialLayout};
-use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{dot, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
 const MAX_CG: usize = 250;
@@ -52,10 +52,6 @@ fn add_mul_t(y: &mut [f64], b: &[f64; 9], x: &[f64]) {
     for c in 0..3 {
         y[c] += b[c] * x[0] + b[3 + c] * x[1] + b[6 + c] * x[2];
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 fn norm(a: &[f64]) -> f64 {
