@@ -46,10 +46,26 @@ impl Scratch {
             jac: Jacobian::zeros(pattern, n_aux),
         }
     }
+
+    /// Grows the storage to at least `n_res` residuals, `n_ent` entries and `n_res x n_aux`
+    /// auxiliary derivatives (an empty [`Scratch::default`] is grown on first use, so metrics
+    /// with fused kernels never allocate it).
+    pub fn reserve(&mut self, n_res: usize, n_ent: usize, n_aux: usize) {
+        if self.r.len() < n_res {
+            self.r.resize(n_res, 0.0);
+        }
+        if self.jac.da.len() < n_ent {
+            self.jac.da.resize(n_ent, [0.0; 3]);
+            self.jac.db.resize(n_ent, [0.0; 3]);
+        }
+        if self.jac.daux.len() < n_res * n_aux {
+            self.jac.daux.resize(n_res * n_aux, 0.0);
+        }
+    }
 }
 
 /// [`Metric::gradient`] through the stored Jacobian: residuals and Jacobian into `scratch`
-/// (which must hold at least `pattern`'s residuals and entries), then `weight * 2 J^T r` into
+/// (grown to `pattern`'s residuals and entries on first use), then `weight * 2 J^T r` into
 /// `sink`. Returns `weight |r|^2`.
 pub fn gradient_from_jacobian<M: Metric + ?Sized>(
     metric: &M,
@@ -62,6 +78,7 @@ pub fn gradient_from_jacobian<M: Metric + ?Sized>(
     let n_res = pattern.n_residuals();
     let n_ent = pattern.offsets.last().map_or(0, |&o| o as usize);
     let n_aux = metric.n_aux();
+    scratch.reserve(n_res, n_ent, n_aux);
     let r = &mut scratch.r[..n_res];
     let jac = JacobianMut {
         da: &mut scratch.jac.da[..n_ent],

@@ -232,7 +232,7 @@ pub trait Metric: Send + Sync + Debug {
     /// respect to `a`, `b` and the auxiliary unknowns) into `sink` (eq. 12's gradient, one
     /// term). The default goes through [`Metric::residuals`] and the stored Jacobian
     /// ([`gradient_from_jacobian`]); metrics override it with a fused kernel that never stores
-    /// the Jacobian. `scratch` holds at least `pattern`'s residuals and entries.
+    /// the Jacobian. `scratch` is grown as needed ([`Scratch::reserve`]).
     fn gradient(
         &self,
         topo: &Topology,

@@ -168,32 +168,29 @@ impl<'m> PathEnergy<'m> {
         let n_aux = self.metric.n_aux();
         let parts: Vec<SegmentGradient> = (0..self.steps)
             .into_par_iter()
-            .map_init(
-                || Scratch::new(&self.pattern, n_aux),
-                |scratch, s| {
-                    // Per-vertex accumulators, filled by the metric's (fused) gradient kernel.
-                    let nv = nv3 / 3;
-                    let mut ga = vec![[0.0f64; 3]; nv];
-                    let mut gb = vec![[0.0f64; 3]; nv];
-                    let mut gaux = vec![0.0; 2 * n_aux];
-                    let mut e = 0.0;
-                    for (k, at) in [At::Start, At::End].into_iter().enumerate() {
-                        let seg = self.segment(x, ends, s, at);
-                        let mut sink = GradientSink {
-                            ga: &mut ga,
-                            gb: &mut gb,
-                            gaux: &mut gaux[k * n_aux..(k + 1) * n_aux],
-                            weight: 1.0,
-                        };
-                        e +=
-                            self.metric
-                                .gradient(&self.topo, self.pattern.as_ref(), &seg, scratch, &mut sink);
-                    }
-                    let ga: Vec<f64> = ga.into_iter().flatten().collect();
-                    let gb: Vec<f64> = gb.into_iter().flatten().collect();
-                    (e, ga, gb, gaux)
-                },
-            )
+            .map_init(Scratch::default, |scratch, s| {
+                // Per-vertex accumulators, filled by the metric's (fused) gradient kernel.
+                let nv = nv3 / 3;
+                let mut ga = vec![[0.0f64; 3]; nv];
+                let mut gb = vec![[0.0f64; 3]; nv];
+                let mut gaux = vec![0.0; 2 * n_aux];
+                let mut e = 0.0;
+                for (k, at) in [At::Start, At::End].into_iter().enumerate() {
+                    let seg = self.segment(x, ends, s, at);
+                    let mut sink = GradientSink {
+                        ga: &mut ga,
+                        gb: &mut gb,
+                        gaux: &mut gaux[k * n_aux..(k + 1) * n_aux],
+                        weight: 1.0,
+                    };
+                    e += self
+                        .metric
+                        .gradient(&self.topo, self.pattern.as_ref(), &seg, scratch, &mut sink);
+                }
+                let ga: Vec<f64> = ga.into_iter().flatten().collect();
+                let gb: Vec<f64> = gb.into_iter().flatten().collect();
+                (e, ga, gb, gaux)
+            })
             .collect();
         grad.fill(0.0);
         let np = self.n_pose_vars();

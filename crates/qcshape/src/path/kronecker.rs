@@ -202,15 +202,15 @@ impl KroneckerModel {
         let n = 3 * layout.nv;
         let m = layout.st.steps - 1;
         layout.solve(&self.l_values, q);
-        let y = q.to_vec();
-        for i in 0..m {
-            let out = &mut q[i * n..(i + 1) * n];
-            out.fill(0.0);
+        // Time mixing in place, one spatial unknown at a time (no copy of `q`).
+        let mut col = vec![0.0; m];
+        for k in 0..n {
             for j in 0..m {
-                let t = factor * self.tinv[i * m + j];
-                for (o, v) in out.iter_mut().zip(&y[j * n..(j + 1) * n]) {
-                    *o += t * v;
-                }
+                col[j] = q[j * n + k];
+            }
+            for i in 0..m {
+                let row = &self.tinv[i * m..(i + 1) * m];
+                q[i * n + k] = factor * row.iter().zip(&col).map(|(t, c)| t * c).sum::<f64>();
             }
         }
     }

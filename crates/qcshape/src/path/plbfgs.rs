@@ -43,13 +43,22 @@ impl<'l> Preconditioner<'l> {
     }
 }
 
-/// Energy and pose gradient with the auxiliary unknowns at their optimum (variable projection).
-fn eval(pe: &PathEnergy, ends: &Ends, xp: &[f64], full: &mut [f64], grad: &mut [f64]) -> (f64, Vec<f64>) {
+/// Energy and pose gradient (into `out`) with the auxiliary unknowns at their optimum
+/// (variable projection).
+fn eval(
+    pe: &PathEnergy,
+    ends: &Ends,
+    xp: &[f64],
+    full: &mut [f64],
+    grad: &mut [f64],
+    out: &mut [f64],
+) -> f64 {
     let np = pe.n_pose_vars();
     full[..np].copy_from_slice(xp);
     pe.reset_aux(full, ends);
     let e = pe.energy_gradient(full, ends, grad);
-    (e, grad[..np].to_vec())
+    out.copy_from_slice(&grad[..np]);
+    e
 }
 
 /// One L-BFGS correction pair with its preconditioned `y`.
@@ -74,7 +83,8 @@ pub(crate) fn minimize(
     let mut full = x0.clone();
     let mut gfull = vec![0.0; pe.n_vars()];
     let mut x = x0[..np].to_vec();
-    let (mut e, mut g) = eval(pe, ends, &x, &mut full, &mut gfull);
+    let mut g = vec![0.0; np];
+    let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g);
     let g0 = dot(&g, &g).sqrt();
     let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
     let refresh = opts.preconditioner_refresh;
@@ -84,12 +94,17 @@ pub(crate) fn minimize(
     // linearity the two-loop recursion's `H0 q` is `gamma (M^{-1} g - sum_i alpha_i M^{-1} y_i)`,
     // so one preconditioner application per iteration suffices (`M^{-1} y` is the difference
     // of two consecutive `M^{-1} g`).
-    let precondition = |pre: &Preconditioner, v: &[f64]| {
-        let mut z = v.to_vec();
-        pre.apply(&mut z);
-        z
+    let precondition = |pre: &Preconditioner, v: &[f64], z: &mut Vec<f64>| {
+        z.clear();
+        z.extend_from_slice(v);
+        pre.apply(z);
     };
-    let mut mg = precondition(&pre, &g);
+    let mut mg = Vec::with_capacity(np);
+    precondition(&pre, &g, &mut mg);
+    // Work vectors reused across iterations (no allocation in the loop but for new pairs).
+    let (mut q, mut r, mut d) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
+    let (mut xn, mut gn, mut mg_new) = (vec![0.0; np], vec![0.0; np], Vec::with_capacity(np));
+    let (mut ws, mut wy, mut wmy) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
     let mut hist: VecDeque<Pair> = VecDeque::new();
     let mut iterations = 0;
     let max_iterations = opts.max_iterations * 10;
@@ -119,13 +134,13 @@ pub(crate) fn minimize(
             full[..np].copy_from_slice(&x);
             pe.reset_aux(&mut full, ends);
             pre = Preconditioner::new(layout, pe, &full, ends)?;
-            mg = precondition(&pre, &g);
+            precondition(&pre, &g, &mut mg);
             for pair in hist.iter_mut() {
-                pair.my = precondition(&pre, &pair.y);
+                precondition(&pre, &pair.y, &mut pair.my);
             }
         }
         // Two-loop recursion with H0 = gamma M^{-1}.
-        let mut q = g.clone();
+        q.copy_from_slice(&g);
         let mut alphas = Vec::with_capacity(hist.len());
         for pair in hist.iter().rev() {
             let a = pair.rho * dot(&pair.s, &q);
@@ -134,7 +149,7 @@ pub(crate) fn minimize(
             }
             alphas.push(a);
         }
-        let mut r = mg.clone();
+        r.copy_from_slice(&mg);
         for (pair, a) in hist.iter().rev().zip(&alphas) {
             for (ri, mi) in r.iter_mut().zip(&pair.my) {
                 *ri -= a * mi;
@@ -147,58 +162,70 @@ pub(crate) fn minimize(
                 *ri += (a - b) * si;
             }
         }
-        let mut d: Vec<f64> = r.iter().map(|v| -v).collect();
+        for (di, ri) in d.iter_mut().zip(&r) {
+            *di = -ri;
+        }
         let mut slope = dot(&g, &d);
         if slope >= 0.0 {
             // Not a descent direction (can happen with a stale history): restart.
             hist.clear();
-            d = mg.iter().map(|v| -gamma * v).collect();
+            for (di, mi) in d.iter_mut().zip(&mg) {
+                *di = -gamma * mi;
+            }
             slope = dot(&g, &d);
         }
         // Backtracking line search (Armijo), full step first.
         let mut t = 1.0;
         let accepted = loop {
-            let xn: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + t * b).collect();
-            let (en, gn) = eval(pe, ends, &xn, &mut full, &mut gfull);
+            for ((xi, a), b) in xn.iter_mut().zip(&x).zip(&d) {
+                *xi = a + t * b;
+            }
+            let en = eval(pe, ends, &xn, &mut full, &mut gfull, &mut gn);
             if en.is_finite() && en <= e + 1e-4 * t * slope {
-                break Some((xn, en, gn));
+                break Some(en);
             }
             t *= 0.5;
             if t < 1e-12 {
                 break None;
             }
         };
-        let Some((xn, en, gn)) = accepted else {
+        let Some(en) = accepted else {
             stop = StopReason::NoProgress;
             break;
         };
-        let mg_new = precondition(&pre, &gn);
-        let s: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
-        let y: Vec<f64> = gn.iter().zip(&g).map(|(a, b)| a - b).collect();
-        let sy = dot(&s, &y);
-        if sy > 1e-12 * dot(&y, &y).sqrt() * dot(&s, &s).sqrt() {
-            if hist.len() == mem {
-                hist.pop_front();
-            }
-            let my: Vec<f64> = mg_new.iter().zip(&mg).map(|(a, b)| a - b).collect();
+        precondition(&pre, &gn, &mut mg_new);
+        for k in 0..np {
+            ws[k] = xn[k] - x[k];
+            wy[k] = gn[k] - g[k];
+            wmy[k] = mg_new[k] - mg[k];
+        }
+        let sy = dot(&ws, &wy);
+        if sy > 1e-12 * dot(&wy, &wy).sqrt() * dot(&ws, &ws).sqrt() {
             // Scale H0 to the newest pair's curvature along y: gamma = s.y / y.M^{-1} y (the
             // preconditioned form of Nocedal & Wright's eq. 7.20).
-            let ymy = dot(&y, &my);
+            let ymy = dot(&wy, &wmy);
             if ymy > 0.0 {
                 gamma = sy / ymy;
             }
+            // The oldest pair's storage becomes the next work vectors when the history is full.
+            let (ns, ny, nmy) = if hist.len() == mem {
+                let old = hist.pop_front().expect("full history");
+                (old.s, old.y, old.my)
+            } else {
+                (vec![0.0; np], vec![0.0; np], vec![0.0; np])
+            };
             hist.push_back(Pair {
-                s,
-                y,
+                s: std::mem::replace(&mut ws, ns),
+                y: std::mem::replace(&mut wy, ny),
                 rho: 1.0 / sy,
-                my,
+                my: std::mem::replace(&mut wmy, nmy),
             });
         }
         let decrease = e - en;
-        x = xn;
+        std::mem::swap(&mut x, &mut xn);
+        std::mem::swap(&mut g, &mut gn);
+        std::mem::swap(&mut mg, &mut mg_new);
         e = en;
-        g = gn;
-        mg = mg_new;
         if decrease <= opts.energy_tolerance * e.abs() {
             stop = StopReason::EnergyTolerance;
             break;
