@@ -113,6 +113,14 @@ impl FrozenL2 {
         let b = crate::mesh::geometry::vertex_areas(topo, end);
         a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect()
     }
+
+    /// `seg.frozen` (#V) if present, else the weights of the segment's own end poses.
+    fn segment_weights<'a>(topo: &Topology, seg: &Segment<'a>) -> std::borrow::Cow<'a, [f64]> {
+        match seg.frozen {
+            Some(w) if w.len() == topo.n_vertices() => std::borrow::Cow::Borrowed(w),
+            _ => std::borrow::Cow::Owned(Self::weights(topo, seg.a, seg.b)),
+        }
+    }
 }
 
 impl Metric for FrozenL2 {
@@ -141,14 +149,7 @@ impl Metric for FrozenL2 {
         r: &mut [f64],
         mut jac: Option<JacobianMut>,
     ) {
-        let own;
-        let w = match seg.frozen {
-            Some(w) if w.len() == topo.n_vertices() => w,
-            _ => {
-                own = Self::weights(topo, seg.a, seg.b);
-                &own
-            }
-        };
+        let w = Self::segment_weights(topo, seg);
         for v in 0..topo.n_vertices() {
             let s = w[v].max(0.0).sqrt();
             for c in 0..3 {
@@ -163,6 +164,7 @@ impl Metric for FrozenL2 {
             }
         }
     }
+
     fn gradient(
         &self,
         topo: &Topology,
@@ -171,14 +173,7 @@ impl Metric for FrozenL2 {
         _scratch: &mut Scratch,
         sink: &mut GradientSink,
     ) -> f64 {
-        let own;
-        let w = match seg.frozen {
-            Some(w) if w.len() == topo.n_vertices() => w,
-            _ => {
-                own = Self::weights(topo, seg.a, seg.b);
-                &own
-            }
-        };
+        let w = Self::segment_weights(topo, seg);
         let mut value = 0.0;
         for v in 0..topo.n_vertices() {
             // r_c = s X_c, dr_c/db = s e_c: the gradient is 2 weight w X (and minus for a).

@@ -11,7 +11,7 @@ use crate::mesh::Topology;
 use crate::metric::{At, GradientSink, Jacobian, Metric, Pattern, Scratch, Segment};
 
 /// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
-type SegmentGradient = (f64, Vec<f64>, Vec<f64>, Vec<f64>);
+type SegmentGradient = (f64, Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>);
 
 /// Fixed data of one path problem: the two end poses and the frozen metric weights.
 #[derive(Debug, Clone)]
@@ -187,8 +187,6 @@ impl<'m> PathEnergy<'m> {
                         .metric
                         .gradient(&self.topo, self.pattern.as_ref(), &seg, scratch, &mut sink);
                 }
-                let ga: Vec<f64> = ga.into_iter().flatten().collect();
-                let gb: Vec<f64> = gb.into_iter().flatten().collect();
                 (e, ga, gb, gaux)
             })
             .collect();
@@ -198,12 +196,12 @@ impl<'m> PathEnergy<'m> {
         for (s, (es, ga, gb, gaux)) in parts.into_iter().enumerate() {
             e += es;
             if s >= 1 {
-                for (g, v) in grad[(s - 1) * nv3..s * nv3].iter_mut().zip(&ga) {
+                for (g, v) in grad[(s - 1) * nv3..s * nv3].iter_mut().zip(ga.as_flattened()) {
                     *g += v;
                 }
             }
             if s + 1 < self.steps {
-                for (g, v) in grad[s * nv3..(s + 1) * nv3].iter_mut().zip(&gb) {
+                for (g, v) in grad[s * nv3..(s + 1) * nv3].iter_mut().zip(gb.as_flattened()) {
                     *g += v;
                 }
             }

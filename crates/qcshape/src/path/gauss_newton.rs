@@ -34,14 +34,8 @@ pub(crate) fn minimize(
         });
     }
     while iterations < opts.max_iterations {
-        if let Some(t) = opts.target_energy {
-            if energy <= t {
-                stop = StopReason::TargetEnergy;
-                break;
-            }
-        }
-        if 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
-            stop = StopReason::GradientTolerance;
+        if let Some(reason) = opts.stop_before_iteration(energy, 2.0 * norm(&g), g0) {
+            stop = reason;
             break;
         }
         iterations += 1;
@@ -99,9 +93,7 @@ pub(crate) fn minimize(
             break;
         }
     }
-    if stop == StopReason::MaxIterations && 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
-        stop = StopReason::GradientTolerance;
-    }
+    let stop = opts.final_stop(stop, 2.0 * norm(&g), g0);
     if !energy.is_finite() {
         return Err(GeodesicError::NonFinite(format!("energy {energy}")));
     }

@@ -457,6 +457,39 @@ pub(super) mod tests {
     use super::*;
     use crate::metric::{Isometric, Metric, Regularized, Rigid};
 
+    /// Calls `f(metric, path energy, ends, x)` for a small test problem per metric
+    /// (regularized isometric and rigid, with auxiliary unknowns), `steps` segments, at a
+    /// perturbed linear path.
+    pub(in crate::path) fn for_each_problem(
+        steps: usize,
+        mut f: impl FnMut(&dyn Metric, &PathEnergy, &Ends, &[f64]),
+    ) {
+        let a = crate::synth::icosphere(0);
+        let b: Vec<[f64; 3]> = a
+            .positions
+            .iter()
+            .map(|p| [p[0] * 1.3, p[1] + 0.2 * p[2], p[2]])
+            .collect();
+        let metrics: Vec<Box<dyn Metric>> = vec![
+            Box::new(Regularized::new(Box::new(Isometric), 0.3)),
+            Box::new(Regularized::new(Box::new(Rigid), 0.3)),
+        ];
+        for m in &metrics {
+            let pe = PathEnergy::new(m.as_ref(), a.topology.clone(), steps);
+            let frozen = m.frozen_weights(&a.topology, &a.positions, &b);
+            let ends = Ends {
+                start: a.positions.clone(),
+                end: b.clone(),
+                frozen,
+            };
+            let mut x = pe.linear_start(&ends);
+            for (i, v) in x.iter_mut().enumerate() {
+                *v += 0.05 * ((i * 7919 % 17) as f64 - 8.0) / 8.0;
+            }
+            f(m.as_ref(), &pe, &ends, &x);
+        }
+    }
+
     /// Dense `J^T J` and `J^T r` from the per-term Jacobians, for comparison.
     pub(in crate::path) fn dense(pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<Vec<f64>>, Vec<f64>) {
         let n = pe.n_vars();
@@ -499,32 +532,11 @@ pub(super) mod tests {
 
     #[test]
     fn assembled_normal_equations_match_dense_products() {
-        let a = crate::synth::icosphere(0);
-        let b: Vec<[f64; 3]> = a
-            .positions
-            .iter()
-            .map(|p| [p[0] * 1.3, p[1] + 0.2 * p[2], p[2]])
-            .collect();
-        let metrics: Vec<Box<dyn Metric>> = vec![
-            Box::new(Regularized::new(Box::new(Isometric), 0.3)),
-            Box::new(Regularized::new(Box::new(Rigid), 0.3)),
-        ];
-        for m in &metrics {
-            let pe = PathEnergy::new(m.as_ref(), a.topology.clone(), 3);
-            let frozen = m.frozen_weights(&a.topology, &a.positions, &b);
-            let ends = Ends {
-                start: a.positions.clone(),
-                end: b.clone(),
-                frozen,
-            };
-            let mut x = pe.linear_start(&ends);
-            for (i, v) in x.iter_mut().enumerate() {
-                *v += 0.05 * ((i * 7919 % 17) as f64 - 8.0) / 8.0;
-            }
-            let layout = HessianLayout::new(&pe).unwrap();
-            let (blocks, _, g) = layout.assemble(&pe, &x, &ends);
+        for_each_problem(3, |m, pe, ends, x| {
+            let layout = HessianLayout::new(pe).unwrap();
+            let (blocks, _, g) = layout.assemble(pe, x, ends);
             let vals = layout.values(&blocks);
-            let (hd, gd) = dense(&pe, &x, &ends);
+            let (hd, gd) = dense(pe, x, ends);
             for (i, (u, v)) in g.iter().zip(&gd).enumerate() {
                 assert!(
                     (u - v).abs() < 1e-10 * (1.0 + v.abs()),
@@ -557,6 +569,6 @@ pub(super) mod tests {
                     );
                 }
             }
-        }
+        });
     }
 }

@@ -33,6 +33,8 @@ pub(crate) struct SpatialLayout {
     /// For value `k` of the CSC: (slot in the vertex-pair set, 3 x 3 component).
     src: Vec<(usize, usize)>,
     diag_idx: Vec<usize>,
+    /// Slot of each vertex's diagonal pair `(v, v)` (#V).
+    diag_slots: Vec<usize>,
     /// The vertex-pair structure of the blocks of `J^T J`.
     st: Structure,
     symbolic: SymbolicCholesky<usize>,
@@ -71,7 +73,14 @@ impl SpatialLayout {
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
         let symbolic =
             factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, Default::default())?;
+        let diag_slots = (0..nv)
+            .map(|v| {
+                let r = &s_rows[s_off[v]..s_off[v + 1]];
+                s_off[v] + r.binary_search(&v).expect("diagonal pair")
+            })
+            .collect();
         Ok(SpatialLayout {
+            diag_slots,
             nv,
             col_ptr,
             row_idx,
@@ -166,14 +175,9 @@ impl KroneckerModel {
         }
         let scale = 0.5 / m as f64;
         a.iter_mut().flatten().for_each(|v| *v *= scale);
-        let diag_slots: Vec<usize> = (0..st.nv)
-            .map(|v| {
-                let r = &st.pairs.rows[st.pairs.off[v]..st.pairs.off[v + 1]];
-                st.pairs.off[v] + r.binary_search(&v).expect("diagonal pair")
-            })
-            .collect();
         let trace = |blk: &[[f64; 9]]| -> f64 {
-            diag_slots
+            layout
+                .diag_slots
                 .iter()
                 .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
                 .sum()

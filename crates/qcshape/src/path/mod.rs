@@ -412,6 +412,30 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[4]) + (acc[1] + acc[5]) + (acc[2] + acc[6]) + (acc[3] + acc[7]) + tail
 }
 
+impl GeodesicOptions {
+    /// The stopping test at the top of a solver iteration: the target energy is reached, or
+    /// the gradient norm `gnorm` fell below the relative tolerance of its start value `g0`.
+    pub(crate) fn stop_before_iteration(&self, energy: f64, gnorm: f64, g0: f64) -> Option<StopReason> {
+        if self.target_energy.is_some_and(|t| energy <= t) {
+            Some(StopReason::TargetEnergy)
+        } else if gnorm <= self.gradient_tolerance * g0 {
+            Some(StopReason::GradientTolerance)
+        } else {
+            None
+        }
+    }
+
+    /// A solver's final stop reason: running out of iterations with the gradient test met
+    /// counts as converged.
+    pub(crate) fn final_stop(&self, stop: StopReason, gnorm: f64, g0: f64) -> StopReason {
+        if stop == StopReason::MaxIterations && gnorm <= self.gradient_tolerance * g0 {
+            StopReason::GradientTolerance
+        } else {
+            stop
+        }
+    }
+}
+
 pub(crate) fn at_roundoff(gradient_norm: f64, energy: f64) -> bool {
     gradient_norm <= 1e-10 * (1.0 + energy.abs())
 }

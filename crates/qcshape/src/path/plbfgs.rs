@@ -117,14 +117,8 @@ pub(crate) fn minimize(
         });
     }
     while iterations < max_iterations {
-        if let Some(t) = opts.target_energy {
-            if e <= t {
-                stop = StopReason::TargetEnergy;
-                break;
-            }
-        }
-        if dot(&g, &g).sqrt() <= opts.gradient_tolerance * g0 {
-            stop = StopReason::GradientTolerance;
+        if let Some(reason) = opts.stop_before_iteration(e, dot(&g, &g).sqrt(), g0) {
+            stop = reason;
             break;
         }
         iterations += 1;
@@ -231,9 +225,7 @@ pub(crate) fn minimize(
             break;
         }
     }
-    if stop == StopReason::MaxIterations && dot(&g, &g).sqrt() <= opts.gradient_tolerance * g0 {
-        stop = StopReason::GradientTolerance;
-    }
+    let stop = opts.final_stop(stop, dot(&g, &g).sqrt(), g0);
     full[..np].copy_from_slice(&x);
     pe.reset_aux(&mut full, ends);
     Ok(SolveOutput {

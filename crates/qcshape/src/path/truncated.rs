@@ -33,7 +33,6 @@ const MAX_CG: usize = 250;
 
 /// The Gauss-Newton matrix at one iterate, reduced to the pose unknowns, and its preconditioner.
 struct Model<'a> {
-    st: &'a Structure,
     spatial: &'a SpatialLayout,
     blocks: Vec<SegmentBlocks>,
     /// Per term `t = 2 s + e`: the inverse of its aux-aux block (n_aux x n_aux).
@@ -108,7 +107,6 @@ impl<'a> Model<'a> {
                 .collect()
         };
         Ok(Model {
-            st,
             spatial: layout,
             blocks,
             aux_inv,
@@ -116,13 +114,18 @@ impl<'a> Model<'a> {
         })
     }
 
+    /// The block structure (that of the spatial layout).
+    fn st(&self) -> &'a Structure {
+        self.spatial.structure()
+    }
+
     fn nv3(&self) -> usize {
-        3 * self.st.nv
+        3 * self.st().nv
     }
 
     /// `w_t = H_aa,t^{-1} (H_ap,t x + h_t)` for every term (`h`: per-term offsets or zero).
     fn aux_solve(&self, x: &[f64], h: Option<&[f64]>) -> Vec<Vec<f64>> {
-        let (steps, n_aux, nv3) = (self.st.steps, self.st.n_aux, self.nv3());
+        let (steps, n_aux, nv3) = (self.st().steps, self.st().n_aux, self.nv3());
         (0..2 * steps)
             .map(|t| {
                 let (s, e) = (t / 2, t % 2);
@@ -152,7 +155,7 @@ impl<'a> Model<'a> {
 
     /// `y -= H_pa w` for per-term aux vectors `w`.
     fn aux_back(&self, w: &[Vec<f64>], y: &mut [f64]) {
-        let (steps, n_aux, nv3) = (self.st.steps, self.st.n_aux, self.nv3());
+        let (steps, n_aux, nv3) = (self.st().steps, self.st().n_aux, self.nv3());
         for (t, wt) in w.iter().enumerate() {
             let (s, e) = (t / 2, t % 2);
             let b = &self.blocks[s];
@@ -170,8 +173,8 @@ impl<'a> Model<'a> {
 
     /// `y = S x`, `S = H_pp - H_pa H_aa^{-1} H_ap` (just `H_pp` without auxiliary unknowns).
     fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let (steps, nv3) = (self.st.steps, self.nv3());
-        let pairs = &self.st.pairs;
+        let (steps, nv3) = (self.st().steps, self.nv3());
+        let pairs = &self.st().pairs;
         y.par_chunks_mut(nv3).enumerate().for_each(|(i, yj)| {
             let j = i + 1;
             yj.fill(0.0);
@@ -179,7 +182,7 @@ impl<'a> Model<'a> {
             let (dl, dr) = (&self.blocks[j - 1].bb, &self.blocks[j].aa);
             let next = (j + 1 < steps).then(|| (&self.blocks[j].ab, &x[(i + 1) * nv3..(i + 2) * nv3]));
             let prev = (j >= 2).then(|| (&self.blocks[j - 1].ab, &x[(i - 1) * nv3..i * nv3]));
-            for v in 0..self.st.nv {
+            for v in 0..self.st().nv {
                 for idx in pairs.off[v]..pairs.off[v + 1] {
                     let u = pairs.rows[idx];
                     let yu = &mut yj[3 * u..3 * u + 3];
@@ -198,7 +201,7 @@ impl<'a> Model<'a> {
                 }
             }
         });
-        if self.st.n_aux > 0 {
+        if self.st().n_aux > 0 {
             let w = self.aux_solve(x, None);
             self.aux_back(&w, y);
         }
@@ -206,9 +209,9 @@ impl<'a> Model<'a> {
 
     /// Reduced half gradient `g_p - H_pa H_aa^{-1} g_a` from the full `J^T r`.
     fn reduced_gradient(&self, g: &[f64]) -> Vec<f64> {
-        let np = self.nv3() * (self.st.steps - 1);
+        let np = self.nv3() * (self.st().steps - 1);
         let mut gp = g[..np].to_vec();
-        if self.st.n_aux > 0 {
+        if self.st().n_aux > 0 {
             // H_aa^{-1} (H_ap 0 + g_a).
             let zero = vec![0.0; np];
             let w = self.aux_solve(&zero, Some(&g[np..]));
@@ -222,9 +225,9 @@ impl<'a> Model<'a> {
         self.kron.apply(self.spatial, q, 1.0);
     }
 
-    /// Preconditioned conjugate gradients on `S p = -g` to relative residual `eta`.
-    /// Returns the step and the number of iterations.
-    fn step(&self, g: &[f64], eta: f64) -> (Vec<f64>, usize) {
+    /// Preconditioned conjugate gradients on `S p = -g` to relative residual `eta` (at most
+    /// [`MAX_CG`] iterations). Returns the step.
+    fn step(&self, g: &[f64], eta: f64) -> Vec<f64> {
         let n = g.len();
         let mut p = vec![0.0; n];
         let mut res: Vec<f64> = g.iter().map(|v| -v).collect();
@@ -263,7 +266,7 @@ impl<'a> Model<'a> {
                 d[k] = z[k] + beta * d[k];
             }
         }
-        (p, it)
+        p
     }
 }
 
@@ -299,20 +302,14 @@ pub(crate) fn minimize(
         });
     }
     while iterations < opts.max_iterations {
-        if let Some(t) = opts.target_energy {
-            if energy <= t {
-                stop = StopReason::TargetEnergy;
-                break;
-            }
-        }
         let gn = 2.0 * norm(&g);
-        if gn <= opts.gradient_tolerance * g0 {
-            stop = StopReason::GradientTolerance;
+        if let Some(reason) = opts.stop_before_iteration(energy, gn, g0) {
+            stop = reason;
             break;
         }
         iterations += 1;
         let eta = (gn / g0).sqrt().min(0.1);
-        let (p, _) = model.step(&g, eta);
+        let p = model.step(&g, eta);
         // Backtracking line search on the true energy (Armijo), full step first.
         let slope = 2.0 * dot(&g, &p);
         let mut t = 1.0;
@@ -349,9 +346,7 @@ pub(crate) fn minimize(
             break;
         }
     }
-    if stop == StopReason::MaxIterations && 2.0 * norm(&g) <= opts.gradient_tolerance * g0 {
-        stop = StopReason::GradientTolerance;
-    }
+    let stop = opts.final_stop(stop, 2.0 * norm(&g), g0);
     if !energy.is_finite() {
         return Err(GeodesicError::NonFinite(format!("energy {energy}")));
     }
@@ -361,7 +356,7 @@ pub(crate) fn minimize(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metric::{Isometric, Metric, Regularized, Rigid};
+    use crate::path::hessian::tests::{dense, for_each_problem};
 
     /// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
     fn dense_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
@@ -388,32 +383,11 @@ mod tests {
 
     #[test]
     fn block_products_match_the_dense_reduced_system() {
-        let a = crate::synth::icosphere(0);
-        let b: Vec<[f64; 3]> = a
-            .positions
-            .iter()
-            .map(|p| [p[0] * 1.3, p[1] + 0.2 * p[2], p[2]])
-            .collect();
-        let metrics: Vec<Box<dyn Metric>> = vec![
-            Box::new(Regularized::new(Box::new(Isometric), 0.3)),
-            Box::new(Regularized::new(Box::new(Rigid), 0.3)),
-        ];
-        for m in &metrics {
-            let pe = PathEnergy::new(m.as_ref(), a.topology.clone(), 4);
-            let frozen = m.frozen_weights(&a.topology, &a.positions, &b);
-            let ends = Ends {
-                start: a.positions.clone(),
-                end: b.clone(),
-                frozen,
-            };
-            let mut x = pe.linear_start(&ends);
-            for (i, v) in x.iter_mut().enumerate() {
-                *v += 0.05 * ((i * 7919 % 17) as f64 - 8.0) / 8.0;
-            }
-            let layout = SpatialLayout::new(&pe).unwrap();
-            let (blocks, _, g) = layout.structure().assemble(&pe, &x, &ends);
+        for_each_problem(4, |m, pe, ends, x| {
+            let layout = SpatialLayout::new(pe).unwrap();
+            let (blocks, _, g) = layout.structure().assemble(pe, x, ends);
             let model = Model::new(&layout, blocks).unwrap();
-            let (h, gd) = crate::path::hessian::tests::dense(&pe, &x, &ends);
+            let (h, gd) = dense(pe, x, ends);
             let (n, np) = (pe.n_vars(), pe.n_pose_vars());
             // Dense reduced operator: S v = H_pp v - H_pa H_aa^{-1} H_ap v.
             let v: Vec<f64> = (0..np).map(|i| ((i * 31 % 11) as f64 - 5.0) / 5.0).collect();
@@ -458,6 +432,6 @@ mod tests {
             assert!(dot(&v, &mv) > 0.0);
             let (a1, a2) = (dot(&u, &mv), dot(&v, &mu));
             assert!((a1 - a2).abs() < 1e-8 * (a1.abs() + a2.abs()), "{a1} vs {a2}");
-        }
+        });
     }
 }

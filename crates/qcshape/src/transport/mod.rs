@@ -65,11 +65,8 @@ pub(crate) fn unflat(v: &[f64]) -> Vec<[f64; 3]> {
     v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
-/// Euclidean dot product of two flat vectors.
-#[inline]
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
+/// Euclidean dot product of two flat vectors (the geodesic solvers' vectorized one).
+pub(crate) use crate::path::dot;
 
 /// `b - a` (#V x 3).
 pub(crate) fn difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
