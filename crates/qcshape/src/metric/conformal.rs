@@ -3,7 +3,7 @@
 
 use super::{
     geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, Segment,
+    Scratch, SecondOrderSink, Segment,
 };
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
@@ -77,6 +77,139 @@ fn corner_gradient(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> ([[f64; 3]; 3], [[f64;
         [add(de1, de2), scale(de1, -1.0), scale(de2, -1.0)],
         [add(dd1, dd2), scale(dd1, -1.0), scale(dd2, -1.0)],
     )
+}
+
+/// 3 x 3 blocks per local vertex pair `(j, l)` of a triangle.
+type PairBlocks = [[[f64; 9]; 3]; 3];
+
+#[inline]
+fn outer9(u: [f64; 3], v: [f64; 3], s: f64) -> [f64; 9] {
+    [
+        s * u[0] * v[0],
+        s * u[0] * v[1],
+        s * u[0] * v[2],
+        s * u[1] * v[0],
+        s * u[1] * v[1],
+        s * u[1] * v[2],
+        s * u[2] * v[0],
+        s * u[2] * v[1],
+        s * u[2] * v[2],
+    ]
+}
+
+#[inline]
+fn eye9(s: f64) -> [f64; 9] {
+    [s, 0.0, 0.0, 0.0, s, 0.0, 0.0, 0.0, s]
+}
+
+#[inline]
+fn lin9(terms: &[(f64, &[f64; 9])]) -> [f64; 9] {
+    let mut out = [0.0; 9];
+    for (s, m) in terms {
+        for (o, v) in out.iter_mut().zip(m.iter()) {
+            *o += s * v;
+        }
+    }
+    out
+}
+
+/// Maps blocks in the edge variables `e1 = v0 - v1`, `e2 = v0 - v2` (`[[A, B], [C, D]]`,
+/// rows and columns `e1, e2`) to vertex pairs: `H[j][l] = sum E_aj E_bl H_ab` with
+/// `E_1 = (1, -1, 0)`, `E_2 = (1, 0, -1)`, accumulated into `out[m(j)][m(l)]`.
+#[inline]
+fn add_edge_blocks(out: &mut PairBlocks, map: [usize; 3], h: [[&[f64; 9]; 2]; 2]) {
+    let [[a, b], [c, d]] = h;
+    let blocks = [
+        [
+            lin9(&[(1.0, a), (1.0, b), (1.0, c), (1.0, d)]),
+            lin9(&[(-1.0, a), (-1.0, c)]),
+            lin9(&[(-1.0, b), (-1.0, d)]),
+        ],
+        [lin9(&[(-1.0, a), (-1.0, b)]), *a, *b],
+        [lin9(&[(-1.0, c), (-1.0, d)]), *c, *d],
+    ];
+    for j in 0..3 {
+        for l in 0..3 {
+            let o = &mut out[map[j]][map[l]];
+            for (ov, v) in o.iter_mut().zip(blocks[j][l].iter()) {
+                *ov += v;
+            }
+        }
+    }
+}
+
+/// Adds `c` times the second derivatives of [`corner_value`] at corner `k` of a face into the
+/// face-slot blocks `hgg[m][n] = d2/dg_m dg_n`, `hgx[m][n] = d2/dg_m dX_n` (`d2/dX dX = 0`).
+///
+/// With `T = <e1, d1> |e2|^2 - <e2, d2> |e1|^2`: `d2T/de1 de1 = -2 <e2, d2> I`,
+/// `d2T/de1 de2 = 2 d1 e2^T - 2 e1 d2^T`, `d2T/de2 de2 = 2 <e1, d1> I`; `d2T/de1 dd1 = |e2|^2 I`,
+/// `d2T/de1 dd2 = -2 e1 e2^T`, `d2T/de2 dd1 = 2 e2 e1^T`, `d2T/de2 dd2 = -|e1|^2 I`.
+#[inline]
+fn add_corner_hessian(
+    g: [[f64; 3]; 3],
+    x: [[f64; 3]; 3],
+    k: usize,
+    c: f64,
+    hgg: &mut PairBlocks,
+    hgx: &mut PairBlocks,
+) {
+    let (g, x) = (rot(g, k), rot(x, k));
+    let (e1, e2) = (sub(g[0], g[1]), sub(g[0], g[2]));
+    let (d1, d2) = (sub(x[0], x[1]), sub(x[0], x[2]));
+    let (l1, l2) = (dot(e1, e1), dot(e2, e2));
+    let (p1, p2) = (dot(e1, d1), dot(e2, d2));
+    let a = eye9(-2.0 * c * p2);
+    let b = lin9(&[(1.0, &outer9(d1, e2, 2.0 * c)), (1.0, &outer9(e1, d2, -2.0 * c))]);
+    let bt = lin9(&[(1.0, &outer9(e2, d1, 2.0 * c)), (1.0, &outer9(d2, e1, -2.0 * c))]);
+    let d = eye9(2.0 * c * p1);
+    add_edge_blocks(hgg, NEXT[k], [[&a, &b], [&bt, &d]]);
+    let xa = eye9(c * l2);
+    let xb = outer9(e1, e2, -2.0 * c);
+    let xc = outer9(e2, e1, 2.0 * c);
+    let xd = eye9(-c * l1);
+    add_edge_blocks(hgx, NEXT[k], [[&xa, &xb], [&xc, &xd]]);
+}
+
+/// Second-order part of the (quasi-)conformal quadratic form with constant weights
+/// ([`Metric::add_second_order`](super::Metric::add_second_order)): residual `w_k T_k` of every
+/// face corner contributes `r_k w_k d2 T_k`. Returns `false` for the paper form (not twice
+/// differentiable where a `T_v` changes sign).
+pub(crate) fn face_second_order(
+    topo: &Topology,
+    form: ConformalForm,
+    seg: &Segment,
+    weights: Option<&[f64]>,
+    r: &[f64],
+    sink: &mut SecondOrderSink,
+) -> bool {
+    if form != ConformalForm::Quadratic {
+        return false;
+    }
+    let (g, x) = geometry_and_displacement(seg);
+    for (fi, f) in topo.faces().iter().enumerate() {
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let gf = [g[i0], g[i1], g[i2]];
+        let xf = [x[i0], x[i1], x[i2]];
+        let w = match weights {
+            Some(w) => [w[i0], w[i1], w[i2]],
+            None => [1.0; 3],
+        };
+        let mut hgg = [[[0.0; 9]; 3]; 3];
+        let mut hgx = [[[0.0; 9]; 3]; 3];
+        for k in 0..3 {
+            let c = r[3 * fi + k] * w[k];
+            if c != 0.0 {
+                add_corner_hessian(gf, xf, k, c, &mut hgg, &mut hgx);
+            }
+        }
+        // The three rows of a face share its vertices (and pair slots).
+        for m in 0..3 {
+            for n in 0..3 {
+                sink.add(3 * fi, m, n, &hgg[m][n], &hgx[m][n]);
+            }
+        }
+    }
+    true
 }
 
 /// The three corner terms of one face in face order: `t[k]` is `T` at corner `k` (for corner
@@ -292,6 +425,17 @@ impl Metric for Conformal {
         sink: &mut GradientSink,
     ) -> f64 {
         face_kernel(topo, self.form, seg, None, FaceOut::Gradient(sink))
+    }
+
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &[f64],
+        sink: &mut SecondOrderSink,
+    ) -> bool {
+        face_second_order(topo, self.form, seg, None, r, sink)
     }
 }
 

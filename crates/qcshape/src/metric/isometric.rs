@@ -1,6 +1,6 @@
 use super::{
     geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, Segment,
+    Scratch, SecondOrderSink, Segment,
 };
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
@@ -71,6 +71,29 @@ impl Metric for Isometric {
             sink.add(q, -r, da, db);
         }
         sink.weight * value
+    }
+
+    /// `r = <X_p - X_q, g_p - g_q>` is bilinear: `d2 r / dg_k dX_l = s_k s_l I` (`s_p = 1`,
+    /// `s_q = -1`), `d2 r / dg dg = 0`.
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        _seg: &Segment,
+        r: &[f64],
+        sink: &mut SecondOrderSink,
+    ) -> bool {
+        const ZERO: [f64; 9] = [0.0; 9];
+        for ei in 0..topo.n_edges() {
+            let c = r[ei];
+            let id = [c, 0.0, 0.0, 0.0, c, 0.0, 0.0, 0.0, c];
+            let neg = id.map(|v| -v);
+            sink.add(ei, 0, 0, &ZERO, &id);
+            sink.add(ei, 1, 1, &ZERO, &id);
+            sink.add(ei, 0, 1, &ZERO, &neg);
+            sink.add(ei, 1, 0, &ZERO, &neg);
+        }
+        true
     }
 }
 

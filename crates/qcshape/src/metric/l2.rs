@@ -3,7 +3,7 @@
 
 use super::{
     geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, Segment,
+    Scratch, SecondOrderSink, Segment,
 };
 use crate::mesh::geometry::{scale, sqrt_third_area_gradient};
 use crate::mesh::Topology;
@@ -191,6 +191,19 @@ impl Metric for FrozenL2 {
             }
         }
         sink.weight * value
+    }
+
+    /// With frozen weights the residuals are linear in the unknowns: no second-order part.
+    /// Without them the weights depend on the segment's poses (not provided).
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        _r: &[f64],
+        _sink: &mut SecondOrderSink,
+    ) -> bool {
+        matches!(seg.frozen, Some(w) if w.len() == topo.n_vertices())
     }
 }
 

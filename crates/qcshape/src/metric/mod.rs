@@ -20,6 +20,7 @@ mod quasi_conformal;
 mod regularized;
 mod rigid;
 mod rigid_frozen;
+mod second_order;
 mod spec;
 
 #[cfg(test)]
@@ -33,6 +34,7 @@ pub use quasi_conformal::{QcWeights, QuasiConformal};
 pub use regularized::Regularized;
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
+pub use second_order::SecondOrderSink;
 pub use spec::{MetricKind, MetricSpec};
 
 use std::fmt::Debug;
@@ -242,6 +244,24 @@ pub trait Metric: Send + Sync + Debug {
         sink: &mut GradientSink,
     ) -> f64 {
         gradient_from_jacobian(self, topo, pattern, seg, scratch, sink)
+    }
+
+    /// Second-order part of the Hessian of `|r|^2 / 2`: adds `sum_i r_i d2 r_i` (second
+    /// derivatives of the residuals with respect to `a` and `b`, weighted by the residuals `r`
+    /// of the same segment from [`Metric::residuals`]) into `sink`. Together with `J^T J` this
+    /// is the exact Hessian used by Newton's method (eq. 12's energy is a sum of such terms).
+    /// Returns `false`, adding nothing, for metrics that do not provide it (non-smooth forms,
+    /// auxiliary unknowns, weights depending on the unknowns): the solver then keeps the
+    /// Gauss-Newton model `J^T J`.
+    fn add_second_order(
+        &self,
+        _topo: &Topology,
+        _pattern: PatternRef,
+        _seg: &Segment,
+        _r: &[f64],
+        _sink: &mut SecondOrderSink,
+    ) -> bool {
+        false
     }
 
     /// The squared norm `G_M(X) = |r|^2` of the segment (with the optimal auxiliary unknowns).

@@ -2,12 +2,13 @@
 //! angle-defect curvature, in the two readings of METHOD.md ("segment" and "endpoints").
 
 use super::conformal::{
-    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_values, sign0, FaceOut,
+    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values, sign0,
+    FaceOut,
 };
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
 use super::{
     geometry_and_displacement, gradient_from_jacobian, split_segment, ConformalForm, GradientSink,
-    JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment,
+    JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
 };
 use crate::mesh::geometry::{add, angle_defect, scale};
 use crate::mesh::Topology;
@@ -135,6 +136,24 @@ impl Metric for QuasiConformal {
             }
             // The fallback weights and the segment weights: through the Jacobian.
             _ => gradient_from_jacobian(self, topo, pattern, seg, scratch, sink),
+        }
+    }
+
+    /// Frozen (`endpoints`) weights with the quadratic form only: the segment weights depend
+    /// on the unknowns, and the fallback weights' derivatives are not in the Jacobian.
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &[f64],
+        sink: &mut SecondOrderSink,
+    ) -> bool {
+        match (self.weights, seg.frozen) {
+            (QcWeights::Endpoints, Some(w)) if w.len() == topo.n_vertices() => {
+                face_second_order(topo, self.form, seg, Some(w), r, sink)
+            }
+            _ => false,
         }
     }
 }

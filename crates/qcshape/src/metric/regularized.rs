@@ -1,4 +1,6 @@
-use super::{FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment, L2};
+use super::{
+    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, L2,
+};
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times
@@ -168,6 +170,32 @@ impl Metric for Regularized {
         let v_l2 = self.l2().gradient(topo, l2_pat, &seg_l2, scratch, &mut no_aux);
         sink.weight = weight;
         v_in + v_l2
+    }
+
+    /// The inner metric's part (its residuals are the first rows); the frozen L2 part adds
+    /// nothing (linear residuals). Not provided with per-pose areas.
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        seg: &Segment,
+        r: &[f64],
+        sink: &mut SecondOrderSink,
+    ) -> bool {
+        if !self.frozen_areas {
+            return false;
+        }
+        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
+        let l2_pat = PatternRef {
+            offsets: &l2_offsets,
+            vertices: &pattern.vertices[inner_pat.vertices.len()..],
+        };
+        let n_in = inner_pat.n_residuals();
+        self.inner
+            .add_second_order(topo, inner_pat, &seg_in, &r[..n_in], sink)
+            && self
+                .l2()
+                .add_second_order(topo, l2_pat, &seg_l2, &r[n_in..], sink)
     }
 }
 

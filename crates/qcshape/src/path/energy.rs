@@ -103,7 +103,7 @@ impl<'m> PathEnergy<'m> {
         }
     }
 
-    fn segment<'a>(&self, x: &'a [f64], ends: &'a Ends, s: usize, at: At) -> Segment<'a> {
+    pub(crate) fn segment<'a>(&self, x: &'a [f64], ends: &'a Ends, s: usize, at: At) -> Segment<'a> {
         let t = 2 * s + usize::from(at == At::End);
         Segment {
             a: self.pose(x, ends, s),

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::pairs::VertexPairs;
-use crate::metric::At;
+use crate::metric::{At, SecondOrderSink};
 
 /// Structure of `J^T J` for one path problem, built once, with its symbolic factorization.
 pub(crate) struct HessianLayout {
@@ -60,6 +60,38 @@ pub(crate) struct SegmentBlocks {
     pub aux_g: [Vec<f64>; 2],
     /// Energy of the two terms.
     pub energy: f64,
+    /// The second-order part `sum r_i d2 r_i` of both terms (same slots as `aa`, `ab`, `bb`),
+    /// when requested and provided by the metric ([`crate::metric::Metric::add_second_order`]).
+    pub second: Option<SecondBlocks>,
+}
+
+/// Second-order blocks of one segment, laid out like [`SegmentBlocks`]'s `aa`, `ab`, `bb`.
+pub(crate) struct SecondBlocks {
+    pub aa: Vec<[f64; 9]>,
+    pub ab: Vec<[f64; 9]>,
+    pub bb: Vec<[f64; 9]>,
+}
+
+impl SegmentBlocks {
+    /// Adds the second-order part into `aa`, `ab`, `bb` (the blocks become those of half the
+    /// exact Hessian); returns whether there was one.
+    pub fn merge_second(&mut self) -> bool {
+        let Some(so) = self.second.take() else {
+            return false;
+        };
+        for (dst, src) in [
+            (&mut self.aa, &so.aa),
+            (&mut self.ab, &so.ab),
+            (&mut self.bb, &so.bb),
+        ] {
+            for (d, v) in dst.iter_mut().zip(src) {
+                for k in 0..9 {
+                    d[k] += v[k];
+                }
+            }
+        }
+        true
+    }
 }
 
 impl HessianLayout {
@@ -99,6 +131,17 @@ impl HessianLayout {
             diag_idx,
             symbolic,
         })
+    }
+
+    /// The vertex-pair structure.
+    pub fn structure(&self) -> &Structure {
+        &self.st
+    }
+
+    /// Column pointers and row indices of the stored upper triangle.
+    #[cfg(test)]
+    pub fn pattern(&self) -> (&[usize], &[usize]) {
+        (&self.col_ptr, &self.row_idx)
     }
 
     /// Number of stored entries of the upper triangle.
@@ -254,8 +297,16 @@ impl Structure {
         }
     }
 
-    /// Evaluates one segment's two terms with Jacobians and accumulates its blocks.
-    fn segment_blocks(&self, pe: &PathEnergy, x: &[f64], ends: &Ends, s: usize) -> SegmentBlocks {
+    /// Evaluates one segment's two terms with Jacobians and accumulates its blocks (and the
+    /// second-order part if `second_order`; `None` when the metric does not provide it).
+    fn segment_blocks(
+        &self,
+        pe: &PathEnergy,
+        x: &[f64],
+        ends: &Ends,
+        s: usize,
+        second_order: bool,
+    ) -> SegmentBlocks {
         let n_slots = self.pairs.n_slots();
         let nv3 = 3 * self.nv;
         let n_aux = self.n_aux;
@@ -284,7 +335,14 @@ impl Structure {
             aux_aux: [vec![0.0; n_aux * n_aux], vec![0.0; n_aux * n_aux]],
             aux_g: [vec![0.0; n_aux], vec![0.0; n_aux]],
             energy: 0.0,
+            second: None,
         };
+        let empty_like = |v: &Vec<[f64; 9]>| vec![[0.0; 9]; v.len()];
+        let mut second = second_order.then(|| SecondBlocks {
+            aa: empty_like(&sb.aa),
+            ab: empty_like(&sb.ab),
+            bb: empty_like(&sb.bb),
+        });
         let pat = &pe.pattern;
         let mut te = pe.new_term_eval();
         for (e, at) in [At::Start, At::End].into_iter().enumerate() {
@@ -336,7 +394,26 @@ impl Structure {
                     }
                 }
             }
+            if let Some(so) = second.as_mut() {
+                let seg = pe.segment(x, ends, s, at);
+                let mut sink = SecondOrderSink::new(
+                    at,
+                    &pat.offsets,
+                    &self.pairs.pair_off,
+                    &self.pairs.pair_slots,
+                    non_empty(&mut so.aa),
+                    non_empty(&mut so.ab),
+                    non_empty(&mut so.bb),
+                );
+                if !pe
+                    .metric
+                    .add_second_order(&pe.topo, pat.as_ref(), &seg, &te.r, &mut sink)
+                {
+                    second = None;
+                }
+            }
         }
+        sb.second = second;
         sb
     }
 }
@@ -403,10 +480,22 @@ impl HessianLayout {
 impl Structure {
     /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
     pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
+        self.assemble_with(pe, x, ends, false)
+    }
+
+    /// [`Structure::assemble`], with each segment's second-order part in
+    /// [`SegmentBlocks::second`] if `second_order` (and the metric provides it).
+    pub fn assemble_with(
+        &self,
+        pe: &PathEnergy,
+        x: &[f64],
+        ends: &Ends,
+        second_order: bool,
+    ) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
         let st = self;
         let blocks: Vec<SegmentBlocks> = (0..st.steps)
             .into_par_iter()
-            .map(|s| st.segment_blocks(pe, x, ends, s))
+            .map(|s| st.segment_blocks(pe, x, ends, s, second_order))
             .collect();
         let nv3 = 3 * st.nv;
         let np = nv3 * (st.steps - 1);
@@ -441,6 +530,14 @@ enum Source {
     AuxA { seg: usize, term: usize, k: usize },
     AuxB { seg: usize, term: usize, k: usize },
     AuxAux { seg: usize, term: usize, k: usize },
+}
+
+fn non_empty(v: &mut [[f64; 9]]) -> Option<&mut [[f64; 9]]> {
+    if v.is_empty() {
+        None
+    } else {
+        Some(v)
+    }
 }
 
 #[inline]

@@ -30,6 +30,8 @@ mod kronecker;
 mod lbfgs;
 mod pairs;
 mod plbfgs;
+#[cfg(test)]
+mod second_order_tests;
 mod truncated;
 
 use std::sync::Arc;
