@@ -55,9 +55,9 @@ pub struct SolverArgs {
     /// Number of path segments N of each geodesic.
     #[arg(long, default_value_t = 8)]
     pub steps: usize,
-    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), gauss-newton
-    /// (truncated: conjugate gradients on the Gauss-Newton system), gauss-newton-direct (full
-    /// sparse Cholesky, small meshes only), lbfgs.
+    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), newton
+    /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
+    /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs.
     #[arg(long, default_value = "preconditioned")]
     pub solver: Solver,
     /// Relative gradient tolerance.

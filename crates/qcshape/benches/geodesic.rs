@@ -1,12 +1,14 @@
 //! Geodesic benchmark (engine issue): an icosphere (642 and 2,562 vertices) to a twisted and
 //! stretched copy, N = 8, for every metric and both solvers: time, iterations, final energy.
 //! The preconditioned solver's converged energy `E*` is the reference; every solver is then
-//! timed to `E* (1 + 1e-6)`, so the ratios compare the time to the same energy. Prints a Markdown table. Solvers: `preconditioned`
-//! (default), `gauss-newton` (truncated, conjugate gradients), and with `--gn-direct` the
-//! Levenberg-Marquardt with a factorization of the full system (minutes at 642 vertices).
+//! timed to `E* (1 + 1e-6)`, so the ratios compare the time to the same energy. Prints a
+//! Markdown table. Solvers: `preconditioned` (default), `newton` (truncated, exact Hessian),
+//! `gauss-newton` (truncated, conjugate gradients), and with `--gn-direct` the
+//! Levenberg-Marquardt with a factorization of the full system (minutes at 642 vertices),
+//! and the paper's L-BFGS.
 //!
 //! `cargo bench -p qcshape --bench geodesic [-- --levels 3,4 --metrics all --lbfgs-cap 3000
-//! --gn-cap 100 --skip-gn --gn-direct --lambda 0.1 --refresh 30 --memory 10]`
+//! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 30 --memory 10]`
 //! Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;
@@ -100,6 +102,7 @@ fn main() {
     let cap: usize = get("--lbfgs-cap").map_or(3000, |s| s.parse().unwrap());
     let lambda: f64 = get("--lambda").map_or(0.1, |s| s.parse().unwrap());
     let skip_gn = args.iter().any(|a| a == "--skip-gn");
+    let skip_lbfgs = args.iter().any(|a| a == "--skip-lbfgs");
     let gn_direct = args.iter().any(|a| a == "--gn-direct");
     println!(
         "threads: {} (set RAYON_NUM_THREADS=1 for one core); N = 8; lambda = {lambda}; coordinates scaled by 1/mean edge length",
@@ -115,8 +118,8 @@ fn main() {
     println!(
         "E* = energy of the preconditioned solver run to its own convergence test; every solver is then timed to E* (1 + 1e-6) ('>' = not reached: time and iterations spent)"
     );
-    println!("| #V | metric | linear energy | E* | precond converged s (its) | precond to E* s (its) | {gn_name} to E* s (its) | L-BFGS to E* s (its) | L-BFGS/precond | L-BFGS/{gn_name} |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| #V | metric | linear energy | E* | precond converged s (its) | precond to E* s (its) | Newton to E* s (its) | {gn_name} to E* s (its) | L-BFGS to E* s (its) | L-BFGS/precond | L-BFGS/Newton | L-BFGS/{gn_name} |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for level in levels {
         let a = icosphere(level);
         let b = twist_stretch(&a);
@@ -154,6 +157,7 @@ fn main() {
                 format!("{}{t:.3} ({its})", if reached { "" } else { ">" })
             };
             let pc_t = to_target(Solver::Preconditioned, 100);
+            let nt_t = to_target(Solver::Newton, gn_cap);
             let gn_t = if skip_gn {
                 (f64::NAN, 0, false)
             } else if gn_direct {
@@ -161,25 +165,31 @@ fn main() {
             } else {
                 to_target(Solver::GaussNewton, gn_cap)
             };
-            let lb_t = to_target(Solver::Lbfgs, cap / 50);
+            let lb_t = if skip_lbfgs {
+                (f64::NAN, 0, false)
+            } else {
+                to_target(Solver::Lbfgs, cap / 50)
+            };
             let ratio = |x: (f64, usize, bool)| {
                 let gt = if lb_t.2 { "" } else { ">" };
-                if x.2 {
+                if x.2 && !skip_lbfgs {
                     format!("{gt}{:.1}x", lb_t.0 / x.0)
                 } else {
                     "-".to_string()
                 }
             };
             println!(
-                "| {} | {name} | {:.6e} | {:.8e} | {t_pc:.3} ({}) | {} | {} | {} | {} | {} |",
+                "| {} | {name} | {:.6e} | {:.8e} | {t_pc:.3} ({}) | {} | {} | {} | {} | {} | {} | {} |",
                 a.n_vertices(),
                 pc.initial_energy,
                 pc.energy,
                 pc.iterations,
                 fmt(pc_t),
+                fmt(nt_t),
                 if skip_gn { "-".into() } else { fmt(gn_t) },
-                fmt(lb_t),
+                if skip_lbfgs { "-".into() } else { fmt(lb_t) },
                 ratio(pc_t),
+                ratio(nt_t),
                 ratio(gn_t),
             );
         }

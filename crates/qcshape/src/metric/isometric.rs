@@ -84,8 +84,7 @@ impl Metric for Isometric {
         sink: &mut SecondOrderSink,
     ) -> bool {
         const ZERO: [f64; 9] = [0.0; 9];
-        for ei in 0..topo.n_edges() {
-            let c = r[ei];
+        for (ei, &c) in r.iter().enumerate().take(topo.n_edges()) {
             let id = [c, 0.0, 0.0, 0.0, c, 0.0, 0.0, 0.0, c];
             let neg = id.map(|v| -v);
             sink.add(ei, 0, 0, &ZERO, &id);

@@ -73,12 +73,9 @@ pub(crate) struct SecondBlocks {
 }
 
 impl SegmentBlocks {
-    /// Adds the second-order part into `aa`, `ab`, `bb` (the blocks become those of half the
-    /// exact Hessian); returns whether there was one.
-    pub fn merge_second(&mut self) -> bool {
-        let Some(so) = self.second.take() else {
-            return false;
-        };
+    /// Adds `sign` times the second-order part `so` into `aa`, `ab`, `bb` (with `sign = 1`
+    /// the blocks become those of half the exact Hessian).
+    pub fn add_second(&mut self, so: &SecondBlocks, sign: f64) {
         for (dst, src) in [
             (&mut self.aa, &so.aa),
             (&mut self.ab, &so.ab),
@@ -86,11 +83,22 @@ impl SegmentBlocks {
         ] {
             for (d, v) in dst.iter_mut().zip(src) {
                 for k in 0..9 {
-                    d[k] += v[k];
+                    d[k] += sign * v[k];
                 }
             }
         }
-        true
+    }
+
+    /// Adds the second-order part into the blocks and drops it; returns whether there was one.
+    #[cfg(test)]
+    pub fn merge_second(&mut self) -> bool {
+        match self.second.take() {
+            Some(so) => {
+                self.add_second(&so, 1.0);
+                true
+            }
+            None => false,
+        }
     }
 }
 
@@ -134,6 +142,7 @@ impl HessianLayout {
     }
 
     /// The vertex-pair structure.
+    #[cfg(test)]
     pub fn structure(&self) -> &Structure {
         &self.st
     }

@@ -62,6 +62,13 @@ pub enum Solver {
     /// (Kronecker preconditioner `T_c (x) A`, one sparse Cholesky of size 3 #V per
     /// iteration), line search on the energy.
     GaussNewton,
+    /// Truncated Newton: [`Solver::GaussNewton`] with the metric's second-order part
+    /// `sum r_i d2 r_i` added to `J^T J` (the exact Hessian, [`Metric::add_second_order`]);
+    /// conjugate gradients stop at negative curvature. Converges superlinearly near the
+    /// geodesic, where Gauss-Newton converges linearly (a geodesic is a large-residual
+    /// problem). Metrics without second derivatives (rigid, paper forms, segment weights,
+    /// per-pose L2) run as Gauss-Newton.
+    Newton,
     /// Levenberg-Marquardt with a sparse Cholesky factorization of the full block-tridiagonal
     /// normal equations at every iteration (small meshes).
     GaussNewtonDirect,
@@ -74,11 +81,12 @@ impl std::str::FromStr for Solver {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "gauss-newton" | "gn" => Ok(Solver::GaussNewton),
+            "newton" => Ok(Solver::Newton),
             "gauss-newton-direct" | "gn-direct" | "lm" => Ok(Solver::GaussNewtonDirect),
             "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
             "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
             _ => Err(format!(
-                "unknown solver '{s}' (expected preconditioned, gauss-newton, gauss-newton-direct or lbfgs)"
+                "unknown solver '{s}' (expected preconditioned, newton, gauss-newton, gauss-newton-direct or lbfgs)"
             )),
         }
     }
@@ -240,8 +248,10 @@ impl<'m> GeodesicSolver<'m> {
         } else {
             None
         };
-        let spatial = if matches!(options.solver, Solver::Preconditioned | Solver::GaussNewton)
-            && energy.n_vars() > 0
+        let spatial = if matches!(
+            options.solver,
+            Solver::Preconditioned | Solver::GaussNewton | Solver::Newton
+        ) && energy.n_vars() > 0
         {
             Some(
                 kronecker::SpatialLayout::new(&energy)
@@ -345,9 +355,10 @@ impl<'m> GeodesicSolver<'m> {
             }
         } else {
             match self.options.solver {
-                Solver::GaussNewton => {
+                Solver::GaussNewton | Solver::Newton => {
                     let layout = self.spatial.as_ref().expect("layout is built for Gauss-Newton");
-                    truncated::minimize(pe, layout, ends, x0, &self.options)?
+                    let newton = self.options.solver == Solver::Newton;
+                    truncated::minimize(pe, layout, ends, x0, &self.options, newton)?
                 }
                 Solver::GaussNewtonDirect => {
                     let layout = self

@@ -14,6 +14,14 @@
 //! Auxiliary unknowns (rigid motions) are eliminated: they are reset to their optimum after
 //! every step, and the conjugate gradients run on the Schur complement of their blocks.
 //!
+//! Newton's method ([`super::Solver::Newton`]) runs the same iteration on the exact Hessian:
+//! the metric's second-order part `sum r_i d2 r_i` is added to the blocks (the geodesic is a
+//! large-residual problem, on which the Gauss-Newton model converges only linearly). Far from
+//! the geodesic that Hessian is indefinite: conjugate gradients stop at the first direction of
+//! negative curvature (the step so far, or the preconditioned gradient at the first one), and
+//! the preconditioner is fitted to the Gauss-Newton part whenever the fit to the full Hessian
+//! is not positive definite.
+//!
 //! Compared with the direct factorization of the full block-tridiagonal system, whose fill
 //! grows with the path length times the spatial factor, memory and time per iteration stay
 //! linear in `N` times one spatial factorization.
@@ -95,10 +103,36 @@ fn spd_inverse(a: &[f64], n: usize) -> Vec<f64> {
 }
 
 impl<'a> Model<'a> {
-    fn new(layout: &'a SpatialLayout, blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
+    /// The model of `blocks`. With second-order parts (Newton) the operator is the exact
+    /// Hessian, and the preconditioner is fitted to it; where the fitted spatial matrix is not
+    /// positive definite (far from the geodesic the Hessian is indefinite), to the
+    /// Gauss-Newton part instead.
+    fn new(layout: &'a SpatialLayout, mut blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
         let st = layout.structure();
         let (steps, n_aux) = (st.steps, st.n_aux);
-        let kron = KroneckerModel::fit(layout, &blocks)?;
+        let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
+        for (b, so) in blocks.iter_mut().zip(&seconds) {
+            if let Some(so) = so {
+                b.add_second(so, 1.0);
+            }
+        }
+        let kron = match KroneckerModel::fit(layout, &blocks) {
+            Ok(k) => k,
+            Err(_) if seconds.iter().any(Option::is_some) => {
+                let toggle = |blocks: &mut [SegmentBlocks], sign: f64| {
+                    for (b, so) in blocks.iter_mut().zip(&seconds) {
+                        if let Some(so) = so {
+                            b.add_second(so, sign);
+                        }
+                    }
+                };
+                toggle(&mut blocks, -1.0);
+                let k = KroneckerModel::fit(layout, &blocks)?;
+                toggle(&mut blocks, 1.0);
+                k
+            }
+            Err(e) => return Err(e),
+        };
         let aux_inv = if n_aux == 0 {
             Vec::new()
         } else {
@@ -270,13 +304,16 @@ impl<'a> Model<'a> {
     }
 }
 
-/// Minimizes the path energy from `x` (see the module docs).
+/// Minimizes the path energy from `x` (see the module docs): Gauss-Newton, or with `newton`
+/// Newton's method on the exact Hessian (Gauss-Newton blocks plus the metric's second-order
+/// part where it provides one, [`crate::metric::Metric::add_second_order`]).
 pub(crate) fn minimize(
     pe: &PathEnergy,
     layout: &SpatialLayout,
     ends: &Ends,
     mut x: Vec<f64>,
     opts: &GeodesicOptions,
+    newton: bool,
 ) -> Result<SolveOutput, GeodesicError> {
     let np = pe.n_pose_vars();
     pe.reset_aux(&mut x, ends);
@@ -287,7 +324,7 @@ pub(crate) fn minimize(
             stop: StopReason::GradientTolerance,
         });
     }
-    let (blocks, mut energy, g_full) = layout.structure().assemble(pe, &x, ends);
+    let (blocks, mut energy, g_full) = layout.structure().assemble_with(pe, &x, ends, newton);
     let mut model = Model::new(layout, blocks)?;
     let mut g = model.reduced_gradient(&g_full);
     // The energy gradient is 2 J^T r.
@@ -337,7 +374,7 @@ pub(crate) fn minimize(
         };
         let decrease = energy - en;
         x = xn;
-        let (blocks, e, g_full) = layout.structure().assemble(pe, &x, ends);
+        let (blocks, e, g_full) = layout.structure().assemble_with(pe, &x, ends, newton);
         energy = e;
         model = Model::new(layout, blocks)?;
         g = model.reduced_gradient(&g_full);
