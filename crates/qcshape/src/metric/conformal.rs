@@ -97,45 +97,54 @@ fn outer9(u: [f64; 3], v: [f64; 3], s: f64) -> [f64; 9] {
     ]
 }
 
+/// `out += s_m m + s_n n^T + diag I` (3 x 3, row-major; `n^T` the transpose of `n`).
 #[inline]
-fn eye9(s: f64) -> [f64; 9] {
-    [s, 0.0, 0.0, 0.0, s, 0.0, 0.0, 0.0, s]
+fn add_block(out: &mut [f64; 9], m: &[f64; 9], s_m: f64, n: &[f64; 9], s_n: f64, diag: f64) {
+    for r in 0..3 {
+        for c in 0..3 {
+            out[3 * r + c] += s_m * m[3 * r + c] + s_n * n[3 * c + r];
+        }
+        out[4 * r] += diag;
+    }
 }
 
+/// Maps blocks in the edge variables `e1 = v0 - v1`, `e2 = v0 - v2` to vertex pairs,
+/// `H[j][l] = sum E_aj E_bl H_ab` with `E_1 = (1, -1, 0)`, `E_2 = (1, 0, -1)`, for
+/// `H = [[alpha I, B], [C, delta I]]` with `C = b_t * B^T` (`b_t = 1`, symmetric case) or a
+/// separate matrix `C` (`cm`); accumulated into `out[map[j]][map[l]]`.
 #[inline]
-fn lin9(terms: &[(f64, &[f64; 9])]) -> [f64; 9] {
-    let mut out = [0.0; 9];
-    for (s, m) in terms {
-        for (o, v) in out.iter_mut().zip(m.iter()) {
-            *o += s * v;
-        }
-    }
-    out
+fn add_edge_blocks(
+    out: &mut PairBlocks,
+    map: [usize; 3],
+    alpha: f64,
+    b: &[f64; 9],
+    c: &[f64; 9],
+    delta: f64,
+) {
+    // With C given as a plain matrix: blocks use C directly; add_block takes (m, n^T) pairs,
+    // so C enters as the transpose of its transpose.
+    let ct = transpose9(c);
+    let [m0, m1, m2] = map;
+    // [0][0] = A + B + C + D.
+    add_block(&mut out[m0][m0], b, 1.0, &ct, 1.0, alpha + delta);
+    // [0][1] = -(A + C), [0][2] = -(B + D).
+    add_block(&mut out[m0][m1], &ZERO9, 0.0, &ct, -1.0, -alpha);
+    add_block(&mut out[m0][m2], b, -1.0, &ZERO9, 0.0, -delta);
+    // [1][0] = -(A + B), [1][1] = A, [1][2] = B.
+    add_block(&mut out[m1][m0], b, -1.0, &ZERO9, 0.0, -alpha);
+    add_block(&mut out[m1][m1], &ZERO9, 0.0, &ZERO9, 0.0, alpha);
+    add_block(&mut out[m1][m2], b, 1.0, &ZERO9, 0.0, 0.0);
+    // [2][0] = -(C + D), [2][1] = C, [2][2] = D.
+    add_block(&mut out[m2][m0], &ZERO9, 0.0, &ct, -1.0, -delta);
+    add_block(&mut out[m2][m1], &ZERO9, 0.0, &ct, 1.0, 0.0);
+    add_block(&mut out[m2][m2], &ZERO9, 0.0, &ZERO9, 0.0, delta);
 }
 
-/// Maps blocks in the edge variables `e1 = v0 - v1`, `e2 = v0 - v2` (`[[A, B], [C, D]]`,
-/// rows and columns `e1, e2`) to vertex pairs: `H[j][l] = sum E_aj E_bl H_ab` with
-/// `E_1 = (1, -1, 0)`, `E_2 = (1, 0, -1)`, accumulated into `out[m(j)][m(l)]`.
+const ZERO9: [f64; 9] = [0.0; 9];
+
 #[inline]
-fn add_edge_blocks(out: &mut PairBlocks, map: [usize; 3], h: [[&[f64; 9]; 2]; 2]) {
-    let [[a, b], [c, d]] = h;
-    let blocks = [
-        [
-            lin9(&[(1.0, a), (1.0, b), (1.0, c), (1.0, d)]),
-            lin9(&[(-1.0, a), (-1.0, c)]),
-            lin9(&[(-1.0, b), (-1.0, d)]),
-        ],
-        [lin9(&[(-1.0, a), (-1.0, b)]), *a, *b],
-        [lin9(&[(-1.0, c), (-1.0, d)]), *c, *d],
-    ];
-    for j in 0..3 {
-        for l in 0..3 {
-            let o = &mut out[map[j]][map[l]];
-            for (ov, v) in o.iter_mut().zip(blocks[j][l].iter()) {
-                *ov += v;
-            }
-        }
-    }
+fn transpose9(m: &[f64; 9]) -> [f64; 9] {
+    [m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8]]
 }
 
 /// Adds `c` times the second derivatives of [`corner_value`] at corner `k` of a face into the
@@ -158,16 +167,14 @@ fn add_corner_hessian(
     let (d1, d2) = (sub(x[0], x[1]), sub(x[0], x[2]));
     let (l1, l2) = (dot(e1, e1), dot(e2, e2));
     let (p1, p2) = (dot(e1, d1), dot(e2, d2));
-    let a = eye9(-2.0 * c * p2);
-    let b = lin9(&[(1.0, &outer9(d1, e2, 2.0 * c)), (1.0, &outer9(e1, d2, -2.0 * c))]);
-    let bt = lin9(&[(1.0, &outer9(e2, d1, 2.0 * c)), (1.0, &outer9(d2, e1, -2.0 * c))]);
-    let d = eye9(2.0 * c * p1);
-    add_edge_blocks(hgg, NEXT[k], [[&a, &b], [&bt, &d]]);
-    let xa = eye9(c * l2);
+    let b = {
+        let (u, v) = (outer9(d1, e2, 2.0 * c), outer9(e1, d2, -2.0 * c));
+        std::array::from_fn(|i| u[i] + v[i])
+    };
+    add_edge_blocks(hgg, NEXT[k], -2.0 * c * p2, &b, &transpose9(&b), 2.0 * c * p1);
     let xb = outer9(e1, e2, -2.0 * c);
     let xc = outer9(e2, e1, 2.0 * c);
-    let xd = eye9(-c * l1);
-    add_edge_blocks(hgx, NEXT[k], [[&xa, &xb], [&xc, &xd]]);
+    add_edge_blocks(hgx, NEXT[k], c * l2, &xb, &xc, -c * l1);
 }
 
 /// Second-order part of the (quasi-)conformal quadratic form with constant weights
