@@ -110,42 +110,34 @@ fn add_block(out: &mut [f64; 9], m: &[f64; 9], s_m: f64, n: &[f64; 9], s_n: f64,
 
 /// Maps blocks in the edge variables `e1 = v0 - v1`, `e2 = v0 - v2` to vertex pairs,
 /// `H[j][l] = sum E_aj E_bl H_ab` with `E_1 = (1, -1, 0)`, `E_2 = (1, 0, -1)`, for
-/// `H = [[alpha I, B], [C, delta I]]` with `C = b_t * B^T` (`b_t = 1`, symmetric case) or a
-/// separate matrix `C` (`cm`); accumulated into `out[map[j]][map[l]]`.
+/// `H = [[alpha I, B], [C, delta I]]` given by `B` and the transpose `c_t = C^T` (what
+/// [`add_block`] takes); accumulated into `out[map[j]][map[l]]`.
 #[inline]
 fn add_edge_blocks(
     out: &mut PairBlocks,
     map: [usize; 3],
     alpha: f64,
     b: &[f64; 9],
-    c: &[f64; 9],
+    c_t: &[f64; 9],
     delta: f64,
 ) {
-    // With C given as a plain matrix: blocks use C directly; add_block takes (m, n^T) pairs,
-    // so C enters as the transpose of its transpose.
-    let ct = transpose9(c);
     let [m0, m1, m2] = map;
     // [0][0] = A + B + C + D.
-    add_block(&mut out[m0][m0], b, 1.0, &ct, 1.0, alpha + delta);
+    add_block(&mut out[m0][m0], b, 1.0, c_t, 1.0, alpha + delta);
     // [0][1] = -(A + C), [0][2] = -(B + D).
-    add_block(&mut out[m0][m1], &ZERO9, 0.0, &ct, -1.0, -alpha);
+    add_block(&mut out[m0][m1], &ZERO9, 0.0, c_t, -1.0, -alpha);
     add_block(&mut out[m0][m2], b, -1.0, &ZERO9, 0.0, -delta);
     // [1][0] = -(A + B), [1][1] = A, [1][2] = B.
     add_block(&mut out[m1][m0], b, -1.0, &ZERO9, 0.0, -alpha);
     add_block(&mut out[m1][m1], &ZERO9, 0.0, &ZERO9, 0.0, alpha);
     add_block(&mut out[m1][m2], b, 1.0, &ZERO9, 0.0, 0.0);
     // [2][0] = -(C + D), [2][1] = C, [2][2] = D.
-    add_block(&mut out[m2][m0], &ZERO9, 0.0, &ct, -1.0, -delta);
-    add_block(&mut out[m2][m1], &ZERO9, 0.0, &ct, 1.0, 0.0);
+    add_block(&mut out[m2][m0], &ZERO9, 0.0, c_t, -1.0, -delta);
+    add_block(&mut out[m2][m1], &ZERO9, 0.0, c_t, 1.0, 0.0);
     add_block(&mut out[m2][m2], &ZERO9, 0.0, &ZERO9, 0.0, delta);
 }
 
 const ZERO9: [f64; 9] = [0.0; 9];
-
-#[inline]
-fn transpose9(m: &[f64; 9]) -> [f64; 9] {
-    [m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8]]
-}
 
 /// Adds `c` times the second derivatives of [`corner_value`] at corner `k` of a face into the
 /// face-slot blocks `hgg[m][n] = d2/dg_m dg_n`, `hgx[m][n] = d2/dg_m dX_n` (`d2/dX dX = 0`).
@@ -171,10 +163,29 @@ fn add_corner_hessian(
         let (u, v) = (outer9(d1, e2, 2.0 * c), outer9(e1, d2, -2.0 * c));
         std::array::from_fn(|i| u[i] + v[i])
     };
-    add_edge_blocks(hgg, NEXT[k], -2.0 * c * p2, &b, &transpose9(&b), 2.0 * c * p1);
+    // The d2/de de block is symmetric: C = B^T, so C^T = B.
+    add_edge_blocks(hgg, NEXT[k], -2.0 * c * p2, &b, &b, 2.0 * c * p1);
+    // d2/de dd: B = -2c e1 e2^T, C = 2c e2 e1^T, so C^T = 2c e1 e2^T.
     let xb = outer9(e1, e2, -2.0 * c);
-    let xc = outer9(e2, e1, 2.0 * c);
-    add_edge_blocks(hgx, NEXT[k], c * l2, &xb, &xc, -c * l1);
+    let xc_t = outer9(e1, e2, 2.0 * c);
+    add_edge_blocks(hgx, NEXT[k], c * l2, &xb, &xc_t, -c * l1);
+}
+
+/// One face's geometry, displacement and weights (all 1 without `weights`), in face order.
+/// Always inlined: it runs in the per-face loop of every gradient evaluation.
+#[inline(always)]
+fn face_data(
+    g: &[[f64; 3]],
+    x: &[[f64; 3]],
+    weights: Option<&[f64]>,
+    f: &[u32; 3],
+) -> ([[f64; 3]; 3], [[f64; 3]; 3], [f64; 3]) {
+    let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+    let w = match weights {
+        Some(w) => [w[i0], w[i1], w[i2]],
+        None => [1.0; 3],
+    };
+    ([g[i0], g[i1], g[i2]], [x[i0], x[i1], x[i2]], w)
 }
 
 /// Second-order part of the (quasi-)conformal quadratic form with constant weights
@@ -194,13 +205,7 @@ pub(crate) fn face_second_order(
     }
     let (g, x) = geometry_and_displacement(seg);
     for (fi, f) in topo.faces().iter().enumerate() {
-        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-        let gf = [g[i0], g[i1], g[i2]];
-        let xf = [x[i0], x[i1], x[i2]];
-        let w = match weights {
-            Some(w) => [w[i0], w[i1], w[i2]],
-            None => [1.0; 3],
-        };
+        let (gf, xf, w) = face_data(g, &x, weights, f);
         let mut hgg = [[[0.0; 9]; 3]; 3];
         let mut hgx = [[[0.0; 9]; 3]; 3];
         for k in 0..3 {
@@ -308,13 +313,7 @@ pub(crate) fn face_kernel(
     let n_rows = form.residuals_per_face();
     let mut value = 0.0;
     for (fi, f) in topo.faces().iter().enumerate() {
-        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-        let gf = [g[i0], g[i1], g[i2]];
-        let xf = [x[i0], x[i1], x[i2]];
-        let w = match weights {
-            Some(w) => [w[i0], w[i1], w[i2]],
-            None => [1.0; 3],
-        };
+        let (gf, xf, w) = face_data(g, &x, weights, f);
         let t = face_values(gf, xf);
         let wt = [w[0] * t[0], w[1] * t[1], w[2] * t[2]];
         // Residuals of this face, and the coefficient of dT_k in each.

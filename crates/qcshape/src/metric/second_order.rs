@@ -70,11 +70,6 @@ impl<'a> SecondOrderSink<'a> {
         }
     }
 
-    /// Which pose supplies the geometry of this term.
-    pub fn at(&self) -> At {
-        self.at
-    }
-
     #[inline]
     fn slot(&self, i: usize, k: usize, l: usize) -> usize {
         let len = (self.offsets[i + 1] - self.offsets[i]) as usize;

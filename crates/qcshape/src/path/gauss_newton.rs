@@ -5,7 +5,7 @@
 
 use super::energy::{Ends, PathEnergy};
 use super::hessian::HessianLayout;
-use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Minimizes the path energy from `x` with Levenberg-Marquardt steps
 /// `(J^T J + mu D) dx = -J^T r`, `D = diag(J^T J)` floored (Marquardt scaling), `mu` adapted by
@@ -19,14 +19,13 @@ pub(crate) fn minimize(
 ) -> Result<SolveOutput, GeodesicError> {
     let par = faer::get_global_parallelism();
     let (mut blocks, mut energy, mut g) = layout.assemble(pe, &x, ends);
-    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
     // The energy gradient is 2 J^T r.
     let g0 = 2.0 * norm(&g);
     let mut mu = 1e-4;
     let mut nu = 2.0;
     let mut iterations = 0;
     let mut stop = StopReason::MaxIterations;
-    if g0 == 0.0 || super::at_roundoff(g0, energy) {
+    if super::at_roundoff(g0, energy) {
         return Ok(SolveOutput {
             x,
             iterations,

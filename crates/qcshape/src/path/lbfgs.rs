@@ -42,8 +42,8 @@ pub(crate) fn minimize(
     let problem = Problem { pe, ends };
     let mut g = vec![0.0; x0.len()];
     let e0 = pe.energy_gradient(&x0, ends, &mut g);
-    let g0 = g.iter().map(|v| v * v).sum::<f64>().sqrt();
-    if g0 == 0.0 || super::at_roundoff(g0, e0) {
+    let g0 = super::norm(&g);
+    if super::at_roundoff(g0, e0) {
         return Ok(SolveOutput {
             x: x0,
             iterations: 0,
@@ -75,7 +75,7 @@ pub(crate) fn minimize(
             let mut g = vec![0.0; pe.n_vars()];
             let x = state.get_best_param().expect("argmin keeps the best parameter");
             pe.energy_gradient(x, ends, &mut g);
-            if g.iter().map(|v| v * v).sum::<f64>().sqrt() <= opts.gradient_tolerance * g0 {
+            if super::norm(&g) <= opts.gradient_tolerance * g0 {
                 StopReason::GradientTolerance
             } else {
                 StopReason::EnergyTolerance

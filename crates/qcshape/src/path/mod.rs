@@ -406,9 +406,6 @@ impl<'m> GeodesicSolver<'m> {
     }
 }
 
-/// Whether a gradient norm is zero up to rounding for a path of energy `energy` (normalized
-/// units): then the start is already stationary (e.g. a straight path that is a geodesic by
-/// symmetry) and no solver can make progress, so it counts as converged.
 /// Dot product of two equally long vectors, summed in 8 interleaved lanes (vectorizes; the
 /// order is fixed, so results are deterministic).
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -423,6 +420,11 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
     let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
     (acc[0] + acc[4]) + (acc[1] + acc[5]) + (acc[2] + acc[6]) + (acc[3] + acc[7]) + tail
+}
+
+/// Euclidean norm, by [`dot`].
+pub(crate) fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
 }
 
 impl GeodesicOptions {
@@ -449,6 +451,10 @@ impl GeodesicOptions {
     }
 }
 
+/// Whether a gradient norm is zero up to rounding for a path of energy `energy` (normalized
+/// units): then the start is already stationary (e.g. a straight path that is a geodesic by
+/// symmetry) and no solver can make progress, so it counts as converged (a zero gradient
+/// always does).
 pub(crate) fn at_roundoff(gradient_norm: f64, energy: f64) -> bool {
     gradient_norm <= 1e-10 * (1.0 + energy.abs())
 }

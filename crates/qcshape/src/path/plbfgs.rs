@@ -15,7 +15,7 @@ use std::collections::VecDeque;
 
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, SpatialLayout};
-use super::{dot, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1}` (the energy's Gauss-Newton Hessian is
 /// `2 J^T J ~ 2 T_c (x) A`), fitted at one path.
@@ -85,7 +85,7 @@ pub(crate) fn minimize(
     let mut x = x0[..np].to_vec();
     let mut g = vec![0.0; np];
     let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g);
-    let g0 = dot(&g, &g).sqrt();
+    let g0 = norm(&g);
     let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
     let refresh = opts.preconditioner_refresh;
     let mut gamma = 1.0f64;
@@ -109,7 +109,7 @@ pub(crate) fn minimize(
     let mut iterations = 0;
     let max_iterations = opts.max_iterations * 10;
     let mut stop = StopReason::MaxIterations;
-    if g0 == 0.0 || np == 0 || super::at_roundoff(g0, e) {
+    if np == 0 || super::at_roundoff(g0, e) {
         return Ok(SolveOutput {
             x: full,
             iterations,
@@ -117,7 +117,7 @@ pub(crate) fn minimize(
         });
     }
     while iterations < max_iterations {
-        if let Some(reason) = opts.stop_before_iteration(e, dot(&g, &g).sqrt(), g0) {
+        if let Some(reason) = opts.stop_before_iteration(e, norm(&g), g0) {
             stop = reason;
             break;
         }
@@ -194,7 +194,7 @@ pub(crate) fn minimize(
             wmy[k] = mg_new[k] - mg[k];
         }
         let sy = dot(&ws, &wy);
-        if sy > 1e-12 * dot(&wy, &wy).sqrt() * dot(&ws, &ws).sqrt() {
+        if sy > 1e-12 * norm(&wy) * norm(&ws) {
             // Scale H0 to the newest pair's curvature along y: gamma = s.y / y.M^{-1} y (the
             // preconditioned form of Nocedal & Wright's eq. 7.20).
             let ymy = dot(&wy, &wmy);
@@ -225,7 +225,7 @@ pub(crate) fn minimize(
             break;
         }
     }
-    let stop = opts.final_stop(stop, dot(&g, &g).sqrt(), g0);
+    let stop = opts.final_stop(stop, norm(&g), g0);
     full[..np].copy_from_slice(&x);
     pe.reset_aux(&mut full, ends);
     Ok(SolveOutput {

@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{SegmentBlocks, Structure};
 use super::kronecker::{KroneckerModel, SpatialLayout};
-use super::{dot, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
 const MAX_CG: usize = 250;
@@ -61,10 +61,6 @@ fn add_mul_t(y: &mut [f64], b: &[f64; 9], x: &[f64]) {
     for c in 0..3 {
         y[c] += b[c] * x[0] + b[3 + c] * x[1] + b[6 + c] * x[2];
     }
-}
-
-fn norm(a: &[f64]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 /// Inverse of a small symmetric positive semi-definite matrix (n x n, row-major) by Cholesky,
@@ -344,7 +340,7 @@ pub(crate) fn minimize(
     let g0 = 2.0 * norm(&g);
     let mut iterations = 0;
     let mut stop = StopReason::MaxIterations;
-    if g0 == 0.0 || super::at_roundoff(g0, energy) {
+    if super::at_roundoff(g0, energy) {
         return Ok(SolveOutput {
             x,
             iterations,
