@@ -22,6 +22,7 @@
 //! Temporal interpolation between key poses (section 2.2.1) with spatial multiresolution is in
 //! [`Interpolator`] and [`interpolate_sequence`].
 
+mod compact;
 mod energy;
 mod gauss_newton;
 mod hessian;

@@ -11,8 +11,7 @@
 //! unknowns (rigid motions) are eliminated: they are set to their optimum at every evaluation,
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
 
-use std::collections::VecDeque;
-
+use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, SpatialLayout};
 use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
@@ -61,16 +60,6 @@ fn eval(
     e
 }
 
-/// One L-BFGS correction pair with its preconditioned `y`.
-struct Pair {
-    s: Vec<f64>,
-    y: Vec<f64>,
-    /// `1 / s.y`.
-    rho: f64,
-    /// `M^{-1} y` for the current preconditioner `M`.
-    my: Vec<f64>,
-}
-
 /// Minimizes the path energy from `x0` (see the module docs).
 pub(crate) fn minimize(
     pe: &PathEnergy,
@@ -89,11 +78,8 @@ pub(crate) fn minimize(
     let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
     let refresh = opts.preconditioner_refresh;
     let mut gamma = 1.0f64;
-    let mem = opts.lbfgs_memory.max(1);
-    // M^{-1} g for the current gradient, and the history (s, y, 1 / s.y, M^{-1} y): by
-    // linearity the two-loop recursion's `H0 q` is `gamma (M^{-1} g - sum_i alpha_i M^{-1} y_i)`,
-    // so one preconditioner application per iteration suffices (`M^{-1} y` is the difference
-    // of two consecutive `M^{-1} g`).
+    // M^{-1} g for the current gradient; the history in compact form keeps M^{-1} y per pair,
+    // so one preconditioner application per iteration suffices.
     let precondition = |pre: &Preconditioner, v: &[f64], z: &mut Vec<f64>| {
         z.clear();
         z.extend_from_slice(v);
@@ -102,10 +88,11 @@ pub(crate) fn minimize(
     let mut mg = Vec::with_capacity(np);
     precondition(&pre, &g, &mut mg);
     // Work vectors reused across iterations (no allocation in the loop but for new pairs).
-    let (mut q, mut r, mut d) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
+    let mut d = vec![0.0; np];
     let (mut xn, mut gn, mut mg_new) = (vec![0.0; np], vec![0.0; np], Vec::with_capacity(np));
-    let (mut ws, mut wy, mut wmy) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
-    let mut hist: VecDeque<Pair> = VecDeque::new();
+    let mut spare: Option<Pair> = None;
+    let mut hist = CompactHistory::new(opts.lbfgs_memory);
+    hist.reset_gradient(&g);
     let mut iterations = 0;
     let max_iterations = opts.max_iterations * 10;
     let mut stop = StopReason::MaxIterations;
@@ -129,36 +116,9 @@ pub(crate) fn minimize(
             pe.reset_aux(&mut full, ends);
             pre = Preconditioner::new(layout, pe, &full, ends)?;
             precondition(&pre, &g, &mut mg);
-            for pair in hist.iter_mut() {
-                precondition(&pre, &pair.y, &mut pair.my);
-            }
+            hist.reset_preconditioner(&g, |z| pre.apply(z));
         }
-        // Two-loop recursion with H0 = gamma M^{-1}.
-        q.copy_from_slice(&g);
-        let mut alphas = Vec::with_capacity(hist.len());
-        for pair in hist.iter().rev() {
-            let a = pair.rho * dot(&pair.s, &q);
-            for (qi, yi) in q.iter_mut().zip(&pair.y) {
-                *qi -= a * yi;
-            }
-            alphas.push(a);
-        }
-        r.copy_from_slice(&mg);
-        for (pair, a) in hist.iter().rev().zip(&alphas) {
-            for (ri, mi) in r.iter_mut().zip(&pair.my) {
-                *ri -= a * mi;
-            }
-        }
-        r.iter_mut().for_each(|v| *v *= gamma);
-        for (pair, a) in hist.iter().zip(alphas.iter().rev()) {
-            let b = pair.rho * dot(&pair.y, &r);
-            for (ri, si) in r.iter_mut().zip(&pair.s) {
-                *ri += (a - b) * si;
-            }
-        }
-        for (di, ri) in d.iter_mut().zip(&r) {
-            *di = -ri;
-        }
+        hist.direction(&mg, gamma, &mut d);
         let mut slope = dot(&g, &d);
         if slope >= 0.0 {
             // Not a descent direction (can happen with a stale history): restart.
@@ -188,32 +148,36 @@ pub(crate) fn minimize(
             break;
         };
         precondition(&pre, &gn, &mut mg_new);
+        let mut pair = spare.take().unwrap_or_else(|| Pair {
+            s: vec![0.0; np],
+            y: vec![0.0; np],
+            my: vec![0.0; np],
+        });
+        let (mut sy, mut ymy, mut ss, mut yy) = (0.0, 0.0, 0.0, 0.0);
         for k in 0..np {
-            ws[k] = xn[k] - x[k];
-            wy[k] = gn[k] - g[k];
-            wmy[k] = mg_new[k] - mg[k];
+            let (s, y, my) = (xn[k] - x[k], gn[k] - g[k], mg_new[k] - mg[k]);
+            pair.s[k] = s;
+            pair.y[k] = y;
+            pair.my[k] = my;
+            sy += s * y;
+            ymy += y * my;
+            ss += s * s;
+            yy += y * y;
         }
-        let sy = dot(&ws, &wy);
-        if sy > 1e-12 * norm(&wy) * norm(&ws) {
+        let new_pair = if sy > 1e-12 * (yy * ss).sqrt() {
             // Scale H0 to the newest pair's curvature along y: gamma = s.y / y.M^{-1} y (the
             // preconditioned form of Nocedal & Wright's eq. 7.20).
-            let ymy = dot(&wy, &wmy);
             if ymy > 0.0 {
                 gamma = sy / ymy;
             }
-            // The oldest pair's storage becomes the next work vectors when the history is full.
-            let (ns, ny, nmy) = if hist.len() == mem {
-                let old = hist.pop_front().expect("full history");
-                (old.s, old.y, old.my)
-            } else {
-                (vec![0.0; np], vec![0.0; np], vec![0.0; np])
-            };
-            hist.push_back(Pair {
-                s: std::mem::replace(&mut ws, ns),
-                y: std::mem::replace(&mut wy, ny),
-                rho: 1.0 / sy,
-                my: std::mem::replace(&mut wmy, nmy),
-            });
+            Some((pair, sy, ymy))
+        } else {
+            spare = Some(pair);
+            None
+        };
+        // The evicted oldest pair's storage becomes the next work vectors.
+        if let Some(old) = hist.advance(&gn, new_pair) {
+            spare = Some(old);
         }
         let decrease = e - en;
         std::mem::swap(&mut x, &mut xn);
