@@ -20,9 +20,12 @@ use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholes
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
-use super::energy::PathEnergy;
+use rayon::prelude::*;
+
+use super::energy::{Ends, PathEnergy};
 use super::hessian::{SegmentBlocks, Structure};
 use super::GeodesicError;
+use crate::metric::At;
 
 /// Structure of the spatial matrix `A` (upper triangle of 3 x 3 vertex blocks on the metric's
 /// vertex-pair set), with its symbolic factorization. Built once per (topology, metric).
@@ -131,12 +134,13 @@ impl SpatialLayout {
     }
 
     /// `q <- A^{-1} q` for every column of `q` (column-major, 3 #V rows), `A` factorized by
-    /// [`Self::factorize`] into `l_values`.
-    pub fn solve(&self, l_values: &[f64], q: &mut [f64]) {
+    /// [`Self::factorize`] into `l_values` (any precision faer supports: the preconditioners
+    /// keep the factor in single precision).
+    pub fn solve<T: faer::traits::ComplexField>(&self, l_values: &[T], q: &mut [T]) {
         let n = 3 * self.nv;
         let m = q.len() / n;
         let par = Par::Seq;
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(m, par));
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<T>(m, par));
         let llt = faer::sparse::linalg::cholesky::LltRef::new(&self.symbolic, l_values);
         llt.solve_in_place_with_conj(
             Conj::No,
@@ -149,32 +153,28 @@ impl SpatialLayout {
 
 /// `T_c (x) A` fitted to the blocks of `J^T J` at one path, factorized.
 pub(crate) struct KroneckerModel {
-    /// Cholesky values of `A`.
-    l_values: Vec<f64>,
+    /// Cholesky values of `A`, factorized in double precision and kept in single: the
+    /// triangular solves are bound by the factor's arithmetic and memory traffic (about a
+    /// million values at 2,562 vertices), and a preconditioner needs no more than single
+    /// precision.
+    l_values: Vec<f32>,
     /// `T_c^{-1}` (m x m, row-major), `m = N - 1`.
     tinv: Vec<f64>,
 }
 
-impl KroneckerModel {
-    /// Fits `A` and the segment weights `c_s` to `blocks` (one per segment, from
-    /// [`Structure::assemble`]) and factorizes `A`.
-    pub fn fit(layout: &SpatialLayout, blocks: &[SegmentBlocks]) -> Result<Self, GeodesicError> {
-        let st = &layout.st;
-        let steps = st.steps;
-        let m = steps - 1;
-        // A: mean of the diagonal pose blocks, halved (T has 2 on its diagonal).
-        let mut a = vec![[0.0f64; 9]; st.pairs.n_slots()];
-        for b in blocks {
-            for part in [&b.aa, &b.bb] {
-                for (ai, bi) in a.iter_mut().zip(part.iter()) {
-                    for k in 0..9 {
-                        ai[k] += bi[k];
-                    }
-                }
-            }
-        }
-        let scale = 0.5 / m as f64;
-        a.iter_mut().flatten().for_each(|v| *v *= scale);
+/// What the Kronecker fit needs from `J^T J`: the sum of every segment's pose blocks
+/// (`aa + bb`, 3 x 3 per vertex-pair slot) and per segment the trace of its pose blocks and
+/// how many it has (2, or 1 for a segment with a fixed end).
+pub(crate) struct PoseSum {
+    sum: Vec<[f64; 9]>,
+    traces: Vec<f64>,
+    parts: Vec<usize>,
+}
+
+impl PoseSum {
+    /// From assembled segment blocks ([`Structure::assemble`]).
+    pub fn from_blocks(layout: &SpatialLayout, blocks: &[SegmentBlocks]) -> Self {
+        let mut sum = vec![[0.0f64; 9]; layout.st.pairs.n_slots()];
         let trace = |blk: &[[f64; 9]]| -> f64 {
             layout
                 .diag_slots
@@ -182,39 +182,153 @@ impl KroneckerModel {
                 .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
                 .sum()
         };
-        let tr_a = trace(&a).max(f64::MIN_POSITIVE);
-        // Segment weights: trace of the segment's pose blocks relative to A's.
-        let c: Vec<f64> = blocks
+        let mut traces = Vec::with_capacity(blocks.len());
+        let mut parts = Vec::with_capacity(blocks.len());
+        for b in blocks {
+            let (mut t, mut p) = (0.0, 0);
+            for part in [&b.aa, &b.bb] {
+                if part.is_empty() {
+                    continue;
+                }
+                for (si, bi) in sum.iter_mut().zip(part.iter()) {
+                    for k in 0..9 {
+                        si[k] += bi[k];
+                    }
+                }
+                t += trace(part);
+                p += 1;
+            }
+            traces.push(t);
+            parts.push(p);
+        }
+        PoseSum { sum, traces, parts }
+    }
+
+    /// Directly from the metric's residual Jacobians at path `x`, without the segments'
+    /// blocks (no off-diagonal blocks, gradients or per-segment storage): what the
+    /// preconditioned solver needs at a refit.
+    pub fn assemble(layout: &SpatialLayout, pe: &PathEnergy, x: &[f64], ends: &Ends) -> Self {
+        let st = &layout.st;
+        let n_slots = st.pairs.n_slots();
+        let steps = st.steps;
+        let pat = &pe.pattern;
+        let per_segment = |acc: &mut Vec<[f64; 9]>, s: usize| -> (f64, usize) {
+            let need_a = s >= 1;
+            let need_b = s + 1 < steps;
+            let mut te = pe.new_term_eval();
+            let mut trace = 0.0;
+            for at in [At::Start, At::End] {
+                pe.eval_term(x, ends, s, at, &mut te, true);
+                let jac = &te.jac;
+                for i in 0..pat.n_residuals() {
+                    let range = pat.row(i);
+                    let (l, first) = (range.len(), range.start);
+                    let ps = st.pairs.slots(i);
+                    for k in 0..l {
+                        let (dak, dbk) = (jac.da[first + k], jac.db[first + k]);
+                        let (dak, dbk) = (
+                            if need_a { dak } else { [0.0; 3] },
+                            if need_b { dbk } else { [0.0; 3] },
+                        );
+                        trace += dot3(dak, dak) + dot3(dbk, dbk);
+                        for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
+                            let (dal, dbl) = (jac.da[first + ll], jac.db[first + ll]);
+                            let blk = &mut acc[slot as usize];
+                            for r in 0..3 {
+                                for c in 0..3 {
+                                    blk[3 * r + c] += dak[r] * dal[c] + dbk[r] * dbl[c];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            (trace, usize::from(need_a) + usize::from(need_b))
+        };
+        let (sum, per) = (0..steps)
+            .into_par_iter()
+            .fold(
+                || (vec![[0.0f64; 9]; n_slots], Vec::new()),
+                |(mut acc, mut per), s| {
+                    let tp = per_segment(&mut acc, s);
+                    per.push((s, tp));
+                    (acc, per)
+                },
+            )
+            .reduce(
+                || (vec![[0.0f64; 9]; n_slots], Vec::new()),
+                |(mut a, mut pa), (b, pb)| {
+                    for (x, y) in a.iter_mut().zip(&b) {
+                        for k in 0..9 {
+                            x[k] += y[k];
+                        }
+                    }
+                    pa.extend(pb);
+                    (a, pa)
+                },
+            );
+        let mut traces = vec![0.0; steps];
+        let mut parts = vec![0; steps];
+        for (s, (t, p)) in per {
+            traces[s] = t;
+            parts[s] = p;
+        }
+        PoseSum { sum, traces, parts }
+    }
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl KroneckerModel {
+    /// Fits `A` and the segment weights `c_s` to the blocks of `J^T J` (`ps`) and factorizes
+    /// `A`.
+    pub fn fit(layout: &SpatialLayout, ps: PoseSum) -> Result<Self, GeodesicError> {
+        let st = &layout.st;
+        let steps = st.steps;
+        let m = steps - 1;
+        // A: mean of the diagonal pose blocks, halved (T has 2 on its diagonal).
+        let mut a = ps.sum;
+        let scale = 0.5 / m as f64;
+        a.iter_mut().flatten().for_each(|v| *v *= scale);
+        let tr_a: f64 = layout
+            .diag_slots
             .iter()
-            .map(|b| {
-                let parts = [&b.aa, &b.bb].iter().filter(|p| !p.is_empty()).count().max(1);
-                let t = if b.aa.is_empty() { 0.0 } else { trace(&b.aa) }
-                    + if b.bb.is_empty() { 0.0 } else { trace(&b.bb) };
-                (t / (parts as f64 * tr_a)).max(1e-6)
-            })
+            .map(|&i| a[i][0] + a[i][4] + a[i][8])
+            .sum::<f64>()
+            .max(f64::MIN_POSITIVE);
+        // Segment weights: trace of the segment's pose blocks relative to A's.
+        let c: Vec<f64> = ps
+            .traces
+            .iter()
+            .zip(&ps.parts)
+            .map(|(&t, &p)| (t / (p.max(1) as f64 * tr_a)).max(1e-6))
             .collect();
         let d: Vec<f64> = (0..m).map(|i| c[i] + c[i + 1]).collect();
         let e: Vec<f64> = (0..m.saturating_sub(1)).map(|i| -c[i + 1]).collect();
         Ok(KroneckerModel {
-            l_values: layout.factorize(&a)?,
+            l_values: layout.factorize(&a)?.iter().map(|&v| v as f32).collect(),
             tinv: tridiagonal_inverse(&d, &e),
         })
     }
 
     /// `q <- factor (T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), pose-major).
+    /// The spatial solves run in single precision, the time mixing accumulates in double.
     pub fn apply(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64) {
         let n = 3 * layout.nv;
         let m = layout.st.steps - 1;
-        layout.solve(&self.l_values, q);
-        // Time mixing in place, one spatial unknown at a time (no copy of `q`).
-        let mut col = vec![0.0; m];
-        for k in 0..n {
-            for j in 0..m {
-                col[j] = q[j * n + k];
-            }
-            for i in 0..m {
-                let row = &self.tinv[i * m..(i + 1) * m];
-                q[i * n + k] = factor * row.iter().zip(&col).map(|(t, c)| t * c).sum::<f64>();
+        let mut q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        layout.solve(&self.l_values, &mut q32);
+        for i in 0..m {
+            let row = &self.tinv[i * m..(i + 1) * m];
+            let out = &mut q[i * n..(i + 1) * n];
+            out.iter_mut().for_each(|v| *v = 0.0);
+            for (j, t) in row.iter().enumerate() {
+                let t = factor * t;
+                for (o, v) in out.iter_mut().zip(&q32[j * n..(j + 1) * n]) {
+                    *o += t * f64::from(*v);
+                }
             }
         }
     }
@@ -247,4 +361,145 @@ fn tridiagonal_inverse(d: &[f64], e: &[f64]) -> Vec<f64> {
         }
     }
     inv
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::metric::{Conformal, ConformalForm, Isometric, Metric, Regularized, Rigid};
+
+    fn problem<'m>(m: &'m dyn Metric, steps: usize, seed: u64) -> (PathEnergy<'m>, Ends, Vec<f64>) {
+        let base = crate::synth::icosphere(1);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut jitter = |p: &[[f64; 3]], amp: f64| -> Vec<[f64; 3]> {
+            p.iter()
+                .map(|v| v.map(|c| c + amp * (rng.random::<f64>() - 0.5)))
+                .collect()
+        };
+        let a = jitter(&base.positions, 0.1);
+        let b = jitter(&a, 0.5);
+        let pe = PathEnergy::new(m, base.topology.clone(), steps);
+        let frozen = m.frozen_weights(&base.topology, &a, &b);
+        let ends = Ends {
+            start: a,
+            end: b,
+            frozen,
+        };
+        let mut x = pe.linear_start(&ends);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed + 1);
+        for v in x.iter_mut() {
+            *v += 0.05 * (rng.random::<f64>() - 0.5);
+        }
+        (pe, ends, x)
+    }
+
+    fn metrics() -> Vec<Box<dyn Metric>> {
+        vec![
+            Box::new(Regularized::new(Box::new(Isometric), 0.1)),
+            Box::new(Regularized::new(
+                Box::new(Conformal::new(ConformalForm::Quadratic)),
+                0.1,
+            )),
+            Box::new(Regularized::new(Box::new(Rigid), 0.1)),
+        ]
+    }
+
+    /// The direct assembly of the pose-block sum (preconditioned solver) equals the sum of
+    /// the assembled segment blocks (Gauss-Newton solvers).
+    #[test]
+    fn direct_pose_sum_matches_the_segment_blocks() {
+        for m in metrics() {
+            for steps in [2, 4] {
+                let (pe, ends, x) = problem(m.as_ref(), steps, 3);
+                let layout = SpatialLayout::new(&pe).unwrap();
+                let (blocks, _, _) = layout.structure().assemble(&pe, &x, &ends);
+                let want = PoseSum::from_blocks(&layout, &blocks);
+                let got = PoseSum::assemble(&layout, &pe, &x, &ends);
+                let scale = want.sum.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+                assert!(scale > 0.0);
+                for (w, g) in want.sum.iter().flatten().zip(got.sum.iter().flatten()) {
+                    assert!((w - g).abs() <= 1e-12 * scale, "{}: {w} vs {g}", m.name());
+                }
+                assert_eq!(want.parts, got.parts);
+                for (w, g) in want.traces.iter().zip(&got.traces) {
+                    assert!(
+                        (w - g).abs() <= 1e-12 * w.abs().max(1.0),
+                        "{}: {w} vs {g}",
+                        m.name()
+                    );
+                }
+            }
+        }
+    }
+
+    /// `apply` inverts `T_c (x) A` as documented (A the mean diagonal pose block halved, c_s
+    /// the segments' trace ratios), to single precision.
+    #[test]
+    fn apply_inverts_the_fitted_model() {
+        for m in metrics() {
+            let steps = 5;
+            let (pe, ends, x) = problem(m.as_ref(), steps, 5);
+            let layout = SpatialLayout::new(&pe).unwrap();
+            let ps = PoseSum::assemble(&layout, &pe, &x, &ends);
+            let mm = steps - 1;
+            let a: Vec<[f64; 9]> = ps.sum.iter().map(|b| b.map(|v| v * 0.5 / mm as f64)).collect();
+            let tr_a: f64 = layout
+                .diag_slots
+                .iter()
+                .map(|&i| a[i][0] + a[i][4] + a[i][8])
+                .sum();
+            let c: Vec<f64> = ps
+                .traces
+                .iter()
+                .zip(&ps.parts)
+                .map(|(t, &p)| (t / (p as f64 * tr_a)).max(1e-6))
+                .collect();
+            let model = KroneckerModel::fit(&layout, ps).unwrap();
+            let st = layout.structure();
+            let n = 3 * st.nv;
+            let mut rng = ChaCha8Rng::seed_from_u64(9);
+            let v: Vec<f64> = (0..n * mm).map(|_| rng.random::<f64>() - 0.5).collect();
+            // A v per pose, then the time stencil of T_c.
+            let av: Vec<Vec<f64>> = (0..mm)
+                .map(|j| {
+                    let xj = &v[j * n..(j + 1) * n];
+                    let mut y = vec![0.0; n];
+                    for col in 0..st.nv {
+                        for idx in st.pairs.off[col]..st.pairs.off[col + 1] {
+                            let row = st.pairs.rows[idx];
+                            for r in 0..3 {
+                                for cc in 0..3 {
+                                    y[3 * row + r] += a[idx][3 * r + cc] * xj[3 * col + cc];
+                                }
+                            }
+                        }
+                    }
+                    y
+                })
+                .collect();
+            let mut mv = vec![0.0; n * mm];
+            for j in 0..mm {
+                for k in 0..n {
+                    let mut s = (c[j] + c[j + 1]) * av[j][k];
+                    if j > 0 {
+                        s -= c[j] * av[j - 1][k];
+                    }
+                    if j + 1 < mm {
+                        s -= c[j + 1] * av[j + 1][k];
+                    }
+                    mv[j * n + k] = s;
+                }
+            }
+            model.apply(&layout, &mut mv, 2.0);
+            let err = mv
+                .iter()
+                .zip(&v)
+                .map(|(a, b)| (a - 2.0 * b).abs())
+                .fold(0.0f64, f64::max);
+            assert!(err < 1e-3, "{}: max error {err}", m.name());
+        }
+    }
 }

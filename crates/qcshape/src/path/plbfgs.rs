@@ -13,7 +13,7 @@
 
 use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy};
-use super::kronecker::{KroneckerModel, SpatialLayout};
+use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
 use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1}` (the energy's Gauss-Newton Hessian is
@@ -31,8 +31,7 @@ impl<'l> Preconditioner<'l> {
         x: &[f64],
         ends: &Ends,
     ) -> Result<Self, GeodesicError> {
-        let (blocks, _, _) = layout.structure().assemble(pe, x, ends);
-        let model = KroneckerModel::fit(layout, &blocks)?;
+        let model = KroneckerModel::fit(layout, PoseSum::assemble(layout, pe, x, ends))?;
         Ok(Preconditioner { layout, model })
     }
 

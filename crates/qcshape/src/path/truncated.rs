@@ -33,7 +33,7 @@ use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{SegmentBlocks, Structure};
-use super::kronecker::{KroneckerModel, SpatialLayout};
+use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
 use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
@@ -114,7 +114,7 @@ impl<'a> Model<'a> {
                 b.add_second(so, 1.0);
             }
         }
-        let kron = match KroneckerModel::fit(layout, &blocks) {
+        let kron = match KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks)) {
             Ok(k) => k,
             Err(_) if seconds.iter().any(Option::is_some) => {
                 let toggle = |blocks: &mut [SegmentBlocks], sign: f64| {
@@ -125,7 +125,7 @@ impl<'a> Model<'a> {
                     }
                 };
                 toggle(&mut blocks, -1.0);
-                let k = KroneckerModel::fit(layout, &blocks)?;
+                let k = KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks))?;
                 toggle(&mut blocks, 1.0);
                 k
             }
@@ -470,14 +470,14 @@ mod tests {
                 );
             }
             // The preconditioner is symmetric positive definite: v . M^{-1} v > 0 and
-            // u . M^{-1} v = v . M^{-1} u.
+            // u . M^{-1} v = v . M^{-1} u (to single precision: the spatial solves run in f32).
             let u: Vec<f64> = (0..np).map(|i| ((i * 17 % 7) as f64 - 3.0) / 3.0).collect();
             let (mut mu, mut mv) = (u.clone(), v.clone());
             model.precondition(&mut mu);
             model.precondition(&mut mv);
             assert!(dot(&v, &mv) > 0.0);
             let (a1, a2) = (dot(&u, &mv), dot(&v, &mu));
-            assert!((a1 - a2).abs() < 1e-8 * (a1.abs() + a2.abs()), "{a1} vs {a2}");
+            assert!((a1 - a2).abs() < 1e-5 * (a1.abs() + a2.abs()), "{a1} vs {a2}");
         });
     }
 }
