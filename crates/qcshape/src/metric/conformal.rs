@@ -405,7 +405,12 @@ fn quadratic_gradient(
             None => [1.0; 3],
         };
         let gf = [g[v[0]], g[v[1]], g[v[2]]];
-        let xf = [0, 1, 2].map(|m| sub(b[v[m]], a[v[m]]));
+        // Written out: `array::map` compiles to a slower loop in this hot path.
+        let xf = [
+            sub(b[v[0]], a[v[0]]),
+            sub(b[v[1]], a[v[1]]),
+            sub(b[v[2]], a[v[2]]),
+        ];
         // Edge j joins corners j and j+1: e_j = g_j - g_{j+1}, d_j likewise.
         let e = [sub(gf[0], gf[1]), sub(gf[1], gf[2]), sub(gf[2], gf[0])];
         let d = [sub(xf[0], xf[1]), sub(xf[1], xf[2]), sub(xf[2], xf[0])];
