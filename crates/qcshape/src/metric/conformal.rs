@@ -2,8 +2,8 @@
 //! the quasi-conformal metric (eq. 10).
 
 use super::{
-    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, SecondOrderSink, Segment,
+    geometry_and_displacement, segment_gradient_per_term, split_segment, GradientSink, JacobianMut, Metric,
+    Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
 };
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
@@ -457,6 +457,80 @@ fn quadratic_gradient(
     sink.weight * value
 }
 
+/// [`quadratic_gradient`] for both terms of a segment in one pass over the faces (`weights[t]`
+/// those of term `t`: `At::Start`, then `At::End`): the terms share the poses, so with the
+/// edges `e^a`, `e^b` of `a` and `b` the displacement edges are `d = e^b - e^a`, and the
+/// derivatives of the start term `phi_S(e^a, d)` and the end term `phi_E(e^b, d)` collect
+/// into one gradient per edge and pose:
+/// `G^a = 2 dl_S e^a + dp_S (d - e^a) - dp_E e^b`, `G^b = dp_S e^a + 2 dl_E e^b + dp_E (d + e^b)`.
+/// Returns `weight |r|^2` of both terms.
+pub(crate) fn quadratic_segment_gradient(
+    topo: &Topology,
+    a: &[[f64; 3]],
+    b: &[[f64; 3]],
+    weights: [Option<&[f64]>; 2],
+    sink: &mut SegmentSink,
+) -> f64 {
+    let two_w = 2.0 * sink.weight;
+    let mut value = 0.0;
+    let wf = |w: Option<&[f64]>, v: &[usize; 3]| match w {
+        Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
+        None => [1.0; 3],
+    };
+    // dphi/dL and dphi/dP per edge of one term with edge lengths `l`, products `p`, weights `w`.
+    let term = |l: &[f64; 3], p: &[f64; 3], w: &[f64; 3], value: &mut f64| {
+        let mut dl = [0.0; 3];
+        let mut dp = [0.0; 3];
+        for k in 0..3 {
+            let (ea, eb) = (k, NEXT[k][2]);
+            let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
+            *value += wt * wt;
+            let c = two_w * w[k] * wt;
+            dp[ea] += c * l[eb];
+            dl[eb] += c * p[ea];
+            dp[eb] -= c * l[ea];
+            dl[ea] -= c * p[eb];
+        }
+        (dl, dp)
+    };
+    for f in topo.faces() {
+        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
+        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
+        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
+        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
+        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
+        let la = [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])];
+        let lb = [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])];
+        let qa = [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])];
+        let qb = [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])];
+        let (dls, dps) = term(&la, &qa, &wf(weights[0], &v), &mut value);
+        let (dle, dpe) = term(&lb, &qb, &wf(weights[1], &v), &mut value);
+        let mut va = [[0.0; 3]; 3];
+        let mut vb = [[0.0; 3]; 3];
+        for j in 0..3 {
+            let mut ga = [0.0; 3];
+            let mut gb = [0.0; 3];
+            for c in 0..3 {
+                ga[c] = 2.0 * dls[j] * ea[j][c] + dps[j] * (d[j][c] - ea[j][c]) - dpe[j] * eb[j][c];
+                gb[c] = dps[j] * ea[j][c] + 2.0 * dle[j] * eb[j][c] + dpe[j] * (d[j][c] + eb[j][c]);
+            }
+            let (i0, i1) = (j, NEXT[j][1]);
+            va[i0] = add(va[i0], ga);
+            va[i1] = sub(va[i1], ga);
+            vb[i0] = add(vb[i0], gb);
+            vb[i1] = sub(vb[i1], gb);
+        }
+        for m in 0..3 {
+            let (pa, pb) = (&mut sink.ga[v[m]], &mut sink.gb[v[m]]);
+            for c in 0..3 {
+                pa[c] += va[m][c];
+                pb[c] += vb[m][c];
+            }
+        }
+    }
+    sink.weight * value
+}
+
 /// The conformal metric (eqs. 7-9): for every triangle `(p, q, r)` of `M`,
 /// `T_p(X) = <p-q, X_p-X_q> |p-r|^2 - <p-r, X_p-X_r> |p-q|^2` (eq. 7) and `T_q`, `T_r` by the
 /// cyclic permutation `p -> q -> r -> p`; the triangle contributes
@@ -514,6 +588,22 @@ impl Metric for Conformal {
         sink: &mut GradientSink,
     ) -> f64 {
         face_kernel(topo, self.form, seg, None, FaceOut::Gradient(sink))
+    }
+
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        match self.form {
+            ConformalForm::Quadratic => {
+                quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [None, None], sink)
+            }
+            ConformalForm::Paper => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
+        }
     }
 
     fn add_second_order(

@@ -29,6 +29,43 @@ impl GradientSink<'_> {
     }
 }
 
+/// Accumulators of `weight * 2 J^T r` for both terms of one segment
+/// ([`Metric::segment_gradient`]): the two terms share the poses `a`, `b`.
+pub struct SegmentSink<'a> {
+    /// Derivative with respect to the first pose `a` (#V x 3).
+    pub ga: &'a mut [[f64; 3]],
+    /// Derivative with respect to the second pose `b` (#V x 3).
+    pub gb: &'a mut [[f64; 3]],
+    /// Derivative with respect to both terms' auxiliary unknowns (2 [`Metric::n_aux`]: the
+    /// `At::Start` term's first).
+    pub gaux: &'a mut [f64],
+    /// Factor applied to the value and the gradient.
+    pub weight: f64,
+}
+
+/// [`Metric::segment_gradient`] as two calls to [`Metric::gradient`], one per term.
+pub fn segment_gradient_per_term<M: Metric + ?Sized>(
+    metric: &M,
+    topo: &Topology,
+    pattern: PatternRef,
+    segs: [&Segment; 2],
+    scratch: &mut Scratch,
+    sink: &mut SegmentSink,
+) -> f64 {
+    let n_aux = metric.n_aux();
+    let mut value = 0.0;
+    for (k, seg) in segs.into_iter().enumerate() {
+        let mut term = GradientSink {
+            ga: &mut *sink.ga,
+            gb: &mut *sink.gb,
+            gaux: &mut sink.gaux[k * n_aux..(k + 1) * n_aux],
+            weight: sink.weight,
+        };
+        value += metric.gradient(topo, pattern, seg, scratch, &mut term);
+    }
+    value
+}
+
 /// Residual and Jacobian storage for a metric pattern, reused across evaluations.
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
@@ -119,18 +156,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// Every metric's [`Metric::gradient`] (fused where overridden) equals the generic form.
-    #[test]
-    fn fused_gradients_match_the_jacobian_form() {
-        let s = crate::synth::icosphere(1);
-        let topo = &s.topology;
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let b: Vec<[f64; 3]> = s
-            .positions
-            .iter()
-            .map(|p| p.map(|c| c * 1.2 + rng.random_range(-0.1..0.1)))
-            .collect();
-        let metrics: Vec<Box<dyn Metric>> = vec![
+    fn all_metrics() -> Vec<Box<dyn Metric>> {
+        vec![
             Box::new(Isometric),
             Box::new(FrozenL2),
             Box::new(L2),
@@ -148,8 +175,40 @@ mod tests {
             Box::new(Regularized::with_pose_areas(Box::new(Isometric), 0.3)),
             Box::new(Regularized::new(Box::new(Rigid), 0.3)),
             Box::new(Regularized::new(Box::new(FrozenRigid), 0.3)),
-        ];
-        for m in &metrics {
+            Box::new(Regularized::new(
+                Box::new(QuasiConformal {
+                    form: ConformalForm::Quadratic,
+                    weights: QcWeights::Endpoints,
+                }),
+                0.3,
+            )),
+            Box::new(Regularized::new(
+                Box::new(QuasiConformal {
+                    form: ConformalForm::Paper,
+                    weights: QcWeights::Segment,
+                }),
+                0.3,
+            )),
+        ]
+    }
+
+    fn pair() -> (crate::mesh::Shape, Vec<[f64; 3]>) {
+        let s = crate::synth::icosphere(1);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let b: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| p.map(|c| c * 1.2 + rng.random_range(-0.1..0.1)))
+            .collect();
+        (s, b)
+    }
+
+    /// Every metric's [`Metric::gradient`] (fused where overridden) equals the generic form.
+    #[test]
+    fn fused_gradients_match_the_jacobian_form() {
+        let (s, b) = pair();
+        let topo = &s.topology;
+        for m in &all_metrics() {
             let pat = m.pattern(topo);
             let frozen = m.frozen_weights(topo, &s.positions, &b);
             let aux: Vec<f64> = (0..m.n_aux()).map(|k| 0.01 * k as f64).collect();
@@ -200,6 +259,64 @@ mod tests {
                         m.name()
                     );
                 }
+            }
+        }
+    }
+
+    /// Every metric's [`Metric::segment_gradient`] (one fused pass for both terms where
+    /// overridden) equals the generic per-term form summed over the two terms, with distinct
+    /// frozen weights per term where the metric has them.
+    #[test]
+    fn segment_gradients_match_the_per_term_jacobian_form() {
+        let (s, b) = pair();
+        let topo = &s.topology;
+        let nv = topo.n_vertices();
+        for m in &all_metrics() {
+            let pat = m.pattern(topo);
+            let n_aux = m.n_aux();
+            // Term weights: the frozen weights of the pair and of a perturbed pair.
+            let f0 = m.frozen_weights(topo, &s.positions, &b);
+            let b2: Vec<[f64; 3]> = b.iter().map(|p| [p[0] * 1.1, p[1], p[2] * 0.9]).collect();
+            let f1 = m.frozen_weights(topo, &s.positions, &b2);
+            let aux: Vec<f64> = (0..n_aux).map(|k| 0.01 * k as f64).collect();
+            let segs = [(At::Start, f0.as_deref()), (At::End, f1.as_deref())].map(|(at, frozen)| Segment {
+                a: &s.positions,
+                b: &b,
+                at,
+                aux: &aux,
+                frozen,
+            });
+            let mut scratch = Scratch::new(&pat, n_aux);
+            let (mut ga0, mut gb0) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+            let mut gx0 = vec![0.0; 2 * n_aux];
+            let mut v0 = 0.0;
+            for (k, seg) in segs.iter().enumerate() {
+                let mut sink = GradientSink {
+                    ga: &mut ga0,
+                    gb: &mut gb0,
+                    gaux: &mut gx0[k * n_aux..(k + 1) * n_aux],
+                    weight: 0.7,
+                };
+                v0 += gradient_from_jacobian(m.as_ref(), topo, pat.as_ref(), seg, &mut scratch, &mut sink);
+            }
+            let (mut ga1, mut gb1) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+            let mut gx1 = vec![0.0; 2 * n_aux];
+            let mut sink = SegmentSink {
+                ga: &mut ga1,
+                gb: &mut gb1,
+                gaux: &mut gx1,
+                weight: 0.7,
+            };
+            let v1 = m.segment_gradient(topo, pat.as_ref(), [&segs[0], &segs[1]], &mut scratch, &mut sink);
+            assert!(v0 > 0.0);
+            assert!((v0 - v1).abs() < 1e-10 * v0, "{}: {v0} vs {v1}", m.name());
+            let flat = |g: &[[f64; 3]]| g.iter().flatten().copied().collect::<Vec<f64>>();
+            let want: Vec<f64> = flat(&ga0).into_iter().chain(flat(&gb0)).chain(gx0).collect();
+            let got: Vec<f64> = flat(&ga1).into_iter().chain(flat(&gb1)).chain(gx1).collect();
+            let scale = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            assert!(scale > 0.0);
+            for (x, y) in want.iter().zip(&got) {
+                assert!((x - y).abs() < 1e-10 * scale, "{}: {x} vs {y}", m.name());
             }
         }
     }

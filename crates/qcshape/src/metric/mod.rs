@@ -27,7 +27,7 @@ mod spec;
 pub(crate) mod fdcheck;
 
 pub use conformal::{Conformal, ConformalForm};
-pub use gradient::{gradient_from_jacobian, GradientSink, Scratch};
+pub use gradient::{gradient_from_jacobian, segment_gradient_per_term, GradientSink, Scratch, SegmentSink};
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcWeights, QuasiConformal};
@@ -244,6 +244,22 @@ pub trait Metric: Send + Sync + Debug {
         sink: &mut GradientSink,
     ) -> f64 {
         gradient_from_jacobian(self, topo, pattern, seg, scratch, sink)
+    }
+
+    /// [`Metric::gradient`] of both terms of a segment (eq. 12 sums `G_{P_k}` and
+    /// `G_{P_{k+1}}` of the same displacement): `segs[0]` at `At::Start`, `segs[1]` at
+    /// `At::End`, on the same poses. The default makes one call per term
+    /// ([`segment_gradient_per_term`]); metrics whose two terms share per-element work
+    /// (edges, displacements) override it with one fused pass.
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        segment_gradient_per_term(self, topo, pattern, segs, scratch, sink)
     }
 
     /// Second-order part of the Hessian of `|r|^2 / 2`: adds `sum_i r_i d2 r_i` (second

@@ -2,13 +2,14 @@
 //! angle-defect curvature, in the two readings of METHOD.md ("segment" and "endpoints").
 
 use super::conformal::{
-    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values, sign0,
-    FaceOut,
+    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values,
+    quadratic_segment_gradient, sign0, FaceOut,
 };
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
 use super::{
-    geometry_and_displacement, gradient_from_jacobian, split_segment, ConformalForm, GradientSink,
-    JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
+    geometry_and_displacement, gradient_from_jacobian, segment_gradient_per_term, split_segment,
+    ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
+    SegmentSink,
 };
 use crate::mesh::geometry::{add, angle_defect, scale};
 use crate::mesh::Topology;
@@ -136,6 +137,25 @@ impl Metric for QuasiConformal {
             }
             // The fallback weights and the segment weights: through the Jacobian.
             _ => gradient_from_jacobian(self, topo, pattern, seg, scratch, sink),
+        }
+    }
+
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        let nv = topo.n_vertices();
+        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
+            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
+                if w0.len() == nv && w1.len() == nv =>
+            {
+                quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [Some(w0), Some(w1)], sink)
+            }
+            _ => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
         }
     }
 

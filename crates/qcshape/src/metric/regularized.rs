@@ -1,5 +1,6 @@
 use super::{
-    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, L2,
+    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
+    SegmentSink, L2,
 };
 use crate::mesh::Topology;
 
@@ -169,6 +170,36 @@ impl Metric for Regularized {
         };
         let v_l2 = self.l2().gradient(topo, l2_pat, &seg_l2, scratch, &mut no_aux);
         sink.weight = weight;
+        v_in + v_l2
+    }
+
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        let (inner_pat, l2_offsets, s0_in, s0_l2) = self.split(topo, pattern, segs[0]);
+        let (_, _, s1_in, s1_l2) = self.split(topo, pattern, segs[1]);
+        let l2_pat = PatternRef {
+            offsets: &l2_offsets,
+            vertices: &pattern.vertices[inner_pat.vertices.len()..],
+        };
+        let v_in = self
+            .inner
+            .segment_gradient(topo, inner_pat, [&s0_in, &s1_in], scratch, sink);
+        // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
+        let mut no_aux = SegmentSink {
+            ga: &mut *sink.ga,
+            gb: &mut *sink.gb,
+            gaux: &mut [],
+            weight: sink.weight * self.lambda.max(0.0),
+        };
+        let v_l2 = self
+            .l2()
+            .segment_gradient(topo, l2_pat, [&s0_l2, &s1_l2], scratch, &mut no_aux);
         v_in + v_l2
     }
 

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use crate::mesh::Topology;
-use crate::metric::{At, GradientSink, Jacobian, Metric, Pattern, Scratch, Segment};
+use crate::metric::{At, Jacobian, Metric, Pattern, Scratch, Segment, SegmentSink};
 
 /// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
 type SegmentGradient = (f64, Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>);
@@ -174,19 +174,23 @@ impl<'m> PathEnergy<'m> {
                 let mut ga = vec![[0.0f64; 3]; nv];
                 let mut gb = vec![[0.0f64; 3]; nv];
                 let mut gaux = vec![0.0; 2 * n_aux];
-                let mut e = 0.0;
-                for (k, at) in [At::Start, At::End].into_iter().enumerate() {
-                    let seg = self.segment(x, ends, s, at);
-                    let mut sink = GradientSink {
-                        ga: &mut ga,
-                        gb: &mut gb,
-                        gaux: &mut gaux[k * n_aux..(k + 1) * n_aux],
-                        weight: 1.0,
-                    };
-                    e += self
-                        .metric
-                        .gradient(&self.topo, self.pattern.as_ref(), &seg, scratch, &mut sink);
-                }
+                let (s0, s1) = (
+                    self.segment(x, ends, s, At::Start),
+                    self.segment(x, ends, s, At::End),
+                );
+                let mut sink = SegmentSink {
+                    ga: &mut ga,
+                    gb: &mut gb,
+                    gaux: &mut gaux,
+                    weight: 1.0,
+                };
+                let e = self.metric.segment_gradient(
+                    &self.topo,
+                    self.pattern.as_ref(),
+                    [&s0, &s1],
+                    scratch,
+                    &mut sink,
+                );
                 (e, ga, gb, gaux)
             })
             .collect();
