@@ -8,7 +8,7 @@
 //! and the paper's L-BFGS.
 //!
 //! `cargo bench -p qcshape --bench geodesic [-- --levels 3,4 --metrics all --lbfgs-cap 3000
-//! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 30 --memory 10]`
+//! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 45 --memory 10]`
 //! Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;

@@ -164,12 +164,18 @@ impl CompactHistory {
         evicted
     }
 
-    /// After a change of the preconditioner `M`: recomputes every `M^{-1} y_i` by `apply`
-    /// (`z <- M^{-1} z`), `Y^T M^{-1} Y`, and the products with the current gradient `g`.
+    /// After a change of the preconditioner `M`: recomputes every `M^{-1} y_i` by one call of
+    /// `apply` on all of them (`z <- M^{-1} z` for the vectors stored one after the other in
+    /// `z`), `Y^T M^{-1} Y`, and the products with the current gradient `g`.
     pub fn reset_preconditioner(&mut self, g: &[f64], mut apply: impl FnMut(&mut [f64])) {
-        for p in self.pairs.iter_mut() {
-            p.my.copy_from_slice(&p.y);
-            apply(&mut p.my);
+        let n = g.len();
+        let mut all: Vec<f64> = Vec::with_capacity(n * self.pairs.len());
+        for p in &self.pairs {
+            all.extend_from_slice(&p.y);
+        }
+        apply(&mut all);
+        for (p, my) in self.pairs.iter_mut().zip(all.chunks_exact(n)) {
+            p.my.copy_from_slice(my);
         }
         let k = self.pairs.len();
         for i in 0..k {
@@ -252,7 +258,11 @@ mod tests {
             if step == 5 {
                 // A new preconditioner: every M^{-1} y changes.
                 minv_diag = (0..n).map(|_| rng.random_range(0.2..2.0)).collect();
-                hist.reset_preconditioner(&g, |z| z.iter_mut().zip(&minv_diag).for_each(|(v, m)| *v *= m));
+                hist.reset_preconditioner(&g, |z| {
+                    for zv in z.chunks_exact_mut(n) {
+                        zv.iter_mut().zip(&minv_diag).for_each(|(v, m)| *v *= m);
+                    }
+                });
             }
             let gamma = 0.5 + 0.1 * step as f64;
             let mg: Vec<f64> = g.iter().zip(&minv_diag).map(|(a, b)| a * b).collect();

@@ -313,21 +313,25 @@ impl KroneckerModel {
         })
     }
 
-    /// `q <- factor (T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), pose-major).
+    /// `q <- factor (T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), pose-major), or
+    /// on several such vectors stored one after the other (one multi-column spatial solve).
     /// The spatial solves run in single precision, the time mixing accumulates in double.
     pub fn apply(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64) {
         let n = 3 * layout.nv;
         let m = layout.st.steps - 1;
         let mut q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        // Every pose of every vector is one column of the spatial solve.
         layout.solve(&self.l_values, &mut q32);
-        for i in 0..m {
-            let row = &self.tinv[i * m..(i + 1) * m];
-            let out = &mut q[i * n..(i + 1) * n];
-            out.iter_mut().for_each(|v| *v = 0.0);
-            for (j, t) in row.iter().enumerate() {
-                let t = factor * t;
-                for (o, v) in out.iter_mut().zip(&q32[j * n..(j + 1) * n]) {
-                    *o += t * f64::from(*v);
+        for (qv, qv32) in q.chunks_exact_mut(n * m).zip(q32.chunks_exact(n * m)) {
+            for i in 0..m {
+                let row = &self.tinv[i * m..(i + 1) * m];
+                let out = &mut qv[i * n..(i + 1) * n];
+                out.iter_mut().for_each(|v| *v = 0.0);
+                for (j, t) in row.iter().enumerate() {
+                    let t = factor * t;
+                    for (o, v) in out.iter_mut().zip(&qv32[j * n..(j + 1) * n]) {
+                        *o += t * f64::from(*v);
+                    }
                 }
             }
         }
