@@ -57,7 +57,9 @@ pub struct SolverArgs {
     pub steps: usize,
     /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), newton
     /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
-    /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs.
+    /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
+    /// (the paper's, through argmin), plain-lbfgs (the preconditioned solver without its
+    /// preconditioner).
     #[arg(long, default_value = "preconditioned")]
     pub solver: Solver,
     /// Relative gradient tolerance.

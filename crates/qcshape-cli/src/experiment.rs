@@ -88,7 +88,7 @@ pub struct InterpolationArgs {
     /// Spatial resolution levels of the interpolation (1 = no multiresolution).
     #[arg(long, default_value_t = 1)]
     levels: usize,
-    /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs.
+    /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
     #[arg(long, default_value = "preconditioned")]
     solver: Solver,
     /// Relative gradient tolerance.

@@ -47,7 +47,7 @@ pub struct Args {
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,
-    /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs.
+    /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
     #[arg(long, default_value = "preconditioned")]
     solver: Solver,
     /// Relative gradient tolerance.

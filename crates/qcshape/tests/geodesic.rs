@@ -135,6 +135,7 @@ fn all_solvers_reach_the_same_energy() {
             Solver::GaussNewton,
             Solver::GaussNewtonDirect,
             Solver::Preconditioned,
+            Solver::PlainLbfgs,
         ] {
             let g = geodesic(m.as_ref(), &a, &b, &opts(solver, 5), norm).unwrap();
             assert!(g.converged, "{} {solver:?}: {:?}", m.name(), g.stop);

@@ -73,8 +73,13 @@ pub enum Solver {
     /// Levenberg-Marquardt with a sparse Cholesky factorization of the full block-tridiagonal
     /// normal equations at every iteration (small meshes).
     GaussNewtonDirect,
-    /// L-BFGS (the paper's quasi-Newton method).
+    /// L-BFGS (the paper's quasi-Newton method) through argmin (More-Thuente line search).
     Lbfgs,
+    /// [`Solver::Preconditioned`] without its preconditioner (`H0 = gamma I`, same compact
+    /// L-BFGS and backtracking line search): the reference for what the Kronecker model buys,
+    /// and a lean L-BFGS (one energy-and-gradient evaluation per accepted step, where argmin's
+    /// [`Solver::Lbfgs`] evaluates the gradient about twice per iteration).
+    PlainLbfgs,
 }
 
 impl std::str::FromStr for Solver {
@@ -86,8 +91,9 @@ impl std::str::FromStr for Solver {
             "gauss-newton-direct" | "gn-direct" | "lm" => Ok(Solver::GaussNewtonDirect),
             "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
             "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
+            "plain-lbfgs" => Ok(Solver::PlainLbfgs),
             _ => Err(format!(
-                "unknown solver '{s}' (expected preconditioned, newton, gauss-newton, gauss-newton-direct or lbfgs)"
+                "unknown solver '{s}' (expected preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs or plain-lbfgs)"
             )),
         }
     }
@@ -101,7 +107,7 @@ pub struct GeodesicOptions {
     /// The optimizer. Default [`Solver::Preconditioned`].
     pub solver: Solver,
     /// Iteration limit: Gauss-Newton uses it as is (default 100), the preconditioned solver
-    /// 10 times it, plain L-BFGS 50 times it.
+    /// 10 times it, the unpreconditioned L-BFGS solvers 50 times it.
     pub max_iterations: usize,
     /// Converged when the gradient norm falls below this fraction of its value at the start.
     /// Default 1e-6.
@@ -375,8 +381,9 @@ impl<'m> GeodesicSolver<'m> {
                         .spatial
                         .as_ref()
                         .expect("layout is built for the preconditioned solver");
-                    plbfgs::minimize(pe, layout, ends, x0, &self.options)?
+                    plbfgs::minimize(pe, Some(layout), ends, x0, &self.options)?
                 }
+                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options)?,
             }
         };
         let mut grad = vec![0.0; pe.n_vars()];

@@ -17,27 +17,36 @@ use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
 use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1}` (the energy's Gauss-Newton Hessian is
-/// `2 J^T J ~ 2 T_c (x) A`), fitted at one path.
+/// `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the identity: plain L-BFGS).
 struct Preconditioner<'l> {
-    layout: &'l SpatialLayout,
-    model: KroneckerModel,
+    kron: Option<(&'l SpatialLayout, KroneckerModel)>,
 }
 
 impl<'l> Preconditioner<'l> {
-    /// Fits the model to the blocks of `J^T J` at `x` ([`KroneckerModel::fit`]).
+    /// Fits the model to the blocks of `J^T J` at `x` ([`KroneckerModel::fit`]); the identity
+    /// without a layout.
     fn new(
-        layout: &'l SpatialLayout,
+        layout: Option<&'l SpatialLayout>,
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
     ) -> Result<Self, GeodesicError> {
-        let model = KroneckerModel::fit(layout, PoseSum::assemble(layout, pe, x, ends))?;
-        Ok(Preconditioner { layout, model })
+        let kron = match layout {
+            Some(layout) => Some((
+                layout,
+                KroneckerModel::fit(layout, PoseSum::assemble(layout, pe, x, ends))?,
+            )),
+            None => None,
+        };
+        Ok(Preconditioner { kron })
     }
 
-    /// `q <- (2 T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1)).
+    /// `q <- (2 T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), or several such
+    /// vectors one after the other); nothing for the identity.
     fn apply(&self, q: &mut [f64]) {
-        self.model.apply(self.layout, q, 0.5);
+        if let Some((layout, model)) = &self.kron {
+            model.apply(layout, q, 0.5);
+        }
     }
 }
 
@@ -59,10 +68,11 @@ fn eval(
     e
 }
 
-/// Minimizes the path energy from `x0` (see the module docs).
+/// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
+/// (`H0 = gamma I`, the first step of unit length).
 pub(crate) fn minimize(
     pe: &PathEnergy,
-    layout: &SpatialLayout,
+    layout: Option<&SpatialLayout>,
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
@@ -76,7 +86,13 @@ pub(crate) fn minimize(
     let g0 = norm(&g);
     let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
     let refresh = opts.preconditioner_refresh;
-    let mut gamma = 1.0f64;
+    // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
+    // step of unit length (normalized coordinates: about one edge).
+    let mut gamma = if layout.is_some() {
+        1.0f64
+    } else {
+        1.0 / g0.max(f64::MIN_POSITIVE)
+    };
     // M^{-1} g for the current gradient; the history in compact form keeps M^{-1} y per pair,
     // so one preconditioner application per iteration suffices.
     let precondition = |pre: &Preconditioner, v: &[f64], z: &mut Vec<f64>| {
@@ -93,7 +109,7 @@ pub(crate) fn minimize(
     let mut hist = CompactHistory::new(opts.lbfgs_memory);
     hist.reset_gradient(&g);
     let mut iterations = 0;
-    let max_iterations = opts.max_iterations * 10;
+    let max_iterations = opts.max_iterations * if layout.is_some() { 10 } else { 50 };
     let mut stop = StopReason::MaxIterations;
     if np == 0 || super::at_roundoff(g0, e) {
         return Ok(SolveOutput {
@@ -110,7 +126,7 @@ pub(crate) fn minimize(
         iterations += 1;
         // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
         // valid secant information; their `M^{-1} y` are recomputed).
-        if refresh > 0 && iterations % refresh == 0 {
+        if layout.is_some() && refresh > 0 && iterations % refresh == 0 {
             full[..np].copy_from_slice(&x);
             pe.reset_aux(&mut full, ends);
             pre = Preconditioner::new(layout, pe, &full, ends)?;
