@@ -3,7 +3,7 @@
 //! wall-motion baselines of Table 4, and the pose-to-pose geodesic distances of one cycle.
 //!
 //! Baselines (the "mean systolic radial" and "mean radial" rows of Table 4, after the paper's
-//! reference [41]): every vertex's radius is its distance to the left ventricle's long axis.
+//! reference \[41\]): every vertex's radius is its distance to the left ventricle's long axis.
 //! - *mean systolic radial displacement*: the mean over vertices of `r(ED) - r(ES)`, with
 //!   end-diastole (ED) and end-systole (ES) the frames of largest and smallest mean radius;
 //! - *mean radial velocity*: the mean over vertices and consecutive frame pairs of

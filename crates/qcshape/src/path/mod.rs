@@ -1,7 +1,7 @@
 //! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
-//! path with `N` segments, started from the linear interpolation. Four solvers:
+//! path with `N` segments, started from the linear interpolation. Six solvers:
 //! - [`Solver::GaussNewton`]: truncated Gauss-Newton on the stacked residuals; the normal
 //!   equations `J^T J p = -J^T r` (block-tridiagonal in the poses) are solved by conjugate
 //!   gradients on the assembled 3 x 3 vertex blocks, preconditioned by a Kronecker model
@@ -11,10 +11,13 @@
 //! - [`Solver::GaussNewtonDirect`]: Levenberg-Marquardt with a sparse Cholesky factorization
 //!   of the full block-tridiagonal normal equations `J^T J + mu D` (exact steps; the factor
 //!   grows with `N` times the spatial fill, practical up to a few hundred vertices);
+//! - [`Solver::Newton`]: the truncated iteration on the exact Hessian (the metrics'
+//!   second-order parts added to `J^T J`);
 //! - [`Solver::Preconditioned`] (default): L-BFGS whose initial inverse Hessian is the same
 //!   Kronecker model, refitted periodically;
 //! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
-//!   line search) on the exact gradient.
+//!   line search) on the exact gradient;
+//! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
 //!
 //! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
 //! distance `dis(A, B)` is the length of the discrete geodesic.

@@ -10,6 +10,8 @@
 //! the metric and the large-residual curvature terms that Gauss-Newton leaves out). Auxiliary
 //! unknowns (rigid motions) are eliminated: they are set to their optimum at every evaluation,
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
+//! The history is kept in compact form ([`super::compact`]). Without a spatial layout the same
+//! iteration runs with `H0 = gamma I` ([`super::Solver::PlainLbfgs`]).
 
 use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy};
