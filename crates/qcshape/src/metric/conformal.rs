@@ -181,10 +181,7 @@ fn face_data(
     f: &[u32; 3],
 ) -> ([[f64; 3]; 3], [[f64; 3]; 3], [f64; 3]) {
     let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-    let w = match weights {
-        Some(w) => [w[i0], w[i1], w[i2]],
-        None => [1.0; 3],
-    };
+    let w = face_weights(weights, &[i0, i1, i2]);
     ([g[i0], g[i1], g[i2]], [x[i0], x[i1], x[i2]], w)
 }
 
@@ -379,6 +376,52 @@ pub(crate) fn face_kernel(
     }
 }
 
+/// Adds the gradient `g` with respect to edge `j` (`x_j - x_{j+1}`) to its two corners.
+#[inline(always)]
+fn add_edge(acc: &mut [[f64; 3]; 3], j: usize, g: [f64; 3]) {
+    let (i0, i1) = (j, NEXT[j][1]);
+    acc[i0] = add(acc[i0], g);
+    acc[i1] = sub(acc[i1], g);
+}
+
+/// The weights of a face's corners (all 1 without weights).
+#[inline(always)]
+fn face_weights(weights: Option<&[f64]>, v: &[usize; 3]) -> [f64; 3] {
+    match weights {
+        Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
+        None => [1.0; 3],
+    }
+}
+
+/// One face term of the quadratic form on its edges (edge `j` joins corners `j` and `j+1`):
+/// with squared lengths `l` and products `p` (`P_ij = <g_i - g_j, X_i - X_j>`), corner `k`
+/// (neighbours `a = k+1`, `b = k+2`) is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7). Adds
+/// `sum_k (w_k T_k)^2` to `value` and returns `dphi/dL`, `dphi/dP` per edge for
+/// `phi = sum_k c_k T_k`, `c_k = two_w w_k^2 T_k` (`two_w = 2 weight`).
+#[inline(always)]
+fn edge_derivatives(
+    l: &[f64; 3],
+    p: &[f64; 3],
+    w: &[f64; 3],
+    two_w: f64,
+    value: &mut f64,
+) -> ([f64; 3], [f64; 3]) {
+    let mut dl = [0.0; 3];
+    let mut dp = [0.0; 3];
+    for k in 0..3 {
+        // Edge to corner k+1 is edge k, edge to k+2 is edge k+2 (P, L symmetric in i, j).
+        let (ea, eb) = (k, NEXT[k][2]);
+        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
+        *value += wt * wt;
+        let c = two_w * w[k] * wt;
+        dp[ea] += c * l[eb];
+        dl[eb] += c * p[ea];
+        dp[eb] -= c * l[ea];
+        dl[ea] -= c * p[eb];
+    }
+    (dl, dp)
+}
+
 /// The fused gradient of the quadratic form `weight sum_k (w_k T_k)^2` over all faces, written
 /// on the face's three edges: with `L_ij = |g_i - g_j|^2` and `P_ij = <g_i - g_j, X_i - X_j>`,
 /// corner `k` (neighbours `a = k+1`, `b = k+2`) is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7), so the
@@ -400,10 +443,7 @@ fn quadratic_gradient(
     let mut value = 0.0;
     for f in topo.faces() {
         let v = [f[0] as usize, f[1] as usize, f[2] as usize];
-        let w = match weights {
-            Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
-            None => [1.0; 3],
-        };
+        let w = face_weights(weights, &v);
         let gf = [g[v[0]], g[v[1]], g[v[2]]];
         // Written out: `array::map` compiles to a slower loop in this hot path.
         let xf = [
@@ -416,30 +456,14 @@ fn quadratic_gradient(
         let d = [sub(xf[0], xf[1]), sub(xf[1], xf[2]), sub(xf[2], xf[0])];
         let l = [dot(e[0], e[0]), dot(e[1], e[1]), dot(e[2], e[2])];
         let p = [dot(e[0], d[0]), dot(e[1], d[1]), dot(e[2], d[2])];
-        // Corner k: edge to k+1 is edge k, edge to k+2 is edge k+2 (P, L symmetric in i, j).
-        let mut dl = [0.0; 3];
-        let mut dp = [0.0; 3];
-        for k in 0..3 {
-            let (ea, eb) = (k, NEXT[k][2]);
-            let t = p[ea] * l[eb] - p[eb] * l[ea];
-            let wt = w[k] * t;
-            value += wt * wt;
-            let c = two_w * w[k] * wt;
-            dp[ea] += c * l[eb];
-            dl[eb] += c * p[ea];
-            dp[eb] -= c * l[ea];
-            dl[ea] -= c * p[eb];
-        }
+        let (dl, dp) = edge_derivatives(&l, &p, &w, two_w, &mut value);
         let mut vg = [[0.0; 3]; 3];
         let mut vx = [[0.0; 3]; 3];
         for j in 0..3 {
             let ge = add(scale(e[j], 2.0 * dl[j]), scale(d[j], dp[j]));
             let gd = scale(e[j], dp[j]);
-            let (i0, i1) = (j, NEXT[j][1]);
-            vg[i0] = add(vg[i0], ge);
-            vg[i1] = sub(vg[i1], ge);
-            vx[i0] = add(vx[i0], gd);
-            vx[i1] = sub(vx[i1], gd);
+            add_edge(&mut vg, j, ge);
+            add_edge(&mut vx, j, gd);
         }
         for m in 0..3 {
             let (pa, pb) = (&mut sink.ga[v[m]], &mut sink.gb[v[m]]);
@@ -473,26 +497,6 @@ pub(crate) fn quadratic_segment_gradient(
 ) -> f64 {
     let two_w = 2.0 * sink.weight;
     let mut value = 0.0;
-    let wf = |w: Option<&[f64]>, v: &[usize; 3]| match w {
-        Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
-        None => [1.0; 3],
-    };
-    // dphi/dL and dphi/dP per edge of one term with edge lengths `l`, products `p`, weights `w`.
-    let term = |l: &[f64; 3], p: &[f64; 3], w: &[f64; 3], value: &mut f64| {
-        let mut dl = [0.0; 3];
-        let mut dp = [0.0; 3];
-        for k in 0..3 {
-            let (ea, eb) = (k, NEXT[k][2]);
-            let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
-            *value += wt * wt;
-            let c = two_w * w[k] * wt;
-            dp[ea] += c * l[eb];
-            dl[eb] += c * p[ea];
-            dp[eb] -= c * l[ea];
-            dl[ea] -= c * p[eb];
-        }
-        (dl, dp)
-    };
     for f in topo.faces() {
         let v = [f[0] as usize, f[1] as usize, f[2] as usize];
         let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
@@ -503,8 +507,8 @@ pub(crate) fn quadratic_segment_gradient(
         let lb = [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])];
         let qa = [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])];
         let qb = [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])];
-        let (dls, dps) = term(&la, &qa, &wf(weights[0], &v), &mut value);
-        let (dle, dpe) = term(&lb, &qb, &wf(weights[1], &v), &mut value);
+        let (dls, dps) = edge_derivatives(&la, &qa, &face_weights(weights[0], &v), two_w, &mut value);
+        let (dle, dpe) = edge_derivatives(&lb, &qb, &face_weights(weights[1], &v), two_w, &mut value);
         let mut va = [[0.0; 3]; 3];
         let mut vb = [[0.0; 3]; 3];
         for j in 0..3 {
@@ -514,11 +518,8 @@ pub(crate) fn quadratic_segment_gradient(
                 ga[c] = 2.0 * dls[j] * ea[j][c] + dps[j] * (d[j][c] - ea[j][c]) - dpe[j] * eb[j][c];
                 gb[c] = dps[j] * ea[j][c] + 2.0 * dle[j] * eb[j][c] + dpe[j] * (d[j][c] + eb[j][c]);
             }
-            let (i0, i1) = (j, NEXT[j][1]);
-            va[i0] = add(va[i0], ga);
-            va[i1] = sub(va[i1], ga);
-            vb[i0] = add(vb[i0], gb);
-            vb[i1] = sub(vb[i1], gb);
+            add_edge(&mut va, j, ga);
+            add_edge(&mut vb, j, gb);
         }
         for m in 0..3 {
             let (pa, pb) = (&mut sink.ga[v[m]], &mut sink.gb[v[m]]);

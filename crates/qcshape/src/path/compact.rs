@@ -219,6 +219,35 @@ mod tests {
             .collect()
     }
 
+    /// Adds the pair `(s, y, my)` to the history after the step into gradient `gn`, and to the
+    /// reference list (kept to `mem` pairs).
+    fn push(
+        hist: &mut CompactHistory,
+        reference: &mut Vec<(Vec<f64>, Vec<f64>)>,
+        mem: usize,
+        gn: &[f64],
+        (s, y, my): (Vec<f64>, Vec<f64>, Vec<f64>),
+    ) {
+        let (sy, ymy) = (dot(&s, &y), dot(&y, &my));
+        assert!(sy > 0.0);
+        hist.advance(
+            gn,
+            Some((
+                Pair {
+                    s: s.clone(),
+                    y: y.clone(),
+                    my,
+                },
+                sy,
+                ymy,
+            )),
+        );
+        reference.push((s, y));
+        if reference.len() > mem {
+            reference.remove(0);
+        }
+    }
+
     /// The textbook two-loop recursion with `H0 = gamma Minv`.
     fn two_loop(
         pairs: &[(Vec<f64>, Vec<f64>)],
@@ -285,24 +314,7 @@ mod tests {
                 .collect();
             let gn: Vec<f64> = g.iter().zip(&y).map(|(a, b)| a + b).collect();
             let my: Vec<f64> = y.iter().zip(&minv_diag).map(|(a, b)| a * b).collect();
-            let (sy, ymy) = (dot(&s, &y), dot(&y, &my));
-            assert!(sy > 0.0);
-            hist.advance(
-                &gn,
-                Some((
-                    Pair {
-                        s: s.clone(),
-                        y: y.clone(),
-                        my,
-                    },
-                    sy,
-                    ymy,
-                )),
-            );
-            reference.push((s, y));
-            if reference.len() > mem {
-                reference.remove(0);
-            }
+            push(&mut hist, &mut reference, mem, &gn, (s, y, my));
             assert_eq!(hist.len(), reference.len());
             g = gn;
         }
@@ -338,23 +350,7 @@ mod tests {
             let y = matvec(&hess, &s);
             let gn: Vec<f64> = g.iter().zip(&y).map(|(a, b)| a + b).collect();
             let my = matvec(&minv, &y);
-            let (sy, ymy) = (dot(&s, &y), dot(&y, &my));
-            hist.advance(
-                &gn,
-                Some((
-                    Pair {
-                        s: s.clone(),
-                        y: y.clone(),
-                        my,
-                    },
-                    sy,
-                    ymy,
-                )),
-            );
-            reference.push((s, y));
-            if reference.len() > 3 {
-                reference.remove(0);
-            }
+            push(&mut hist, &mut reference, 3, &gn, (s, y, my));
             g = gn;
         }
     }

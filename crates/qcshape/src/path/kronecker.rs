@@ -377,27 +377,7 @@ mod tests {
 
     fn problem<'m>(m: &'m dyn Metric, steps: usize, seed: u64) -> (PathEnergy<'m>, Ends, Vec<f64>) {
         let base = crate::synth::icosphere(1);
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut jitter = |p: &[[f64; 3]], amp: f64| -> Vec<[f64; 3]> {
-            p.iter()
-                .map(|v| v.map(|c| c + amp * (rng.random::<f64>() - 0.5)))
-                .collect()
-        };
-        let a = jitter(&base.positions, 0.1);
-        let b = jitter(&a, 0.5);
-        let pe = PathEnergy::new(m, base.topology.clone(), steps);
-        let frozen = m.frozen_weights(&base.topology, &a, &b);
-        let ends = Ends {
-            start: a,
-            end: b,
-            frozen,
-        };
-        let mut x = pe.linear_start(&ends);
-        let mut rng = ChaCha8Rng::seed_from_u64(seed + 1);
-        for v in x.iter_mut() {
-            *v += 0.05 * (rng.random::<f64>() - 0.5);
-        }
-        (pe, ends, x)
+        super::super::second_order_tests::random_path(m, &base, steps, &mut ChaCha8Rng::seed_from_u64(seed))
     }
 
     fn metrics() -> Vec<Box<dyn Metric>> {

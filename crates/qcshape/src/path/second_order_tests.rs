@@ -28,9 +28,20 @@ fn bases() -> Vec<Shape> {
 }
 
 fn problem<'m>(m: &'m dyn Metric, base: &Shape, rng: &mut ChaCha8Rng) -> (PathEnergy<'m>, Ends, Vec<f64>) {
+    random_path(m, base, 3, rng)
+}
+
+/// A random path problem on `base` with `steps` segments: jittered ends `a`, `b` (amplitudes
+/// 0.1 and 0.6) and a perturbed linear path (shared with the Kronecker tests).
+pub(super) fn random_path<'m>(
+    m: &'m dyn Metric,
+    base: &Shape,
+    steps: usize,
+    rng: &mut ChaCha8Rng,
+) -> (PathEnergy<'m>, Ends, Vec<f64>) {
     let a = jitter(rng, &base.positions, 0.1);
     let b = jitter(rng, &a, 0.6);
-    let pe = PathEnergy::new(m, base.topology.clone(), 3);
+    let pe = PathEnergy::new(m, base.topology.clone(), steps);
     let frozen = m.frozen_weights(&base.topology, &a, &b);
     let ends = Ends {
         start: a,
