@@ -92,7 +92,7 @@ fn main() {
         // (relative), which compares the time to one common energy.
         for target in [None, Some(direct.energy * (1.0 + 1e-4))] {
             let mut single_time = None;
-            for levels in [1, 3] {
+            for levels in [1, 2, 3] {
                 let t = Instant::now();
                 let ip = Interpolator::new(
                     metric,

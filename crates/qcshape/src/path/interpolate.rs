@@ -82,10 +82,11 @@ pub struct LevelStats {
     pub vertices: usize,
     /// Number of segments `N` of each solve on this level, in order.
     pub steps: Vec<usize>,
-    /// Path energy (eq. 12, normalized units) of the start of the level's last solve (the
-    /// prolonged coarse path, or the refined path of the insertion schedule).
+    /// Path energy (eq. 12) of the start of the level's last solve (the prolonged coarse path,
+    /// or the refined path of the insertion schedule), in the level's own normalized units
+    /// (coordinates scaled so that its mean edge on `a` equals the finest level's).
     pub start_energy: f64,
-    /// Path energy (eq. 12, normalized units) after the level's last solve.
+    /// Path energy (eq. 12, the level's normalized units) after the level's last solve.
     pub energy: f64,
     /// Iterations summed over the level's solves.
     pub iterations: usize,
@@ -285,7 +286,27 @@ impl<'m> Interpolator<'m> {
         let (sa, sb) = (scaled(a), scaled(b));
         let top = self.hierarchy.n_levels() - 1;
         let level = self.hierarchy.level(top);
-        let (mut ca, mut cb) = (level.restrict(&sa), level.restrict(&sb));
+        // Each coarser level is solved in its own normalized units (its mean edge on `a` equal
+        // to the finest level's): the metrics' terms scale with different powers of length, so
+        // in the finest level's units a coarse level would weigh the L2 part differently.
+        let fine_edge = geometry::mean_edge_length(&self.hierarchy.level(0).topology, &sa);
+        let level_scale = |l: usize, ra: &[[f64; 3]]| -> f64 {
+            if l == 0 {
+                1.0
+            } else {
+                let e = geometry::mean_edge_length(&self.hierarchy.level(l).topology, ra);
+                if e > 0.0 {
+                    fine_edge / e
+                } else {
+                    1.0
+                }
+            }
+        };
+        let scale_by =
+            |p: &[[f64; 3]], f: f64| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
+        let (ra, rb) = (level.restrict(&sa), level.restrict(&sb));
+        let mut s_coarse = level_scale(top, &ra);
+        let (mut ca, mut cb) = (scale_by(&ra, s_coarse), scale_by(&rb, s_coarse));
 
         // Coarsest level: the insertion schedule.
         let t_level = Instant::now();
@@ -321,10 +342,18 @@ impl<'m> Interpolator<'m> {
                 (fine.restrict(&sa), fine.restrict(&sb))
             };
             let n = g.poses.len() - 1;
-            let start = self
-                .hierarchy
-                .prolongation(l)
-                .prolong_path(&fa, &fb, &ca, &cb, &g.poses[1..n]);
+            // Back to the finer level's units: the coarse path at the finer level's scale.
+            let s_fine = level_scale(l, &fa);
+            let (fa, fb) = (scale_by(&fa, s_fine), scale_by(&fb, s_fine));
+            let back = s_fine / s_coarse;
+            let coarse_poses: Vec<Vec<[f64; 3]>> = g.poses[1..n].iter().map(|p| scale_by(p, back)).collect();
+            let start = self.hierarchy.prolongation(l).prolong_path(
+                &fa,
+                &fb,
+                &scale_by(&ca, back),
+                &scale_by(&cb, back),
+                &coarse_poses,
+            );
             g = self.finals[l].solve_with_start(&fa, &fb, &start)?;
             levels.push(LevelStats {
                 vertices: fine.n_vertices(),
@@ -335,6 +364,7 @@ impl<'m> Interpolator<'m> {
                 seconds: t_level.elapsed().as_secs_f64(),
             });
             (ca, cb) = (fa, fb);
+            s_coarse = s_fine;
         }
 
         let mut poses: Vec<Vec<[f64; 3]>> = g
