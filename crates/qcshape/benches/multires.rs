@@ -1,6 +1,6 @@
 //! Multiresolution benchmark (issue 2): temporal interpolation of one deformation (an
-//! icosphere to a twisted, stretched copy; 3 inserted poses, N = 4) with one spatial level
-//! against three, for one metric (default: isometric with `lambda = 0.1`): set-up time (hierarchy
+//! icosphere to a twisted, stretched copy; 3 inserted poses, N = 4) with one, two and three
+//! spatial levels, for one metric (default: isometric with `lambda = 0.1`): set-up time (hierarchy
 //! and solvers), solve time, iterations on the finest level, final energy. A direct N = 4 solve
 //! from the linear path is the reference energy. Prints a Markdown table.
 //!
@@ -88,9 +88,11 @@ fn main() {
             direct.energy
         );
 
-        // Each variant to the solver's tolerance, then stopped at the direct energy + 1e-4
-        // (relative), which compares the time to one common energy.
-        for target in [None, Some(direct.energy * (1.0 + 1e-4))] {
+        // Each variant to the solver's tolerance. (No common target energy: a target would apply
+        // to every level and schedule stage, whose energies are not comparable to the finest
+        // level's, and stop them at once.)
+        {
+            let target: Option<f64> = None;
             let mut single_time = None;
             for levels in [1, 2, 3] {
                 let t = Instant::now();
