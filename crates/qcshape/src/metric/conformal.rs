@@ -306,11 +306,6 @@ pub(crate) fn face_kernel(
     weights: Option<&[f64]>,
     mut out: FaceOut,
 ) -> f64 {
-    if form == ConformalForm::Quadratic {
-        if let FaceOut::Gradient(sink) = out {
-            return quadratic_gradient(topo, seg, weights, sink);
-        }
-    }
     let (g, x) = geometry_and_displacement(seg);
     let n_rows = form.residuals_per_face();
     let mut value = 0.0;
@@ -422,71 +417,19 @@ fn edge_derivatives(
     (dl, dp)
 }
 
-/// The fused gradient of the quadratic form `weight sum_k (w_k T_k)^2` over all faces, written
-/// on the face's three edges: with `L_ij = |g_i - g_j|^2` and `P_ij = <g_i - g_j, X_i - X_j>`,
-/// corner `k` (neighbours `a = k+1`, `b = k+2`) is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7), so the
-/// derivatives of `phi = sum_k c_k T_k` (`c_k = 2 weight w_k^2 T_k`) reduce to two scalars per
-/// edge, `dphi/dL` and `dphi/dP`, and `dphi/d(g_i - g_j) = 2 dphi/dL (g_i - g_j) + dphi/dP
-/// (X_i - X_j)`, `dphi/d(X_i - X_j) = dphi/dP (g_i - g_j)`. Same result as the general
-/// [`face_kernel`] path (test `fused_gradients_match_the_jacobian_form`), a fraction of its
-/// arithmetic. Returns `weight |r|^2`.
-fn quadratic_gradient(
-    topo: &Topology,
-    seg: &Segment,
-    weights: Option<&[f64]>,
-    sink: &mut GradientSink,
-) -> f64 {
-    let start = seg.at == super::At::Start;
-    let (a, b) = (seg.a, seg.b);
-    let g = if start { a } else { b };
-    let two_w = 2.0 * sink.weight;
-    let mut value = 0.0;
-    for f in topo.faces() {
-        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
-        let w = face_weights(weights, &v);
-        let gf = [g[v[0]], g[v[1]], g[v[2]]];
-        // Written out: `array::map` compiles to a slower loop in this hot path.
-        let xf = [
-            sub(b[v[0]], a[v[0]]),
-            sub(b[v[1]], a[v[1]]),
-            sub(b[v[2]], a[v[2]]),
-        ];
-        // Edge j joins corners j and j+1: e_j = g_j - g_{j+1}, d_j likewise.
-        let e = [sub(gf[0], gf[1]), sub(gf[1], gf[2]), sub(gf[2], gf[0])];
-        let d = [sub(xf[0], xf[1]), sub(xf[1], xf[2]), sub(xf[2], xf[0])];
-        let l = [dot(e[0], e[0]), dot(e[1], e[1]), dot(e[2], e[2])];
-        let p = [dot(e[0], d[0]), dot(e[1], d[1]), dot(e[2], d[2])];
-        let (dl, dp) = edge_derivatives(&l, &p, &w, two_w, &mut value);
-        let mut vg = [[0.0; 3]; 3];
-        let mut vx = [[0.0; 3]; 3];
-        for j in 0..3 {
-            let ge = add(scale(e[j], 2.0 * dl[j]), scale(d[j], dp[j]));
-            let gd = scale(e[j], dp[j]);
-            add_edge(&mut vg, j, ge);
-            add_edge(&mut vx, j, gd);
-        }
-        for m in 0..3 {
-            let (pa, pb) = (&mut sink.ga[v[m]], &mut sink.gb[v[m]]);
-            for c in 0..3 {
-                if start {
-                    pa[c] += vg[m][c] - vx[m][c];
-                    pb[c] += vx[m][c];
-                } else {
-                    pa[c] -= vx[m][c];
-                    pb[c] += vg[m][c] + vx[m][c];
-                }
-            }
-        }
-    }
-    sink.weight * value
-}
-
-/// [`quadratic_gradient`] for both terms of a segment in one pass over the faces (`weights[t]`
-/// those of term `t`: `At::Start`, then `At::End`): the terms share the poses, so with the
-/// edges `e^a`, `e^b` of `a` and `b` the displacement edges are `d = e^b - e^a`, and the
-/// derivatives of the start term `phi_S(e^a, d)` and the end term `phi_E(e^b, d)` collect
-/// into one gradient per edge and pose:
+/// The fused gradient of the quadratic form `weight sum_k (w_k T_k)^2` over all faces, for
+/// both terms of a segment in one pass (`weights[t]` those of term `t`: `At::Start`, then
+/// `At::End`), written on the face's three edges. With `L_ij = |g_i - g_j|^2` and
+/// `P_ij = <g_i - g_j, X_i - X_j>`, corner `k` is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7), so the
+/// derivatives of `phi = sum_k c_k T_k` reduce to two scalars per edge, `dphi/dL` and `dphi/dP`
+/// ([`edge_derivatives`]), and `dphi/de = 2 dphi/dL e + dphi/dP d`, `dphi/dd = dphi/dP e` for
+/// the edge `e` of the geometry pose and `d` of the displacement. The terms share the poses,
+/// so with the edges `e^a`, `e^b` of `a` and `b` the displacement edges are `d = e^b - e^a`,
+/// and the derivatives of the start term `phi_S(e^a, d)` and the end term `phi_E(e^b, d)`
+/// collect into one gradient per edge and pose:
 /// `G^a = 2 dl_S e^a + dp_S (d - e^a) - dp_E e^b`, `G^b = dp_S e^a + 2 dl_E e^b + dp_E (d + e^b)`.
+/// Same result as two calls of the general [`face_kernel`] (test
+/// `segment_gradients_match_the_per_term_jacobian_form`), a fraction of its arithmetic.
 /// Returns `weight |r|^2` of both terms.
 pub(crate) fn quadratic_segment_gradient(
     topo: &Topology,

@@ -101,12 +101,10 @@ impl Metric for Regularized {
         jac: Option<JacobianMut>,
     ) {
         // The inner pattern is a prefix of the combined one (rows and entries).
-        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
+        let parts = self.patterns(topo, pattern);
+        let (inner_pat, l2_pat) = (parts.inner, parts.l2());
+        let (seg_in, seg_l2) = self.segments(topo, seg);
         let (n_in, e_in) = (inner_pat.n_residuals(), inner_pat.vertices.len());
-        let l2_pat = PatternRef {
-            offsets: &l2_offsets,
-            vertices: &pattern.vertices[e_in..],
-        };
         let (r_in, r_l2) = r.split_at_mut(n_in);
         let sl = self.lambda.max(0.0).sqrt();
         match jac {
@@ -153,12 +151,9 @@ impl Metric for Regularized {
         scratch: &mut Scratch,
         sink: &mut GradientSink,
     ) -> f64 {
-        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
-        let l2_pat = PatternRef {
-            offsets: &l2_offsets,
-            vertices: &pattern.vertices[inner_pat.vertices.len()..],
-        };
-        let v_in = self.inner.gradient(topo, inner_pat, &seg_in, scratch, sink);
+        let parts = self.patterns(topo, pattern);
+        let (seg_in, seg_l2) = self.segments(topo, seg);
+        let v_in = self.inner.gradient(topo, parts.inner, &seg_in, scratch, sink);
         let weight = sink.weight;
         sink.weight = weight * self.lambda.max(0.0);
         // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
@@ -168,7 +163,9 @@ impl Metric for Regularized {
             gaux: &mut [],
             weight: sink.weight,
         };
-        let v_l2 = self.l2().gradient(topo, l2_pat, &seg_l2, scratch, &mut no_aux);
+        let v_l2 = self
+            .l2()
+            .gradient(topo, parts.l2(), &seg_l2, scratch, &mut no_aux);
         sink.weight = weight;
         v_in + v_l2
     }
@@ -181,15 +178,11 @@ impl Metric for Regularized {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
-        let (inner_pat, l2_offsets, s0_in, s0_l2) = self.split(topo, pattern, segs[0]);
-        let (_, _, s1_in, s1_l2) = self.split(topo, pattern, segs[1]);
-        let l2_pat = PatternRef {
-            offsets: &l2_offsets,
-            vertices: &pattern.vertices[inner_pat.vertices.len()..],
-        };
+        let parts = self.patterns(topo, pattern);
+        let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
         let v_in = self
             .inner
-            .segment_gradient(topo, inner_pat, [&s0_in, &s1_in], scratch, sink);
+            .segment_gradient(topo, parts.inner, [&s0_in, &s1_in], scratch, sink);
         // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
         let mut no_aux = SegmentSink {
             ga: &mut *sink.ga,
@@ -199,7 +192,7 @@ impl Metric for Regularized {
         };
         let v_l2 = self
             .l2()
-            .segment_gradient(topo, l2_pat, [&s0_l2, &s1_l2], scratch, &mut no_aux);
+            .segment_gradient(topo, parts.l2(), [&s0_l2, &s1_l2], scratch, &mut no_aux);
         v_in + v_l2
     }
 
@@ -216,36 +209,53 @@ impl Metric for Regularized {
         if !self.frozen_areas {
             return false;
         }
-        let (inner_pat, l2_offsets, seg_in, seg_l2) = self.split(topo, pattern, seg);
-        let l2_pat = PatternRef {
-            offsets: &l2_offsets,
-            vertices: &pattern.vertices[inner_pat.vertices.len()..],
-        };
-        let n_in = inner_pat.n_residuals();
+        let parts = self.patterns(topo, pattern);
+        let (seg_in, seg_l2) = self.segments(topo, seg);
+        let n_in = parts.inner.n_residuals();
         self.inner
-            .add_second_order(topo, inner_pat, &seg_in, &r[..n_in], sink)
+            .add_second_order(topo, parts.inner, &seg_in, &r[..n_in], sink)
             && self
                 .l2()
-                .add_second_order(topo, l2_pat, &seg_l2, &r[n_in..], sink)
+                .add_second_order(topo, parts.l2(), &seg_l2, &r[n_in..], sink)
+    }
+}
+
+/// The two parts of a [`Regularized`] pattern: the inner metric's rows, and the L2 rows with
+/// their offsets rebased to their first entry.
+struct Parts<'p> {
+    inner: PatternRef<'p>,
+    l2_offsets: Vec<u32>,
+    l2_vertices: &'p [u32],
+}
+
+impl Parts<'_> {
+    fn l2(&self) -> PatternRef<'_> {
+        PatternRef {
+            offsets: &self.l2_offsets,
+            vertices: self.l2_vertices,
+        }
     }
 }
 
 impl Regularized {
-    /// The inner metric's rows of `pattern`, the L2 rows' offsets rebased to their first
-    /// entry, and the segment as seen by each part (with its own frozen weights).
-    fn split<'p, 'a>(
-        &self,
-        topo: &Topology,
-        pattern: PatternRef<'p>,
-        seg: &Segment<'a>,
-    ) -> (PatternRef<'p>, Vec<u32>, Segment<'a>, Segment<'a>) {
+    /// The inner metric's rows of `pattern` (a prefix of the combined pattern, rows and
+    /// entries) and the L2 rows.
+    fn patterns<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> Parts<'p> {
         let n_in = self.inner.n_residuals(topo);
         let e_in = pattern.offsets[n_in] as usize;
-        let inner = PatternRef {
-            offsets: &pattern.offsets[..=n_in],
-            vertices: &pattern.vertices[..e_in],
-        };
-        let l2_offsets = pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect();
+        Parts {
+            inner: PatternRef {
+                offsets: &pattern.offsets[..=n_in],
+                vertices: &pattern.vertices[..e_in],
+            },
+            l2_offsets: pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect(),
+            l2_vertices: &pattern.vertices[e_in..],
+        }
+    }
+
+    /// The segment as seen by the inner metric and by the L2 part (each with its own frozen
+    /// weights).
+    fn segments<'a>(&self, topo: &Topology, seg: &Segment<'a>) -> (Segment<'a>, Segment<'a>) {
         let (fr_in, fr_l2) = self.split_frozen(topo, seg.frozen);
         let seg_in = Segment {
             frozen: fr_in,
@@ -255,7 +265,7 @@ impl Regularized {
             frozen: fr_l2,
             ..*seg
         };
-        (inner, l2_offsets, seg_in, seg_l2)
+        (seg_in, seg_l2)
     }
 
     /// Splits a frozen-weight array into the inner metric's part and the L2 part (#V when the
