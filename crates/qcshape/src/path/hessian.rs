@@ -73,9 +73,9 @@ pub(crate) struct SecondBlocks {
 }
 
 impl SegmentBlocks {
-    /// Adds `sign` times the second-order part `so` into `aa`, `ab`, `bb` (with `sign = 1`
-    /// the blocks become those of half the exact Hessian).
-    pub fn add_second(&mut self, so: &SecondBlocks, sign: f64) {
+    /// Adds the second-order part `so` into `aa`, `ab`, `bb`: the blocks become those of half
+    /// the exact Hessian.
+    pub fn add_second(&mut self, so: &SecondBlocks) {
         for (dst, src) in [
             (&mut self.aa, &so.aa),
             (&mut self.ab, &so.ab),
@@ -83,7 +83,7 @@ impl SegmentBlocks {
         ] {
             for (d, v) in dst.iter_mut().zip(src) {
                 for k in 0..9 {
-                    d[k] += sign * v[k];
+                    d[k] += v[k];
                 }
             }
         }
@@ -94,7 +94,7 @@ impl SegmentBlocks {
     pub fn merge_second(&mut self) -> bool {
         match self.second.take() {
             Some(so) => {
-                self.add_second(&so, 1.0);
+                self.add_second(&so);
                 true
             }
             None => false,
@@ -549,8 +549,9 @@ fn non_empty(v: &mut [[f64; 9]]) -> Option<&mut [[f64; 9]]> {
     }
 }
 
+/// `b += u v^T` (3 x 3, row-major).
 #[inline]
-fn outer_add(b: &mut [f64; 9], u: [f64; 3], v: [f64; 3]) {
+pub(super) fn outer_add(b: &mut [f64; 9], u: [f64; 3], v: [f64; 3]) {
     for r in 0..3 {
         for c in 0..3 {
             b[r * 3 + c] += u[r] * v[c];

@@ -23,8 +23,9 @@ use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
-use super::hessian::{SegmentBlocks, Structure};
+use super::hessian::{outer_add, SegmentBlocks, Structure};
 use super::GeodesicError;
+use crate::mesh::geometry::dot;
 use crate::metric::At;
 
 /// Structure of the spatial matrix `A` (upper triangle of 3 x 3 vertex blocks on the metric's
@@ -92,6 +93,14 @@ impl SpatialLayout {
             st,
             symbolic,
         })
+    }
+
+    /// Trace of the 3 #V x 3 #V matrix with vertex-pair blocks `blk` (slots of the structure).
+    pub fn trace(&self, blk: &[[f64; 9]]) -> f64 {
+        self.diag_slots
+            .iter()
+            .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
+            .sum()
     }
 
     /// The vertex-pair structure (assembles the blocks of `J^T J`).
@@ -175,13 +184,6 @@ impl PoseSum {
     /// From assembled segment blocks ([`Structure::assemble`]).
     pub fn from_blocks(layout: &SpatialLayout, blocks: &[SegmentBlocks]) -> Self {
         let mut sum = vec![[0.0f64; 9]; layout.st.pairs.n_slots()];
-        let trace = |blk: &[[f64; 9]]| -> f64 {
-            layout
-                .diag_slots
-                .iter()
-                .map(|&i| blk[i][0] + blk[i][4] + blk[i][8])
-                .sum()
-        };
         let mut traces = Vec::with_capacity(blocks.len());
         let mut parts = Vec::with_capacity(blocks.len());
         for b in blocks {
@@ -195,7 +197,7 @@ impl PoseSum {
                         si[k] += bi[k];
                     }
                 }
-                t += trace(part);
+                t += layout.trace(part);
                 p += 1;
             }
             traces.push(t);
@@ -230,15 +232,11 @@ impl PoseSum {
                             if need_a { dak } else { [0.0; 3] },
                             if need_b { dbk } else { [0.0; 3] },
                         );
-                        trace += dot3(dak, dak) + dot3(dbk, dbk);
+                        trace += dot(dak, dak) + dot(dbk, dbk);
                         for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
-                            let (dal, dbl) = (jac.da[first + ll], jac.db[first + ll]);
                             let blk = &mut acc[slot as usize];
-                            for r in 0..3 {
-                                for c in 0..3 {
-                                    blk[3 * r + c] += dak[r] * dal[c] + dbk[r] * dbl[c];
-                                }
-                            }
+                            outer_add(blk, dak, jac.da[first + ll]);
+                            outer_add(blk, dbk, jac.db[first + ll]);
                         }
                     }
                 }
@@ -277,10 +275,6 @@ impl PoseSum {
     }
 }
 
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 impl KroneckerModel {
     /// Fits `A` and the segment weights `c_s` to the blocks of `J^T J` (`ps`) and factorizes
     /// `A`.
@@ -292,12 +286,7 @@ impl KroneckerModel {
         let mut a = ps.sum;
         let scale = 0.5 / m as f64;
         a.iter_mut().flatten().for_each(|v| *v *= scale);
-        let tr_a: f64 = layout
-            .diag_slots
-            .iter()
-            .map(|&i| a[i][0] + a[i][4] + a[i][8])
-            .sum::<f64>()
-            .max(f64::MIN_POSITIVE);
+        let tr_a = layout.trace(&a).max(f64::MIN_POSITIVE);
         // Segment weights: trace of the segment's pose blocks relative to A's.
         let c: Vec<f64> = ps
             .traces
@@ -430,11 +419,7 @@ mod tests {
             let ps = PoseSum::assemble(&layout, &pe, &x, &ends);
             let mm = steps - 1;
             let a: Vec<[f64; 9]> = ps.sum.iter().map(|b| b.map(|v| v * 0.5 / mm as f64)).collect();
-            let tr_a: f64 = layout
-                .diag_slots
-                .iter()
-                .map(|&i| a[i][0] + a[i][4] + a[i][8])
-                .sum();
+            let tr_a = layout.trace(&a);
             let c: Vec<f64> = ps
                 .traces
                 .iter()

@@ -109,27 +109,23 @@ impl<'a> Model<'a> {
         let st = layout.structure();
         let (steps, n_aux) = (st.steps, st.n_aux);
         let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
+        // The Gauss-Newton part's pose sum, kept for the fallback fit.
+        let gauss_newton = seconds
+            .iter()
+            .any(Option::is_some)
+            .then(|| PoseSum::from_blocks(layout, &blocks));
         for (b, so) in blocks.iter_mut().zip(&seconds) {
             if let Some(so) = so {
-                b.add_second(so, 1.0);
+                b.add_second(so);
             }
         }
-        let kron = match KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks)) {
-            Ok(k) => k,
-            Err(_) if seconds.iter().any(Option::is_some) => {
-                let toggle = |blocks: &mut [SegmentBlocks], sign: f64| {
-                    for (b, so) in blocks.iter_mut().zip(&seconds) {
-                        if let Some(so) = so {
-                            b.add_second(so, sign);
-                        }
-                    }
-                };
-                toggle(&mut blocks, -1.0);
-                let k = KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks))?;
-                toggle(&mut blocks, 1.0);
-                k
-            }
-            Err(e) => return Err(e),
+        let kron = match (
+            KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks)),
+            gauss_newton,
+        ) {
+            (Ok(k), _) => k,
+            (Err(_), Some(gn)) => KroneckerModel::fit(layout, gn)?,
+            (Err(e), None) => return Err(e),
         };
         let aux_inv = if n_aux == 0 {
             Vec::new()
