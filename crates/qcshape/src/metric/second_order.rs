@@ -16,19 +16,20 @@ use super::At;
 /// `d2/dg_k dX_l` for the residual's local vertices `k, l` and applies the chain rule to
 /// `(a, b)` (`g = a` or `g = b`).
 pub struct SecondOrderSink<'a> {
-    at: At,
+    /// The pose supplying the geometry of the term.
+    pub(crate) at: At,
     /// Pattern row offsets (residual `i` has `offsets[i+1] - offsets[i]` local vertices).
-    offsets: &'a [u32],
+    pub(crate) offsets: &'a [u32],
     /// Per residual: offset of its `L x L` pair slots in `pair_slots`.
-    pair_off: &'a [usize],
+    pub(crate) pair_off: &'a [usize],
     /// Slot of each local pair `(k, l)` of each residual (row-major).
-    pair_slots: &'a [u32],
+    pub(crate) pair_slots: &'a [u32],
     /// Blocks `d2/da_u da_v` per slot (row-major 3 x 3), if the first pose is free.
-    aa: Option<&'a mut [[f64; 9]]>,
+    pub(crate) aa: Option<&'a mut [[f64; 9]]>,
     /// Blocks `d2/da_u db_v` (row: vertex `u` of `a`, column: `v` of `b`), if both are free.
-    ab: Option<&'a mut [[f64; 9]]>,
+    pub(crate) ab: Option<&'a mut [[f64; 9]]>,
     /// Blocks `d2/db_u db_v`, if the second pose is free.
-    bb: Option<&'a mut [[f64; 9]]>,
+    pub(crate) bb: Option<&'a mut [[f64; 9]]>,
 }
 
 #[inline]
@@ -48,28 +49,6 @@ fn add_transposed(dst: &mut [f64; 9], src: &[f64; 9], s: f64) {
 }
 
 impl<'a> SecondOrderSink<'a> {
-    /// A sink for the term measured at `at`, with the pattern's row `offsets` and the pair
-    /// slots of every residual.
-    pub(crate) fn new(
-        at: At,
-        offsets: &'a [u32],
-        pair_off: &'a [usize],
-        pair_slots: &'a [u32],
-        aa: Option<&'a mut [[f64; 9]]>,
-        ab: Option<&'a mut [[f64; 9]]>,
-        bb: Option<&'a mut [[f64; 9]]>,
-    ) -> Self {
-        SecondOrderSink {
-            at,
-            offsets,
-            pair_off,
-            pair_slots,
-            aa,
-            ab,
-            bb,
-        }
-    }
-
     #[inline]
     fn slot(&self, i: usize, k: usize, l: usize) -> usize {
         let len = (self.offsets[i + 1] - self.offsets[i]) as usize;

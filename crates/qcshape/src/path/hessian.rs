@@ -405,15 +405,15 @@ impl Structure {
             }
             if let Some(so) = second.as_mut() {
                 let seg = pe.segment(x, ends, s, at);
-                let mut sink = SecondOrderSink::new(
+                let mut sink = SecondOrderSink {
                     at,
-                    &pat.offsets,
-                    &self.pairs.pair_off,
-                    &self.pairs.pair_slots,
-                    non_empty(&mut so.aa),
-                    non_empty(&mut so.ab),
-                    non_empty(&mut so.bb),
-                );
+                    offsets: &pat.offsets,
+                    pair_off: &self.pairs.pair_off,
+                    pair_slots: &self.pairs.pair_slots,
+                    aa: non_empty(&mut so.aa),
+                    ab: non_empty(&mut so.ab),
+                    bb: non_empty(&mut so.bb),
+                };
                 if !pe
                     .metric
                     .add_second_order(&pe.topo, pat.as_ref(), &seg, &te.r, &mut sink)
