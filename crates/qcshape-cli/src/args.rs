@@ -62,9 +62,16 @@ pub struct SolverArgs {
     /// preconditioner).
     #[arg(long, default_value = "preconditioned")]
     pub solver: Solver,
-    /// Relative gradient tolerance.
+    /// Relative gradient tolerance: converged when the gradient norm falls below this fraction
+    /// of its value at the start.
     #[arg(long, default_value_t = 1e-6)]
     pub tolerance: f64,
+    /// Relative energy tolerance: also converged when an accepted step lowers the path energy by
+    /// less than this fraction. On flat energies (conformal, isometric on fine meshes) this test
+    /// stops first, with the energy converged but the gradient above --tolerance; 0 disables it,
+    /// so that the gradient test decides (more iterations).
+    #[arg(long, default_value_t = 1e-12)]
+    pub energy_tolerance: f64,
 }
 
 impl SolverArgs {
@@ -73,16 +80,22 @@ impl SolverArgs {
         if self.steps == 0 {
             bail!("--steps must be at least 1");
         }
-        if self.tolerance.is_nan() || self.tolerance < 0.0 {
-            bail!("--tolerance must be non-negative");
-        }
         Ok(GeodesicOptions {
             steps: self.steps,
             solver: self.solver,
-            gradient_tolerance: self.tolerance,
+            gradient_tolerance: non_negative("--tolerance", self.tolerance)?,
+            energy_tolerance: non_negative("--energy-tolerance", self.energy_tolerance)?,
             ..Default::default()
         })
     }
+}
+
+/// `value` if it is a non-negative number, else an error naming the option.
+pub(crate) fn non_negative(option: &str, value: f64) -> Result<f64> {
+    if value.is_nan() || value < 0.0 {
+        bail!("{option} must be non-negative (got {value})");
+    }
+    Ok(value)
 }
 
 /// Runs `f` in a worker pool of `threads` threads (default: all cores).

@@ -12,7 +12,7 @@ use qcshape::metric::MetricKind;
 use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
-use crate::args::MetricArgs;
+use crate::args::{non_negative, MetricArgs};
 
 /// Run one of the paper's experiments and write its tables and figures.
 #[derive(Debug, clap::Args)]
@@ -94,6 +94,9 @@ pub struct InterpolationArgs {
     /// Relative gradient tolerance.
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
+    /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
+    #[arg(long, default_value_t = 1e-12)]
+    energy_tolerance: f64,
     /// Iteration limit (see `qcshape geodesic`).
     #[arg(long, default_value_t = 100)]
     max_iterations: usize,
@@ -205,16 +208,14 @@ fn run_interpolation(args: &InterpolationArgs) -> Result<()> {
     if metrics.is_empty() {
         bail!("--metrics must name at least one metric");
     }
-    if args.tolerance.is_nan() || args.tolerance < 0.0 {
-        bail!("--tolerance must be non-negative");
-    }
     let exp = InterpolationExperiment {
         metrics,
         insert: args.insert,
         levels: args.levels,
         geodesic: GeodesicOptions {
             solver: args.solver,
-            gradient_tolerance: args.tolerance,
+            gradient_tolerance: non_negative("--tolerance", args.tolerance)?,
+            energy_tolerance: non_negative("--energy-tolerance", args.energy_tolerance)?,
             max_iterations: args.max_iterations,
             ..Default::default()
         },

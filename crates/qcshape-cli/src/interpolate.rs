@@ -14,7 +14,7 @@ use qcshape::path::{
     Solver,
 };
 
-use crate::args::MetricArgs;
+use crate::args::{non_negative, MetricArgs};
 
 /// Insert poses between consecutive poses of each deformation, along discrete geodesics.
 ///
@@ -53,6 +53,9 @@ pub struct Args {
     /// Relative gradient tolerance.
     #[arg(long, default_value_t = 1e-6)]
     tolerance: f64,
+    /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
+    #[arg(long, default_value_t = 1e-12)]
+    energy_tolerance: f64,
     /// Iteration limit (see `qcshape geodesic`).
     #[arg(long, default_value_t = 100)]
     max_iterations: usize,
@@ -93,7 +96,8 @@ pub fn run(args: &Args) -> Result<()> {
         ratio: args.ratio,
         geodesic: GeodesicOptions {
             solver: args.solver,
-            gradient_tolerance: args.tolerance,
+            gradient_tolerance: non_negative("--tolerance", args.tolerance)?,
+            energy_tolerance: non_negative("--energy-tolerance", args.energy_tolerance)?,
             max_iterations: args.max_iterations,
             ..Default::default()
         },

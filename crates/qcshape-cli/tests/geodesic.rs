@@ -82,3 +82,45 @@ fn mismatched_meshes_and_missing_files_are_clear_errors() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("nope.ply") && !err.contains("panicked"), "{err}");
 }
+
+/// `--energy-tolerance` reaches the solver: a loose one stops on the energy test with a larger
+/// gradient, 0 leaves the decision to the gradient test; a negative one is an error.
+#[test]
+fn energy_tolerance_option_decides_the_energy_test() {
+    let run = |et: &str| -> serde_json::Value {
+        let out = qcshape()
+            .args([
+                "geodesic",
+                "--demo",
+                "--metric",
+                "conformal",
+                "--json",
+                "--energy-tolerance",
+                et,
+            ])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (loose, off) = (run("1e-3"), run("0"));
+    assert_eq!(loose["stop"], "energy-tolerance", "{loose}");
+    assert_eq!(off["stop"], "gradient-tolerance", "{off}");
+    let g = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap();
+    assert!(
+        g(&off, "gradient_norm") < 1e-2 * g(&loose, "gradient_norm"),
+        "{off} {loose}"
+    );
+    assert!(g(&off, "energy") < g(&loose, "energy"));
+    assert!(g(&off, "iterations") > g(&loose, "iterations"));
+    let out = qcshape()
+        .args(["geodesic", "--demo", "--energy-tolerance=-1"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--energy-tolerance") && !err.contains("panicked"),
+        "{err}"
+    );
+}
