@@ -9,7 +9,8 @@
 //! its preconditioner: what the Kronecker model buys).
 //!
 //! `cargo bench -p qcshape --bench geodesic [-- --levels 3,4 --metrics all --lbfgs-cap 3000
-//! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 45 --memory 10]`
+//! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 45 --memory 10
+//! --omega 0.3]` (`--omega`: the preconditioned solver's vertex-block weight)
 //! Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;
@@ -105,8 +106,11 @@ fn main() {
     let skip_gn = args.iter().any(|a| a == "--skip-gn");
     let skip_lbfgs = args.iter().any(|a| a == "--skip-lbfgs");
     let gn_direct = args.iter().any(|a| a == "--gn-direct");
+    let omega: f64 = get("--omega").map_or(GeodesicOptions::default().vertex_block_weight, |s| {
+        s.parse().unwrap()
+    });
     println!(
-        "threads: {} (set RAYON_NUM_THREADS=1 for one core); N = 8; lambda = {lambda}; coordinates scaled by 1/mean edge length",
+        "threads: {} (set RAYON_NUM_THREADS=1 for one core); N = 8; lambda = {lambda}; coordinates scaled by 1/mean edge length; vertex-block weight {omega}",
         rayon::current_num_threads()
     );
     let gn_cap: usize = get("--gn-cap").map_or(100, |s| s.parse().unwrap());
@@ -136,6 +140,7 @@ fn main() {
                 solver: Solver::Preconditioned,
                 preconditioner_refresh: refresh,
                 lbfgs_memory: memory,
+                vertex_block_weight: omega,
                 ..Default::default()
             });
             let target = pc.energy * (1.0 + 1e-6);
@@ -150,6 +155,7 @@ fn main() {
                     energy_tolerance: 0.0,
                     preconditioner_refresh: refresh,
                     lbfgs_memory: memory,
+                    vertex_block_weight: omega,
                 });
                 let reached = g.energy <= target;
                 (t, g.iterations, reached)

@@ -171,13 +171,16 @@ pub(crate) struct KroneckerModel {
     tinv: Vec<f64>,
 }
 
-/// What the Kronecker fit needs from `J^T J`: the sum of every segment's pose blocks
+/// What the preconditioners need from `J^T J`: the sum of every segment's pose blocks
 /// (`aa + bb`, 3 x 3 per vertex-pair slot) and per segment the trace of its pose blocks and
-/// how many it has (2, or 1 for a segment with a fixed end).
+/// how many it has (2, or 1 for a segment with a fixed end), for the Kronecker fit; and the
+/// diagonal 3 x 3 block of every interior pose's vertex (`(N - 1) #V`, pose-major), for the
+/// vertex-block term ([`super::vertex_blocks::VertexBlocks`]).
 pub(crate) struct PoseSum {
     sum: Vec<[f64; 9]>,
     traces: Vec<f64>,
     parts: Vec<usize>,
+    pub diagonal: Vec<[f64; 9]>,
 }
 
 impl PoseSum {
@@ -203,7 +206,27 @@ impl PoseSum {
             traces.push(t);
             parts.push(p);
         }
-        PoseSum { sum, traces, parts }
+        // Interior pose j: bb of segment j - 1 plus aa of segment j.
+        let nv = layout.nv;
+        let mut diagonal = vec![[0.0f64; 9]; blocks.len().saturating_sub(1) * nv];
+        for (j, dj) in diagonal.chunks_exact_mut(nv).enumerate() {
+            for part in [&blocks[j].bb, &blocks[j + 1].aa] {
+                if part.is_empty() {
+                    continue;
+                }
+                for (d, &slot) in dj.iter_mut().zip(&layout.diag_slots) {
+                    for k in 0..9 {
+                        d[k] += part[slot][k];
+                    }
+                }
+            }
+        }
+        PoseSum {
+            sum,
+            traces,
+            parts,
+            diagonal,
+        }
     }
 
     /// Directly from the metric's residual Jacobians at path `x`, without the segments'
@@ -214,7 +237,9 @@ impl PoseSum {
         let n_slots = st.pairs.n_slots();
         let steps = st.steps;
         let pat = &pe.pattern;
-        let per_segment = |acc: &mut Vec<[f64; 9]>, s: usize| -> (f64, usize) {
+        let nv = layout.nv;
+        // Accumulates segment s into the slot sums `acc` and the pose-vertex diagonal blocks `dg`.
+        let per_segment = |acc: &mut Vec<[f64; 9]>, dg: &mut Vec<[f64; 9]>, s: usize| -> (f64, usize) {
             let need_a = s >= 1;
             let need_b = s + 1 < steps;
             let mut te = pe.new_term_eval();
@@ -233,6 +258,13 @@ impl PoseSum {
                             if need_b { dbk } else { [0.0; 3] },
                         );
                         trace += dot(dak, dak) + dot(dbk, dbk);
+                        let v = pat.vertices[first + k] as usize;
+                        if need_a {
+                            outer_add(&mut dg[(s - 1) * nv + v], dak, dak);
+                        }
+                        if need_b {
+                            outer_add(&mut dg[s * nv + v], dbk, dbk);
+                        }
                         for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
                             let blk = &mut acc[slot as usize];
                             outer_add(blk, dak, jac.da[first + ll]);
@@ -243,35 +275,36 @@ impl PoseSum {
             }
             (trace, usize::from(need_a) + usize::from(need_b))
         };
-        let (sum, per) = (0..steps)
+        let n_diag = (steps - 1) * nv;
+        let zeros = || (vec![[0.0f64; 9]; n_slots], Vec::new(), vec![[0.0f64; 9]; n_diag]);
+        let (sum, per, diagonal) = (0..steps)
             .into_par_iter()
-            .fold(
-                || (vec![[0.0f64; 9]; n_slots], Vec::new()),
-                |(mut acc, mut per), s| {
-                    let tp = per_segment(&mut acc, s);
-                    per.push((s, tp));
-                    (acc, per)
-                },
-            )
-            .reduce(
-                || (vec![[0.0f64; 9]; n_slots], Vec::new()),
-                |(mut a, mut pa), (b, pb)| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        for k in 0..9 {
-                            x[k] += y[k];
-                        }
+            .fold(zeros, |(mut acc, mut per, mut dg), s| {
+                let tp = per_segment(&mut acc, &mut dg, s);
+                per.push((s, tp));
+                (acc, per, dg)
+            })
+            .reduce(zeros, |(mut a, mut pa, mut da), (b, pb, db)| {
+                for (x, y) in a.iter_mut().zip(&b).chain(da.iter_mut().zip(&db)) {
+                    for k in 0..9 {
+                        x[k] += y[k];
                     }
-                    pa.extend(pb);
-                    (a, pa)
-                },
-            );
+                }
+                pa.extend(pb);
+                (a, pa, da)
+            });
         let mut traces = vec![0.0; steps];
         let mut parts = vec![0; steps];
         for (s, (t, p)) in per {
             traces[s] = t;
             parts[s] = p;
         }
-        PoseSum { sum, traces, parts }
+        PoseSum {
+            sum,
+            traces,
+            parts,
+            diagonal,
+        }
     }
 }
 
@@ -363,6 +396,7 @@ mod tests {
 
     use super::*;
     use crate::metric::{Conformal, ConformalForm, Isometric, Metric, Regularized, Rigid};
+    use crate::path::hessian::tests::dense;
 
     fn problem<'m>(m: &'m dyn Metric, steps: usize, seed: u64) -> (PathEnergy<'m>, Ends, Vec<f64>) {
         let base = crate::synth::icosphere(1);
@@ -403,6 +437,21 @@ mod tests {
                         "{}: {w} vs {g}",
                         m.name()
                     );
+                }
+                // The pose-vertex diagonal blocks: both constructors, and the diagonal 3 x 3
+                // blocks of the dense J^T J.
+                let (h, _) = dense(&pe, &x, &ends);
+                let nv = pe.n_vertices();
+                assert_eq!(want.diagonal.len(), (steps - 1) * nv);
+                assert_eq!(got.diagonal.len(), (steps - 1) * nv);
+                for (i, (w, g)) in want.diagonal.iter().zip(&got.diagonal).enumerate() {
+                    let (j, v) = (i / nv, i % nv);
+                    let row = 3 * (j * nv + v);
+                    for k in 0..9 {
+                        let d = h[row + k / 3][row + k % 3];
+                        assert!((w[k] - d).abs() <= 1e-12 * scale, "{}: {} vs {d}", m.name(), w[k]);
+                        assert!((g[k] - d).abs() <= 1e-12 * scale, "{}: {} vs {d}", m.name(), g[k]);
+                    }
                 }
             }
         }

@@ -12,42 +12,62 @@
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
 //! The history is kept in compact form ([`super::compact`]). Without a spatial layout the same
 //! iteration runs with `H0 = gamma I` ([`super::Solver::PlainLbfgs`]).
+//!
+//! The Kronecker part is completed by a vertex-block term ([`super::vertex_blocks`]):
+//! `H0 = gamma ((2 T_c (x) A)^{-1} + omega (2 D)^{-1})`, `D` the 3 x 3 diagonal blocks of
+//! `J^T J` per interior pose and vertex, refitted with the model
+//! ([`GeodesicOptions::vertex_block_weight`]).
 
 use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
+use super::vertex_blocks::VertexBlocks;
 use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
-/// The factorized preconditioner `(2 T_c (x) A)^{-1}` (the energy's Gauss-Newton Hessian is
-/// `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the identity: plain L-BFGS).
+/// The factorized preconditioner `(2 T_c (x) A)^{-1} + omega (2 D)^{-1}` (the energy's
+/// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the
+/// identity: plain L-BFGS).
 struct Preconditioner<'l> {
     kron: Option<(&'l SpatialLayout, KroneckerModel)>,
+    /// The vertex-block term `omega (2 D)^{-1}` added to the Kronecker part (none when
+    /// `omega = 0` or without a layout).
+    local: Option<VertexBlocks>,
 }
 
 impl<'l> Preconditioner<'l> {
-    /// Fits the model to the blocks of `J^T J` at `x` ([`KroneckerModel::fit`]); the identity
+    /// Fits the model to the blocks of `J^T J` at `x` ([`KroneckerModel::fit`]) and, for
+    /// `vertex_block_weight > 0`, the vertex-block term from the same assembly; the identity
     /// without a layout.
     fn new(
         layout: Option<&'l SpatialLayout>,
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
+        vertex_block_weight: f64,
     ) -> Result<Self, GeodesicError> {
-        let kron = match layout {
-            Some(layout) => Some((
-                layout,
-                KroneckerModel::fit(layout, PoseSum::assemble(layout, pe, x, ends))?,
-            )),
-            None => None,
+        let Some(layout) = layout else {
+            return Ok(Preconditioner {
+                kron: None,
+                local: None,
+            });
         };
-        Ok(Preconditioner { kron })
+        let ps = PoseSum::assemble(layout, pe, x, ends);
+        let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&ps.diagonal, vertex_block_weight));
+        Ok(Preconditioner {
+            kron: Some((layout, KroneckerModel::fit(layout, ps)?)),
+            local,
+        })
     }
 
-    /// `q <- (2 T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), or several such
-    /// vectors one after the other); nothing for the identity.
+    /// `q <- ((2 T_c (x) A)^{-1} + omega (2 D)^{-1}) q` on the pose part (length 3 #V (N - 1),
+    /// or several such vectors one after the other); nothing for the identity.
     fn apply(&self, q: &mut [f64]) {
+        let x = self.local.as_ref().map(|_| q.to_vec());
         if let Some((layout, model)) = &self.kron {
             model.apply(layout, q, 0.5);
+        }
+        if let (Some(local), Some(x)) = (&self.local, x) {
+            local.add_apply(&x, q);
         }
     }
 }
@@ -86,7 +106,7 @@ pub(crate) fn minimize(
     let mut g = vec![0.0; np];
     let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g);
     let g0 = norm(&g);
-    let mut pre = Preconditioner::new(layout, pe, &full, ends)?;
+    let mut pre = Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?;
     let refresh = opts.preconditioner_refresh;
     // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
     // step of unit length (normalized coordinates: about one edge).
@@ -131,7 +151,7 @@ pub(crate) fn minimize(
         if layout.is_some() && refresh > 0 && iterations % refresh == 0 {
             full[..np].copy_from_slice(&x);
             pe.reset_aux(&mut full, ends);
-            pre = Preconditioner::new(layout, pe, &full, ends)?;
+            pre = Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?;
             precondition(&pre, &g, &mut mg);
             hist.reset_preconditioner(&g, |z| pre.apply(z));
         }

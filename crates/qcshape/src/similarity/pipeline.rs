@@ -308,7 +308,7 @@ where
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
     format!(
-        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|insert={}|levels={}|transport={:?}|base={}",
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}",
         opts.metric,
         g.steps,
         g.solver,
@@ -316,6 +316,8 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         g.energy_tolerance,
         g.max_iterations,
         g.lbfgs_memory,
+        g.preconditioner_refresh,
+        g.vertex_block_weight,
         opts.insert,
         opts.levels,
         opts.transport,
