@@ -135,7 +135,9 @@ pub struct GeodesicOptions {
     /// `J^T J` per interior pose and vertex (0: the Kronecker model alone). Default 0.3
     /// (2,562-vertex benchmark, one core, iterations to E* (1 + 1e-6) for omega = 0 / 0.2 /
     /// 0.3 / 0.4 / 0.5: conformal 155 / 96 / 70 / 66 / 61, isometric 148 / 155 / 148 / 164 /
-    /// 179; at 162 and 642 vertices within +-2 iterations of omega = 0; README "Benchmark").
+    /// 179; at 162 and 642 vertices within +-2 iterations of omega = 0; on the real left
+    /// ventricle neutral; isometric runs to convergence can take up to 25 % longer, ending in
+    /// other minima 1e-5 apart; README "Benchmark" and "How the defaults were chosen").
     pub vertex_block_weight: f64,
 }
 
