@@ -55,7 +55,8 @@ pub struct SolverArgs {
     /// Number of path segments N of each geodesic.
     #[arg(long, default_value_t = 8)]
     pub steps: usize,
-    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker preconditioner), newton
+    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
+    /// preconditioner), newton
     /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
     /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
     /// (the paper's, through argmin), plain-lbfgs (the preconditioned solver without its

@@ -14,7 +14,8 @@
 //! - [`Solver::Newton`]: the truncated iteration on the exact Hessian (the metrics'
 //!   second-order parts added to `J^T J`);
 //! - [`Solver::Preconditioned`] (default): L-BFGS whose initial inverse Hessian is the same
-//!   Kronecker model, refitted periodically;
+//!   Kronecker model plus the block-Jacobi inverse of the Gauss-Newton Hessian's 3 x 3 vertex
+//!   blocks per pose, refitted periodically;
 //! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
 //!   line search) on the exact gradient;
 //! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
@@ -59,8 +60,9 @@ use crate::metric::Metric;
 pub enum Solver {
     /// L-BFGS preconditioned by the Kronecker model `2 T_c (x) A` of the Gauss-Newton Hessian
     /// (one sparse Cholesky of size 3 #V per refit, every
-    /// [`GeodesicOptions::preconditioner_refresh`] iterations), scaled by the newest curvature
-    /// pair. The default: the fastest in the benchmark.
+    /// [`GeodesicOptions::preconditioner_refresh`] iterations) plus a vertex-block term
+    /// ([`GeodesicOptions::vertex_block_weight`]), scaled by the newest curvature pair. The
+    /// default: the fastest in the benchmark.
     #[default]
     Preconditioned,
     /// Truncated Gauss-Newton: the Gauss-Newton step by preconditioned conjugate gradients
