@@ -1,6 +1,6 @@
 use super::{
     geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, SecondOrderSink, Segment,
+    Scratch, SecondOrderSink, Segment, SegmentSink,
 };
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
@@ -69,6 +69,43 @@ impl Metric for Isometric {
             let (da, db) = split_segment(seg.at, dx, de);
             sink.add(p, r, da, db);
             sink.add(q, -r, da, db);
+        }
+        sink.weight * value
+    }
+
+    /// Both terms in one pass over the edges: they share the displacement `X_p - X_q`; the
+    /// `At::Start` term measures it against `a_p - a_q`, the `At::End` term against `b_p - b_q`
+    /// (derivatives as in [`Metric::gradient`] through `split_segment`).
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        segs: [&Segment; 2],
+        _scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        let (a, b) = (segs[0].a, segs[0].b);
+        let s = 2.0 * sink.weight;
+        let mut value = 0.0;
+        for e in topo.edges() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let (ea, eb) = (sub(a[p], a[q]), sub(b[p], b[q]));
+            let dx = sub(eb, ea);
+            let (ra, rb) = (dot(dx, ea), dot(dx, eb));
+            value += ra * ra + rb * rb;
+            // d/da: ra (dx - ea) - rb eb; d/db: ra ea + rb (dx + eb) (vertex p; q opposite).
+            let mut da = [0.0; 3];
+            let mut db = [0.0; 3];
+            for c in 0..3 {
+                da[c] = s * (ra * (dx[c] - ea[c]) - rb * eb[c]);
+                db[c] = s * (ra * ea[c] + rb * (dx[c] + eb[c]));
+            }
+            for c in 0..3 {
+                sink.ga[p][c] += da[c];
+                sink.gb[p][c] += db[c];
+                sink.ga[q][c] -= da[c];
+                sink.gb[q][c] -= db[c];
+            }
         }
         sink.weight * value
     }
