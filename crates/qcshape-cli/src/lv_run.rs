@@ -616,6 +616,7 @@ fn run_in_pool(a: &RunArgs) -> Result<()> {
         insert: a.common.insert,
         levels: 1,
         transport: Transport::Parallel,
+        align: Default::default(),
         base: 0,
     };
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;

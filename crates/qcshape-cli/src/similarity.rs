@@ -11,7 +11,7 @@ use qcshape::similarity::{
     assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PairDistance,
     PipelineOptions, Prepared, Stage,
 };
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 
@@ -48,6 +48,11 @@ pub struct Args {
     /// better classification in the measurements, README), parallel (the paper's) or schild.
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -85,6 +90,7 @@ pub(crate) fn pipeline_options(
     insert: usize,
     levels: usize,
     transport: Transport,
+    align: Alignment,
     base: Option<&str>,
 ) -> Result<PipelineOptions> {
     if levels == 0 {
@@ -105,6 +111,7 @@ pub(crate) fn pipeline_options(
         levels,
         transport,
         base,
+        align,
     })
 }
 
@@ -145,6 +152,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.insert,
         args.levels,
         args.transport,
+        args.align,
         args.base.as_deref(),
     )?;
     eprintln!(
