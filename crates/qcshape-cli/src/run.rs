@@ -109,9 +109,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.insert,
         1,
         args.transport,
-        args.align,
         args.base.as_deref(),
     )?;
+    let opts = qcshape::similarity::PipelineOptions {
+        align: args.align,
+        ..opts
+    };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
 
     let tp = Instant::now();

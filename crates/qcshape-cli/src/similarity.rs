@@ -90,7 +90,6 @@ pub(crate) fn pipeline_options(
     insert: usize,
     levels: usize,
     transport: Transport,
-    align: Alignment,
     base: Option<&str>,
 ) -> Result<PipelineOptions> {
     if levels == 0 {
@@ -111,7 +110,7 @@ pub(crate) fn pipeline_options(
         levels,
         transport,
         base,
-        align,
+        align: Alignment::default(),
     })
 }
 
@@ -152,9 +151,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.insert,
         args.levels,
         args.transport,
-        args.align,
         args.base.as_deref(),
     )?;
+    let opts = PipelineOptions {
+        align: args.align,
+        ..opts
+    };
     eprintln!(
         "{n} deformations, {} poses each, {} vertices; {}",
         data.deformations[0].poses.len(),
