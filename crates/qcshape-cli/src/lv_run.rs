@@ -617,6 +617,7 @@ fn run_in_pool(a: &RunArgs) -> Result<()> {
         levels: 1,
         transport: Transport::Parallel,
         align: Default::default(),
+        smoothing: PipelineOptions::default().smoothing,
         base: 0,
     };
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
