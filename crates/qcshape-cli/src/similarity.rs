@@ -115,7 +115,7 @@ pub(crate) fn pipeline_options(
         transport,
         base,
         align: Alignment::default(),
-        smoothing: 0,
+        smoothing: PipelineOptions::default().smoothing,
     })
 }
 
