@@ -132,6 +132,14 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let data = Dataset::load(&args.input)?;
+    data.refuse_overwrite(&args.input, &args.output, "-o")?;
+    data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
+    if let Some(details) = &args.details {
+        data.refuse_overwrite(&args.input, details, "--details")?;
+        if details == &args.output {
+            bail!("--details {} is the same file as -o", details.display());
+        }
+    }
     let n = data.deformations.len();
     if n < 2 {
         bail!(

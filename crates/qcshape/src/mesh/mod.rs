@@ -10,5 +10,5 @@ mod shape;
 mod topology;
 
 pub use error::MeshError;
-pub use shape::Shape;
+pub use shape::{Shape, MAX_COORDINATE};
 pub use topology::Topology;

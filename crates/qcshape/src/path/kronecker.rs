@@ -508,6 +508,33 @@ mod tests {
         }
     }
 
+    /// The pose sum (hence the preconditioner) is the same to the bit for any thread count:
+    /// the segments are reduced in fixed chunks, in order.
+    #[test]
+    fn pose_sum_is_bit_identical_for_any_thread_count() {
+        for m in metrics() {
+            let (pe, ends, x) = problem(m.as_ref(), 8, 4);
+            let layout = SpatialLayout::new(&pe).unwrap();
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let ps = pool.install(|| PoseSum::assemble(&layout, &pe, &x, &ends));
+                let bits = |v: &[[f64; 9]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+                (
+                    bits(&ps.sum),
+                    bits(&ps.diagonal),
+                    ps.traces.iter().map(|t| t.to_bits()).collect::<Vec<_>>(),
+                )
+            };
+            let want = run(1);
+            for threads in [2, 3, 4, 2, 3] {
+                assert!(run(threads) == want, "{}: {threads} threads", m.name());
+            }
+        }
+    }
+
     /// `apply` inverts `T_c (x) A` as documented (A the mean diagonal pose block halved, c_s
     /// the segments' trace ratios), to single precision.
     #[test]
