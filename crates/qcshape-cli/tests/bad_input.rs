@@ -185,11 +185,14 @@ fn info_case(name: &str, file: &str, bytes: impl Into<Vec<u8>>, expect: &[&str])
     case(name, &format!("info {{d}}/{file}"), &e).file(file, bytes)
 }
 
+/// A topology defect: name, positions, faces, expected words.
+type Variant = (&'static str, Vec<[f64; 3]>, Vec<Vec<u32>>, Vec<&'static str>);
+
 fn topology_cases() -> Vec<Case> {
     let (p, f) = octahedron();
     let mut out = Vec::new();
     // (name, positions, faces, expected words)
-    let mut variants: Vec<(&str, Vec<[f64; 3]>, Vec<Vec<u32>>, Vec<&str>)> = Vec::new();
+    let mut variants: Vec<Variant> = Vec::new();
     let mut dup = f.clone();
     dup.push(vec![2, 4, 0]);
     variants.push((

@@ -618,7 +618,7 @@ impl FaceBuilder {
     ) -> Result<Vec<[u32; 3]>, ParseError> {
         let mut n_clipped = 0;
         for (face, line, start, poly) in &self.polygons {
-            let tris = polygon::triangulate(poly, positions).ok_or_else(|| ParseError::Polygon {
+            let tris = polygon::triangulate(poly, positions).ok_or(ParseError::Polygon {
                 face: *face,
                 corners: poly.len(),
                 line: *line,

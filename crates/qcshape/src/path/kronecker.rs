@@ -28,6 +28,9 @@ use super::GeodesicError;
 use crate::mesh::geometry::dot;
 use crate::metric::At;
 
+/// One chunk's part of a [`PoseSum`]: slot sums, `(segment, (trace, parts))`, diagonal blocks.
+type ChunkSum = (Vec<[f64; 9]>, Vec<(usize, (f64, usize))>, Vec<[f64; 9]>);
+
 /// Segments per parallel work item of [`PoseSum::assemble`] (a constant, so that the order of
 /// the floating-point sums does not depend on the thread count).
 const POSE_SUM_CHUNK: usize = 2;
@@ -309,7 +312,7 @@ impl PoseSum {
         // every solve, are the same for any thread count and scheduling (a rayon `fold` would
         // split the segments where the scheduler happens to).
         let segments: Vec<usize> = (0..steps).collect();
-        let chunks: Vec<(Vec<[f64; 9]>, Vec<(usize, (f64, usize))>, Vec<[f64; 9]>)> = segments
+        let chunks: Vec<ChunkSum> = segments
             .par_chunks(POSE_SUM_CHUNK)
             .map(|chunk| {
                 let mut acc = vec![[0.0f64; 9]; n_slots];

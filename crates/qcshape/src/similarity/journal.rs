@@ -244,11 +244,11 @@ fn read(
     let mut pairs: Vec<PairDistance> = Vec::new();
     let mut seen = std::collections::HashSet::new();
     let mut dropped = 0;
-    for k in 4..lines.len() {
-        if lines[k].is_empty() {
+    for raw in &lines[4..] {
+        if raw.is_empty() {
             continue;
         }
-        match parse_pair(&text(k), n) {
+        match parse_pair(&String::from_utf8_lossy(raw), n) {
             Some(p) if seen.insert((p.i, p.j)) => pairs.push(p),
             _ => dropped += 1,
         }
