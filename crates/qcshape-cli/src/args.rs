@@ -28,8 +28,11 @@ pub struct MetricArgs {
 impl MetricArgs {
     /// The metric specification, after checking the values.
     pub fn spec(&self) -> Result<MetricSpec> {
-        if self.lambda.is_nan() || self.lambda < 0.0 {
-            bail!("--lambda must be non-negative");
+        if !self.lambda.is_finite() || self.lambda < 0.0 {
+            bail!(
+                "--lambda must be a finite non-negative number (got {})",
+                self.lambda
+            );
         }
         Ok(MetricSpec {
             kind: self.metric,
@@ -91,10 +94,10 @@ impl SolverArgs {
     }
 }
 
-/// `value` if it is a non-negative number, else an error naming the option.
+/// `value` if it is a finite non-negative number, else an error naming the option.
 pub(crate) fn non_negative(option: &str, value: f64) -> Result<f64> {
-    if value.is_nan() || value < 0.0 {
-        bail!("{option} must be non-negative (got {value})");
+    if !value.is_finite() || value < 0.0 {
+        bail!("{option} must be a finite non-negative number (got {value})");
     }
     Ok(value)
 }

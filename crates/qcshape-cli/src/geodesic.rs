@@ -12,8 +12,10 @@ use crate::args::{MetricArgs, SolverArgs};
 /// Compute the discrete geodesic between two meshes of one connectivity and print the
 /// distance.
 ///
-/// Both meshes are scaled by one common factor (1 / mean edge length of A) before solving;
-/// distance and energy are reported in those normalized units. With --out, the N + 1 poses of
+/// Both meshes are scaled by one common factor before solving, 1 / ((mean edge length of A +
+/// mean edge length of B) / 2): symmetric in A and B, so that `geodesic A B` and `geodesic B A`
+/// give the same distance. Distance and energy are reported in those normalized units (the
+/// JSON's `scale` is the factor, `normalization` says how it was chosen). With --out, the N + 1 poses of
 /// the path are written as pose_000.ply ... in the input's units.
 #[derive(Debug, clap::Args)]
 #[command(about = "Discrete geodesic and distance between two poses", long_about)]
@@ -88,7 +90,7 @@ pub fn run(args: &Args) -> Result<()> {
         a.n_vertices(),
         opts.steps
     );
-    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::MeanEdgeOfFirst)?;
+    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::MeanEdgeOfBoth)?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (i, p) in g.poses.iter().enumerate() {
@@ -111,6 +113,7 @@ pub fn run(args: &Args) -> Result<()> {
             "stop": g.stop,
             "gradient_norm": g.gradient_norm,
             "scale": g.scale,
+            "normalization": "coordinates x scale, scale = 1 / mean of the mean edge lengths of A and B",
             "seconds": g.seconds,
         });
         println!("{}", serde_json::to_string_pretty(&v)?);

@@ -35,6 +35,10 @@ pub struct Args {
     /// Print the report as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Report non-manifold ("bowtie") vertices, where the surface touches itself at a single
+    /// vertex, as a warning instead of refusing the mesh (the other commands refuse them).
+    #[arg(long)]
+    pub allow_nonmanifold_vertices: bool,
 }
 
 /// The bounding box, in the file's length unit.
@@ -80,9 +84,30 @@ pub fn run(args: &Args) -> Result<()> {
         path: path.clone(),
         error,
     };
-    let topo = Topology::new(data.positions.len(), data.faces).map_err(mesh_err)?;
+    let topo = if args.allow_nonmanifold_vertices {
+        Topology::allowing_nonmanifold_vertices(data.positions.len(), data.faces)
+    } else {
+        Topology::new(data.positions.len(), data.faces)
+    }
+    .map_err(mesh_err)
+    .map_err(|e| {
+        let hint = if e.to_string().contains("is non-manifold: its") {
+            " (qcshape cannot compare such meshes; --allow-nonmanifold-vertices reports them instead)"
+        } else {
+            ""
+        };
+        anyhow::anyhow!("{e}{hint}")
+    })?;
+    let mut warnings = data.warnings;
+    let bowties = topo.nonmanifold_vertices();
+    if let Some(&(v, faces, fans)) = bowties.first() {
+        warnings.push(format!(
+            "{} non-manifold vertex(es) where the surface touches itself; first: vertex {v} ({faces} faces in {fans} fans)",
+            bowties.len()
+        ));
+    }
     let shape = Shape::new(topo, data.positions).map_err(mesh_err)?;
-    let (report, first_degenerate) = analyse(path, format, &shape, data.warnings);
+    let (report, first_degenerate) = analyse(path, format, &shape, warnings);
 
     let mut out = std::io::stdout().lock();
     if args.json {

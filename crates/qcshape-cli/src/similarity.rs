@@ -60,7 +60,8 @@ pub struct Args {
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
-    /// Worker threads (default: all cores).
+    /// Worker threads (default: all cores). The results are bit-identical for any count, so a run
+    /// can be resumed with another one.
     #[arg(long)]
     threads: Option<usize>,
     /// Reuse the pairs recorded in OUTPUT.journal by an interrupted run with the same inputs and settings.
@@ -142,6 +143,14 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let data = Dataset::load(&args.input)?;
+    data.refuse_overwrite(&args.input, &args.output, "-o")?;
+    data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
+    if let Some(details) = &args.details {
+        data.refuse_overwrite(&args.input, details, "--details")?;
+        if details == &args.output {
+            bail!("--details {} is the same file as -o", details.display());
+        }
+    }
     let n = data.deformations.len();
     if n < 2 {
         bail!(
@@ -201,7 +210,8 @@ pub(crate) fn journaled_matrix(
     resume: bool,
 ) -> Result<(DistanceMatrix, Vec<PairDistance>, Journal)> {
     let n = prepared.names.len();
-    let key = fingerprint(&prepared.names, &prepared.transferred, &settings_key(opts));
+    let settings = settings_key(opts);
+    let key = fingerprint(&prepared.names, &prepared.transferred, &settings);
     let journal_path = journal_path(output);
     if journal_path.exists() && !resume {
         eprintln!(
@@ -209,7 +219,14 @@ pub(crate) fn journaled_matrix(
             journal_path.display()
         );
     }
-    let (journal, done_pairs) = Journal::open(&journal_path, key, n, resume)?;
+    let (journal, done_pairs) = Journal::open(&journal_path, key, &settings, n, resume)?;
+    if journal.dropped() > 0 {
+        eprintln!(
+            "warning: {}: {} torn or corrupt record(s) dropped (failed their checksum); those pairs are recomputed",
+            journal_path.display(),
+            journal.dropped()
+        );
+    }
     if resume {
         eprintln!(
             "resuming: {} of {} pairs already done",

@@ -124,3 +124,46 @@ fn energy_tolerance_option_decides_the_energy_test() {
         "{err}"
     );
 }
+
+/// `geodesic A B` and `geodesic B A` give the same distance for every metric, on shapes that
+/// are not congruent and differ in size (the normalization factor is symmetric in A and B).
+#[test]
+fn distance_does_not_depend_on_the_argument_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = qcshape::synth::icosphere(2);
+    let twisted: Vec<[f64; 3]> = s
+        .positions
+        .iter()
+        .map(|p| {
+            let t = 0.8 * p[2];
+            // Twisted, stretched along z and twice as large.
+            [
+                2.0 * (t.cos() * p[0] - t.sin() * p[1]),
+                2.0 * (t.sin() * p[0] + t.cos() * p[1]),
+                3.0 * p[2],
+            ]
+        })
+        .collect();
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    qcshape::io::write_mesh(&a, &s.positions, s.topology.faces(), &Default::default()).unwrap();
+    qcshape::io::write_mesh(&b, &twisted, s.topology.faces(), &Default::default()).unwrap();
+    let run = |x: &std::path::Path, y: &std::path::Path, metric: &str| -> (f64, f64) {
+        let out = qcshape()
+            .args(["geodesic", "--steps", "4", "--json", "--metric", metric])
+            .arg(x)
+            .arg(y)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(v["normalization"].as_str().unwrap().contains("A and B"));
+        (v["distance"].as_f64().unwrap(), v["scale"].as_f64().unwrap())
+    };
+    for metric in ["l2", "rigid", "isometric", "conformal", "quasi-conformal"] {
+        let (ab, sab) = run(&a, &b, metric);
+        let (ba, sba) = run(&b, &a, metric);
+        assert_eq!(sab, sba, "{metric}: the factor is symmetric");
+        assert!(ab > 0.0 && ab.is_finite(), "{metric}: {ab}");
+        assert!((ab - ba).abs() <= 1e-5 * ab, "{metric}: A B {ab} vs B A {ba}");
+    }
+}

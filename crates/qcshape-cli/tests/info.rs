@@ -177,14 +177,15 @@ fn zero_area_triangle() {
     let p = put(
         d.path(),
         "flat.obj",
-        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 4 5\n",
+        // Face 1 (1,0,0), (0,0,0), (2,0,0) is collinear, beside face 0 across edge (0, 1).
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 2 1 4\n",
     );
     assert_fails(&p, "1 face(s) have zero area");
     // The report is still printed before the failure.
     let o = info(&p, false);
     assert!(stdout(&o).contains("faces                 2\n"), "{}", stdout(&o));
     assert!(
-        stderr(&o).contains("the first is face 1 [1, 3, 4]"),
+        stderr(&o).contains("the first is face 1 [1, 0, 3]"),
         "{}",
         stderr(&o)
     );

@@ -5,7 +5,8 @@
 //!
 //! - **Manifest**: a CSV file with the header `deformation,label,pose,path` (columns in any
 //!   order; extra columns and `#` comment lines are ignored). `label` may be empty; `pose` is
-//!   an integer that orders the poses of a deformation (gaps allowed, duplicates not); `path`
+//!   the index of the pose in its deformation, `0, 1, ..., K-1` without gaps or repeats (rows may
+//!   come in any order); `path`
 //!   is relative to the manifest's folder (or absolute). Deformations keep the order in which
 //!   they first appear.
 //! - **Folder of folders**: one sub-folder per deformation (named after it, natural order),
@@ -174,6 +175,27 @@ impl Dataset {
                     ));
                 }
             }
+            // Poses are numbered 0..K-1 without gaps.
+            for (k, (line, row)) in group.iter().enumerate() {
+                if row.pose < 0 {
+                    return Err(bad(
+                        *line,
+                        format!(
+                            "deformation {name:?} has the negative pose index {}: poses are numbered 0, 1, ..., K-1",
+                            row.pose
+                        ),
+                    ));
+                }
+                if row.pose != k as i64 {
+                    return Err(bad(
+                        *line,
+                        format!(
+                            "deformation {name:?} has no pose {k} (the next one is pose {} here): poses are numbered 0, 1, ..., K-1 without gaps",
+                            row.pose
+                        ),
+                    ));
+                }
+            }
             let (first_line, first) = &group[0];
             let label = first.label.clone();
             for (line, row) in &group {
@@ -203,9 +225,87 @@ impl Dataset {
                 }
                 files.push(file);
             }
-            deformations.push(load_deformation(name, label, files, &mut cache)?);
+            let lines: Vec<u64> = group.iter().map(|(line, _)| *line).collect();
+            let d = load_deformation(name, label, files.clone(), &mut cache).map_err(|e| match e {
+                // Name the manifest line of the pose file, too.
+                DatasetError::TopologyMismatch { path: file, message } => {
+                    let at = files.iter().position(|f| *f == file).map_or(String::new(), |k| {
+                        format!(" (manifest {} line {})", path.display(), lines[k])
+                    });
+                    DatasetError::TopologyMismatch {
+                        path: file,
+                        message: format!("{message}{at}"),
+                    }
+                }
+                e => e,
+            })?;
+            deformations.push(d);
         }
         Ok(Dataset { deformations })
+    }
+
+    /// Errors unless `output` is a file other than the data set `input` (manifest or folder)
+    /// and every pose file: writing it must not overwrite an input.
+    pub fn refuse_overwrite(&self, input: &Path, output: &Path, what: &str) -> Result<(), DatasetError> {
+        let canon = |p: &Path| -> Option<PathBuf> {
+            std::fs::canonicalize(p).ok().or_else(|| {
+                let parent = p
+                    .parent()
+                    .filter(|q| !q.as_os_str().is_empty())
+                    .unwrap_or(Path::new("."));
+                Some(std::fs::canonicalize(parent).ok()?.join(p.file_name()?))
+            })
+        };
+        let Some(out) = canon(output) else {
+            return Ok(());
+        };
+        let inputs = std::iter::once(input.to_path_buf())
+            .chain(self.deformations.iter().flat_map(|d| d.paths.iter().cloned()));
+        for file in inputs {
+            if canon(&file).as_deref() == Some(out.as_path()) {
+                return Err(DatasetError::Layout {
+                    path: output.to_path_buf(),
+                    message: format!(
+                        "{what} would overwrite the input file {}; choose another output path",
+                        file.display()
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The labels of all deformations, or one error listing every deformation without one
+    /// (`what` names the command that needs them).
+    pub fn require_labels(&self, source: &Path, what: &str) -> Result<Vec<&str>, DatasetError> {
+        let missing: Vec<&str> = self
+            .deformations
+            .iter()
+            .filter(|d| d.label.as_deref().is_none_or(str::is_empty))
+            .map(|d| d.name.as_str())
+            .collect();
+        if !missing.is_empty() {
+            let shown: Vec<String> = missing.iter().take(20).map(|n| format!("{n:?}")).collect();
+            let more = if missing.len() > 20 {
+                format!(" and {} more", missing.len() - 20)
+            } else {
+                String::new()
+            };
+            return Err(DatasetError::Layout {
+                path: source.to_path_buf(),
+                message: format!(
+                    "{what} needs a label for every deformation; {} of {} have none: {}{more}",
+                    missing.len(),
+                    self.deformations.len(),
+                    shown.join(", ")
+                ),
+            });
+        }
+        Ok(self
+            .deformations
+            .iter()
+            .filter_map(|d| d.label.as_deref())
+            .collect())
     }
 
     /// Loads a folder with one sub-folder of mesh files per deformation, or a folder of mesh
@@ -669,14 +769,14 @@ mod tests {
         let (faces, poses) = poses(3);
         let mut rows = Vec::new();
         for (def, label) in [("walk", Some("a")), ("jump", None)] {
-            // Poses written out of order, numbered with gaps.
+            // Poses written out of order.
             for k in [2usize, 0, 1] {
                 let rel = format!("meshes/{def}_{k}.{}", if k == 1 { "obj" } else { "ply" });
                 write(d.path(), &rel, &poses[k], &faces);
                 rows.push(ManifestRow {
                     deformation: def.into(),
                     label: label.map(Into::into),
-                    pose: 10 * k as i64,
+                    pose: k as i64,
                     path: rel.into(),
                 });
             }
@@ -685,7 +785,7 @@ mod tests {
         write_manifest(&m, &rows).unwrap();
         let text = std::fs::read_to_string(&m).unwrap();
         assert!(
-            text.starts_with("deformation,label,pose,path\nwalk,a,20,meshes/walk_2.ply\n"),
+            text.starts_with("deformation,label,pose,path\nwalk,a,2,meshes/walk_2.ply\n"),
             "{text}"
         );
         let ds = Dataset::load(&m).unwrap();

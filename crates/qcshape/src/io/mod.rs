@@ -21,13 +21,16 @@
 //! non-manifold edges, orientation, zero area): [`load_shape`] does that through
 //! [`Topology::new`] and [`Shape::new_checked`].
 //!
-//! Polygons with more than three corners are fan-triangulated (`[a, b, c, d]` becomes
-//! `[a, b, c], [a, c, d]`) and reported in [`MeshData::warnings`].
+//! Polygons with more than three corners are triangulated and reported in
+//! [`MeshData::warnings`]: convex ones as a fan (`[a, b, c, d]` becomes `[a, b, c], [a, c, d]`),
+//! non-convex ones by ear clipping in their best-fit plane; one that is neither (self-intersecting
+//! or degenerate) is an error.
 
 mod color;
 mod obj;
 mod off;
 mod ply;
+mod polygon;
 mod stl;
 #[cfg(test)]
 mod stress;
@@ -47,6 +50,7 @@ use crate::mesh::{MeshError, Shape, Topology};
 
 pub use color::heat_colors;
 pub use ply::PlyEncoding;
+pub use stl::WELD_REL_TOL;
 
 /// Relative area tolerance used by [`load_shape`]: a face whose area is at most
 /// `1e-12 * lbar^2` (`lbar` the mean edge length) is rejected as degenerate.
@@ -191,6 +195,16 @@ pub enum ParseError {
         /// Line, for text files.
         line: Option<usize>,
     },
+    /// A polygon that cannot be triangulated.
+    #[error("face {face}: its {corners} corners do not form a simple polygon (self-intersecting, or all on one line), so it cannot be triangulated{}", at_line(.line))]
+    Polygon {
+        /// Face number.
+        face: usize,
+        /// Its corner count.
+        corners: usize,
+        /// Line, for text files.
+        line: Option<usize>,
+    },
     /// Structurally wrong but not tied to one line (missing element, bad binary header).
     #[error("{0}")]
     Invalid(String),
@@ -300,6 +314,14 @@ impl IoError {
 /// Parses a whole file held in memory. Pure: no file system access, and no panic or
 /// unbounded allocation for any input (this is what the fuzz targets call).
 pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> {
+    if bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(ParseError::Empty);
+    }
+    // A UTF-8 byte order mark before a text format (not STL, whose binary header is free-form).
+    let bytes = match (format, bytes.strip_prefix(b"\xEF\xBB\xBF")) {
+        (Format::Obj | Format::Off | Format::Ply | Format::Vtk, Some(rest)) => rest,
+        _ => bytes,
+    };
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(ParseError::Empty);
     }
@@ -545,8 +567,10 @@ pub(crate) struct FaceBuilder {
     n_polygons: usize,
     n_fanned: usize,
     first_fanned: Option<(usize, Option<usize>)>,
+    /// Polygons with more than 3 corners: (face, line, first triangle in `faces`, corners),
+    /// fanned at `push` and re-triangulated at `finish` when not convex.
+    polygons: Vec<(usize, Option<usize>, usize, Vec<u32>)>,
 }
-
 impl FaceBuilder {
     /// A builder expecting about `cap` triangles.
     pub(crate) fn with_capacity(cap: usize) -> Self {
@@ -574,6 +598,7 @@ impl FaceBuilder {
         if poly.len() > 3 {
             self.n_fanned += 1;
             self.first_fanned.get_or_insert((face, line));
+            self.polygons.push((face, line, self.faces.len(), poly.to_vec()));
         }
         for k in 1..poly.len() - 1 {
             self.faces.push([poly[0], poly[k], poly[k + 1]]);
@@ -582,19 +607,44 @@ impl FaceBuilder {
         Ok(())
     }
 
-    /// The faces and the fan-triangulation warning, if any polygon had more than 3 corners.
-    pub(crate) fn finish(self, warnings: &mut Vec<String>) -> Vec<[u32; 3]> {
+    /// The faces and the triangulation warning, if any polygon had more than 3 corners:
+    /// convex polygons (on `positions`, #V x 3) are fans from their first corner, non-convex
+    /// ones are triangulated by ear clipping; a polygon that can be neither (self-intersecting,
+    /// or its corners on one line) is an error.
+    pub(crate) fn finish(
+        mut self,
+        positions: &[[f64; 3]],
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<[u32; 3]>, ParseError> {
+        let mut n_clipped = 0;
+        for (face, line, start, poly) in &self.polygons {
+            let tris = polygon::triangulate(poly, positions).ok_or(ParseError::Polygon {
+                face: *face,
+                corners: poly.len(),
+                line: *line,
+            })?;
+            let fan = &mut self.faces[*start..*start + tris.len()];
+            if fan != tris.as_slice() {
+                n_clipped += 1;
+                fan.copy_from_slice(&tris);
+            }
+        }
         if let Some((face, line)) = self.first_fanned {
+            let clipped = if n_clipped > 0 {
+                format!("; {n_clipped} non-convex one(s) by ear clipping instead of a fan")
+            } else {
+                String::new()
+            };
             warnings.push(format!(
                 "fan-triangulated {} polygon(s) with more than 3 vertices into triangles \
-                 ({} triangles from {} faces in all; first polygon: face {face}{})",
+                 ({} triangles from {} faces in all; first polygon: face {face}{}){clipped}",
                 self.n_fanned,
                 self.faces.len(),
                 self.n_polygons,
                 at_line(&line)
             ));
         }
-        self.faces
+        Ok(self.faces)
     }
 }
 

@@ -1,5 +1,7 @@
-//! Wavefront OBJ: `v` and `f` statements; everything else (normals, texture coordinates,
-//! groups, materials, lines) is ignored.
+//! Wavefront OBJ: `v` and `f` statements; the other statements of the format (normals,
+//! texture coordinates, groups, materials, lines, free-form geometry) are ignored, and lines
+//! with a keyword the format does not have are counted in a warning that names the first one
+//! (an error when the file has no faces at all: then it is not an OBJ file).
 //!
 //! Face corners may be written `i`, `i/t`, `i//n` or `i/t/n`; only `i` is used. Indices are
 //! 1-based, and negative indices count back from the last vertex defined so far. Positive
@@ -10,6 +12,46 @@ use std::io::Write;
 
 use super::text::{self, Float};
 use super::{check_finite, FaceBuilder, MeshData, ParseError, VertexAttributes};
+
+/// OBJ keywords that are read (`v`, `f`, `fo`) or knowingly ignored (everything else here).
+const KNOWN: [&[u8]; 36] = [
+    b"v",
+    b"f",
+    b"fo",
+    b"vt",
+    b"vn",
+    b"vp",
+    b"l",
+    b"p",
+    b"g",
+    b"o",
+    b"s",
+    b"mg",
+    b"mtllib",
+    b"usemtl",
+    b"cstype",
+    b"deg",
+    b"bmat",
+    b"step",
+    b"curv",
+    b"curv2",
+    b"surf",
+    b"parm",
+    b"trim",
+    b"hole",
+    b"scrv",
+    b"sp",
+    b"end",
+    b"con",
+    b"lod",
+    b"bevel",
+    b"c_interp",
+    b"d_interp",
+    b"trace_obj",
+    b"shadow_obj",
+    b"ctech",
+    b"stech",
+];
 
 /// A face corner that refers forward to a vertex not yet defined, checked at the end.
 struct Pending {
@@ -25,6 +67,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     let mut pending: Vec<Pending> = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
     let mut n_ignored_v = 0usize;
+    let mut n_unknown = 0usize;
+    let mut first_unknown: Option<(usize, String)> = None;
     for (line, raw) in text::lines(bytes) {
         let mut toks = text::tokens(raw);
         let Some(keyword) = toks.next() else { continue };
@@ -95,7 +139,21 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 }
                 faces.push(&poly, Some(line))?;
             }
-            _ => {}
+            k if KNOWN.contains(&k) || k.starts_with(b"#") => {}
+            _ => {
+                n_unknown += 1;
+                first_unknown.get_or_insert((line, text::show(raw)));
+            }
+        }
+    }
+    if let Some((line, shown)) = &first_unknown {
+        if faces.n_polygons() == 0 {
+            return Err(ParseError::Syntax {
+                line: *line,
+                message: format!(
+                    "not an OBJ file: no face (`f`) lines, and {n_unknown} line(s) with a keyword OBJ does not know; the first is {shown}"
+                ),
+            });
         }
     }
     for p in &pending {
@@ -109,7 +167,12 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         }
     }
     let mut warnings = Vec::new();
-    let faces = faces.finish(&mut warnings);
+    let faces = faces.finish(&positions, &mut warnings)?;
+    if let Some((line, shown)) = first_unknown {
+        warnings.push(format!(
+            "ignored {n_unknown} line(s) with a keyword OBJ does not know; the first is line {line}: {shown}"
+        ));
+    }
     if n_ignored_v > 0 {
         warnings.push(format!(
             "ignored extra values (weights or colours) on {n_ignored_v} vertex line(s)"

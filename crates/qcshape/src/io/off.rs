@@ -4,9 +4,10 @@
 //! OFF                 # keyword (also COFF, NOFF, CNOFF, STOFF...; may be omitted)
 //! nv nf ne            # counts (may follow the keyword on its line; ne is ignored)
 //! x y z [extra...]    # nv vertex lines; extra values (colours, normals) are ignored
-//! k i1 ... ik [rgb]   # nf faces, 0-based indices; k > 3 is fan-triangulated
+//! k i1 ... ik [rgb]   # nf faces, 0-based indices; k > 3 is triangulated (fan, or ear clipping)
 //! ```
-//! `#` starts a comment anywhere; blank lines are skipped. One record per line.
+//! `#` starts a comment anywhere; blank lines are skipped. One record per line; data after the
+//! declared faces is an error.
 
 use std::io::Write;
 
@@ -152,7 +153,15 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         }
         faces.push(&poly, Some(line))?;
     }
-    let faces = faces.finish(&mut warnings);
+    if let Some((line, _)) = lines.next() {
+        return Err(ParseError::Syntax {
+            line,
+            message: format!(
+                "data after the {nv} vertices and {nf} faces the header declares: the file holds more elements than declared"
+            ),
+        });
+    }
+    let faces = faces.finish(&positions, &mut warnings)?;
     Ok(MeshData {
         positions,
         faces,

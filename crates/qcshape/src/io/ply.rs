@@ -2,7 +2,10 @@
 //!
 //! Reads the `vertex` element's `x`, `y`, `z` (any scalar type) and the `face` element's
 //! `vertex_indices` (or `vertex_index`) list (any count and index type). Every other element
-//! and property is skipped; polygons are fan-triangulated. Writes `double` coordinates, an
+//! and property is skipped; polygons are triangulated (a fan, or ear clipping when not
+//! convex). In ASCII files every element is one line, and the counts of the header are exact
+//! (a line with more or fewer values, or data after the last element, is an error naming the
+//! line and both numbers). Writes `double` coordinates, an
 //! optional `double` scalar property and optional `uchar` `red`/`green`/`blue` per vertex.
 
 use std::io::Write;
@@ -295,6 +298,47 @@ impl Source<'_> {
         }
     }
 
+    /// For ASCII: checks that element `item` (read from `first_line` on) sat on one line with
+    /// nothing after it, naming both the declared and the found numbers otherwise.
+    fn end_item(
+        &mut self,
+        name: &str,
+        item: usize,
+        count: u64,
+        first_line: Option<usize>,
+        n_values: usize,
+    ) -> Result<(), ParseError> {
+        let Source::Ascii(c) = self else {
+            return Ok(());
+        };
+        let Some(first) = first_line else {
+            return Ok(());
+        };
+        if c.line() != first {
+            return Err(syntax(
+                first,
+                format!(
+                    "{name} {item} (of the {count} the header declares) has fewer values than its properties need: \
+                     it continues on line {}; the file may hold fewer {name} elements than declared, or a wrong list count",
+                    c.line()
+                ),
+            ));
+        }
+        let rest = c.rest_of_line();
+        let extra = text::tokens(rest).count();
+        if extra > 0 {
+            return Err(syntax(
+                first,
+                format!(
+                    "{name} {item} (of the {count} the header declares) has {} values, but its properties take {n_values}; \
+                     the file may hold fewer {name} elements than declared, or a wrong list count",
+                    n_values + extra
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn has_trailing_data(&mut self) -> bool {
         match self {
             Source::Ascii(c) => c.next_token().is_some(),
@@ -397,6 +441,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         }
         for item in 0..count as usize {
             let mut p = [0.0; 3];
+            let mut first_line = None;
+            let mut n_values: usize = 0;
             for (pi, (pname, prop)) in el.props.iter().enumerate() {
                 let what = || {
                     format!(
@@ -407,6 +453,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 match *prop {
                     Property::Scalar(ty) => {
                         let v = src.scalar(ty, &what)?;
+                        first_line = first_line.or(src.line());
+                        n_values += 1;
                         if ei == vertex_el {
                             if let Some(axis) = xyz.iter().position(|&k| k == pi) {
                                 p[axis] = v;
@@ -416,6 +464,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     Property::List(cty, ity) => {
                         let len_what = || format!("the length of {}", what());
                         let n = list_len(src.scalar(cty, &len_what)?, &len_what, src.line())?;
+                        first_line = first_line.or(src.line());
+                        n_values = n_values.saturating_add(1).saturating_add(n as usize);
                         if Some(ei) == face_el && pi == face_list {
                             src.ensure(n, ity.size() as u64, &what)?;
                             if n < 3 {
@@ -438,15 +488,28 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     }
                 }
             }
+            src.end_item(&name, item, count, first_line, n_values)?;
             if ei == vertex_el {
                 positions.push(check_finite(item, p, src.line())?);
             }
         }
     }
     if src.has_trailing_data() {
-        warnings.push("ignored data after the last PLY element".into());
+        let declared: Vec<String> = header
+            .elements
+            .iter()
+            .map(|e| format!("{} {}", e.count, String::from_utf8_lossy(&e.name)))
+            .collect();
+        let at = src.line().map_or_else(
+            || "after the last element".to_string(),
+            |l| format!("at line {l}, after the last element"),
+        );
+        return Err(ParseError::Invalid(format!(
+            "the file holds more data than its header declares ({}): data {at}",
+            declared.join(", ")
+        )));
     }
-    let faces = faces.finish(&mut warnings);
+    let faces = faces.finish(&positions, &mut warnings)?;
     Ok(MeshData {
         positions,
         faces,

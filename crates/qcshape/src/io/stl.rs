@@ -1,6 +1,8 @@
 //! STL, ASCII and binary. STL stores each triangle's three corners separately (in `f32` for
 //! binary); corners with bit-identical coordinates are welded into one vertex, in order of
-//! first appearance, so the result is an indexed mesh. Facet normals are ignored.
+//! first appearance, so the result is an indexed mesh, and then corners closer than
+//! [`WELD_REL_TOL`] times the bounding box diagonal are welded too (counted in a warning, which
+//! `qcshape info` shows). Facet normals are ignored. An ASCII STL must end with `endsolid`.
 //!
 //! A file is read as binary when its size is exactly `84 + 50 * count` for the count in its
 //! header, or when it does not start with `solid` followed by text; otherwise as ASCII.
@@ -35,7 +37,25 @@ impl Welder {
         })
     }
 
-    fn finish(self, faces: Vec<[u32; 3]>, mut warnings: Vec<String>) -> MeshData {
+    fn finish(mut self, mut faces: Vec<[u32; 3]>, mut warnings: Vec<String>) -> MeshData {
+        let (map, welded) = weld_within_tolerance(&self.positions);
+        if welded > 0 {
+            let mut kept = Vec::with_capacity(self.positions.len() - welded);
+            let mut new_index = vec![0u32; self.positions.len()];
+            for (i, &m) in map.iter().enumerate() {
+                if m as usize == i {
+                    new_index[i] = kept.len() as u32;
+                    kept.push(self.positions[i]);
+                }
+            }
+            for f in &mut faces {
+                *f = f.map(|v| new_index[map[v as usize] as usize]);
+            }
+            self.positions = kept;
+            warnings.push(format!(
+                "welded {welded} STL corner position(s) into a nearby one (closer than {WELD_REL_TOL:e} x the bounding box diagonal)"
+            ));
+        }
         let n_degenerate = faces
             .iter()
             .filter(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
@@ -51,6 +71,56 @@ impl Welder {
             warnings,
         }
     }
+}
+
+/// Corner positions of an STL file closer than this times the bounding box diagonal are one
+/// vertex (after the exact welding): round-off in the exporter (single precision, or a few
+/// printed digits) must not turn a closed surface into loose triangles.
+pub const WELD_REL_TOL: f64 = 1e-7;
+
+/// For each position (#V x 3), the first earlier position within [`WELD_REL_TOL`] times the
+/// bounding box diagonal (itself if none), and the number of positions so mapped. Grid
+/// hashing with cells of the tolerance: each point is compared with the points of the 27
+/// cells around it. Nothing is welded when the box is not finite (the area check refuses
+/// such meshes later).
+fn weld_within_tolerance(p: &[[f64; 3]]) -> (Vec<u32>, usize) {
+    let mut map: Vec<u32> = (0..p.len() as u32).collect();
+    let (lo, hi) = geometry::bounding_box(p);
+    let diag = geometry::norm(geometry::sub(hi, lo));
+    let tol = WELD_REL_TOL * diag;
+    if p.len() < 2 || !(tol.is_finite() && tol > 0.0) {
+        return (map, 0);
+    }
+    let cell = |q: [f64; 3]| q.map(|c| ((c - lo[0].min(lo[1]).min(lo[2])) / tol).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::with_capacity(p.len());
+    let mut welded = 0;
+    for (i, &q) in p.iter().enumerate() {
+        let c = cell(q);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        if let Some(&j) = list
+                            .iter()
+                            .find(|&&j| geometry::norm(geometry::sub(p[j as usize], q)) <= tol)
+                        {
+                            found = Some(j);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        match found {
+            Some(j) => {
+                map[i] = j;
+                welded += 1;
+            }
+            None => grid.entry(c).or_default().push(i as u32),
+        }
+    }
+    (map, welded)
 }
 
 /// Whether the bytes look like an ASCII STL (`solid` then printable text).
@@ -146,10 +216,16 @@ fn parse_ascii(bytes: &[u8]) -> Result<MeshData, ParseError> {
     let mut poly: Vec<u32> = Vec::new();
     let mut in_loop = false;
     let mut loop_line = 0;
+    let mut ended = false;
     while let Some(tok) = c.next_token() {
+        ended = false;
         match tok {
-            b"solid" | b"endsolid" => {
+            b"solid" => {
                 c.rest_of_line();
+            }
+            b"endsolid" => {
+                c.rest_of_line();
+                ended = true;
             }
             b"outer" | b"loop" if !in_loop => {
                 in_loop = true;
@@ -194,8 +270,16 @@ fn parse_ascii(bytes: &[u8]) -> Result<MeshData, ParseError> {
             expected: format!("endloop for the facet starting at line {loop_line}"),
         });
     }
+    if !ended {
+        return Err(ParseError::UnexpectedEnd {
+            expected: format!(
+                "endsolid after the last facet (line {}): an ASCII STL ends with endsolid, so the file may be cut short",
+                c.line()
+            ),
+        });
+    }
     let mut warnings = Vec::new();
-    let faces = faces.finish(&mut warnings);
+    let faces = faces.finish(&welder.positions, &mut warnings)?;
     Ok(welder.finish(faces, warnings))
 }
 

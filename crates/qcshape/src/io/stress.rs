@@ -11,8 +11,24 @@ use rand_chacha::ChaCha8Rng;
 use super::*;
 use crate::synth;
 
-/// Mutations per seed file.
+/// Mutations per seed file (times `QCSHAPE_STRESS_SCALE`, default 1: a long run sets it, e.g.
+/// `QCSHAPE_STRESS_SCALE=2000 QCSHAPE_STRESS_FORMAT=ply cargo test --release -p qcshape stress`).
 const MUTATIONS: usize = 1000;
+
+/// The run's scale factor (`QCSHAPE_STRESS_SCALE`, at least 1).
+fn scale() -> usize {
+    std::env::var("QCSHAPE_STRESS_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1usize)
+        .max(1)
+}
+
+/// Whether the seeds of `family` (`obj`, `ply`, `off`, `stl`, `vtk`, `nifti`) take part: all
+/// unless `QCSHAPE_STRESS_FORMAT` names one.
+fn selected(family: &str) -> bool {
+    std::env::var("QCSHAPE_STRESS_FORMAT").map_or(true, |f| f.is_empty() || f.eq_ignore_ascii_case(family))
+}
 
 fn seeds() -> Vec<(Format, Vec<u8>)> {
     let s = synth::icosphere(0);
@@ -176,6 +192,17 @@ fn check(bytes: &[u8], format: Format, what: &str) {
                     .all(|&i| (i as usize) < m.positions.len()),
                 "{what}"
             );
+            // The topology and shape checks of every loader must not panic either.
+            let r = catch_unwind(AssertUnwindSafe(|| {
+                if let Ok(t) = Topology::allowing_nonmanifold_vertices(m.positions.len(), m.faces.clone()) {
+                    let _ = t.nonmanifold_vertices();
+                    let _ = t.genus();
+                    if let Ok(s) = Shape::new(t, m.positions.clone()) {
+                        let _ = s.check_degenerate(DEGENERATE_REL_TOL);
+                    }
+                }
+            }));
+            assert!(r.is_ok(), "{format}: the topology checks panicked on {what}");
         }
         Ok(Err(e)) => assert!(!e.to_string().is_empty()),
     }
@@ -186,8 +213,15 @@ fn mutated_files_never_panic() {
     let mut rng = ChaCha8Rng::seed_from_u64(0x5eed);
     let t = std::time::Instant::now();
     let mut n = 0;
+    let scale = scale();
+    if !Format::ALL.iter().any(|f| selected(f.extension())) {
+        return; // QCSHAPE_STRESS_FORMAT names a non-mesh family (nifti).
+    }
     for (k, (format, seed)) in seeds().iter().enumerate() {
-        for m in 0..MUTATIONS {
+        if !selected(format.extension()) {
+            continue;
+        }
+        for m in 0..MUTATIONS * scale {
             let bytes = mutate(&mut rng, seed);
             check(&bytes, *format, &format!("seed {k} mutation {m}"));
             // The same bytes through another parser (wrong-format input must fail cleanly too).
@@ -196,11 +230,66 @@ fn mutated_files_never_panic() {
             n += 2;
         }
     }
-    assert!(n >= 20000);
+    assert!(n >= 2 * MUTATIONS * scale);
     assert!(
-        t.elapsed().as_secs_f64() < 10.0,
+        t.elapsed().as_secs_f64() < 10.0 * scale as f64,
         "stress test too slow: {:?}",
         t.elapsed()
+    );
+    println!(
+        "{n} mutated files parsed in {:.1} s, no panic",
+        t.elapsed().as_secs_f64()
+    );
+}
+
+/// NIfTI: mutations of small plain and gzipped files through
+/// [`crate::lv::nifti::parse_nifti`]; no panic, and every success has one value per voxel.
+#[test]
+fn mutated_nifti_never_panics() {
+    use crate::lv::nifti::parse_nifti;
+    if !selected("nifti") {
+        return;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(0x0dd);
+    let mut plain = vec![0u8; 352 + 24];
+    plain[0..4].copy_from_slice(&348i32.to_le_bytes());
+    for (k, d) in [4i16, 2, 3, 2, 2, 1, 1, 1].iter().enumerate() {
+        plain[40 + 2 * k..42 + 2 * k].copy_from_slice(&d.to_le_bytes());
+    }
+    plain[70..72].copy_from_slice(&2i16.to_le_bytes());
+    for (k, p) in [1f32, 0.5, 1.0, 2.0].iter().enumerate() {
+        plain[76 + 4 * k..80 + 4 * k].copy_from_slice(&p.to_le_bytes());
+    }
+    plain[108..112].copy_from_slice(&352f32.to_le_bytes());
+    plain[344..348].copy_from_slice(b"n+1\0");
+    let mut gz = Vec::new();
+    {
+        let mut e = flate2::write::GzEncoder::new(&mut gz, flate2::Compression::default());
+        std::io::Write::write_all(&mut e, &plain).unwrap();
+    }
+    let t = std::time::Instant::now();
+    let mut n = 0;
+    for seed in [&plain, &gz] {
+        assert_eq!(parse_nifti(seed).unwrap().len(), 2);
+        for m in 0..2 * MUTATIONS * scale() {
+            let bytes = mutate(&mut rng, seed);
+            let r = catch_unwind(AssertUnwindSafe(|| parse_nifti(&bytes)));
+            match r {
+                Err(_) => panic!("NIfTI parser panicked on mutation {m} ({} bytes)", bytes.len()),
+                Ok(Ok(frames)) => {
+                    for v in &frames {
+                        assert_eq!(v.data.len(), v.dims[0] * v.dims[1] * v.dims[2], "mutation {m}");
+                        assert!(v.affine.iter().flatten().all(|c| c.is_finite()), "mutation {m}");
+                    }
+                }
+                Ok(Err(e)) => assert!(!e.to_string().is_empty()),
+            }
+            n += 1;
+        }
+    }
+    println!(
+        "{n} mutated NIfTI files parsed in {:.1} s, no panic",
+        t.elapsed().as_secs_f64()
     );
 }
 

@@ -569,8 +569,8 @@ fn non_finite_coordinates() {
 #[test]
 fn zero_area_triangle_is_rejected_at_load() {
     let d = dir();
-    // Face 1 is collinear: (1,0,0), (2,0,0), (3,0,0).
-    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 4 5\n";
+    // Face 1 is collinear: (1,0,0), (0,0,0), (2,0,0) (beside face 0 across their shared edge).
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 2 1 4\n";
     let p = put(d.path(), "flat.obj", obj);
     assert!(read_mesh(&p).is_ok(), "parsing does not judge geometry");
     let (e, msg) = load_err(d.path(), "flat.obj", obj);
@@ -584,7 +584,7 @@ fn zero_area_triangle_is_rejected_at_load() {
         ),
         "{msg}"
     );
-    assert!(msg.contains("flat.obj: face 1 [1, 3, 4] is degenerate"), "{msg}");
+    assert!(msg.contains("flat.obj: face 1 [1, 0, 3] is degenerate"), "{msg}");
 }
 
 #[test]

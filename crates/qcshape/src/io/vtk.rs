@@ -364,7 +364,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if strips > 0 {
         warnings.push(format!("converted {strips} triangle strip(s) to triangles"));
     }
-    let faces = faces.finish(&mut warnings);
+    let faces = faces.finish(&positions, &mut warnings)?;
     Ok(MeshData {
         positions,
         faces,

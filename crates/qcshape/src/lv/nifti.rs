@@ -238,13 +238,29 @@ impl Reader<'_> {
     }
 }
 
+/// The most bytes a gzipped NIfTI file may decompress to (2 GiB: a 4D cardiac series of
+/// float32 voxels is a few hundred MB); more is refused as a likely gzip bomb, before it is
+/// all in memory.
+pub const MAX_DECOMPRESSED_BYTES: u64 = 2 << 30;
+
 /// Decompresses when `bytes` start with the gzip magic, else borrows them.
 fn maybe_gunzip(bytes: &[u8]) -> Result<std::borrow::Cow<'_, [u8]>, NiftiParseError> {
+    maybe_gunzip_bounded(bytes, MAX_DECOMPRESSED_BYTES)
+}
+
+/// [`maybe_gunzip`] with the bound `limit` on the decompressed size.
+fn maybe_gunzip_bounded(bytes: &[u8], limit: u64) -> Result<std::borrow::Cow<'_, [u8]>, NiftiParseError> {
     if bytes.len() >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b {
         let mut out = Vec::new();
         flate2::read::MultiGzDecoder::new(bytes)
+            .take(limit + 1)
             .read_to_end(&mut out)
             .map_err(|e| NiftiParseError::Gzip(e.to_string()))?;
+        if out.len() as u64 > limit {
+            return Err(NiftiParseError::Gzip(format!(
+                "the data decompresses to more than {limit} bytes (the limit for a NIfTI file; a gzip bomb?)"
+            )));
+        }
         Ok(out.into())
     } else {
         Ok(bytes.into())
@@ -326,7 +342,10 @@ pub fn parse_nifti(bytes: &[u8]) -> Result<Vec<Volume>, NiftiParseError> {
     }
     let offset = vox_offset as usize;
     let per_frame = dims[0] * dims[1] * dims[2];
-    let needed = per_frame * frames * bytes_per;
+    let needed = per_frame
+        .checked_mul(frames)
+        .and_then(|n| n.checked_mul(bytes_per))
+        .ok_or_else(|| bad_dim("the voxel count overflows".into()))?;
     let got = b.len().saturating_sub(offset);
     if got < needed {
         return Err(NiftiParseError::Truncated { needed, offset, got });
@@ -674,6 +693,92 @@ mod tests {
         let w = v.to_world([1.0, 2.0, 3.0]);
         let p = v.to_voxel(w).unwrap();
         assert!((p[0] - 1.0).abs() < 1e-12 && (p[2] - 3.0).abs() < 1e-12);
+    }
+
+    /// A valid little-endian 2 x 2 x 2 uint8 header and data (352 + 8 bytes).
+    fn small() -> Vec<u8> {
+        let mut h = vec![0u8; 352 + 8];
+        h[0..4].copy_from_slice(&348i32.to_le_bytes());
+        for (k, d) in [3i16, 2, 2, 2, 1, 1, 1, 1].iter().enumerate() {
+            h[40 + 2 * k..42 + 2 * k].copy_from_slice(&d.to_le_bytes());
+        }
+        h[70..72].copy_from_slice(&2i16.to_le_bytes());
+        for (k, p) in [1f32, 1.0, 1.0, 1.0].iter().enumerate() {
+            h[76 + 4 * k..80 + 4 * k].copy_from_slice(&p.to_le_bytes());
+        }
+        h[108..112].copy_from_slice(&352f32.to_le_bytes());
+        h[344..348].copy_from_slice(b"n+1\0");
+        h
+    }
+
+    #[test]
+    fn bad_headers_are_named_errors() {
+        let good = small();
+        assert_eq!(parse_nifti(&good).unwrap()[0].dims, [2, 2, 2]);
+        let msg = |b: &[u8]| parse_nifti(b).unwrap_err().to_string();
+        // Truncated header, at several lengths.
+        for n in [0, 4, 100, 347] {
+            assert!(
+                msg(&good[..n]).contains("shorter than the 348-byte header"),
+                "{n}"
+            );
+        }
+        // Truncated data.
+        assert!(msg(&good[..355]).contains("truncated data: 8 bytes"));
+        // vox_offset not whole, below the header, beyond the file, not finite.
+        for (v, want) in [
+            (352.5f32, "vox_offset 352.5"),
+            (100.0, "vox_offset 100"),
+            (f32::NAN, "vox_offset NaN"),
+            (1e30, "truncated data"),
+        ] {
+            let mut b = good.clone();
+            b[108..112].copy_from_slice(&v.to_le_bytes());
+            assert!(msg(&b).contains(want), "{v}: {}", msg(&b));
+        }
+        // Dimensions that overflow or are not positive.
+        let mut b = good.clone();
+        for k in 1..=4 {
+            b[40 + 2 * k..42 + 2 * k].copy_from_slice(&i16::MAX.to_le_bytes());
+        }
+        b[40..42].copy_from_slice(&4i16.to_le_bytes());
+        b[70..72].copy_from_slice(&64i16.to_le_bytes());
+        let m = msg(&b);
+        assert!(m.contains("truncated data") || m.contains("overflows"), "{m}");
+        let mut b = good.clone();
+        b[42..44].copy_from_slice(&(-2i16).to_le_bytes());
+        assert!(msg(&b).contains("dim[1] = -2"));
+        // Wrong magic, two-file header.
+        let mut b = good.clone();
+        b[344..348].copy_from_slice(b"xyz\0");
+        assert!(msg(&b).contains("magic"));
+        b[344..348].copy_from_slice(b"ni1\0");
+        assert!(msg(&b).contains("two-file"));
+        // A corrupt gzip stream.
+        let mut z = Vec::new();
+        {
+            let mut e = flate2::write::GzEncoder::new(&mut z, flate2::Compression::default());
+            std::io::Write::write_all(&mut e, &good).unwrap();
+        }
+        assert_eq!(parse_nifti(&z).unwrap()[0].dims, [2, 2, 2]);
+        let n = z.len();
+        z[n / 2] ^= 0xff;
+        z.truncate(n - 3);
+        assert!(msg(&z).contains("cannot decompress"));
+    }
+
+    #[test]
+    fn a_gzip_bomb_is_refused_at_the_size_bound() {
+        // 1 MB of zeros compresses to about 1 kB; with a 64 kB bound it is refused.
+        let mut z = Vec::new();
+        {
+            let mut e = flate2::write::GzEncoder::new(&mut z, flate2::Compression::best());
+            std::io::Write::write_all(&mut e, &vec![0u8; 1 << 20]).unwrap();
+        }
+        assert!(z.len() < 10_000);
+        let e = maybe_gunzip_bounded(&z, 1 << 16).unwrap_err();
+        assert!(e.to_string().contains("more than 65536 bytes"), "{e}");
+        assert_eq!(maybe_gunzip_bounded(&z, 1 << 20).unwrap().len(), 1 << 20);
     }
 
     #[test]

@@ -34,6 +34,27 @@ pub enum MeshError {
         /// Number of faces on the edge.
         count: usize,
     },
+    /// Two faces have the same three vertices.
+    #[error("faces {f0} and {f1} are the same triangle {indices:?} (duplicated face)")]
+    DuplicateFace {
+        /// First face.
+        f0: usize,
+        /// Second face, a copy of the first (any corner order).
+        f1: usize,
+        /// The second face's vertex indices.
+        indices: [u32; 3],
+    },
+    /// The faces around a vertex form several fans that meet only at the vertex (a "bowtie":
+    /// two surfaces touching at one point).
+    #[error("vertex {vertex} is non-manifold: its {faces} faces form {fans} separate fans that meet only at this vertex")]
+    NonManifoldVertex {
+        /// The vertex.
+        vertex: usize,
+        /// Faces at the vertex.
+        faces: usize,
+        /// Number of fans (at least 2).
+        fans: usize,
+    },
     /// Two faces traverse a shared edge in the same direction (inconsistent orientation).
     #[error("faces {f0} and {f1} are inconsistently oriented across edge ({a}, {b})")]
     InconsistentOrientation {
@@ -53,6 +74,16 @@ pub enum MeshError {
         vertex: usize,
         /// Its position.
         value: [f64; 3],
+    },
+    /// A coordinate so large that areas (and squared areas) would overflow.
+    #[error("vertex {vertex} has the coordinate {value:e}, beyond {limit:e}: areas and energies would overflow; rescale the mesh")]
+    TooLarge {
+        /// Vertex index.
+        vertex: usize,
+        /// The coordinate.
+        value: f64,
+        /// The largest magnitude allowed ([`crate::mesh::MAX_COORDINATE`]).
+        limit: f64,
     },
     /// The position array does not have the topology's vertex count.
     #[error("expected {expected} vertices, got {got}")]

@@ -11,5 +11,5 @@ pub mod smooth;
 mod topology;
 
 pub use error::MeshError;
-pub use shape::Shape;
+pub use shape::{Shape, MAX_COORDINATE};
 pub use topology::Topology;

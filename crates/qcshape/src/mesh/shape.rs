@@ -2,6 +2,10 @@ use std::sync::Arc;
 
 use super::{geometry, MeshError, Topology};
 
+/// The largest coordinate magnitude a shape may have: products of four coordinates (squared
+/// areas, the metrics' energies before normalization) must stay finite in `f64` (1e308).
+pub const MAX_COORDINATE: f64 = 1e75;
+
 /// A pose: vertex positions (#V x 3, in the input's length unit) on a shared [`Topology`].
 ///
 /// A shape is just positions; areas, angles and curvature come from [`geometry`] functions.
@@ -14,7 +18,8 @@ pub struct Shape {
 }
 
 impl Shape {
-    /// Makes a shape, checking the vertex count and that every coordinate is finite.
+    /// Makes a shape, checking the vertex count and that every coordinate is finite and at most
+    /// [`MAX_COORDINATE`] in magnitude.
     pub fn new(topology: Arc<Topology>, positions: Vec<[f64; 3]>) -> Result<Self, MeshError> {
         if positions.len() != topology.n_vertices() {
             return Err(MeshError::VertexCountMismatch {
@@ -28,6 +33,18 @@ impl Shape {
             .find(|(_, p)| p.iter().any(|c| !c.is_finite()))
         {
             return Err(MeshError::NonFinite { vertex, value: *p });
+        }
+        if let Some((vertex, value)) = positions
+            .iter()
+            .enumerate()
+            .flat_map(|(v, p)| p.iter().map(move |&c| (v, c)))
+            .find(|(_, c)| c.abs() > MAX_COORDINATE)
+        {
+            return Err(MeshError::TooLarge {
+                vertex,
+                value,
+                limit: MAX_COORDINATE,
+            });
         }
         Ok(Shape { topology, positions })
     }

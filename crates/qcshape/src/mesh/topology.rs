@@ -30,10 +30,25 @@ pub struct Topology {
 impl Topology {
     /// Builds and validates a topology from `n_vertices` and a face list (#F x 3).
     ///
-    /// Errors: no faces, an index out of range, a repeated index in a face, an edge shared by
-    /// more than two faces, or two faces inconsistently oriented across an edge. Isolated
+    /// Errors, in this order: no faces, an index out of range, a repeated index in a face, a
+    /// duplicated face, an edge shared by more than two faces (with the count), two faces
+    /// inconsistently oriented across an edge, a non-manifold ("bowtie") vertex. Isolated
     /// vertices (in no face) are allowed; [`Topology::isolated_vertices`] lists them.
     pub fn new(n_vertices: usize, faces: Vec<[u32; 3]>) -> Result<Arc<Self>, MeshError> {
+        let t = Self::allowing_nonmanifold_vertices(n_vertices, faces)?;
+        if let Some((vertex, faces, fans)) = t.nonmanifold_vertices().first().copied() {
+            return Err(MeshError::NonManifoldVertex { vertex, faces, fans });
+        }
+        Ok(t)
+    }
+
+    /// [`Topology::new`] without the non-manifold vertex check (a surface may touch itself at
+    /// single vertices; [`Topology::nonmanifold_vertices`] lists them). Every other check
+    /// stays: a non-manifold edge or a duplicated face cannot be represented.
+    pub fn allowing_nonmanifold_vertices(
+        n_vertices: usize,
+        faces: Vec<[u32; 3]>,
+    ) -> Result<Arc<Self>, MeshError> {
         if faces.is_empty() {
             return Err(MeshError::NoFaces);
         }
@@ -50,6 +65,29 @@ impl Topology {
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 return Err(MeshError::RepeatedIndex { face: f, indices: *t });
             }
+        }
+        // Duplicated faces, then edges with more than two faces, before the orientation check
+        // (which would otherwise report them as inconsistent orientation).
+        let mut seen_faces: HashMap<[u32; 3], usize> = HashMap::with_capacity(faces.len());
+        let mut edge_count: HashMap<(u32, u32), usize> = HashMap::with_capacity(faces.len() * 2);
+        for (f, t) in faces.iter().enumerate() {
+            let mut key = *t;
+            key.sort_unstable();
+            if let Some(&f0) = seen_faces.get(&key) {
+                return Err(MeshError::DuplicateFace {
+                    f0,
+                    f1: f,
+                    indices: *t,
+                });
+            }
+            seen_faces.insert(key, f);
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *edge_count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        if let Some((&(a, b), &count)) = edge_count.iter().filter(|(_, &c)| c > 2).min_by_key(|(&k, _)| k) {
+            return Err(MeshError::NonManifoldEdge { a, b, count });
         }
         // Directed half-edges -> face; undirected edges -> index.
         let mut directed: HashMap<(u32, u32), usize> = HashMap::with_capacity(faces.len() * 3);
@@ -180,6 +218,49 @@ impl Topology {
         }))
     }
 
+    /// The non-manifold ("bowtie") vertices: `(vertex, faces at it, fans)` for every vertex
+    /// whose faces form more than one edge-connected fan, ascending.
+    pub fn nonmanifold_vertices(&self) -> Vec<(usize, usize, usize)> {
+        let mut out = Vec::new();
+        let mut stack = Vec::new();
+        let mut seen: Vec<u32> = Vec::new();
+        for v in 0..self.n_vertices {
+            let around = self.vertex_faces(v);
+            if around.len() < 2 {
+                continue;
+            }
+            seen.clear();
+            let mut fans = 0;
+            for &(f0, _) in around {
+                if seen.contains(&f0) {
+                    continue;
+                }
+                fans += 1;
+                seen.push(f0);
+                stack.push(f0);
+                while let Some(f) = stack.pop() {
+                    let t = self.faces[f as usize];
+                    for k in 0..3 {
+                        // The two edges of f at v.
+                        if t[k] as usize != v && t[(k + 1) % 3] as usize != v {
+                            continue;
+                        }
+                        for &g in &self.edge_faces[self.face_edges[f as usize][k] as usize] {
+                            if g != NO_FACE && !seen.contains(&g) {
+                                seen.push(g);
+                                stack.push(g);
+                            }
+                        }
+                    }
+                }
+            }
+            if fans > 1 {
+                out.push((v, around.len(), fans));
+            }
+        }
+        out
+    }
+
     /// Number of vertices #V (including isolated ones).
     pub fn n_vertices(&self) -> usize {
         self.n_vertices
@@ -262,5 +343,74 @@ impl Topology {
             return None;
         }
         Some((2 - self.euler_characteristic() - self.boundary_loops.len() as i64) / 2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed octahedron on vertices `o..o + 6`.
+    fn octahedron(o: u32) -> Vec<[u32; 3]> {
+        let f = [
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        f.iter().map(|t| t.map(|i| i + o)).collect()
+    }
+
+    #[test]
+    fn non_manifold_input_is_named_with_indices() {
+        assert!(Topology::new(6, octahedron(0)).is_ok());
+        // A duplicated face (any corner order).
+        let mut f = octahedron(0);
+        f.push([2, 4, 0]);
+        assert_eq!(
+            Topology::new(6, f).unwrap_err(),
+            MeshError::DuplicateFace {
+                f0: 0,
+                f1: 8,
+                indices: [2, 4, 0]
+            }
+        );
+        // An edge with three and with four faces.
+        let mut f = octahedron(0);
+        f.push([0, 2, 6]);
+        assert_eq!(
+            Topology::new(7, f.clone()).unwrap_err(),
+            MeshError::NonManifoldEdge { a: 0, b: 2, count: 3 }
+        );
+        f.push([2, 0, 7]);
+        assert_eq!(
+            Topology::new(8, f).unwrap_err(),
+            MeshError::NonManifoldEdge { a: 0, b: 2, count: 4 }
+        );
+        // Two octahedra sharing vertex 0 (vertex 6 of the second is renamed 0).
+        let mut f = octahedron(0);
+        f.extend(
+            octahedron(6)
+                .into_iter()
+                .map(|t| t.map(|i| if i == 6 { 0 } else { i })),
+        );
+        let e = Topology::new(12, f.clone()).unwrap_err();
+        assert_eq!(
+            e,
+            MeshError::NonManifoldVertex {
+                vertex: 0,
+                faces: 8,
+                fans: 2
+            }
+        );
+        let t = Topology::allowing_nonmanifold_vertices(12, f).unwrap();
+        assert_eq!(t.nonmanifold_vertices(), vec![(0, 8, 2)]);
+        // A bowtie of two open triangles.
+        let e = Topology::new(5, vec![[0, 1, 2], [0, 3, 4]]).unwrap_err();
+        assert!(e.to_string().contains("vertex 0 is non-manifold"), "{e}");
     }
 }

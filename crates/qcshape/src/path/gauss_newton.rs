@@ -17,7 +17,9 @@ pub(crate) fn minimize(
     mut x: Vec<f64>,
     opts: &GeodesicOptions,
 ) -> Result<SolveOutput, GeodesicError> {
-    let par = faer::get_global_parallelism();
+    // Sequential factorization: faer's parallel kernels would share rayon's pool with the pair
+    // loop, and their blocking (hence the rounding) would depend on the thread count.
+    let par = faer::Par::Seq;
     let (mut blocks, mut energy, mut g) = layout.assemble(pe, &x, ends);
     // The energy gradient is 2 J^T r.
     let g0 = 2.0 * norm(&g);

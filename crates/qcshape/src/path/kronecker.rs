@@ -28,6 +28,13 @@ use super::GeodesicError;
 use crate::mesh::geometry::dot;
 use crate::metric::At;
 
+/// One chunk's part of a [`PoseSum`]: slot sums, `(segment, (trace, parts))`, diagonal blocks.
+type ChunkSum = (Vec<[f64; 9]>, Vec<(usize, (f64, usize))>, Vec<[f64; 9]>);
+
+/// Segments per parallel work item of [`PoseSum::assemble`] (a constant, so that the order of
+/// the floating-point sums does not depend on the thread count).
+const POSE_SUM_CHUNK: usize = 2;
+
 /// Structure of the spatial matrix `A` (upper triangle of 3 x 3 vertex blocks on the metric's
 /// vertex-pair set), with its symbolic factorization. Built once per (topology, metric).
 pub(crate) struct SpatialLayout {
@@ -110,16 +117,42 @@ impl SpatialLayout {
 
     /// Cholesky factor values of the 3 #V x 3 #V matrix whose 3 x 3 block at vertex pair slot
     /// `k` (row `u`, column `v`, row-major; slots of [`VertexPairs::new`] on the metric's
-    /// pattern) is `blocks[k]`; the diagonal is floored at `1e-8`
-    /// times its largest entry (the matrix is only semi-definite for metrics with null spaces
-    /// and `lambda = 0`).
+    /// pattern) is `blocks[k]`; `1e-8` times the largest diagonal entry is added to the diagonal
+    /// (the matrix is only semi-definite for metrics with null spaces, such as rigid motions of
+    /// the rigid metric, and `lambda = 0`), and where a pivot is still not positive (round-off on
+    /// a singular matrix) the factorization is repeated with ridges `1e-6` and `1e-4` times that
+    /// entry (a preconditioner only needs to be positive definite, not exact).
     pub fn factorize(&self, blocks: &[[f64; 9]]) -> Result<Vec<f64>, GeodesicError> {
-        let mut vals: Vec<f64> = self.src.iter().map(|&(slot, k)| blocks[slot][k]).collect();
+        let vals: Vec<f64> = self.src.iter().map(|&(slot, k)| blocks[slot][k]).collect();
         let dmax = self.diag_idx.iter().map(|&i| vals[i]).fold(0.0f64, f64::max);
-        let ridge = 1e-8 * dmax.max(f64::MIN_POSITIVE);
-        for &i in &self.diag_idx {
-            vals[i] += ridge;
+        if !dmax.is_finite() || vals.iter().any(|v| !v.is_finite()) {
+            return Err(GeodesicError::LinearAlgebra(
+                "spatial preconditioner: the Gauss-Newton blocks are not finite".into(),
+            ));
         }
+        let mut last = None;
+        for relative in [1e-8, 1e-6, 1e-4] {
+            let ridge = relative * dmax.max(f64::MIN_POSITIVE);
+            let mut v = vals.clone();
+            for &i in &self.diag_idx {
+                v[i] += ridge;
+            }
+            match self.factorize_values(&v) {
+                Ok(l) => return Ok(l),
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(GeodesicError::LinearAlgebra(format!(
+            "spatial preconditioner: {:?}",
+            last.expect("three attempts")
+        )))
+    }
+
+    /// Cholesky factor values of the upper CSC values `vals` (the layout's structure).
+    fn factorize_values(
+        &self,
+        vals: &[f64],
+    ) -> Result<Vec<f64>, faer::linalg::cholesky::llt::factor::LltError> {
         let n = 3 * self.nv;
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let mut l_values = vec![0.0; self.symbolic.len_val()];
@@ -128,17 +161,15 @@ impl SpatialLayout {
             self.symbolic
                 .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
         );
-        self.symbolic
-            .factorize_numeric_llt(
-                &mut l_values,
-                SparseColMatRef::new(sym, &vals),
-                Side::Upper,
-                LltRegularization::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| GeodesicError::LinearAlgebra(format!("spatial preconditioner: {e:?}")))?;
+        self.symbolic.factorize_numeric_llt(
+            &mut l_values,
+            SparseColMatRef::new(sym, vals),
+            Side::Upper,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )?;
         Ok(l_values)
     }
 
@@ -276,23 +307,35 @@ impl PoseSum {
             (trace, usize::from(need_a) + usize::from(need_b))
         };
         let n_diag = (steps - 1) * nv;
-        let zeros = || (vec![[0.0f64; 9]; n_slots], Vec::new(), vec![[0.0f64; 9]; n_diag]);
-        let (sum, per, diagonal) = (0..steps)
-            .into_par_iter()
-            .fold(zeros, |(mut acc, mut per, mut dg), s| {
-                let tp = per_segment(&mut acc, &mut dg, s);
-                per.push((s, tp));
+        // Segments are accumulated in fixed chunks of `POSE_SUM_CHUNK` (in parallel), and the
+        // chunks summed in chunk order: the floating-point sums, hence the preconditioner and
+        // every solve, are the same for any thread count and scheduling (a rayon `fold` would
+        // split the segments where the scheduler happens to).
+        let segments: Vec<usize> = (0..steps).collect();
+        let chunks: Vec<ChunkSum> = segments
+            .par_chunks(POSE_SUM_CHUNK)
+            .map(|chunk| {
+                let mut acc = vec![[0.0f64; 9]; n_slots];
+                let mut dg = vec![[0.0f64; 9]; n_diag];
+                let per = chunk
+                    .iter()
+                    .map(|&s| (s, per_segment(&mut acc, &mut dg, s)))
+                    .collect();
                 (acc, per, dg)
             })
-            .reduce(zeros, |(mut a, mut pa, mut da), (b, pb, db)| {
-                for (x, y) in a.iter_mut().zip(&b).chain(da.iter_mut().zip(&db)) {
-                    for k in 0..9 {
-                        x[k] += y[k];
-                    }
+            .collect();
+        let mut chunks = chunks.into_iter();
+        let (mut sum, mut per, mut diagonal) = chunks
+            .next()
+            .unwrap_or_else(|| (vec![[0.0f64; 9]; n_slots], Vec::new(), vec![[0.0f64; 9]; n_diag]));
+        for (b, pb, db) in chunks {
+            for (x, y) in sum.iter_mut().zip(&b).chain(diagonal.iter_mut().zip(&db)) {
+                for k in 0..9 {
+                    x[k] += y[k];
                 }
-                pa.extend(pb);
-                (a, pa, da)
-            });
+            }
+            per.extend(pb);
+        }
         let mut traces = vec![0.0; steps];
         let mut parts = vec![0; steps];
         for (s, (t, p)) in per {
@@ -315,6 +358,14 @@ impl KroneckerModel {
         let st = &layout.st;
         let steps = st.steps;
         let m = steps - 1;
+        if m == 0 {
+            // One segment: no interior poses, only auxiliary unknowns (rigid metric), nothing to
+            // precondition (the mean over no poses would be 0 / 0).
+            return Ok(KroneckerModel {
+                l_values: Vec::new(),
+                tinv: Vec::new(),
+            });
+        }
         // A: mean of the diagonal pose blocks, halved (T has 2 on its diagonal).
         let mut a = ps.sum;
         let scale = 0.5 / m as f64;
@@ -341,6 +392,9 @@ impl KroneckerModel {
     pub fn apply(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64) {
         let n = 3 * layout.nv;
         let m = layout.st.steps - 1;
+        if m == 0 || q.is_empty() {
+            return;
+        }
         let mut q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
         // Every pose of every vector is one column of the spatial solve.
         layout.solve(&self.l_values, &mut q32);
@@ -453,6 +507,33 @@ mod tests {
                         assert!((g[k] - d).abs() <= 1e-12 * scale, "{}: {} vs {d}", m.name(), g[k]);
                     }
                 }
+            }
+        }
+    }
+
+    /// The pose sum (hence the preconditioner) is the same to the bit for any thread count:
+    /// the segments are reduced in fixed chunks, in order.
+    #[test]
+    fn pose_sum_is_bit_identical_for_any_thread_count() {
+        for m in metrics() {
+            let (pe, ends, x) = problem(m.as_ref(), 8, 4);
+            let layout = SpatialLayout::new(&pe).unwrap();
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let ps = pool.install(|| PoseSum::assemble(&layout, &pe, &x, &ends));
+                let bits = |v: &[[f64; 9]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+                (
+                    bits(&ps.sum),
+                    bits(&ps.diagonal),
+                    ps.traces.iter().map(|t| t.to_bits()).collect::<Vec<_>>(),
+                )
+            };
+            let want = run(1);
+            for threads in [2, 3, 4, 2, 3] {
+                assert!(run(threads) == want, "{}: {threads} threads", m.name());
             }
         }
     }

@@ -502,6 +502,11 @@ pub(crate) struct SolveOutput {
 pub enum Normalization {
     /// Divide all coordinates by the mean edge length of the first shape (default).
     MeanEdgeOfFirst,
+    /// Divide all coordinates by the mean of the two shapes' mean edge lengths,
+    /// `(mean_edge(A) + mean_edge(B)) / 2`: symmetric in the two shapes, so that
+    /// `dis(A, B) = dis(B, A)` (what [`geodesic`] and `qcshape geodesic` use). With a single
+    /// reference pose ([`normalization_factor`]) it is [`Normalization::MeanEdgeOfFirst`].
+    MeanEdgeOfBoth,
     /// Multiply all coordinates by this factor.
     Factor(f64),
     /// Use the coordinates as they are.
@@ -511,7 +516,7 @@ pub enum Normalization {
 /// The factor that [`Normalization`] applies for a reference pose.
 pub fn normalization_factor(norm: Normalization, topo: &Topology, reference: &[[f64; 3]]) -> f64 {
     match norm {
-        Normalization::MeanEdgeOfFirst => {
+        Normalization::MeanEdgeOfFirst | Normalization::MeanEdgeOfBoth => {
             1.0 / geometry::mean_edge_length(topo, reference).max(f64::MIN_POSITIVE)
         }
         Normalization::Factor(f) => f,
@@ -530,7 +535,15 @@ pub fn geodesic(
     norm: Normalization,
 ) -> Result<Geodesic, GeodesicError> {
     a.check_same_topology(b)?;
-    let f = normalization_factor(norm, &a.topology, &a.positions);
+    let f = match norm {
+        Normalization::MeanEdgeOfBoth => {
+            let mean = 0.5
+                * (geometry::mean_edge_length(&a.topology, &a.positions)
+                    + geometry::mean_edge_length(&b.topology, &b.positions));
+            1.0 / mean.max(f64::MIN_POSITIVE)
+        }
+        _ => normalization_factor(norm, &a.topology, &a.positions),
+    };
     if !(f.is_finite() && f > 0.0) {
         return Err(GeodesicError::Option(format!(
             "normalization factor {f} is not positive"

@@ -76,6 +76,10 @@ impl VertexBlocks {
     /// (each of length `3 (N - 1) #V`, pose-major).
     pub fn add_apply(&self, x: &[f64], q: &mut [f64]) {
         let per = 3 * self.inv.len();
+        if per == 0 {
+            // No interior poses (one segment): nothing to precondition.
+            return;
+        }
         for (qv, xv) in q.chunks_exact_mut(per).zip(x.chunks_exact(per)) {
             for ((qb, xb), m) in qv.chunks_exact_mut(3).zip(xv.chunks_exact(3)).zip(&self.inv) {
                 for r in 0..3 {

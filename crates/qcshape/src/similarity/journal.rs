@@ -2,29 +2,28 @@
 //! recomputing them (`qcshape similarity --resume`).
 //!
 //! The journal is a text file: a header line, a `key` line that fingerprints the inputs and
-//! the settings, then one `pair` line per finished pair, appended and flushed as soon as the
-//! pair is done. A run killed midway leaves at most one partial last line, which is ignored
-//! on resume. A journal whose key differs from the current run's is never reused.
+//! the settings, an `n` line (the number of deformations), a `settings` line (the settings in
+//! words, to name what differs when a journal is refused), then one `pair` line per finished
+//! pair, appended and flushed as soon as the pair is done. Every pair line ends with
+//! `,#<16 hex digits>`, the FNV-1a hash of the text before it: a record torn by a kill or a full
+//! disk, or changed on disk, fails its check and is dropped (and recomputed) on resume, with
+//! the count in [`Journal::dropped`]. A journal whose key differs from the current run's is
+//! never reused.
 
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use super::engine::{PairDistance, Pose, SimilarityError};
 
-const HEADER: &str = "# qcshape similarity journal v1";
+const HEADER: &str = "# qcshape similarity journal v2";
 
 /// FNV-1a 64-bit hash of the names, every coordinate's bits and a settings string (metric,
 /// solver options, scale): identical inputs give the same key on every machine and version.
 pub fn fingerprint(names: &[String], deformations: &[Vec<Pose>], settings: &str) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for b in bytes {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = Fnv::new();
+    let mut eat = |bytes: &[u8]| h.eat(bytes);
     eat(settings.as_bytes());
     for (name, poses) in names.iter().zip(deformations) {
         eat(name.as_bytes());
@@ -38,7 +37,29 @@ pub fn fingerprint(names: &[String], deformations: &[Vec<Pose>], settings: &str)
             }
         }
     }
-    h
+    h.0
+}
+
+/// FNV-1a, 64 bits.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn eat(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= *b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// The check of one record's text (without its `,#...` suffix).
+fn checksum(text: &str) -> u64 {
+    let mut h = Fnv::new();
+    h.eat(text.as_bytes());
+    h.0
 }
 
 /// An open journal that records pairs as they finish (safe to call from several threads).
@@ -46,17 +67,22 @@ pub fn fingerprint(names: &[String], deformations: &[Vec<Pose>], settings: &str)
 pub struct Journal {
     path: PathBuf,
     file: Mutex<File>,
+    dropped: usize,
 }
 
 impl Journal {
-    /// Opens the journal at `path` for a run with fingerprint `key` over `n` deformations.
+    /// Opens the journal at `path` for a run with fingerprint `key` over `n` deformations;
+    /// `settings` is the run's settings string (see [`super::settings_key`]), kept in the
+    /// journal to name the settings that differ when a journal is refused.
     ///
     /// With `resume`, an existing journal with the same key is kept and its finished pairs are
-    /// returned; a journal with another key is an error (it belongs to another run). Without
-    /// `resume` (or when no journal exists) a new one is started.
+    /// returned (records that fail their check are dropped: [`Journal::dropped`]); a journal with
+    /// another key is an error (it belongs to another run). Without `resume` (or when no journal
+    /// exists) a new one is started.
     pub fn open(
         path: &Path,
         key: u64,
+        settings: &str,
         n: usize,
         resume: bool,
     ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
@@ -64,13 +90,16 @@ impl Journal {
             path: path.to_path_buf(),
             message,
         };
-        let mut done = Vec::new();
+        if settings.contains('\n') {
+            return Err(err("the settings string has a line break".into()));
+        }
+        let (mut done, mut dropped) = (Vec::new(), 0);
         if resume && path.exists() {
-            done = read(path, key, n)?;
+            (done, dropped) = read(path, key, settings, n)?;
         }
         // Write the header and the valid pairs to a new file that replaces the old one in one
-        // rename: a partial last line left by a kill is dropped, and no kill loses pairs.
-        let mut text = format!("{HEADER}\nkey,{key:016x}\nn,{n}\n");
+        // rename: a torn or corrupt record is dropped, and no kill loses pairs.
+        let mut text = format!("{HEADER}\nkey,{key:016x}\nn,{n}\nsettings,{settings}\n");
         for p in &done {
             text.push_str(&line(p));
         }
@@ -84,6 +113,7 @@ impl Journal {
         let journal = Journal {
             path: path.to_path_buf(),
             file: Mutex::new(file),
+            dropped,
         };
         Ok((journal, done))
     }
@@ -101,6 +131,12 @@ impl Journal {
         f.write_all(line(pair).as_bytes())
             .and_then(|_| f.flush())
             .map_err(|e| self.error(format!("cannot append: {e}")))
+    }
+
+    /// The number of records of the resumed journal that were torn or corrupt (failed their
+    /// check, were malformed or repeated a pair): dropped, so that their pairs are recomputed.
+    pub fn dropped(&self) -> usize {
+        self.dropped
     }
 
     /// The journal's path.
@@ -121,8 +157,8 @@ impl Journal {
 
 fn line(p: &PairDistance) -> String {
     let per: Vec<String> = p.per_pose.iter().map(|d| format!("{d:?}")).collect();
-    format!(
-        "pair,{},{},{:?},{},{},{:?},{}\n",
+    let body = format!(
+        "pair,{},{},{:?},{},{},{:?},{}",
         p.i,
         p.j,
         p.distance,
@@ -130,11 +166,18 @@ fn line(p: &PairDistance) -> String {
         p.iterations,
         p.seconds,
         per.join(";")
-    )
+    );
+    let check = checksum(&body);
+    format!("{body},#{check:016x}\n")
 }
 
+/// One record, if it is whole (its check matches) and well formed.
 fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
-    let f: Vec<&str> = text.split(',').collect();
+    let (body, check) = text.rsplit_once(",#")?;
+    if check.len() != 16 || u64::from_str_radix(check, 16).ok()? != checksum(body) {
+        return None;
+    }
+    let f: Vec<&str> = body.split(',').collect();
     if f.len() != 8 || f[0] != "pair" {
         return None;
     }
@@ -159,41 +202,72 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
     })
 }
 
-fn read(path: &Path, key: u64, n: usize) -> Result<Vec<PairDistance>, SimilarityError> {
+/// The whole records of a journal and the number of records dropped.
+fn read(
+    path: &Path,
+    key: u64,
+    settings: &str,
+    n: usize,
+) -> Result<(Vec<PairDistance>, usize), SimilarityError> {
     let err = |message: String| SimilarityError::Journal {
         path: path.to_path_buf(),
         message,
     };
-    let file = File::open(path).map_err(|e| err(format!("cannot read: {e}")))?;
-    let mut lines = Vec::new();
-    for l in BufReader::new(file).split(b'\n') {
-        lines.push(l.map_err(|e| err(format!("cannot read: {e}")))?);
+    let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let lines: Vec<&[u8]> = bytes.split(|&b| b == b'\n').collect();
+    let text = |k: usize| String::from_utf8_lossy(lines[k]).into_owned();
+    if lines.len() < 4 || text(0) != HEADER {
+        return Err(err(format!(
+            "not a qcshape similarity journal of this version (expected the first line {HEADER:?}); remove it or run without --resume"
+        )));
     }
-    let text = |k: usize| String::from_utf8_lossy(&lines[k]).into_owned();
-    if lines.len() < 3 || text(0) != HEADER {
-        return Err(err("not a qcshape similarity journal".into()));
+    if text(2) != format!("n,{n}") {
+        return Err(err(format!(
+            "the journal belongs to another run ({}, this run has {n} deformations); remove it or run without --resume",
+            text(2).replace("n,", "n = ")
+        )));
     }
-    if text(1) != format!("key,{key:016x}") || text(2) != format!("n,{n}") {
-        return Err(err(
-            "the journal belongs to another run (different inputs or settings); remove it or run without --resume"
-                .into(),
-        ));
+    if text(1) != format!("key,{key:016x}") {
+        let theirs = text(3);
+        let theirs = theirs.strip_prefix("settings,").unwrap_or("");
+        let differ = settings_diff(theirs, settings);
+        let what = if differ.is_empty() {
+            "the same settings but different inputs (names or coordinates of the transferred deformations)"
+                .to_string()
+        } else {
+            format!("different settings: {}", differ.join(", "))
+        };
+        return Err(err(format!(
+            "the journal belongs to another run ({what}); remove it or run without --resume"
+        )));
     }
     let mut pairs: Vec<PairDistance> = Vec::new();
     let mut seen = std::collections::HashSet::new();
-    for k in 3..lines.len() {
-        match parse_pair(&text(k), n) {
-            Some(p) => {
-                if seen.insert((p.i, p.j)) {
-                    pairs.push(p);
-                }
-            }
-            // A run killed while writing leaves a partial last line.
-            None if k + 1 == lines.len() => {}
-            None => return Err(err(format!("line {}: malformed pair record", k + 1))),
+    let mut dropped = 0;
+    for raw in &lines[4..] {
+        if raw.is_empty() {
+            continue;
+        }
+        match parse_pair(&String::from_utf8_lossy(raw), n) {
+            Some(p) if seen.insert((p.i, p.j)) => pairs.push(p),
+            _ => dropped += 1,
         }
     }
-    Ok(pairs)
+    Ok((pairs, dropped))
+}
+
+/// The `|`-separated fields in which two settings strings differ, as `journal X, now Y`.
+fn settings_diff(journal: &str, now: &str) -> Vec<String> {
+    let a: Vec<&str> = journal.split('|').collect();
+    let b: Vec<&str> = now.split('|').collect();
+    if a.len() != b.len() {
+        return vec![format!("journal {journal:?}, now {now:?}")];
+    }
+    a.iter()
+        .zip(&b)
+        .filter(|(x, y)| x != y)
+        .map(|(x, y)| format!("journal {x}, now {y}"))
+        .collect()
 }
 
 #[cfg(test)]
@@ -216,7 +290,7 @@ mod tests {
     fn records_survive_a_partial_last_line_and_keys_must_match() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.journal");
-        let (j, done) = Journal::open(&path, 42, 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
         assert!(done.is_empty());
         let a = pair(0, 1, 0.1 + 0.2);
         let b = pair(1, 3, std::f64::consts::PI);
@@ -227,38 +301,68 @@ mod tests {
         let mut f = OpenOptions::new().append(true).open(&path).unwrap();
         f.write_all(b"pair,2,3,0.5,tr").unwrap();
         drop(f);
-        let (j, done) = Journal::open(&path, 42, 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
         assert_eq!(done, vec![a.clone(), b.clone()]); // bit-exact floats
+        assert_eq!(j.dropped(), 1);
         let c = pair(2, 3, 1.5);
         j.record(&c).unwrap();
         drop(j);
-        let (_, done) = Journal::open(&path, 42, 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
         assert_eq!(done, vec![a, b, c]);
-        // Another run's key or size is refused, not silently reused.
-        let e = Journal::open(&path, 43, 4, true).unwrap_err();
-        assert!(e.to_string().contains("another run"), "{e}");
-        assert!(Journal::open(&path, 42, 5, true).is_err());
+        assert_eq!(j.dropped(), 0);
+        drop(j);
+        // Another run's key or size is refused, not silently reused, naming what differs.
+        let e = Journal::open(&path, 43, "m=b|s=4", 4, true).unwrap_err();
+        assert!(
+            e.to_string().contains("another run") && e.to_string().contains("journal m=a, now m=b"),
+            "{e}"
+        );
+        let e = Journal::open(&path, 43, "m=a|s=4", 4, true).unwrap_err();
+        assert!(e.to_string().contains("different inputs"), "{e}");
+        assert!(Journal::open(&path, 42, "m=a|s=4", 5, true).is_err());
         // Without resume a fresh journal is started.
-        let (j, done) = Journal::open(&path, 43, 4, false).unwrap();
+        let (j, done) = Journal::open(&path, 43, "m=a|s=4", 4, false).unwrap();
         assert!(done.is_empty());
         j.remove().unwrap();
         assert!(!path.exists());
     }
 
     #[test]
-    fn a_corrupt_middle_line_is_an_error() {
+    fn every_cut_of_the_last_record_and_a_changed_digit_are_dropped() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.journal");
-        std::fs::write(
-            &path,
-            format!(
-                "{HEADER}\nkey,{:016x}\nn,3\npair,0,1,x,true,1,0.1,0\npair,0,2,1.0,true,1,0.1,0;1\n",
-                7u64
-            ),
-        )
-        .unwrap();
-        let e = Journal::open(&path, 7, 3, true).unwrap_err();
-        assert!(e.to_string().contains("line 4"), "{e}");
+        let (j, _) = Journal::open(&path, 7, "x", 3, false).unwrap();
+        let a = pair(0, 1, 1.164056);
+        let b = PairDistance {
+            per_pose: vec![0.0, 1.164056789, 2.5],
+            ..pair(0, 2, 3.664056789)
+        };
+        j.record(&a).unwrap();
+        j.record(&b).unwrap();
+        drop(j);
+        let whole = std::fs::read(&path).unwrap();
+        let last = line(&b).len();
+        for cut in whole.len() - last..whole.len() {
+            std::fs::write(&path, &whole[..cut]).unwrap();
+            let (j, done) = Journal::open(&path, 7, "x", 3, true).unwrap();
+            // A record is whole when nothing but its newline is missing.
+            if cut == whole.len() - 1 {
+                assert_eq!(done, vec![a.clone(), b.clone()], "cut at {cut}");
+                assert_eq!(j.dropped(), 0);
+            } else {
+                assert_eq!(done, vec![a.clone()], "cut at {cut}");
+                let torn = usize::from(cut > whole.len() - last);
+                assert_eq!(j.dropped(), torn, "cut at {cut}");
+            }
+        }
+        // One changed digit in a middle record: dropped, the rest kept.
+        let text = String::from_utf8(whole)
+            .unwrap()
+            .replacen("1.164056,", "1.164057,", 1);
+        std::fs::write(&path, text).unwrap();
+        let (j, done) = Journal::open(&path, 7, "x", 3, true).unwrap();
+        assert_eq!(done, vec![b]);
+        assert_eq!(j.dropped(), 1);
     }
 
     #[test]
