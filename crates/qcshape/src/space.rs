@@ -73,6 +73,10 @@ pub enum SpaceError {
     Intrinsic(#[from] IntrinsicError),
 }
 
+/// The ends `(start, end)` of a curve, each #V x 3 (they fix the frozen weights of an inner
+/// product, [`ShapeSpace::inner`]).
+pub type CurveEnds<'a> = (&'a [[f64; 3]], &'a [[f64; 3]]);
+
 /// The similarity matrix of a data set and everything the pipeline computed on the way.
 #[derive(Debug, Clone)]
 pub struct SimilarityResult {
@@ -245,7 +249,7 @@ impl ShapeSpace {
         base: &[[f64; 3]],
         u: &[[f64; 3]],
         v: &[[f64; 3]],
-        ends: Option<(&[[f64; 3]], &[[f64; 3]])>,
+        ends: Option<CurveEnds<'_>>,
     ) -> Result<f64, SpaceError> {
         self.shape("the base", base)?;
         self.vector("u", u)?;
@@ -278,8 +282,13 @@ impl ShapeSpace {
     }
 
     /// `dis(a, b)`: the length of the discrete geodesic (eq. 12, `L = sum_i sqrt((G_{P_i}(X_i) +
-    /// G_{P_{i+1}}(X_i)) / 2)`), normalized units; 0 for identical shapes.
+    /// G_{P_{i+1}}(X_i)) / 2)`), normalized units; exactly 0 for identical shapes (no solve,
+    /// as in [`crate::similarity::pose_distances`]).
     pub fn dist(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<f64, SpaceError> {
+        if a == b {
+            self.shape("the first shape", a)?;
+            return Ok(0.0);
+        }
         Ok(self.geodesic(a, b)?.length)
     }
 
