@@ -316,15 +316,17 @@ impl ShapeSpace {
             self.shape(&format!("curve sample {j}"), s)?;
         }
         self.vector("the vector", v)?;
+        if method == Transport::Euclidean {
+            // No scale needed: the vector comes back bit for bit.
+            return Ok(euclidean_transport(curve, v).vector);
+        }
         let f = self.factor(first)?;
         let c: Vec<Pose> = curve.iter().map(|s| scaled(s, f)).collect();
         let w = scaled(v, f);
-        let out = match method {
-            Transport::Euclidean => euclidean_transport(&c, &w).vector,
-            Transport::Parallel => {
-                parallel_transport(&self.transport, &c, &w, &ParallelOptions::default())?.vector
-            }
-            Transport::Schild => schild_ladder(&self.solver(2)?, &c, &w, &SchildOptions::default())?.vector,
+        let out = if method == Transport::Parallel {
+            parallel_transport(&self.transport, &c, &w, &ParallelOptions::default())?.vector
+        } else {
+            schild_ladder(&self.solver(2)?, &c, &w, &SchildOptions::default())?.vector
         };
         Ok(scaled(&out, 1.0 / f))
     }
