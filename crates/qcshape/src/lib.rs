@@ -26,5 +26,6 @@ pub mod multires;
 pub mod path;
 pub mod plot;
 pub mod similarity;
+pub mod space;
 pub mod synth;
 pub mod transport;

@@ -1,0 +1,47 @@
+"""qcshape: deformation similarity in quasi-conformal shape space.
+
+A Python layer over the qcshape Rust library (numpy arrays in and out):
+
+    import qcshape as qs
+    V, F = qs.read_mesh("pose0.ply")                     # float64 (nV, 3), int64 (nF, 3)
+    space = qs.ShapeSpace(F, metric="quasi-conformal", lam=0.1)
+    g = space.geodesic(VA, VB, steps=8)                  # g.length, g.path (9, nV, 3), ...
+    ds = qs.Dataset.from_manifest("syn/manifest.csv")
+    D = qs.similarity_matrix(ds, metric="quasi-conformal")   # (n, n), as `qcshape similarity`
+    labels = qs.KMedoids(n_clusters=8, n_init=20, random_state=0).fit(D).labels_
+    X, stress = qs.mds(D, n_components=2, random_state=0)
+    qs.scores(ds.labels, labels)                         # sensitivity, specificity, ari, accuracy
+
+Every computation releases the GIL, stops at Ctrl-C (KeyboardInterrupt) and, for long calls,
+prints progress on stderr (progress=False turns it off). Bad arguments raise ValueError naming
+the argument; unreadable files OSError, invalid files ValueError with the file name and line.
+"""
+
+from ._qcshape import (
+    Dataset,
+    Geodesic,
+    KMeans,
+    KMedoids,
+    ShapeSpace,
+    icosphere,
+    mds,
+    read_mesh,
+    scores,
+    similarity_matrix,
+    write_mesh,
+)
+
+__all__ = [
+    "Dataset",
+    "Geodesic",
+    "KMeans",
+    "KMedoids",
+    "ShapeSpace",
+    "icosphere",
+    "mds",
+    "read_mesh",
+    "scores",
+    "similarity_matrix",
+    "write_mesh",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,202 @@
+"""Type stubs of qcshape (the Rust extension qcshape._qcshape). Shapes in the comments:
+nV vertices, nF faces, K + 1 poses, n items."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Points = npt.ArrayLike  # (nV, 3) float
+_Faces = npt.ArrayLike  # (nF, 3) int
+_Poses = npt.ArrayLike  # (K, nV, 3) float
+_Matrix = npt.ArrayLike  # (n, n) float
+_Path = Union[str, "PathLike[str]"]
+_F64 = npt.NDArray[np.float64]
+_I64 = npt.NDArray[np.int64]
+
+__version__: str
+
+def read_mesh(path: _Path) -> Tuple[_F64, _I64]:
+    """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk file."""
+
+def write_mesh(
+    path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, npt.ArrayLike]] = None
+) -> None:
+    """Writes V (nV, 3), F (nF, 3) and at most one per-vertex scalar (nV,) (.ply, .vtk)."""
+
+def icosphere(level: int = 1) -> Tuple[_F64, _I64]:
+    """The unit icosphere, 10 * 4**level + 2 vertices."""
+
+class Geodesic:
+    @property
+    def path(self) -> _F64:
+        """(steps + 1, nV, 3) poses, input units."""
+    @property
+    def length(self) -> float: ...
+    @property
+    def energy(self) -> float: ...
+    @property
+    def initial_energy(self) -> float: ...
+    @property
+    def segment_lengths(self) -> List[float]: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def stop(self) -> str: ...
+    @property
+    def gradient_norm(self) -> float: ...
+    @property
+    def scale(self) -> float: ...
+    @property
+    def seconds(self) -> float: ...
+
+class ShapeSpace:
+    def __init__(
+        self,
+        faces: _Faces,
+        metric: Optional[str] = None,
+        *,
+        form: Optional[str] = None,
+        weights: Optional[str] = None,
+        lam: Optional[float] = None,
+        l2_areas: Optional[str] = None,
+        steps: Optional[int] = None,
+        solver: Optional[str] = None,
+        tolerance: Optional[float] = None,
+        energy_tolerance: Optional[float] = None,
+        reference: Optional[_Points] = None,
+        scale: Optional[float] = None,
+        n_vertices: Optional[int] = None,
+    ) -> None: ...
+    @property
+    def n_vertices(self) -> int: ...
+    @property
+    def faces(self) -> _I64: ...
+    @property
+    def metric(self) -> str: ...
+    @property
+    def steps(self) -> int: ...
+    def squared_norm(self, base: _Points, v: _Points) -> float: ...
+    def inner(
+        self, base: _Points, u: _Points, v: _Points, ends: Optional[Tuple[_Points, _Points]] = None
+    ) -> float: ...
+    def geodesic(self, a: _Points, b: _Points, steps: Optional[int] = None) -> Geodesic: ...
+    def dist(self, a: _Points, b: _Points, steps: Optional[int] = None) -> float: ...
+    def log(self, base: _Points, p: _Points, steps: Optional[int] = None) -> Tuple[_F64, float]:
+        """(log (nV, 3), dis(base, p))."""
+    def transport(self, curve: _Poses, v: _Points, method: Optional[str] = None) -> _F64:
+        """(nV, 3) vector at curve[-1]."""
+    def karcher_mean(
+        self,
+        poses: _Poses,
+        init: Optional[_Points] = None,
+        max_iterations: Optional[int] = None,
+        tolerance: Optional[float] = None,
+    ) -> _F64: ...
+    def interpolate(self, poses: _Poses, insert: Optional[int] = None, levels: Optional[int] = None) -> _F64:
+        """(K * (insert + 1) + 1, nV, 3)."""
+    def transfer(self, poses: _Poses, base: _Points, method: Optional[str] = None) -> _F64:
+        """(K + 1, nV, 3), starting at base."""
+    def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: bool = True) -> _F64:
+        """(n, n) dis(P_i, P_j)."""
+    def similarity(
+        self, deformations: Sequence[_Poses], threads: Optional[int] = None, progress: bool = True
+    ) -> _F64:
+        """(n, n) eq. 13 of deformations at one common base."""
+
+class Dataset:
+    def __init__(
+        self,
+        poses: Sequence[_Poses],
+        faces: _Faces,
+        names: Optional[Sequence[str]] = None,
+        labels: Optional[Sequence[Optional[str]]] = None,
+    ) -> None: ...
+    @staticmethod
+    def from_manifest(path: _Path) -> "Dataset": ...
+    @staticmethod
+    def load(path: _Path) -> "Dataset": ...
+    @staticmethod
+    def synthetic(
+        level: int = 1, poses: Optional[int] = None, seed: Optional[int] = None, jitter: Optional[float] = None
+    ) -> "Dataset": ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, i: int) -> _F64:
+        """(K, nV, 3) poses of deformation i."""
+    @property
+    def names(self) -> List[str]: ...
+    @property
+    def labels(self) -> List[Optional[str]]: ...
+    @property
+    def faces(self) -> _I64: ...
+    @property
+    def n_vertices(self) -> int: ...
+
+def similarity_matrix(
+    dataset: Dataset,
+    *,
+    metric: Optional[str] = None,
+    form: Optional[str] = None,
+    weights: Optional[str] = None,
+    lam: Optional[float] = None,
+    l2_areas: Optional[str] = None,
+    steps: Optional[int] = None,
+    solver: Optional[str] = None,
+    tolerance: Optional[float] = None,
+    energy_tolerance: Optional[float] = None,
+    insert: Optional[int] = None,
+    levels: Optional[int] = None,
+    transport: Optional[str] = None,
+    base: Optional[Union[int, str]] = None,
+    threads: Optional[int] = None,
+    progress: Optional[bool] = None,
+) -> _F64:
+    """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV."""
+
+class KMedoids:
+    def __init__(
+        self,
+        n_clusters: Optional[int] = None,
+        n_init: Optional[int] = None,
+        random_state: Optional[int] = None,
+        max_iter: Optional[int] = None,
+    ) -> None: ...
+    def fit(self, d: _Matrix) -> "KMedoids": ...
+    def fit_predict(self, d: _Matrix) -> _I64: ...
+    @property
+    def labels_(self) -> _I64: ...
+    @property
+    def medoid_indices_(self) -> _I64: ...
+    @property
+    def inertia_(self) -> float: ...
+    @property
+    def n_iter_(self) -> int: ...
+
+class KMeans:
+    def __init__(
+        self,
+        n_clusters: Optional[int] = None,
+        n_init: Optional[int] = None,
+        random_state: Optional[int] = None,
+        max_iter: Optional[int] = None,
+    ) -> None: ...
+    def fit(self, x: Union[_Matrix, Dataset], **options: Any) -> "KMeans": ...
+    @property
+    def labels_(self) -> _I64: ...
+    @property
+    def inertia_(self) -> float: ...
+    @property
+    def n_iter_(self) -> int: ...
+    @property
+    def kernel_labels_(self) -> Optional[_I64]: ...
+    @property
+    def distances_(self) -> Optional[_F64]: ...
+
+def mds(d: _Matrix, n_components: Optional[int] = None, random_state: Optional[int] = None) -> Tuple[_F64, float]:
+    """(X (n, n_components), raw stress (eq. 16))."""
+
+def scores(true_labels: Sequence[Any], labels: Sequence[Any]) -> Dict[str, float]:
+    """{"sensitivity", "specificity" (eq. 15), "accuracy", "ari"}."""

@@ -1,0 +1,291 @@
+//! Files and data sets: `read_mesh`, `write_mesh`, `icosphere`, `qcshape.Dataset` and
+//! `similarity_matrix` (the pipeline of `qcshape similarity`).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use qcshape::dataset::{Dataset, Deformation};
+use qcshape::io::{self, VertexAttributes};
+use qcshape::similarity::{PipelineOptions, Stage};
+use qcshape::space::{ShapeSpace, SimilarityResult};
+use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
+
+use crate::convert::{faces_out, matrix_out, points, points_out, sequence, sequence_out, vector};
+use crate::errors;
+use crate::options::PipelineKw;
+use crate::run::{detached, Progress};
+use crate::space::topology_from;
+
+/// read_mesh(path) -> (V, F): a mesh file (.obj, .ply, .off, .stl, .vtk) as V (nV, 3) float64
+/// and F (nF, 3) int64. Raises OSError if the file cannot be read, ValueError (with the file
+/// name and line) if it is not a valid mesh.
+#[pyfunction]
+pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let m = py.detach(|| io::read_mesh(&path)).map_err(errors::io)?;
+    Ok((points_out(py, &m.positions)?, faces_out(py, &m.faces)?))
+}
+
+/// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) in the format of
+/// the file name's extension, atomically (complete or absent). point_data = {"name": values}
+/// adds one per-vertex scalar (nV,) (.ply and .vtk only).
+#[pyfunction]
+#[pyo3(signature = (path, vertices, faces, point_data=None))]
+pub fn write_mesh(
+    py: Python<'_>,
+    path: PathBuf,
+    vertices: &Bound<'_, PyAny>,
+    faces: &Bound<'_, PyAny>,
+    point_data: Option<&Bound<'_, PyDict>>,
+) -> PyResult<()> {
+    let v = points(vertices, "vertices", None)?;
+    let f = crate::convert::faces(faces, "faces")?;
+    let scalar = match point_data {
+        None => None,
+        Some(d) if d.is_empty() => None,
+        Some(d) if d.len() > 1 => {
+            return Err(PyValueError::new_err(
+                "point_data: the writers store one per-vertex scalar; pass a dict with one entry",
+            ))
+        }
+        Some(d) => {
+            let (k, vals) = d.iter().next().expect("one entry");
+            let name: String = k
+                .extract()
+                .map_err(|_| PyValueError::new_err("point_data: keys must be strings"))?;
+            let vals = vector(&vals, &format!("point_data[{name:?}]"), v.len())?;
+            Some((name, vals))
+        }
+    };
+    py.detach(|| {
+        let attrs = VertexAttributes {
+            scalar: scalar.as_ref().map(|(n, s)| (n.as_str(), s.as_slice())),
+            colors: None,
+        };
+        io::write_mesh(&path, &v, &f, &attrs)
+    })
+    .map_err(errors::io)
+}
+
+/// icosphere(level=1) -> (V, F): the unit icosphere with 10 * 4**level + 2 vertices (level 1:
+/// 42), the template of the synthetic benchmark.
+#[pyfunction]
+#[pyo3(signature = (level=1))]
+pub fn icosphere<'py>(py: Python<'py>, level: u32) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    if level > 6 {
+        return Err(PyValueError::new_err(format!("level: at most 6, got {level}")));
+    }
+    let s = ico(level);
+    Ok((points_out(py, &s.positions)?, faces_out(py, s.topology.faces())?))
+}
+
+/// A data set of deformations: each a sequence of poses (K, nV, 3) on one shared
+/// connectivity, with a name and an optional class label.
+///
+/// ``Dataset(poses=[(K, nV, 3) arrays], faces=F, names=None, labels=None)``, or
+/// ``Dataset.from_manifest(path)`` / ``Dataset.load(path)`` (a manifest CSV
+/// ``deformation,label,pose,path`` or a folder of deformation folders), or
+/// ``Dataset.synthetic(level=1)`` (the paper's 48 synthetic deformations, as ``qcshape synth``).
+#[pyclass(name = "Dataset", module = "qcshape", frozen)]
+pub struct PyDataset {
+    pub defs: Arc<Vec<Deformation>>,
+}
+
+#[pymethods]
+impl PyDataset {
+    #[new]
+    #[pyo3(signature = (poses, faces, names=None, labels=None))]
+    fn new(
+        poses: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        names: Option<Vec<String>>,
+        labels: Option<Vec<Option<String>>>,
+    ) -> PyResult<Self> {
+        let list: Vec<Bound<'_, PyAny>> = poses.try_iter()?.collect::<PyResult<_>>()?;
+        if list.is_empty() {
+            return Err(PyValueError::new_err("poses: the data set has no deformations"));
+        }
+        let first = sequence(&list[0], "poses[0]", None, 1)?;
+        let nv = first[0].len();
+        let topo = topology_from(faces, "faces", nv)?;
+        let n = list.len();
+        let names = names.unwrap_or_else(|| (0..n).map(|i| format!("d{i}")).collect());
+        if names.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "names: {} names for {n} deformations",
+                names.len()
+            )));
+        }
+        let labels = labels.unwrap_or_else(|| vec![None; n]);
+        if labels.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "labels: {} labels for {n} deformations",
+                labels.len()
+            )));
+        }
+        let mut defs = Vec::with_capacity(n);
+        for (i, ((d, name), label)) in list.iter().zip(names).zip(labels).enumerate() {
+            defs.push(Deformation {
+                name,
+                label,
+                topology: topo.clone(),
+                poses: sequence(d, &format!("poses[{i}]"), Some(nv), 1)?,
+                paths: Vec::new(),
+                warnings: Vec::new(),
+            });
+        }
+        Ok(PyDataset { defs: Arc::new(defs) })
+    }
+
+    /// Dataset.from_manifest(path): a manifest CSV (deformation,label,pose,path; paths relative
+    /// to the manifest). OSError / ValueError name the file and line.
+    #[staticmethod]
+    fn from_manifest(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let d = py
+            .detach(|| Dataset::from_manifest(&path))
+            .map_err(errors::dataset)?;
+        Ok(PyDataset {
+            defs: Arc::new(d.deformations),
+        })
+    }
+
+    /// Dataset.load(path): a manifest, or a folder (its manifest.csv, else one folder per
+    /// deformation), as ``qcshape similarity`` reads its input.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let d = py.detach(|| Dataset::load(&path)).map_err(errors::dataset)?;
+        Ok(PyDataset {
+            defs: Arc::new(d.deformations),
+        })
+    }
+
+    /// Dataset.synthetic(level=1, poses=None, seed=None, jitter=None): the paper's synthetic
+    /// benchmark (6 shapes x 8 deformations, on icosphere level ``level``), as ``qcshape synth``
+    /// makes it (defaults from the library).
+    #[staticmethod]
+    #[pyo3(signature = (level=1, poses=None, seed=None, jitter=None))]
+    fn synthetic(level: u32, poses: Option<usize>, seed: Option<u64>, jitter: Option<f64>) -> PyResult<Self> {
+        let d = SynthOptions::default();
+        let opts = SynthOptions {
+            level,
+            poses: poses.unwrap_or(d.poses),
+            seed: seed.unwrap_or(d.seed),
+            jitter: jitter.unwrap_or(d.jitter),
+        };
+        let defs = genus0_benchmark(&opts).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(PyDataset { defs: Arc::new(defs) })
+    }
+
+    fn __len__(&self) -> usize {
+        self.defs.len()
+    }
+
+    /// The poses of deformation i, (K, nV, 3) float64.
+    fn __getitem__<'py>(&self, py: Python<'py>, i: isize) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.defs.len() as isize;
+        let j = if i < 0 { i + n } else { i };
+        if !(0..n).contains(&j) {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "deformation {i} is out of range ({n} deformations)"
+            )));
+        }
+        sequence_out(py, &self.defs[j as usize].poses)
+    }
+
+    /// Names of the deformations, in order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.defs.iter().map(|d| d.name.clone()).collect()
+    }
+
+    /// Class labels (None where unknown).
+    #[getter]
+    fn labels(&self) -> Vec<Option<String>> {
+        self.defs.iter().map(|d| d.label.clone()).collect()
+    }
+
+    /// Faces of the first deformation, (nF, 3) int64.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        faces_out(py, self.defs[0].topology.faces())
+    }
+
+    /// Vertices per pose.
+    #[getter]
+    fn n_vertices(&self) -> usize {
+        self.defs[0].topology.n_vertices()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Dataset({} deformations, {} poses, {} vertices)",
+            self.defs.len(),
+            self.defs[0].poses.len(),
+            self.n_vertices()
+        )
+    }
+}
+
+/// The pipeline of `qcshape similarity` on a data set, GIL released, with progress and Ctrl-C.
+pub fn run_pipeline(
+    py: Python<'_>,
+    ds: &PyDataset,
+    kw: &PipelineKw,
+) -> PyResult<(SimilarityResult, PipelineOptions)> {
+    let names: Vec<String> = ds.defs.iter().map(|d| d.name.clone()).collect();
+    let n = names.len();
+    if n < 2 {
+        return Err(PyValueError::new_err(
+            "dataset: a similarity matrix needs at least two deformations",
+        ));
+    }
+    let opts = kw.options(&names)?;
+    let base = &ds.defs[opts.base];
+    let space =
+        ShapeSpace::new(base.topology.clone(), opts.metric, opts.geodesic.clone()).map_err(errors::space)?;
+    let bar = Progress::new(kw.progress.unwrap_or(true), [n, n, n * (n - 1) / 2]);
+    let defs = ds.defs.clone();
+    let template = opts.clone();
+    let r = detached(py, kw.threads, |cancel| {
+        space
+            .similarity_matrix(
+                &defs,
+                template,
+                &|stage: Stage, _: &str| bar.tick(stage),
+                Some(cancel),
+            )
+            .map_err(errors::space)
+    })?;
+    Ok((r, opts))
+}
+
+/// similarity_matrix(dataset, **options) -> ndarray (n, n): the similarity matrix (eq. 13) of
+/// a Dataset, computed as ``qcshape similarity`` does (interpolation, transfer to the first
+/// pose of the base deformation, sum of pose distances), equal to its CSV. Options (None or
+/// left out: the library's defaults): metric, form, weights, lam, l2_areas (the metric);
+/// steps, solver, tolerance, energy_tolerance (the geodesics); insert (poses inserted between
+/// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), base (name or
+/// index, 0); threads (None: all cores); progress (True: counts on stderr). Distances are in
+/// normalized units (coordinates divided by the mean edge length of the base pose).
+#[pyfunction]
+#[pyo3(signature = (dataset, **options))]
+#[pyo3(
+    text_signature = "(dataset, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
+l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, insert=0, levels=None, \
+transport='euclidean', base=None, threads=None, progress=True)"
+)]
+pub fn similarity_matrix<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, PyAny>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let ds = dataset
+        .cast::<PyDataset>()
+        .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
+    let kw = PipelineKw::from_kwargs(options)?;
+    let (r, _) = run_pipeline(py, ds.get(), &kw)?;
+    let n = r.matrix.len();
+    matrix_out(py, r.matrix.values().to_vec(), n, n)
+}

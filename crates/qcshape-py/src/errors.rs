@@ -1,0 +1,76 @@
+//! Library errors as Python exceptions: bad input -> `ValueError`, file system -> `OSError`,
+//! a cancelled run -> `KeyboardInterrupt`, a failed computation -> `RuntimeError`. The message
+//! is the library's (file name, line, argument and problem).
+
+use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
+use pyo3::PyErr;
+use qcshape::dataset::DatasetError;
+use qcshape::io::IoError;
+use qcshape::path::{GeodesicError, InterpolationError};
+use qcshape::similarity::{PipelineError, SimilarityError};
+use qcshape::space::SpaceError;
+use qcshape::transport::TransportError;
+
+/// A shape-space error as a Python exception.
+pub fn space(e: SpaceError) -> PyErr {
+    let msg = e.to_string();
+    let value = match &e {
+        SpaceError::Shape { .. } | SpaceError::Input(_) | SpaceError::Matrix(_) => true,
+        SpaceError::Geodesic(g) => geodesic_input(g),
+        SpaceError::Transport(t) => transport_input(t),
+        SpaceError::Interpolation(i) => {
+            matches!(i, InterpolationError::Option(_) | InterpolationError::Mesh(_))
+        }
+        SpaceError::Pipeline(p) => match p {
+            PipelineError::Input(_) | PipelineError::Mesh { .. } => true,
+            PipelineError::Similarity(SimilarityError::Cancelled) => {
+                return PyKeyboardInterrupt::new_err(msg)
+            }
+            PipelineError::Similarity(SimilarityError::Mismatch(_)) => true,
+            PipelineError::Geodesic(g) => geodesic_input(g),
+            _ => false,
+        },
+        SpaceError::Similarity(SimilarityError::Cancelled) => return PyKeyboardInterrupt::new_err(msg),
+        SpaceError::Similarity(SimilarityError::Mismatch(_)) => true,
+        _ => false,
+    };
+    if value {
+        PyValueError::new_err(msg)
+    } else {
+        PyRuntimeError::new_err(msg)
+    }
+}
+
+fn geodesic_input(e: &GeodesicError) -> bool {
+    matches!(e, GeodesicError::Option(_) | GeodesicError::Mesh(_))
+}
+
+fn transport_input(e: &TransportError) -> bool {
+    matches!(
+        e,
+        TransportError::Input(_) | TransportError::Mismatch { .. } | TransportError::Mesh(_)
+    )
+}
+
+/// A mesh file error: unreadable / unwritable files -> `OSError`, bad contents -> `ValueError`.
+pub fn io(e: IoError) -> PyErr {
+    match e {
+        IoError::Read { .. } | IoError::Write { .. } => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// A data set error (manifest, folders, mesh files).
+pub fn dataset(e: DatasetError) -> PyErr {
+    let msg = e.to_string();
+    let os = match &e {
+        DatasetError::Read { .. } => true,
+        DatasetError::Io(i) => matches!(i, IoError::Read { .. } | IoError::Write { .. }),
+        _ => false,
+    };
+    if os {
+        PyOSError::new_err(msg)
+    } else {
+        PyValueError::new_err(msg)
+    }
+}

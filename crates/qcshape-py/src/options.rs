@@ -1,0 +1,236 @@
+//! Keyword options -> library option structs. A keyword left out (None) keeps the library's
+//! default ([`MetricSpec::new`], [`GeodesicOptions::default`], [`PipelineOptions::default`]),
+//! so the Python results equal the CLI's.
+
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
+use qcshape::path::{GeodesicOptions, Solver};
+use qcshape::similarity::PipelineOptions;
+use qcshape::transport::Transport;
+
+/// The metric keywords (the CLI's `--metric --form --weights --lambda --l2-areas`).
+#[derive(Debug, Clone, Default)]
+pub struct MetricKw {
+    pub metric: Option<String>,
+    pub form: Option<String>,
+    pub weights: Option<String>,
+    pub lam: Option<f64>,
+    pub l2_areas: Option<String>,
+}
+
+impl MetricKw {
+    /// The metric specification (default metric: the pipeline's, quasi-conformal).
+    pub fn spec(&self) -> PyResult<MetricSpec> {
+        let kind = match &self.metric {
+            None => PipelineOptions::default().metric.kind,
+            Some(m) => m
+                .parse::<MetricKind>()
+                .map_err(|e| PyValueError::new_err(format!("metric: {e}")))?,
+        };
+        let mut spec = MetricSpec::new(kind);
+        if let Some(f) = &self.form {
+            spec.form = match f.as_str() {
+                "quadratic" => ConformalForm::Quadratic,
+                "paper" => ConformalForm::Paper,
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                        "form: expected 'quadratic' or 'paper', got {f:?}"
+                    )))
+                }
+            };
+        }
+        if let Some(w) = &self.weights {
+            spec.weights = match w.as_str() {
+                "endpoints" => QcWeights::Endpoints,
+                "segment" => QcWeights::Segment,
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                        "weights: expected 'endpoints' or 'segment', got {w:?}"
+                    )))
+                }
+            };
+        }
+        if let Some(l) = self.lam {
+            if !(l >= 0.0 && l.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "lam: must be a non-negative number, got {l}"
+                )));
+            }
+            spec.lambda = l;
+        }
+        if let Some(a) = &self.l2_areas {
+            spec.frozen_areas = match a.as_str() {
+                "frozen" => true,
+                "pose" => false,
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                        "l2_areas: expected 'frozen' or 'pose', got {a:?}"
+                    )))
+                }
+            };
+        }
+        Ok(spec)
+    }
+}
+
+/// The solver keywords (the CLI's `--steps --solver --tolerance --energy-tolerance`).
+#[derive(Debug, Clone, Default)]
+pub struct SolverKw {
+    pub steps: Option<usize>,
+    pub solver: Option<String>,
+    pub tolerance: Option<f64>,
+    pub energy_tolerance: Option<f64>,
+}
+
+impl SolverKw {
+    /// The geodesic options.
+    pub fn options(&self) -> PyResult<GeodesicOptions> {
+        let mut g = GeodesicOptions::default();
+        if let Some(s) = self.steps {
+            if s == 0 {
+                return Err(PyValueError::new_err("steps: must be at least 1"));
+            }
+            g.steps = s;
+        }
+        if let Some(s) = &self.solver {
+            g.solver = s
+                .parse::<Solver>()
+                .map_err(|e| PyValueError::new_err(format!("solver: {e}")))?;
+        }
+        if let Some(t) = self.tolerance {
+            g.gradient_tolerance = non_negative("tolerance", t)?;
+        }
+        if let Some(t) = self.energy_tolerance {
+            g.energy_tolerance = non_negative("energy_tolerance", t)?;
+        }
+        Ok(g)
+    }
+}
+
+fn non_negative(name: &str, v: f64) -> PyResult<f64> {
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name}: must be non-negative, got {v}"
+        )))
+    }
+}
+
+/// A transport method by name (`parallel`, `schild`, `euclidean`); None: `default`.
+pub fn transport(name: Option<&str>, default: Transport) -> PyResult<Transport> {
+    match name {
+        None => Ok(default),
+        Some(n) => n
+            .parse::<Transport>()
+            .map_err(|e| PyValueError::new_err(format!("transport: {e}"))),
+    }
+}
+
+/// Base deformation: by name or index.
+#[derive(Debug, Clone)]
+pub enum BaseKw {
+    Index(usize),
+    Name(String),
+}
+
+/// Everything `similarity_matrix` (and `KMeans.fit` on a data set) accepts.
+#[derive(Debug, Clone, Default)]
+pub struct PipelineKw {
+    pub metric: MetricKw,
+    pub solver: SolverKw,
+    pub insert: Option<usize>,
+    pub levels: Option<usize>,
+    pub transport: Option<String>,
+    pub base: Option<BaseKw>,
+    pub threads: Option<usize>,
+    pub progress: Option<bool>,
+}
+
+/// The keywords of the pipeline, for the docstrings and the error on an unknown one.
+pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, steps, solver, tolerance, \
+energy_tolerance, insert, levels, transport, base, threads, progress";
+
+impl PipelineKw {
+    /// Reads the keywords of a `**kwargs` dict; an unknown keyword is a `TypeError`.
+    pub fn from_kwargs(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut k = PipelineKw::default();
+        let Some(d) = kwargs else {
+            return Ok(k);
+        };
+        for (key, value) in d.iter() {
+            let key: String = key.extract()?;
+            if value.is_none() {
+                continue;
+            }
+            let bad = |e: PyErr| PyValueError::new_err(format!("{key}: {e}"));
+            match key.as_str() {
+                "metric" => k.metric.metric = Some(value.extract().map_err(bad)?),
+                "form" => k.metric.form = Some(value.extract().map_err(bad)?),
+                "weights" => k.metric.weights = Some(value.extract().map_err(bad)?),
+                "lam" | "lambda_" => k.metric.lam = Some(value.extract().map_err(bad)?),
+                "l2_areas" => k.metric.l2_areas = Some(value.extract().map_err(bad)?),
+                "steps" => k.solver.steps = Some(value.extract().map_err(bad)?),
+                "solver" => k.solver.solver = Some(value.extract().map_err(bad)?),
+                "tolerance" => k.solver.tolerance = Some(value.extract().map_err(bad)?),
+                "energy_tolerance" => k.solver.energy_tolerance = Some(value.extract().map_err(bad)?),
+                "insert" => k.insert = Some(value.extract().map_err(bad)?),
+                "levels" => k.levels = Some(value.extract().map_err(bad)?),
+                "transport" => k.transport = Some(value.extract().map_err(bad)?),
+                "base" => {
+                    k.base = Some(if let Ok(i) = value.extract::<usize>() {
+                        BaseKw::Index(i)
+                    } else {
+                        BaseKw::Name(value.extract().map_err(bad)?)
+                    })
+                }
+                "threads" => k.threads = Some(value.extract().map_err(bad)?),
+                "progress" => k.progress = Some(value.extract().map_err(bad)?),
+                _ => {
+                    return Err(PyTypeError::new_err(format!(
+                        "unexpected keyword argument '{key}' (accepted: {PIPELINE_KEYS})"
+                    )))
+                }
+            }
+        }
+        Ok(k)
+    }
+
+    /// The pipeline options for deformations named `names` (for a base given by name); every
+    /// option without a keyword from [`PipelineOptions::default`].
+    pub fn options(&self, names: &[String]) -> PyResult<PipelineOptions> {
+        let d = PipelineOptions::default();
+        let levels = self.levels.unwrap_or(d.levels);
+        if levels == 0 {
+            return Err(PyValueError::new_err("levels: must be at least 1"));
+        }
+        let base = match &self.base {
+            None => d.base,
+            Some(BaseKw::Index(i)) => {
+                if *i >= names.len() {
+                    return Err(PyValueError::new_err(format!(
+                        "base: index {i} is out of range ({} deformations)",
+                        names.len()
+                    )));
+                }
+                *i
+            }
+            Some(BaseKw::Name(n)) => names.iter().position(|x| x == n).ok_or_else(|| {
+                PyValueError::new_err(format!("base: {n:?} is not a deformation of the data set"))
+            })?,
+        };
+        // `..d`: options added to the pipeline later (without a keyword here) keep their defaults.
+        #[allow(clippy::needless_update)]
+        Ok(PipelineOptions {
+            metric: self.metric.spec()?,
+            geodesic: self.solver.options()?,
+            insert: self.insert.unwrap_or(d.insert),
+            levels,
+            transport: transport(self.transport.as_deref(), d.transport)?,
+            base,
+            ..d
+        })
+    }
+}

@@ -1,0 +1,484 @@
+//! `qcshape.ShapeSpace` and `qcshape.Geodesic`: the library's [`ShapeSpace`] for numpy arrays.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use qcshape::mesh::Topology;
+use qcshape::path::{Geodesic, InterpolationOptions, Normalization};
+use qcshape::similarity::{KarcherOptions, Stage};
+use qcshape::space::ShapeSpace;
+use qcshape::transport::Transport;
+
+use crate::convert::{faces, matrix_out, points, points_out, sequence, sequence_out};
+use crate::errors;
+use crate::options::{transport, MetricKw, SolverKw};
+use crate::run::{detached, Progress};
+
+/// A discrete geodesic (eq. 12) between two shapes.
+///
+/// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
+/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in normalized units (coordinates times
+/// ``scale``), ``initial_energy`` (the straight line's), ``segment_lengths`` (steps,),
+/// ``iterations``, ``converged``, ``stop`` (why the solver stopped), ``gradient_norm``,
+/// ``scale``, ``seconds``.
+#[pyclass(name = "Geodesic", module = "qcshape", frozen)]
+pub struct PyGeodesic {
+    g: Geodesic,
+}
+
+#[pymethods]
+impl PyGeodesic {
+    /// The poses P_0 .. P_N, (steps + 1, nV, 3) float64, input units.
+    #[getter]
+    fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        sequence_out(py, &self.g.poses)
+    }
+    /// dis(A, B): the path's length (normalized units).
+    #[getter]
+    fn length(&self) -> f64 {
+        self.g.length
+    }
+    /// Path energy (eq. 12) at the solution (normalized units).
+    #[getter]
+    fn energy(&self) -> f64 {
+        self.g.energy
+    }
+    /// Path energy of the straight line (the start).
+    #[getter]
+    fn initial_energy(&self) -> f64 {
+        self.g.initial_energy
+    }
+    /// Length of each segment, (steps,) list.
+    #[getter]
+    fn segment_lengths(&self) -> Vec<f64> {
+        self.g.segment_lengths.clone()
+    }
+    /// Solver iterations.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.g.iterations
+    }
+    /// Whether the solver converged.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.g.converged
+    }
+    /// Why the solver stopped (e.g. "GradientTolerance").
+    #[getter]
+    fn stop(&self) -> String {
+        format!("{:?}", self.g.stop)
+    }
+    /// Norm of the energy gradient at the solution.
+    #[getter]
+    fn gradient_norm(&self) -> f64 {
+        self.g.gradient_norm
+    }
+    /// The factor coordinates were multiplied by before solving.
+    #[getter]
+    fn scale(&self) -> f64 {
+        self.g.scale
+    }
+    /// Wall-clock seconds in the solver.
+    #[getter]
+    fn seconds(&self) -> f64 {
+        self.g.seconds
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Geodesic(steps={}, length={:.6e}, energy={:.6e}, iterations={}, converged={})",
+            self.g.poses.len() - 1,
+            self.g.length,
+            self.g.energy,
+            self.g.iterations,
+            self.g.converged
+        )
+    }
+}
+
+/// The shape space of one triangle connectivity with one metric (paper section 2).
+///
+/// ``ShapeSpace(F, metric="quasi-conformal", lam=0.1)``: F is the (nF, 3) integer face array
+/// shared by every shape; shapes are (nV, 3) float64 arrays, tangent vectors (nV, 3)
+/// displacements. Keywords (None keeps the library default, the CLI's): ``metric`` l2 | rigid
+/// | isometric | conformal | quasi-conformal; ``form`` quadratic | paper; ``weights`` endpoints
+/// | segment; ``lam`` L2 weight lambda (eq. 11, default 0.1); ``l2_areas`` frozen | pose;
+/// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
+/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; ``tolerance`` (1e-6) and
+/// ``energy_tolerance`` (1e-12); ``n_vertices`` (default max index + 1).
+///
+/// Coordinates are normalized before solving, as ``qcshape geodesic`` does: divided by the mean
+/// edge length of the first shape of each call; ``reference=V0`` fixes that to V0's for every
+/// call (then ``dist`` is symmetric for any pair), ``scale=f`` multiplies by f. Lengths and
+/// energies are in the normalized units, poses and vectors in the input's units.
+///
+/// Methods release the GIL and stop at Ctrl-C; the object is immutable and may be shared
+/// between threads.
+#[pyclass(name = "ShapeSpace", module = "qcshape", frozen)]
+pub struct PyShapeSpace {
+    space: ShapeSpace,
+}
+
+impl PyShapeSpace {
+    fn nv(&self) -> usize {
+        self.space.topology().n_vertices()
+    }
+
+    fn with_steps(&self, steps: Option<usize>) -> PyResult<ShapeSpace> {
+        match steps {
+            None => Ok(self.space.clone()),
+            Some(s) => {
+                let g = SolverKw {
+                    steps: Some(s),
+                    ..Default::default()
+                }
+                .options()?;
+                let g = qcshape::path::GeodesicOptions {
+                    steps: g.steps,
+                    ..self.space.geodesic_options().clone()
+                };
+                self.space.clone().with_geodesic(g).map_err(errors::space)
+            }
+        }
+    }
+}
+
+#[pymethods]
+impl PyShapeSpace {
+    #[new]
+    #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
+        steps=None, solver=None, tolerance=None, energy_tolerance=None, reference=None, scale=None,
+        n_vertices=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        faces: &Bound<'_, PyAny>,
+        metric: Option<String>,
+        form: Option<String>,
+        weights: Option<String>,
+        lam: Option<f64>,
+        l2_areas: Option<String>,
+        steps: Option<usize>,
+        solver: Option<String>,
+        tolerance: Option<f64>,
+        energy_tolerance: Option<f64>,
+        reference: Option<&Bound<'_, PyAny>>,
+        scale: Option<f64>,
+        n_vertices: Option<usize>,
+    ) -> PyResult<Self> {
+        let f = crate::convert::faces(faces, "faces")?;
+        let max = f.iter().flatten().copied().max().unwrap_or(0) as usize;
+        let nv = n_vertices.unwrap_or(max + 1);
+        let topo = Topology::new(nv, f).map_err(|e| PyValueError::new_err(format!("faces: {e}")))?;
+        let spec = MetricKw {
+            metric,
+            form,
+            weights,
+            lam,
+            l2_areas,
+        }
+        .spec()?;
+        let geo = SolverKw {
+            steps,
+            solver,
+            tolerance,
+            energy_tolerance,
+        }
+        .options()?;
+        let mut space = ShapeSpace::new(topo, spec, geo).map_err(errors::space)?;
+        match (reference, scale) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err("give either reference or scale, not both"))
+            }
+            (Some(r), None) => {
+                let r = points(r, "reference", Some(nv))?;
+                space = space.normalized_to(&r).map_err(errors::space)?;
+            }
+            (None, Some(s)) => {
+                if !(s > 0.0 && s.is_finite()) {
+                    return Err(PyValueError::new_err(format!("scale: must be positive, got {s}")));
+                }
+                space = space.with_normalization(Normalization::Factor(s));
+            }
+            (None, None) => {}
+        }
+        Ok(PyShapeSpace { space })
+    }
+
+    /// Number of vertices nV of every shape.
+    #[getter]
+    fn n_vertices(&self) -> usize {
+        self.nv()
+    }
+
+    /// The faces, (nF, 3) int64.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        crate::convert::faces_out(py, self.space.topology().faces())
+    }
+
+    /// The metric's name with its variants, e.g. "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen)".
+    #[getter]
+    fn metric(&self) -> String {
+        self.space.metric().name()
+    }
+
+    /// Segments N of every geodesic.
+    #[getter]
+    fn steps(&self) -> usize {
+        self.space.geodesic_options().steps
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "ShapeSpace(n_vertices={}, n_faces={}, metric={:?}, steps={})",
+            self.nv(),
+            self.space.topology().n_faces(),
+            self.space.metric().name(),
+            self.steps()
+        )
+    }
+
+    /// squared_norm(base, v) -> float: G_M(X) = <<X, X>>_M of the tangent vector v (nV, 3) at
+    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (normalized units
+    /// squared).
+    fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let nv = Some(self.nv());
+        let (b, x) = (points(base, "base", nv)?, points(v, "v", nv)?);
+        detached(py, None, |_| {
+            self.space.squared_norm(&b, &x).map_err(errors::space)
+        })
+    }
+
+    /// inner(base, u, v, ends=None) -> float: <<u, v>>_M at base = M (each (nV, 3)), the
+    /// polarization of the metric's quadratic form, with the weights frozen by the curve
+    /// ends = (start, end) (default: the constant curve at base). inner(M, v, v, (M, M + v))
+    /// equals squared_norm(M, v) for the quadratic forms.
+    #[pyo3(signature = (base, u, v, ends=None))]
+    fn inner(
+        &self,
+        py: Python<'_>,
+        base: &Bound<'_, PyAny>,
+        u: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        ends: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    ) -> PyResult<f64> {
+        let nv = Some(self.nv());
+        let (b, x, y) = (
+            points(base, "base", nv)?,
+            points(u, "u", nv)?,
+            points(v, "v", nv)?,
+        );
+        let ends = match ends {
+            None => None,
+            Some((s, e)) => Some((points(&s, "ends[0]", nv)?, points(&e, "ends[1]", nv)?)),
+        };
+        detached(py, None, |_| {
+            let e = ends.as_ref().map(|(s, e)| (s.as_slice(), e.as_slice()));
+            self.space.inner(&b, &x, &y, e).map_err(errors::space)
+        })
+    }
+
+    /// geodesic(a, b, steps=None) -> Geodesic: the discrete geodesic (eq. 12) from shape a to
+    /// shape b (each (nV, 3)) with N = steps segments (default the space's). ``g.path`` is
+    /// (steps + 1, nV, 3).
+    #[pyo3(signature = (a, b, steps=None))]
+    fn geodesic(
+        &self,
+        py: Python<'_>,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
+        steps: Option<usize>,
+    ) -> PyResult<PyGeodesic> {
+        let nv = Some(self.nv());
+        let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
+        let space = self.with_steps(steps)?;
+        let g = detached(py, None, |_| space.geodesic(&pa, &pb).map_err(errors::space))?;
+        Ok(PyGeodesic { g })
+    }
+
+    /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
+    /// (normalized units); exactly 0 for identical shapes.
+    #[pyo3(signature = (a, b, steps=None))]
+    fn dist(
+        &self,
+        py: Python<'_>,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
+        steps: Option<usize>,
+    ) -> PyResult<f64> {
+        let nv = Some(self.nv());
+        let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
+        let space = self.with_steps(steps)?;
+        detached(py, None, |_| space.dist(&pa, &pb).map_err(errors::space))
+    }
+
+    /// log(base, p, steps=None) -> (ndarray (nV, 3), float): the discrete log map
+    /// log_M(P) = N (P_1 - M) (input units), P_1 the first interior pose of the geodesic from
+    /// base = M to p, and dis(M, P).
+    #[pyo3(signature = (base, p, steps=None))]
+    fn log<'py>(
+        &self,
+        py: Python<'py>,
+        base: &Bound<'py, PyAny>,
+        p: &Bound<'py, PyAny>,
+        steps: Option<usize>,
+    ) -> PyResult<(Bound<'py, PyAny>, f64)> {
+        let nv = Some(self.nv());
+        let (m, q) = (points(base, "base", nv)?, points(p, "p", nv)?);
+        let space = self.with_steps(steps)?;
+        let (log, d) = detached(py, None, |_| space.log(&m, &q).map_err(errors::space))?;
+        Ok((points_out(py, &log)?, d))
+    }
+
+    /// transport(curve, v, method="parallel") -> ndarray (nV, 3): carries the tangent vector v
+    /// (nV, 3) at curve[0] along the samples of curve (J + 1, nV, 3), e.g. a geodesic's path,
+    /// to its last sample: "parallel" (the paper's discrete parallel transport, section
+    /// 2.2.2), "schild" (Schild's ladder) or "euclidean" (v unchanged).
+    #[pyo3(signature = (curve, v, method=None))]
+    fn transport<'py>(
+        &self,
+        py: Python<'py>,
+        curve: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        method: Option<&str>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let c = sequence(curve, "curve", Some(self.nv()), 1)?;
+        let x = points(v, "v", Some(self.nv()))?;
+        let m = transport(method, Transport::default())?;
+        let out = detached(py, None, |_| {
+            self.space.transport(&c, &x, m).map_err(errors::space)
+        })?;
+        points_out(py, &out)
+    }
+
+    /// karcher_mean(poses, init=None, max_iterations=None, tolerance=None) -> ndarray (nV, 3):
+    /// the intrinsic (Karcher) mean of poses (K, nV, 3), iterating mu <- mu + mean_k log_mu(P_k)
+    /// from init (default poses[0]).
+    #[pyo3(signature = (poses, init=None, max_iterations=None, tolerance=None))]
+    fn karcher_mean<'py>(
+        &self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        init: Option<&Bound<'py, PyAny>>,
+        max_iterations: Option<usize>,
+        tolerance: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let i = init.map(|x| points(x, "init", Some(self.nv()))).transpose()?;
+        let d = KarcherOptions::default();
+        let opts = KarcherOptions {
+            max_iterations: max_iterations.unwrap_or(d.max_iterations),
+            tolerance: tolerance.unwrap_or(d.tolerance),
+            ..d
+        };
+        let m = detached(py, None, |_| {
+            self.space
+                .karcher_mean(&p, i.as_deref(), &opts)
+                .map_err(errors::space)
+        })?;
+        points_out(py, &m.mean)
+    }
+
+    /// interpolate(poses, insert=3, levels=3) -> ndarray (K*(insert+1)+1, nV, 3): temporal
+    /// interpolation (section 2.2.1) of the key poses (K + 1, nV, 3): ``insert`` poses between
+    /// each consecutive pair (key poses kept bit for bit), on ``levels`` spatial levels (1 =
+    /// none); defaults as ``qcshape interpolate``.
+    #[pyo3(signature = (poses, insert=None, levels=None))]
+    fn interpolate<'py>(
+        &self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        insert: Option<usize>,
+        levels: Option<usize>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let d = InterpolationOptions::default();
+        let levels = levels.unwrap_or(d.levels);
+        if levels == 0 {
+            return Err(PyValueError::new_err("levels: must be at least 1"));
+        }
+        let insert = insert.unwrap_or(d.insert);
+        let r = detached(py, None, |_| {
+            self.space
+                .interpolate(&p, insert, levels, &|| {})
+                .map_err(errors::space)
+        })?;
+        sequence_out(py, &r.poses)
+    }
+
+    /// transfer(poses, base, method="parallel") -> ndarray (K + 1, nV, 3): deformation transfer
+    /// (section 2.2.2) of the deformation poses = M_0 .. M_K (K + 1, nV, 3) to the new base N_0
+    /// (nV, 3), returning N_0 .. N_K; method "parallel" (the paper's), "schild" or "euclidean"
+    /// (N_k = N_0 + M_k - M_0).
+    #[pyo3(signature = (poses, base, method=None))]
+    fn transfer<'py>(
+        &self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        base: &Bound<'py, PyAny>,
+        method: Option<&str>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let b = points(base, "base", Some(self.nv()))?;
+        let m = transport(method, Transport::default())?;
+        let r = detached(py, None, |_| {
+            self.space.transfer(&p, &b, m).map_err(errors::space)
+        })?;
+        sequence_out(py, &r.poses)
+    }
+
+    /// pairwise_distances(poses, threads=None, progress=True) -> ndarray (n, n): dis(P_i, P_j)
+    /// between the shapes poses (n, nV, 3), pairs in parallel, all normalized by the first
+    /// shape; symmetric with a zero diagonal.
+    #[pyo3(signature = (poses, threads=None, progress=true))]
+    fn pairwise_distances<'py>(
+        &self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        threads: Option<usize>,
+        progress: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let n = p.len();
+        let singles: Vec<Vec<Vec<[f64; 3]>>> = p.into_iter().map(|x| vec![x]).collect();
+        let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let d = detached(py, threads, |cancel| {
+            self.space
+                .similarity(&singles, Some(cancel), &|_| bar.tick(Stage::Similarity))
+                .map_err(errors::space)
+        })?;
+        matrix_out(py, d, n, n)
+    }
+
+    /// similarity(deformations, threads=None, progress=True) -> ndarray (n, n): eq. 13,
+    /// similarity(M, N) = sum_k dis(M_k, N_k), of deformations (n, K, nV, 3) already at one
+    /// common base (e.g. from transfer), pairs in parallel. For raw deformations use
+    /// qcshape.similarity_matrix, which interpolates and transfers first.
+    #[pyo3(signature = (deformations, threads=None, progress=true))]
+    fn similarity<'py>(
+        &self,
+        py: Python<'py>,
+        deformations: &Bound<'py, PyAny>,
+        threads: Option<usize>,
+        progress: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let list: Vec<Bound<'py, PyAny>> = deformations.try_iter()?.collect::<PyResult<_>>()?;
+        let defs: Vec<Vec<Vec<[f64; 3]>>> = list
+            .iter()
+            .enumerate()
+            .map(|(i, d)| sequence(d, &format!("deformations[{i}]"), Some(self.nv()), 1))
+            .collect::<PyResult<_>>()?;
+        let n = defs.len();
+        let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let d = detached(py, threads, |cancel| {
+            self.space
+                .similarity(&defs, Some(cancel), &|_| bar.tick(Stage::Similarity))
+                .map_err(errors::space)
+        })?;
+        matrix_out(py, d, n, n)
+    }
+}
+
+/// Faces from an array argument (for the other modules).
+pub fn topology_from(obj: &Bound<'_, PyAny>, name: &str, nv: usize) -> PyResult<std::sync::Arc<Topology>> {
+    let f = faces(obj, name)?;
+    Topology::new(nv, f).map_err(|e| PyValueError::new_err(format!("{name}: {e}")))
+}

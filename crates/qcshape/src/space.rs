@@ -1,0 +1,512 @@
+//! The shape space as one value: a [`ShapeSpace`] owns its topology, its metric and the geodesic
+//! options, and offers the operations a geomstats user expects (`squared_norm`, `inner`,
+//! `geodesic`, `dist`, `log`, `transport`, `karcher_mean`, `interpolate`, `transfer`, pairwise
+//! distances), each a thin call into [`crate::path`], [`crate::transport`] and
+//! [`crate::similarity`]. It holds no borrowed lifetimes (the metric is an `Arc`), so a binding
+//! (Python) can keep it, clone it cheaply and share it between threads.
+//!
+//! Shapes (poses) are #V x 3 position arrays on the space's topology, tangent vectors #V x 3
+//! displacement arrays, both in the caller's length unit. Before any solve, coordinates are
+//! multiplied by the factor of the space's [`Normalization`] (default
+//! [`Normalization::MeanEdgeOfFirst`], as `qcshape geodesic`: 1 / the mean edge length of the
+//! first shape of each call); lengths, squared norms and energies are reported in those
+//! normalized units, poses and vectors in the caller's units. [`ShapeSpace::normalized_to`]
+//! fixes one factor for every call (then `dist` is a true metric: symmetric for any pair).
+
+use std::collections::HashSet;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use thiserror::Error;
+
+use crate::dataset::Deformation;
+use crate::mesh::{MeshError, Shape, Topology};
+use crate::metric::{At, Metric, MetricSpec, Pattern, Segment};
+use crate::path::{
+    self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
+    InterpolationError, InterpolationOptions, Interpolator, Normalization,
+};
+use crate::similarity::{
+    assemble, compute_pairs, intrinsic_kmeans, karcher_mean, log_map, prepare, similarities, DistanceMatrix,
+    IntrinsicClustering, IntrinsicError, IntrinsicOptions, KarcherMean, KarcherOptions, MatrixError,
+    PairDistance, PipelineError, PipelineOptions, Pose, Prepared, SimilarityError, Stage,
+};
+use crate::transport::{
+    euclidean_transport, parallel_transport, schild_ladder, ParallelOptions, SchildOptions, TransferOptions,
+    TransferSetup, Transferred, Transport, TransportError, TransportMetric,
+};
+
+/// Why a shape-space operation failed; each variant keeps the library error it wraps.
+#[derive(Debug, Error)]
+pub enum SpaceError {
+    /// A shape does not fit the topology (vertex count, non-finite coordinates).
+    #[error("{what}: {error}")]
+    Shape {
+        /// Which argument.
+        what: String,
+        /// What is wrong with it.
+        error: MeshError,
+    },
+    /// A bad option or an empty input.
+    #[error("{0}")]
+    Input(String),
+    /// A geodesic could not be set up or solved.
+    #[error(transparent)]
+    Geodesic(#[from] GeodesicError),
+    /// A transport or transfer failed.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// The temporal interpolation failed.
+    #[error(transparent)]
+    Interpolation(#[from] InterpolationError),
+    /// The similarity pipeline failed.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// A pairwise computation failed (or was cancelled).
+    #[error(transparent)]
+    Similarity(#[from] SimilarityError),
+    /// The distance matrix could not be formed.
+    #[error(transparent)]
+    Matrix(#[from] MatrixError),
+    /// The intrinsic k-means failed.
+    #[error(transparent)]
+    Intrinsic(#[from] IntrinsicError),
+}
+
+/// The ends `(start, end)` of a curve, each #V x 3 (they fix the frozen weights of an inner
+/// product, [`ShapeSpace::inner`]).
+pub type CurveEnds<'a> = (&'a [[f64; 3]], &'a [[f64; 3]]);
+
+/// The similarity matrix of a data set and everything the pipeline computed on the way.
+#[derive(Debug, Clone)]
+pub struct SimilarityResult {
+    /// Interpolated and transferred deformations ([`prepare`]).
+    pub prepared: Prepared,
+    /// Every pair `i < j` in row order, with its per-pose distances.
+    pub pairs: Vec<PairDistance>,
+    /// The symmetric n x n matrix of eq. 13 (normalized units: coordinates divided by the mean
+    /// edge length of the base pose).
+    pub matrix: DistanceMatrix,
+}
+
+/// A shape space on one topology with one metric (paper section 2; see the [module docs](self)).
+/// Cheap to clone (shared `Arc`s) and `Send + Sync`.
+#[derive(Debug, Clone)]
+pub struct ShapeSpace {
+    topology: Arc<Topology>,
+    spec: MetricSpec,
+    metric: Arc<dyn Metric>,
+    pattern: Arc<Pattern>,
+    transport: Arc<TransportMetric>,
+    geodesic: GeodesicOptions,
+    normalization: Normalization,
+}
+
+impl ShapeSpace {
+    /// The shape space of `topology` (F, #F x 3) with the metric `spec` (`G + lambda L2`,
+    /// eqs. 1-11) and the geodesic options (eq. 12). Errors on a negative or NaN `lambda` and on
+    /// options the geodesic solver rejects (no steps, negative tolerances).
+    pub fn new(
+        topology: Arc<Topology>,
+        spec: MetricSpec,
+        geodesic: GeodesicOptions,
+    ) -> Result<Self, SpaceError> {
+        if !(spec.lambda >= 0.0 && spec.lambda.is_finite()) {
+            return Err(SpaceError::Input(format!(
+                "lambda must be a non-negative number, got {}",
+                spec.lambda
+            )));
+        }
+        let metric: Arc<dyn Metric> = Arc::from(spec.build());
+        // Validates the options once, as every call will.
+        GeodesicSolver::new(metric.as_ref(), topology.clone(), geodesic.clone())?;
+        Ok(ShapeSpace {
+            pattern: Arc::new(metric.pattern(&topology)),
+            transport: Arc::new(TransportMetric::new(&spec, topology.clone())),
+            topology,
+            spec,
+            metric,
+            geodesic,
+            normalization: Normalization::MeanEdgeOfFirst,
+        })
+    }
+
+    /// The same space with another normalization.
+    pub fn with_normalization(mut self, normalization: Normalization) -> Self {
+        self.normalization = normalization;
+        self
+    }
+
+    /// The same space with one fixed factor for every call: 1 / the mean edge length of
+    /// `reference` (#V x 3). Errors if `reference` does not fit the topology.
+    pub fn normalized_to(self, reference: &[[f64; 3]]) -> Result<Self, SpaceError> {
+        self.shape("the reference", reference)?;
+        let f = self.factor(reference)?;
+        Ok(self.with_normalization(Normalization::Factor(f)))
+    }
+
+    /// The same space with other geodesic options (checked as in [`ShapeSpace::new`]).
+    pub fn with_geodesic(mut self, geodesic: GeodesicOptions) -> Result<Self, SpaceError> {
+        GeodesicSolver::new(self.metric.as_ref(), self.topology.clone(), geodesic.clone())?;
+        self.geodesic = geodesic;
+        Ok(self)
+    }
+
+    /// The topology (#V vertices, #F faces).
+    pub fn topology(&self) -> &Arc<Topology> {
+        &self.topology
+    }
+
+    /// The metric specification.
+    pub fn spec(&self) -> &MetricSpec {
+        &self.spec
+    }
+
+    /// The metric.
+    pub fn metric(&self) -> &dyn Metric {
+        self.metric.as_ref()
+    }
+
+    /// The geodesic options (`steps` = N segments of every geodesic).
+    pub fn geodesic_options(&self) -> &GeodesicOptions {
+        &self.geodesic
+    }
+
+    /// The normalization of coordinates before solving.
+    pub fn normalization(&self) -> Normalization {
+        self.normalization
+    }
+
+    /// The factor coordinates are multiplied by in a call whose first shape is `first`.
+    pub fn factor(&self, first: &[[f64; 3]]) -> Result<f64, SpaceError> {
+        let f = normalization_factor(self.normalization, &self.topology, first);
+        if f.is_finite() && f > 0.0 {
+            Ok(f)
+        } else {
+            Err(SpaceError::Input(format!(
+                "normalization factor {f} is not positive"
+            )))
+        }
+    }
+
+    /// A reusable geodesic solver of the space with `steps` segments (its symbolic factorization
+    /// is built once; use it for many pairs of already scaled poses).
+    pub fn solver(&self, steps: usize) -> Result<GeodesicSolver<'_>, SpaceError> {
+        let opts = GeodesicOptions {
+            steps,
+            ..self.geodesic.clone()
+        };
+        Ok(GeodesicSolver::new(
+            self.metric.as_ref(),
+            self.topology.clone(),
+            opts,
+        )?)
+    }
+
+    /// The pipeline options of this space: its metric and geodesic options, every other field
+    /// from `template` (e.g. [`PipelineOptions::default`] with `insert` set).
+    pub fn pipeline_options(&self, template: PipelineOptions) -> PipelineOptions {
+        PipelineOptions {
+            metric: self.spec,
+            geodesic: self.geodesic.clone(),
+            ..template
+        }
+    }
+
+    /// `G_M(X) = <<X, X>>_M`, the metric's squared norm of the tangent vector `v` (#V x 3) at
+    /// `base` = M (#V x 3): the first term of eq. 12 for the segment from `M` to `M + X`, with
+    /// the weights that segment freezes (quasi-conformal endpoint weights, L2 areas). Normalized
+    /// units squared.
+    pub fn squared_norm(&self, base: &[[f64; 3]], v: &[[f64; 3]]) -> Result<f64, SpaceError> {
+        self.shape("the base", base)?;
+        self.vector("the tangent vector", v)?;
+        let f = self.factor(base)?;
+        let a = scaled(base, f);
+        let b: Vec<[f64; 3]> = a
+            .iter()
+            .zip(v)
+            .map(|(p, d)| [0, 1, 2].map(|c| p[c] + f * d[c]))
+            .collect();
+        let frozen = self.metric.frozen_weights(&self.topology, &a, &b);
+        let seg = Segment {
+            a: &a,
+            b: &b,
+            at: At::Start,
+            aux: &[],
+            frozen: frozen.as_deref(),
+        };
+        Ok(self.metric.squared_norm(&self.topology, &self.pattern, &seg))
+    }
+
+    /// The inner product `<<u, v>>_M` at `base` = M (each #V x 3): the polarization of the
+    /// transport metric (the quadratic companion of the metric, [`TransportMetric`]), with the
+    /// weights frozen by the curve `ends` = (start, end) (default: the constant curve at `base`,
+    /// on which the quasi-conformal curvature change vanishes). `inner(M, v, v, (M, M + v))`
+    /// equals [`ShapeSpace::squared_norm`]`(M, v)` for the quadratic forms. Normalized units
+    /// squared.
+    pub fn inner(
+        &self,
+        base: &[[f64; 3]],
+        u: &[[f64; 3]],
+        v: &[[f64; 3]],
+        ends: Option<CurveEnds<'_>>,
+    ) -> Result<f64, SpaceError> {
+        self.shape("the base", base)?;
+        self.vector("u", u)?;
+        self.vector("v", v)?;
+        let f = self.factor(base)?;
+        let (s, e) = ends.unwrap_or((base, base));
+        self.shape("the curve's start", s)?;
+        self.shape("the curve's end", e)?;
+        let frozen = self.transport.frozen_weights(&scaled(s, f), &scaled(e, f));
+        let g = self.transport.at(&scaled(base, f), frozen.as_deref())?;
+        Ok(g.inner(&scaled(u, f), &scaled(v, f)))
+    }
+
+    /// The discrete geodesic from `a` to `b` (each #V x 3) with `N` = `steps` segments (eq.
+    /// 12): poses `(N + 1) x #V x 3` in input units (ends bit-exact), length = `dis(a, b)`,
+    /// energy, iterations, convergence ([`path::geodesic`]).
+    pub fn geodesic(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Geodesic, SpaceError> {
+        let (sa, sb) = (
+            self.shape("the first shape", a)?,
+            self.shape("the second shape", b)?,
+        );
+        let norm = Normalization::Factor(self.factor(a)?);
+        Ok(path::geodesic(
+            self.metric.as_ref(),
+            &sa,
+            &sb,
+            &self.geodesic,
+            norm,
+        )?)
+    }
+
+    /// `dis(a, b)`: the length of the discrete geodesic (eq. 12, `L = sum_i sqrt((G_{P_i}(X_i) +
+    /// G_{P_{i+1}}(X_i)) / 2)`), normalized units; exactly 0 for identical shapes (no solve,
+    /// as in [`crate::similarity::pose_distances`]).
+    pub fn dist(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<f64, SpaceError> {
+        if a == b {
+            self.shape("the first shape", a)?;
+            return Ok(0.0);
+        }
+        Ok(self.geodesic(a, b)?.length)
+    }
+
+    /// The discrete log map `log_M(P) = N (P_1 - M)` (#V x 3, input units), `P_1` the first
+    /// interior pose of the geodesic from `base` = M to `p` ([`log_map`]), and `dis(M, P)`
+    /// (normalized units).
+    pub fn log(&self, base: &[[f64; 3]], p: &[[f64; 3]]) -> Result<(Pose, f64), SpaceError> {
+        self.shape("the base", base)?;
+        self.shape("the shape", p)?;
+        let f = self.factor(base)?;
+        let solver = self.solver(self.geodesic.steps)?;
+        let (log, d) = log_map(&solver, &scaled(base, f), &scaled(p, f))?;
+        Ok((scaled(&log, 1.0 / f), d))
+    }
+
+    /// Transports the tangent vector `v` (#V x 3, at `curve[0]`) along the samples of `curve`
+    /// (each #V x 3; e.g. a geodesic's poses) to its last sample (input units): the paper's
+    /// discrete parallel transport (section 2.2.2, [`parallel_transport`]), Schild's ladder
+    /// ([`schild_ladder`]) or the Euclidean baseline (`v` unchanged).
+    pub fn transport(&self, curve: &[Pose], v: &[[f64; 3]], method: Transport) -> Result<Pose, SpaceError> {
+        let Some(first) = curve.first() else {
+            return Err(SpaceError::Input("the curve has no samples".into()));
+        };
+        for (j, s) in curve.iter().enumerate() {
+            self.shape(&format!("curve sample {j}"), s)?;
+        }
+        self.vector("the vector", v)?;
+        if method == Transport::Euclidean {
+            // No scale needed: the vector comes back bit for bit.
+            return Ok(euclidean_transport(curve, v).vector);
+        }
+        let f = self.factor(first)?;
+        let c: Vec<Pose> = curve.iter().map(|s| scaled(s, f)).collect();
+        let w = scaled(v, f);
+        let out = if method == Transport::Parallel {
+            parallel_transport(&self.transport, &c, &w, &ParallelOptions::default())?.vector
+        } else {
+            schild_ladder(&self.solver(2)?, &c, &w, &SchildOptions::default())?.vector
+        };
+        Ok(scaled(&out, 1.0 / f))
+    }
+
+    /// The Karcher mean of `poses` (each #V x 3), started from `init` (default the first pose):
+    /// `mu <- mu + step mean_k log_mu(P_k)` ([`karcher_mean`], METHOD.md). The mean is in input
+    /// units, the variance `sum_k dis(mu, P_k)^2` in normalized units squared.
+    pub fn karcher_mean(
+        &self,
+        poses: &[Pose],
+        init: Option<&[[f64; 3]]>,
+        opts: &KarcherOptions,
+    ) -> Result<KarcherMean, SpaceError> {
+        let Some(first) = poses.first() else {
+            return Err(SpaceError::Input(
+                "the Karcher mean needs at least one pose".into(),
+            ));
+        };
+        for (k, p) in poses.iter().enumerate() {
+            self.shape(&format!("pose {k}"), p)?;
+        }
+        let init = init.unwrap_or(first);
+        self.shape("the start", init)?;
+        let f = self.factor(first)?;
+        let s: Vec<Pose> = poses.iter().map(|p| scaled(p, f)).collect();
+        let refs: Vec<&[[f64; 3]]> = s.iter().map(Vec::as_slice).collect();
+        let mut m = karcher_mean(&self.solver(self.geodesic.steps)?, &refs, &scaled(init, f), opts)?;
+        m.mean = scaled(&m.mean, 1.0 / f);
+        Ok(m)
+    }
+
+    /// Temporal interpolation (section 2.2.1): `insert` poses between each pair of consecutive
+    /// key poses `poses` (K + 1, each #V x 3), on `levels` spatial levels (1 = none), all pairs
+    /// in the factor of the first pose ([`Interpolator::interpolate_sequence`]). Returns
+    /// `K (insert + 1) + 1` poses in input units. `progress` is called once per finished pair.
+    pub fn interpolate(
+        &self,
+        poses: &[Pose],
+        insert: usize,
+        levels: usize,
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<Interpolated, SpaceError> {
+        let Some(first) = poses.first() else {
+            return Err(SpaceError::Input("the sequence has no poses".into()));
+        };
+        for (k, p) in poses.iter().enumerate() {
+            self.shape(&format!("pose {k}"), p)?;
+        }
+        let opts = InterpolationOptions {
+            insert,
+            levels,
+            geodesic: self.geodesic.clone(),
+            normalization: Normalization::Factor(self.factor(first)?),
+            ..Default::default()
+        };
+        let interp = Interpolator::new(self.metric.as_ref(), &self.topology, first, opts)?;
+        Ok(interp.interpolate_sequence(poses, progress)?)
+    }
+
+    /// Deformation transfer (section 2.2.2): carries `poses` = `M_0 .. M_K` (each #V x 3) to
+    /// `base` = `N_0`, returning `N_0 .. N_K` (input units; `N_0` bit-exact) with per-segment
+    /// diagnostics ([`TransferSetup`], [`crate::transport::Transfer::run`]), in the factor of `base`.
+    pub fn transfer(
+        &self,
+        poses: &[Pose],
+        base: &[[f64; 3]],
+        method: Transport,
+    ) -> Result<Transferred, SpaceError> {
+        self.shape("the base", base)?;
+        let opts = TransferOptions {
+            geodesic: self.geodesic.clone(),
+            normalization: Normalization::Factor(self.factor(base)?),
+            ..Default::default()
+        };
+        let setup = TransferSetup::new(&self.spec, self.topology.clone(), opts)?;
+        Ok(setup.solver()?.run(poses, base, method)?)
+    }
+
+    /// The n x n matrix (row-major, zero diagonal) of `dis(P_i, P_j)` between the shapes
+    /// `poses` (each #V x 3), pairs in parallel on the current rayon pool, all in the factor of
+    /// the first shape. `cancel`, when set, stops between pairs.
+    pub fn pairwise_distances(
+        &self,
+        poses: &[Pose],
+        cancel: Option<&AtomicBool>,
+    ) -> Result<Vec<f64>, SpaceError> {
+        let singles: Vec<Vec<Pose>> = poses.iter().map(|p| vec![p.clone()]).collect();
+        self.similarity(&singles, cancel, &|_| {})
+    }
+
+    /// Eq. 13 for deformations already at one common base: the n x n matrix (row-major) of
+    /// `similarity(M, N) = sum_k dis(M_k, N_k)` of `deformations` (n x #poses x #V x 3, one pose
+    /// count), all in the factor of the first pose of the first deformation ([`compute_pairs`]).
+    /// `on_pair` sees each finished pair (from worker threads).
+    pub fn similarity(
+        &self,
+        deformations: &[Vec<Pose>],
+        cancel: Option<&AtomicBool>,
+        on_pair: &(dyn Fn(&PairDistance) + Sync),
+    ) -> Result<Vec<f64>, SpaceError> {
+        let Some(first) = deformations.first().and_then(|d| d.first()) else {
+            return Ok(vec![0.0; 0]);
+        };
+        for (i, d) in deformations.iter().enumerate() {
+            for (k, p) in d.iter().enumerate() {
+                self.shape(&format!("deformation {i}, pose {k}"), p)?;
+            }
+        }
+        let f = self.factor(first)?;
+        let s: Vec<Vec<Pose>> = deformations
+            .iter()
+            .map(|d| d.iter().map(|p| scaled(p, f)).collect())
+            .collect();
+        let names: Vec<String> = (0..s.len()).map(|i| i.to_string()).collect();
+        let solver = self.solver(self.geodesic.steps)?;
+        let pairs = compute_pairs(&solver, &names, &s, &HashSet::new(), cancel, |p| {
+            on_pair(p);
+            Ok(())
+        })?;
+        Ok(assemble(s.len(), &pairs))
+    }
+
+    /// The whole pipeline of the paper (Fig. 1, eq. 13) on raw deformations, as `qcshape
+    /// similarity` runs it: [`prepare`] (interpolation, transfer to the first pose of
+    /// `template.base`) then [`similarities`], with this space's metric and geodesic options and
+    /// every other option from `template`. The normalization is the pipeline's (mean edge of the
+    /// base pose), not the space's. `progress(stage, name)` is called per deformation and stage
+    /// and per pair; `cancel` stops between pairs.
+    pub fn similarity_matrix(
+        &self,
+        deformations: &[Deformation],
+        template: PipelineOptions,
+        progress: &(dyn Fn(Stage, &str) + Sync),
+        cancel: Option<&AtomicBool>,
+    ) -> Result<SimilarityResult, SpaceError> {
+        let opts = self.pipeline_options(template);
+        let prepared = prepare(deformations, &opts, progress)?;
+        let mut pairs = similarities(&prepared, &opts, &HashSet::new(), cancel, |p| {
+            progress(Stage::Similarity, &prepared.names[p.i]);
+            Ok(())
+        })?;
+        pairs.sort_by_key(|p| (p.i, p.j));
+        let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(prepared.names.len(), &pairs))?;
+        Ok(SimilarityResult {
+            prepared,
+            pairs,
+            matrix,
+        })
+    }
+
+    /// k-means with intrinsic means (eq. 14) of prepared deformations, started from the
+    /// partition `start` (n values in 0..k, e.g. kernel k-means of their matrix):
+    /// [`intrinsic_kmeans`] on [`Prepared::scaled`] with this space's metric.
+    pub fn intrinsic_kmeans(
+        &self,
+        prepared: &Prepared,
+        start: &[usize],
+        k: usize,
+        opts: &IntrinsicOptions,
+    ) -> Result<IntrinsicClustering, SpaceError> {
+        let solver = self.solver(self.geodesic.steps)?;
+        Ok(intrinsic_kmeans(&solver, &prepared.scaled(), start, k, opts)?)
+    }
+
+    fn shape(&self, what: &str, p: &[[f64; 3]]) -> Result<Shape, SpaceError> {
+        Shape::new(self.topology.clone(), p.to_vec()).map_err(|error| SpaceError::Shape {
+            what: what.to_string(),
+            error,
+        })
+    }
+
+    fn vector(&self, what: &str, v: &[[f64; 3]]) -> Result<(), SpaceError> {
+        self.shape(what, v).map(|_| ())
+    }
+}
+
+/// `p` with every coordinate multiplied by `f`.
+fn scaled(p: &[[f64; 3]], f: f64) -> Pose {
+    p.iter().map(|v| v.map(|c| c * f)).collect()
+}
+
+#[cfg(test)]
+mod tests;
