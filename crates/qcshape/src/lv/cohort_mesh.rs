@@ -1,54 +1,53 @@
-//! A cohort's deformations on one connectivity: register every subject (landmark splines
-//! frame 0 -> frame k), mesh the first subject's frame 0 (the template), carry the template to
-//! every subject's frame 0 and then to every frame.
+//! A cohort's deformations on one connectivity (section 4.2 steps 1-3 for a whole cohort):
+//! register every subject (landmark splines frame 0 -> frame k), mesh the first subject's
+//! frame 0 (the template), carry the template to every subject's frame 0 (landmark spline
+//! between the subjects, projected on the subject's own surface) and then to every frame.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
-use qcshape::dataset::{write_manifest, Deformation, ManifestRow, MANIFEST_NAME};
-use qcshape::lv::analysis::{carry_template, Axis};
-use qcshape::lv::cohort::{
-    read_frame0, read_subject_landmarks, subjects, Registration, LABELS_NAME, LANDMARKS_NAME,
+use super::analysis::{carry_template, Axis};
+use super::cohort::{
+    read_frame0, read_subject_landmarks, subjects, LvError, Registration, LABELS_NAME, LANDMARKS_NAME,
 };
-use qcshape::lv::freewall::{free_wall, LvAxis, SectorOptions};
-use qcshape::lv::landmarks::{Landmarks, APEX, BASE_CENTRE, SEPTUM};
-use qcshape::lv::meshing::{extract_surface, SurfaceOptions};
-use qcshape::lv::LvError;
-use qcshape::mesh::Topology;
-
-use crate::similarity::bar;
+use super::freewall::{free_wall, LvAxis, SectorOptions};
+use super::landmarks::{Landmarks, APEX, BASE_CENTRE, SEPTUM};
+use super::meshing::{extract_surface, SurfaceOptions};
+use super::study::{Progress, StudyError, Tick};
+use crate::dataset::{write_manifest, Deformation, ManifestRow, MANIFEST_NAME};
+use crate::mesh::Topology;
 
 /// How the surfaces are made.
-#[derive(Debug, Clone)]
-pub(crate) struct MeshSettings {
-    /// Cavity threshold (None: Otsu per subject).
-    pub(crate) threshold: Option<f64>,
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSettings {
+    /// Cavity threshold in image units (None: upper two-level Otsu threshold per subject).
+    pub threshold: Option<f64>,
     /// Taubin smoothing iterations.
-    pub(crate) smooth: usize,
+    pub smooth: usize,
     /// Vertex target of the template's whole surface (0: no decimation).
-    pub(crate) vertices: usize,
+    pub vertices: usize,
     /// Keep the free wall only.
-    pub(crate) free_wall: bool,
+    pub free_wall: bool,
 }
 
 /// The meshed cohort.
-pub(crate) struct Cohort {
-    /// One deformation per subject (key frames), all on one topology.
-    pub(crate) defs: Vec<Deformation>,
+#[derive(Debug, Clone)]
+pub struct MeshedCohort {
+    /// One deformation per subject (key frames, #V x 3 each, mm), all on one topology.
+    pub defs: Vec<Deformation>,
     /// Each subject's long axis (frame-0 apex and base-centre landmarks).
-    pub(crate) axes: Vec<Axis>,
+    pub axes: Vec<Axis>,
     /// Seconds of registration and meshing per subject.
-    pub(crate) seconds: Vec<f64>,
+    pub seconds: Vec<f64>,
     /// Subjects (other than the template) whose frame 0 was projected on their own surface.
-    pub(crate) snapped: usize,
+    pub snapped: usize,
     /// Vertices of the template's whole surface.
-    pub(crate) whole_vertices: usize,
+    pub whole_vertices: usize,
 }
 
 /// Whether `dir` is a cohort folder (labels.csv, or sub-folders with landmarks.csv).
-pub(crate) fn is_cohort(dir: &Path) -> bool {
+pub fn is_cohort(dir: &Path) -> bool {
     if !dir.is_dir() {
         return false;
     }
@@ -62,20 +61,39 @@ pub(crate) fn is_cohort(dir: &Path) -> bool {
     })
 }
 
-fn landmark(lm: &Landmarks, id: u32, path: &Path) -> Result<[f64; 3]> {
-    lm.get(0, id).with_context(|| {
-        format!(
+fn landmark(lm: &Landmarks, id: u32, path: &Path) -> Result<[f64; 3], StudyError> {
+    lm.get(0, id).ok_or_else(|| {
+        StudyError::Input(format!(
             "{}: landmark {id} is missing in frame 0 (needed for the long axis)",
             path.display()
-        )
+        ))
     })
 }
 
-/// Registers and meshes every subject of the cohort `dir` with `n` landmarks.
-pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Cohort> {
+fn subset(lm: &Landmarks, n: usize, path: &Path) -> Result<Landmarks, StudyError> {
+    lm.first(n).ok_or_else(|| {
+        StudyError::Input(format!(
+            "{}: has {} landmarks per frame, fewer than the {n} asked for",
+            path.display(),
+            lm.ids.len()
+        ))
+    })
+}
+
+/// Registers and meshes every subject of the cohort `dir` with its first `n` landmarks.
+/// `progress` ticks once per subject.
+pub fn mesh_cohort(
+    dir: &Path,
+    n: usize,
+    s: &MeshSettings,
+    progress: Progress<'_>,
+) -> Result<MeshedCohort, StudyError> {
     let subs = subjects(dir)?;
     if subs.len() < 2 {
-        bail!("{}: a cohort needs at least two subjects", dir.display());
+        return Err(StudyError::Input(format!(
+            "{}: a cohort needs at least two subjects",
+            dir.display()
+        )));
     }
     let surface_opts = |target: Option<usize>, relax: usize| SurfaceOptions {
         threshold: s.threshold,
@@ -89,13 +107,7 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
     let template = extract_surface(&vol, &surface_opts((s.vertices > 0).then_some(s.vertices), 5))
         .map_err(|error| LvError::Surface { path: file, error })?;
     let (lm0, lm0_path) = read_subject_landmarks(&subs[0].path)?;
-    let lm0 = lm0.first(n).with_context(|| {
-        format!(
-            "{}: has {} landmarks per frame, fewer than the {n} asked for",
-            lm0_path.display(),
-            lm0.ids.len()
-        )
-    })?;
+    let lm0 = subset(&lm0, n, &lm0_path)?;
     let whole_topo = template.shape.topology.clone();
     let (topo, keep): (Arc<Topology>, Option<Vec<u32>>) = if s.free_wall {
         let axis = LvAxis::new(
@@ -103,22 +115,25 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
             landmark(&lm0, BASE_CENTRE, &lm0_path)?,
             landmark(&lm0, SEPTUM, &lm0_path)?,
         )
-        .with_context(|| format!("{}: long axis", lm0_path.display()))?;
+        .map_err(|e| StudyError::Input(format!("{}: long axis: {e}", lm0_path.display())))?;
         let sub = free_wall(
             &whole_topo,
             &template.shape.positions,
             &axis,
             &SectorOptions::default(),
         )
-        .with_context(|| format!("{}: free wall", subs[0].path.display()))?;
+        .map_err(|error| LvError::FreeWall {
+            path: subs[0].path.clone(),
+            error,
+        })?;
         (sub.topology.clone(), Some(sub.vertices.clone()))
     } else {
         (whole_topo.clone(), None)
     };
     let template_seconds = t0.elapsed().as_secs_f64();
 
-    let pb = bar(subs.len(), &format!("meshing (n={n})"));
-    let mut out = Cohort {
+    let what = format!("meshing (n={n})");
+    let mut out = MeshedCohort {
         defs: Vec::new(),
         axes: Vec::new(),
         seconds: Vec::new(),
@@ -129,15 +144,15 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
         let t = Instant::now();
         let (lm, lm_path) = read_subject_landmarks(&sub.path)?;
         let reg = Registration::fit(&lm, n, 0.0, &lm_path)?;
-        let first = lm.first(n).context("landmark subset")?;
+        let first = subset(&lm, n, &lm_path)?;
         if first.ids != lm0.ids {
-            bail!(
+            return Err(StudyError::Input(format!(
                 "{}: landmark ids {:?} differ from those of {} ({:?}): subjects cannot be matched",
                 lm_path.display(),
                 first.ids,
                 subs[0].name,
                 lm0.ids
-            );
+            )));
         }
         let frame0 = if i == 0 {
             template.shape.positions.clone()
@@ -153,7 +168,10 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
                 0.0,
                 Some((&own.shape.positions, own.shape.topology.faces())),
             )
-            .with_context(|| format!("subject '{}'", sub.name))?;
+            .map_err(|error| StudyError::Subject {
+                subject: sub.name.clone(),
+                error,
+            })?;
             out.snapped += usize::from(snapped);
             p
         };
@@ -170,7 +188,7 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
                 landmark(&lm, APEX, &lm_path)?,
                 landmark(&lm, BASE_CENTRE, &lm_path)?,
             )
-            .with_context(|| lm_path.display().to_string())?,
+            .map_err(|e| StudyError::Input(format!("{}: {e}", lm_path.display())))?,
         );
         out.defs.push(Deformation {
             name: sub.name.clone(),
@@ -182,22 +200,28 @@ pub(crate) fn mesh_cohort(dir: &Path, n: usize, s: &MeshSettings) -> Result<Coho
         });
         out.seconds
             .push(t.elapsed().as_secs_f64() + if i == 0 { template_seconds } else { 0.0 });
-        pb.inc(1);
+        progress(Tick {
+            what: &what,
+            total: subs.len(),
+        });
     }
-    pb.finish_and_clear();
+    progress(Tick::DONE);
     Ok(out)
 }
 
 /// Writes OUT/<subject>/poseNN.ply and OUT/manifest.csv (a data set for `lv run` or
-/// `similarity`).
-pub(crate) fn write_meshes(out: &Path, defs: &[Deformation]) -> Result<PathBuf> {
+/// `similarity`); returns the manifest's path.
+pub fn write_meshes(out: &Path, defs: &[Deformation]) -> Result<PathBuf, StudyError> {
     let mut rows = Vec::new();
     for d in defs {
         let dir = out.join(&d.name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(&dir).map_err(|source| StudyError::CreateDir {
+            path: dir.clone(),
+            source,
+        })?;
         for (k, p) in d.poses.iter().enumerate() {
             let name = format!("pose{k:02}.ply");
-            qcshape::io::write_mesh(&dir.join(&name), p, d.topology.faces(), &Default::default())?;
+            crate::io::write_mesh(&dir.join(&name), p, d.topology.faces(), &Default::default())?;
             rows.push(ManifestRow {
                 deformation: d.name.clone(),
                 label: d.label.clone(),
