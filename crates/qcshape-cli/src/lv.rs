@@ -14,7 +14,7 @@ use qcshape::lv::cohort::{
 use qcshape::lv::freewall::{free_wall, LvAxis, SectorOptions};
 use qcshape::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
 use qcshape::lv::meshing::{extract_surface, SurfaceOptions};
-use qcshape::lv::phantom::{roster, subject, PhantomOptions};
+use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM};
 use qcshape::lv::LvError;
 
 /// Arguments of `qcshape lv`.
@@ -74,9 +74,13 @@ struct PhantomArgs {
     four_d: bool,
     /// The harder cohort: overlapping parameter ranges between controls and HCM, a random
     /// rigid pose per subject (long axis tilted up to 25 degrees, any spin, centre moved up to
-    /// 5 mm) and Gaussian landmark noise of 1 mm (sources in the library's lv::phantom docs).
+    /// 5 mm) and landmark noise (sources in the library's lv::phantom docs).
     #[arg(long)]
     overlap: bool,
+    /// Standard deviation (mm) of the Gaussian noise on every landmark coordinate of every
+    /// frame (default: 1 with --overlap, else 0).
+    #[arg(long)]
+    landmark_noise: Option<f64>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -165,7 +169,13 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
         noise_hu: a.noise,
         seed: a.seed,
         overlap: a.overlap,
+        landmark_noise_mm: a
+            .landmark_noise
+            .unwrap_or(if a.overlap { OVERLAP_LANDMARK_NOISE_MM } else { 0.0 }),
     };
+    if !(opts.landmark_noise_mm.is_finite() && opts.landmark_noise_mm >= 0.0) {
+        bail!("--landmark-noise {} must be a non-negative number", opts.landmark_noise_mm);
+    }
     let names = roster(a.controls, a.hcm, a.seed);
     let bar = progress(names.len());
     let mut summary = String::from(
@@ -204,7 +214,7 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
         names.len(),
         a.controls,
         a.hcm,
-        if a.overlap { ", overlapping ranges, random poses, landmark noise" } else { "" },
+        if a.overlap { ", overlapping ranges, random poses" } else { "" },
         a.frames,
         a.size,
         a.out.display()

@@ -74,7 +74,7 @@ pub struct RunArgs {
     /// (eq. 14 with Karcher means, slow).
     #[arg(long, default_value = "kmeans")]
     pub(crate) cluster: ClusterMethod,
-    /// Clustering methods also reported, on the similarity and the baselines (empty: none).
+    /// Clustering methods also reported, on the similarity and the baselines (comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "kmeans,kmedoids,spectral,mds-kmeans:2,mds-kmeans:3")]
     pub(crate) compare: Vec<ClusterMethod>,
     /// Alignment of every subject to the base before transfer: rigid (Horn's method on frame

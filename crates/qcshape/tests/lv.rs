@@ -524,6 +524,7 @@ fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
         frames: 4,
         seed: 3,
         overlap: true,
+        landmark_noise_mm: qcshape::lv::phantom::OVERLAP_LANDMARK_NOISE_MM,
         ..Default::default()
     };
     let a = subject("s", Group::Hcm, 2, &opts);
@@ -533,6 +534,9 @@ fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
     assert_eq!(a.model, b.model);
     let plain = subject("s", Group::Hcm, 2, &PhantomOptions { overlap: false, ..opts.clone() });
     assert_ne!(plain.model, a.model);
+    let exact_lm = subject("s", Group::Hcm, 2, &PhantomOptions { landmark_noise_mm: 0.0, ..opts.clone() });
+    assert_eq!(exact_lm.model, a.model);
+    assert_ne!(exact_lm.landmarks, a.landmarks);
     // Landmark noise: about 1 mm per coordinate around the model's landmarks.
     let exact: Vec<Vec<[f64; 3]>> = (0..4)
         .map(|t| qcshape::lv::anatomy::landmarks(&a.model, t as f64))
