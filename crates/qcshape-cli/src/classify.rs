@@ -13,7 +13,7 @@ use qcshape::eval::{
 use qcshape::io::write_atomically;
 use qcshape::path::GeodesicOptions;
 use qcshape::similarity::{read_labels, DistanceMatrix, PipelineOptions};
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::MetricArgs;
 use crate::reproduce::classify_set;
@@ -49,6 +49,11 @@ pub struct Args {
     /// Data set input only: transport to the common base (euclidean, parallel or schild).
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Number of clusters.
     #[arg(long)]
     k: usize,
@@ -212,6 +217,7 @@ pub fn run(args: &Args) -> Result<()> {
             insert: args.insert,
             levels: 1,
             transport: args.transport,
+            align: args.align,
             base: 0,
         };
         let r = classify_set(

@@ -27,6 +27,7 @@ enum Experiment {
     Interpolation(InterpolationArgs),
     Transfer(super::experiment_transfer::Args),
     Noise(super::experiment_noise::Args),
+    Robustness(super::experiment_robustness::Args),
 }
 
 /// Runs the chosen experiment.
@@ -35,6 +36,7 @@ pub fn run(args: &Args) -> Result<()> {
         Experiment::Interpolation(a) => run_interpolation(a),
         Experiment::Transfer(a) => super::experiment_transfer::run(a),
         Experiment::Noise(a) => super::experiment_noise::run(a),
+        Experiment::Robustness(a) => super::experiment_robustness::run_command(a),
     }
 }
 

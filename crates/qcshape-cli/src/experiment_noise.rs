@@ -10,7 +10,7 @@ use qcshape::dataset::{Dataset, Deformation};
 use qcshape::path::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::MetricArgs;
 use crate::reproduce::{classify_set, noisy_set};
@@ -51,6 +51,11 @@ pub struct Args {
     /// Transport to the common base: euclidean (the measured best), parallel or schild.
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Number of classes (default: the number of distinct labels).
     #[arg(long)]
     k: Option<usize>,
@@ -105,6 +110,7 @@ pub fn run(args: &Args) -> Result<()> {
         insert: args.insert,
         levels: 1,
         transport: args.transport,
+        align: args.align,
         base: 0,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;

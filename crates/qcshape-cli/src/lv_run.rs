@@ -16,6 +16,7 @@ use qcshape::dataset::{load_sequence, mesh_files, Deformation};
 use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
 use qcshape::lv::study_report::cycle_report;
 use qcshape::path::GeodesicOptions;
+use qcshape::transport::Alignment;
 
 use crate::args::{in_pool, MetricArgs};
 use progress::Bars;
@@ -77,10 +78,11 @@ pub struct RunArgs {
     /// Clustering methods also reported, on the similarity and the baselines (comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "kmeans,kmedoids,spectral,mds-kmeans:2,mds-kmeans:3")]
     pub(crate) compare: Vec<ClusterMethod>,
-    /// Alignment of every subject to the base before transfer: rigid (Horn's method on frame
-    /// 0, the same motion on every frame) or none (the paper).
-    #[arg(long, default_value = "rigid", value_parser = ["rigid", "none"])]
-    pub(crate) align: String,
+    /// Placement of every subject on the base before transfer: rigid (area-weighted
+    /// Procrustes of its frame 0 onto the base's, the same motion on every frame), similarity
+    /// (also a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    pub(crate) align: Alignment,
     /// Clustering restarts.
     #[arg(long, default_value_t = 20)]
     pub(crate) restarts: usize,

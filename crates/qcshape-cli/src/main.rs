@@ -14,6 +14,7 @@ mod classify;
 mod embed;
 mod experiment;
 mod experiment_noise;
+mod experiment_robustness;
 mod experiment_transfer;
 mod geodesic;
 mod info;

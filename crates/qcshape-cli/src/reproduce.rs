@@ -17,7 +17,7 @@ use qcshape::similarity::{
     assemble, intrinsic_kmeans, similarities, DistanceMatrix, IntrinsicOptions, PipelineOptions, Prepared,
 };
 use qcshape::synth::{add_noise, genus0_benchmark, write_benchmark, NoiseKind, SynthOptions};
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::in_pool;
 use crate::classify::{score, Scores};
@@ -77,6 +77,11 @@ pub struct Args {
     /// better classification in the measurements, README), parallel (the paper's) or schild.
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Seed of the synthetic amplitudes, k-means and noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -302,6 +307,7 @@ fn options_for(kind: MetricKind, s: &Settings, args: &Args) -> PipelineOptions {
         insert: s.insert,
         levels: 1,
         transport: args.transport,
+        align: args.align,
         base: 0,
     }
 }

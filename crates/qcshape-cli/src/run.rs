@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::embed::{smacof, MdsOptions};
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::classify::{score, write_assignments, write_confusion};
@@ -45,6 +45,11 @@ pub struct Args {
     /// better classification in the measurements, README), parallel (the paper's) or schild.
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -106,6 +111,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.transport,
         args.base.as_deref(),
     )?;
+    let opts = qcshape::similarity::PipelineOptions {
+        align: args.align,
+        ..opts
+    };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
 
     let tp = Instant::now();

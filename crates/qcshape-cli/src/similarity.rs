@@ -11,7 +11,7 @@ use qcshape::similarity::{
     assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PairDistance,
     PipelineOptions, Prepared, Stage,
 };
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 
@@ -48,6 +48,11 @@ pub struct Args {
     /// better classification in the measurements, README), parallel (the paper's) or schild.
     #[arg(long, default_value = "euclidean")]
     transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = "rigid")]
+    align: Alignment,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -105,6 +110,7 @@ pub(crate) fn pipeline_options(
         levels,
         transport,
         base,
+        align: Alignment::default(),
     })
 }
 
@@ -147,6 +153,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.transport,
         args.base.as_deref(),
     )?;
+    let opts = PipelineOptions {
+        align: args.align,
+        ..opts
+    };
     eprintln!(
         "{n} deformations, {} poses each, {} vertices; {}",
         data.deformations[0].poses.len(),

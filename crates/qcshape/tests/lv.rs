@@ -508,7 +508,7 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
 // ---- The harder (overlapping) phantom and the cohort study (section 4.3). ----
 
 use qcshape::cluster::ClusterMethod;
-use qcshape::lv::align::{Align, RigidMotion};
+use qcshape::transport::{Alignment, Motion};
 use qcshape::lv::cohort::{write_labels, write_subject, LABELS_NAME};
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, MeshSettings};
 use qcshape::lv::phantom::{overlap_model, roster, sample_model};
@@ -617,10 +617,11 @@ fn write_cohort(dir: &std::path::Path, controls: usize, hcm: usize, opts: &Phant
     write_labels(&dir.join(LABELS_NAME), &labels).unwrap();
 }
 
-fn rotation_z(angle: f64) -> RigidMotion {
+fn rotation_z(angle: f64) -> Motion {
     let (s, c) = angle.sin_cos();
-    RigidMotion {
+    Motion {
         rotation: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+        scale: 1.0,
         translation: [3.0, -2.0, 1.0],
     }
 }
@@ -663,6 +664,7 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
         levels: 1,
         transport: Transport::Parallel,
         base: 0,
+        align: Alignment::Rigid,
         ..Default::default()
     };
     let split = SplitOptions {
@@ -670,7 +672,7 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
         restarts: 5,
         seed: 0,
     };
-    let main = analyse(&c.defs, &opts, false, Align::Rigid, &split, &progress).unwrap();
+    let main = analyse(&c.defs, &opts, false, &split, &progress).unwrap();
     let n = 4;
     assert_eq!(main.matrix.len(), n);
     for i in 0..n {
@@ -716,13 +718,17 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
     for p in &mut moved[2].poses {
         p.iter_mut().for_each(|v| *v = m.apply(*v));
     }
-    let again = analyse(&moved, &opts, false, Align::Rigid, &split, &progress).unwrap();
+    let again = analyse(&moved, &opts, false, &split, &progress).unwrap();
     let scale = main.matrix.values().iter().cloned().fold(0.0, f64::max);
     for (a, b) in again.matrix.values().iter().zip(main.matrix.values()) {
         assert!((a - b).abs() < 1e-3 * scale, "aligned: {a} vs {b}");
     }
-    let unaligned = analyse(&c.defs, &opts, false, Align::None, &split, &progress).unwrap();
-    let posed = analyse(&moved, &opts, false, Align::None, &split, &progress).unwrap();
+    let none = PipelineOptions {
+        align: Alignment::None,
+        ..opts.clone()
+    };
+    let unaligned = analyse(&c.defs, &none, false, &split, &progress).unwrap();
+    let posed = analyse(&moved, &none, false, &split, &progress).unwrap();
     let worst = posed
         .matrix
         .values()

@@ -6,14 +6,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{load_sequence, Dataset};
-use qcshape::lv::align::Align;
 use qcshape::lv::analysis::Axis;
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
 use qcshape::lv::cycle_map::cycle_map;
 use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::lv::study_report::{run_report, RunSummary};
 use qcshape::similarity::PipelineOptions;
-use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Transport};
 
 use super::progress::Bars;
 use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
@@ -32,11 +31,8 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         levels: 1,
         transport: Transport::Parallel,
         base: 0,
-    };
-    let align = if a.align == "rigid" {
-        Align::Rigid
-    } else {
-        Align::None
+        align: a.align,
+        ..Default::default()
     };
     let split = SplitOptions {
         method: a.cluster,
@@ -120,7 +116,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
     };
     let frames = defs[0].poses.len();
 
-    let main = analyse(&defs, &opts, a.common.open, align, &split, &progress)?;
+    let main = analyse(&defs, &opts, a.common.open, &split, &progress)?;
     eprintln!(
         "{} landmarks: our method sensitivity {:.1} %, specificity {:.1} % ({:.1} s)",
         a.landmarks,
@@ -160,7 +156,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
             }
             let t0 = Instant::now();
             let c = mesh_cohort(&a.dir, n, &mesh, &progress)?;
-            let r = analyse(&c.defs, &opts, a.common.open, align, &split, &progress)?;
+            let r = analyse(&c.defs, &opts, a.common.open, &split, &progress)?;
             let secs = t0.elapsed().as_secs_f64();
             eprintln!(
                 "{n} landmarks: sensitivity {:.1} %, specificity {:.1} % ({secs:.1} s)",
@@ -208,11 +204,13 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         total_seconds: t_all.elapsed().as_secs_f64(),
         mds_subject: defs[idx].name.clone(),
         split: split.sentence(),
-        align: match align {
-            Align::Rigid => "rigid alignment of every subject to the base (Horn's method on frame 0, the \
-                             same motion on all its frames), "
-                .into(),
-            Align::None => String::new(),
+        align: match a.align {
+            Alignment::None => String::new(),
+            m => format!(
+                "{} alignment of every subject to the base (area-weighted Procrustes of its frame 0, the \
+                 same motion on all its frames), ",
+                m.label()
+            ),
         },
     };
     let md = run_report(

@@ -2,4 +2,5 @@
 //! with a report (CSV, Markdown, figures).
 
 pub mod interpolation;
+pub mod robustness;
 pub mod transfer;

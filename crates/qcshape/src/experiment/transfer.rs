@@ -246,64 +246,12 @@ fn distances(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
 }
 
 /// Per-vertex `|R a[i] + t - b[i]|` (#V) for the rotation `R` and translation `t` that best
-/// align `a` onto `b` in least squares (Horn's quaternion method: `R` from the leading
-/// eigenvector of a 4 x 4 symmetric matrix). Falls back to translation only if the
-/// eigensolver fails.
+/// align `a` onto `b` in least squares (equal weights; [`crate::transport::align::best_motion`]).
 fn rigid_residuals(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
-    let n = a.len().max(1) as f64;
-    let centroid =
-        |p: &[[f64; 3]]| geometry::scale(p.iter().fold([0.0; 3], |s, q| geometry::add(s, *q)), 1.0 / n);
-    let (ca, cb) = (centroid(a), centroid(b));
-    let mut m = [[0.0; 3]; 3];
-    for (p, q) in a.iter().zip(b) {
-        let (u, v) = (geometry::sub(*p, ca), geometry::sub(*q, cb));
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] += u[i] * v[j];
-            }
-        }
-    }
-    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = m;
-    let k = [
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ];
-    let rot = faer::Mat::<f64>::from_fn(4, 4, |i, j| k[i][j])
-        .self_adjoint_eigen(faer::Side::Lower)
-        .ok()
-        .and_then(|evd| {
-            // Eigenvalues come in nondecreasing order: the last is the largest.
-            let u = evd.U();
-            let [w, x, y, z] = [0, 1, 2, 3].map(|i| u[(i, 3)]);
-            let r = [
-                [
-                    1.0 - 2.0 * (y * y + z * z),
-                    2.0 * (x * y - w * z),
-                    2.0 * (x * z + w * y),
-                ],
-                [
-                    2.0 * (x * y + w * z),
-                    1.0 - 2.0 * (x * x + z * z),
-                    2.0 * (y * z - w * x),
-                ],
-                [
-                    2.0 * (x * z - w * y),
-                    2.0 * (y * z + w * x),
-                    1.0 - 2.0 * (x * x + y * y),
-                ],
-            ];
-            r.iter().flatten().all(|c| c.is_finite()).then_some(r)
-        })
-        .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    let m = crate::transport::align::best_motion(a, b, &[], false);
     a.iter()
         .zip(b)
-        .map(|(p, q)| {
-            let u = geometry::sub(*p, ca);
-            let ru = rot.map(|row| geometry::dot(row, u));
-            geometry::norm(geometry::sub(ru, geometry::sub(*q, cb)))
-        })
+        .map(|(p, q)| geometry::norm(geometry::sub(m.apply(*p), *q)))
         .collect()
 }
 

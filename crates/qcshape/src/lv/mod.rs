@@ -12,11 +12,10 @@
 //! [`cohort`] holds the folder layout and the per-subject steps.
 //!
 //! The analysis (section 4.3): [`cohort_mesh`] puts a whole cohort on one connectivity,
-//! [`align`] removes each subject's rigid pose, [`study`] runs the classification (Tables 4
-//! and 5) beside the radial baselines of [`analysis`], [`cycle_map`] maps one cycle (Fig. 9),
-//! and [`study_report`] writes their Markdown and CSV.
+//! [`study`] runs the classification (Tables 4 and 5; each subject's rigid pose removed by
+//! [`crate::transport::align`] before transfer) beside the radial baselines of [`analysis`],
+//! [`cycle_map`] maps one cycle (Fig. 9), and [`study_report`] writes their Markdown and CSV.
 
-pub mod align;
 pub mod analysis;
 pub mod anatomy;
 pub mod cohort;

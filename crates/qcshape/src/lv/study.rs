@@ -10,7 +10,6 @@ use std::time::Instant;
 use serde::Serialize;
 use thiserror::Error;
 
-use super::align::{align_to_base, Align};
 use super::analysis::{close_cycle, drop_closing_pose, radial_features, AnalysisError, Axis};
 use super::cohort::LvError;
 use crate::cluster::{kmeans, ClusterError, ClusterMethod, ClusterOptions, Clustering};
@@ -277,19 +276,18 @@ pub fn labels_of(defs: &[Deformation]) -> Result<Vec<String>, StudyError> {
         .collect()
 }
 
-/// Interpolation (closed cycle unless `open`), rigid alignment to the base (`align`),
+/// Alignment to the base (`opts.align`), interpolation (closed cycle unless `open`),
 /// transfer to the first deformation's frame 0, similarity (eq. 13), the 2-cluster split and
 /// its scores.
 pub fn analyse(
     defs: &[Deformation],
     opts: &PipelineOptions,
     open: bool,
-    align: Align,
     split: &SplitOptions,
     progress: Progress<'_>,
 ) -> Result<Analysis, StudyError> {
     let labels = labels_of(defs)?;
-    let mut data: Vec<Deformation> = defs
+    let data: Vec<Deformation> = defs
         .iter()
         .map(|d| Deformation {
             poses: if open {
@@ -301,7 +299,6 @@ pub fn analyse(
         })
         .collect();
     let t0 = Instant::now();
-    align_to_base(&mut data, opts.base, align);
     let n = defs.len();
     let mut prepared = prepare(&data, opts, &|stage, _| match stage {
         Stage::Interpolation => progress(Tick {

@@ -20,6 +20,26 @@ pub enum MetricKind {
     QuasiConformal,
 }
 
+impl MetricKind {
+    /// Every metric, in the order of the paper's Table 1 with L2 first.
+    pub fn all() -> [MetricKind; 5] {
+        use MetricKind::*;
+        [L2, Rigid, Isometric, Conformal, QuasiConformal]
+    }
+
+    /// The command-line name (`"l2"`, `"rigid"`, `"isometric"`, `"conformal"`,
+    /// `"quasi-conformal"`).
+    pub fn label(self) -> &'static str {
+        match self {
+            MetricKind::L2 => "l2",
+            MetricKind::Rigid => "rigid",
+            MetricKind::Isometric => "isometric",
+            MetricKind::Conformal => "conformal",
+            MetricKind::QuasiConformal => "quasi-conformal",
+        }
+    }
+}
+
 impl std::str::FromStr for MetricKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

@@ -15,7 +15,9 @@ use crate::path::{
     normalization_factor, GeodesicError, GeodesicOptions, GeodesicSolver, InterpolationError,
     InterpolationOptions, Interpolator, Normalization,
 };
-use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError};
+use crate::transport::{
+    align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
+};
 
 use super::engine::{compute_pairs, PairDistance, Pose, SimilarityError};
 
@@ -37,6 +39,10 @@ pub struct PipelineOptions {
     pub transport: Transport,
     /// Index of the reference deformation whose first pose is the common base (METHOD.md).
     pub base: usize,
+    /// How each deformation is placed on the base before interpolation and transfer
+    /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
+    /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
+    pub align: Alignment,
 }
 
 impl Default for PipelineOptions {
@@ -48,6 +54,7 @@ impl Default for PipelineOptions {
             levels: 1,
             transport: Transport::Euclidean,
             base: 0,
+            align: Alignment::Rigid,
         }
     }
 }
@@ -113,7 +120,8 @@ pub struct Prepared {
     /// The common factor coordinates are multiplied by for every geodesic (1 / mean edge length
     /// of the base pose); distances are in those units.
     pub factor: f64,
-    /// Interpolated deformations before transfer (#deformations x #poses x #V x 3; input units).
+    /// Interpolated deformations before transfer, after the alignment of
+    /// [`PipelineOptions::align`] (#deformations x #poses x #V x 3; input units).
     pub interpolated: Vec<Vec<Pose>>,
     /// Whether each pose of the interpolated sequences is a key (input) pose.
     pub is_key: Vec<bool>,
@@ -195,6 +203,12 @@ pub fn prepare(
     let metric = opts.metric.build();
     let mut converged = true;
 
+    // Placement on the base (the deformation's own motion is kept).
+    let aligned: Vec<Vec<Pose>> = defs
+        .par_iter()
+        .map(|d| align_deformation(&topo, &d.poses, base_pose, opts.align).0)
+        .collect();
+
     // Interpolation.
     let interp = Interpolator::new(
         metric.as_ref(),
@@ -212,21 +226,22 @@ pub fn prepare(
         name: defs[opts.base].name.clone(),
         error,
     })?;
-    let interpolated: Vec<(Vec<Pose>, Vec<bool>, f64, bool)> = defs
-        .par_iter()
-        .map(|d| {
-            let t0 = std::time::Instant::now();
-            let r = interp.interpolate_sequence(&d.poses, &|| {}).map_err(|error| {
-                PipelineError::Interpolation {
-                    name: d.name.clone(),
-                    error,
-                }
-            })?;
-            progress(Stage::Interpolation, &d.name);
-            let ok = r.pairs.iter().all(|p| p.converged);
-            Ok((r.poses, r.is_key, t0.elapsed().as_secs_f64(), ok))
-        })
-        .collect::<Result<_, PipelineError>>()?;
+    let interpolated: Vec<(Vec<Pose>, Vec<bool>, f64, bool)> =
+        defs.par_iter()
+            .zip(&aligned)
+            .map(|(d, poses)| {
+                let t0 = std::time::Instant::now();
+                let r = interp.interpolate_sequence(poses, &|| {}).map_err(|error| {
+                    PipelineError::Interpolation {
+                        name: d.name.clone(),
+                        error,
+                    }
+                })?;
+                progress(Stage::Interpolation, &d.name);
+                let ok = r.pairs.iter().all(|p| p.converged);
+                Ok((r.poses, r.is_key, t0.elapsed().as_secs_f64(), ok))
+            })
+            .collect::<Result<_, PipelineError>>()?;
     let is_key = interpolated[0].1.clone();
     converged &= interpolated.iter().all(|x| x.3);
 
@@ -308,7 +323,7 @@ where
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
     format!(
-        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}",
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}",
         opts.metric,
         g.steps,
         g.solver,
@@ -321,7 +336,8 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         opts.insert,
         opts.levels,
         opts.transport,
-        opts.base
+        opts.base,
+        opts.align
     )
 }
 
@@ -421,5 +437,74 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("base deformation 5"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod alignment_tests {
+    use super::*;
+    use crate::metric::MetricKind;
+    use crate::similarity::assemble;
+    use crate::synth::{genus0_benchmark, SynthOptions};
+    use crate::transport::align::{rotation_about, Motion};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn matrix(defs: &[Deformation], opts: &PipelineOptions) -> Vec<f64> {
+        let prepared = prepare(defs, opts, &|_, _| {}).unwrap();
+        let pairs = similarities(&prepared, opts, &HashSet::new(), None, |_| Ok(())).unwrap();
+        assemble(defs.len(), &pairs)
+    }
+
+    /// Every deformation but the base moved by its own random rigid motion (up to 60 degrees,
+    /// translations of the shape's size): with rigid alignment the matrix is the original's.
+    #[test]
+    fn randomly_posed_deformations_give_the_same_matrix_after_rigid_alignment() {
+        let defs: Vec<Deformation> = genus0_benchmark(&SynthOptions {
+            level: 1,
+            ..Default::default()
+        })
+        .unwrap()
+        .into_iter()
+        .step_by(7)
+        .take(5)
+        .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut posed = defs.clone();
+        for d in posed.iter_mut().skip(1) {
+            let axis = [0, 1, 2].map(|_| rng.random_range(-1.0..1.0));
+            let m = Motion {
+                rotation: rotation_about(axis, rng.random_range(0.3..1.05)),
+                scale: 1.0,
+                translation: [0, 1, 2].map(|_| rng.random_range(-2.0..2.0)),
+            };
+            for p in d.poses.iter_mut() {
+                p.iter_mut().for_each(|x| *x = m.apply(*x));
+            }
+        }
+        for kind in [MetricKind::QuasiConformal, MetricKind::Isometric] {
+            let mut opts = PipelineOptions {
+                metric: MetricSpec::new(kind),
+                geodesic: GeodesicOptions {
+                    steps: 3,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let clean = matrix(&defs, &opts);
+            let moved = matrix(&posed, &opts);
+            let scale = clean.iter().fold(0.0f64, |a, b| a.max(*b));
+            for (a, b) in clean.iter().zip(&moved) {
+                assert!((a - b).abs() <= 1e-6 * scale, "{kind:?}: {a} vs {b}");
+            }
+            // Without the alignment the posed set gives another matrix (the test can fail).
+            opts.align = Alignment::None;
+            let unaligned = matrix(&posed, &opts);
+            let worst = clean
+                .iter()
+                .zip(&unaligned)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(worst > 0.05 * scale, "{kind:?}: {worst}");
+        }
     }
 }

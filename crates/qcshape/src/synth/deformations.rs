@@ -134,6 +134,13 @@ pub enum DeformationKind {
     Dent,
     /// Ripple: lateral scale `1 + 0.25 a sin(2 pi s)` (two waves along the axis).
     Ripple,
+    /// Swing (not in the paper's eight; curved vertex trajectories): the bend of [`Self::Bend`]
+    /// towards the direction `(cos psi, sin psi, 0)` that turns with time, `psi = (pi/2) t`, so
+    /// the shape bends and sweeps round by a quarter turn.
+    Swing,
+    /// Wring (not in the paper's eight; curved, back-and-forth trajectories): a twist whose
+    /// angle profile travels along the axis, `phi = (pi/8) A t sin(pi (s + 1) / 2 + pi t)`.
+    Wring,
 }
 
 impl DeformationKind {
@@ -141,6 +148,15 @@ impl DeformationKind {
     pub fn all() -> [DeformationKind; 8] {
         use DeformationKind::*;
         [Twist, Bend, Taper, Stretch, Bulge, Shear, Dent, Ripple]
+    }
+
+    /// The paper's eight ([`Self::all`]) and the two with curved vertex trajectories
+    /// ([`Self::Swing`], [`Self::Wring`]) of the robustness benchmark.
+    pub fn extended() -> [DeformationKind; 10] {
+        use DeformationKind::*;
+        [
+            Twist, Bend, Taper, Stretch, Bulge, Shear, Dent, Ripple, Swing, Wring,
+        ]
     }
 
     /// Kebab-case name (`"twist"`, `"bend"`, ...), the benchmark's class label.
@@ -154,6 +170,8 @@ impl DeformationKind {
             DeformationKind::Shear => "shear",
             DeformationKind::Dent => "dent",
             DeformationKind::Ripple => "ripple",
+            DeformationKind::Swing => "swing",
+            DeformationKind::Wring => "wring",
         }
     }
 
@@ -165,15 +183,27 @@ impl DeformationKind {
         let [x, y, z] = geometry::sub(p, center);
         let s = z / half[2];
         let lateral = |k: f64| [k * x, k * y, z];
+        let bend = |x: f64, y: f64, z: f64| {
+            let theta = BEND * a / size * z;
+            let (sn, cs) = theta.sin_cos();
+            [x * cs + z * cosc(theta), y, z * sinc(theta) - x * sn]
+        };
         let q = match self {
             DeformationKind::Twist => {
                 let (sn, cs) = (TWIST * a * s).sin_cos();
                 [cs * x - sn * y, sn * x + cs * y, z]
             }
-            DeformationKind::Bend => {
-                let theta = BEND * a / size * z;
-                let (sn, cs) = theta.sin_cos();
-                [x * cs + z * cosc(theta), y, z * sinc(theta) - x * sn]
+            DeformationKind::Bend => bend(x, y, z),
+            DeformationKind::Swing => {
+                // Rotate the bending direction to +x, bend, rotate back.
+                let (sn, cs) = (PI / 2.0 * t).sin_cos();
+                let b = bend(cs * x + sn * y, -sn * x + cs * y, z);
+                [cs * b[0] - sn * b[1], sn * b[0] + cs * b[1], b[2]]
+            }
+            DeformationKind::Wring => {
+                let phi = 0.5 * TWIST * params.amplitude * (PI * (s + 1.0) / 2.0 + PI * t).sin() * t.min(1.0);
+                let (sn, cs) = phi.sin_cos();
+                [cs * x - sn * y, sn * x + cs * y, z]
             }
             DeformationKind::Taper => lateral(1.0 + TAPER * a * s),
             DeformationKind::Stretch => {
@@ -220,11 +250,11 @@ impl fmt::Display for DeformationKind {
 impl FromStr for DeformationKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        DeformationKind::all()
+        DeformationKind::extended()
             .into_iter()
             .find(|k| k.name() == s)
             .ok_or_else(|| {
-                let all: Vec<&str> = DeformationKind::all().iter().map(|k| k.name()).collect();
+                let all: Vec<&str> = DeformationKind::extended().iter().map(|k| k.name()).collect();
                 format!("unknown deformation '{s}' (expected {})", all.join(", "))
             })
     }
@@ -250,7 +280,7 @@ mod tests {
     fn identity_at_zero_and_names_round_trip() {
         let s = initial_shape(InitialShape::Pear, &template(1));
         let params = DeformParams::of(&s);
-        for kind in DeformationKind::all() {
+        for kind in DeformationKind::extended() {
             assert_eq!(deform(&s, kind, 0.0, &params), s.positions, "{kind}");
             assert_eq!(kind.name().parse::<DeformationKind>().unwrap(), kind);
         }
@@ -264,7 +294,7 @@ mod tests {
     fn smooth_in_time_and_moderate() {
         let s = initial_shape(InitialShape::Sphere, &template(2));
         let params = DeformParams::of(&s);
-        for kind in DeformationKind::all() {
+        for kind in DeformationKind::extended() {
             let max_disp = |t: f64| {
                 deform(&s, kind, t, &params)
                     .iter()
@@ -287,7 +317,7 @@ mod tests {
         let genus0 = InitialShape::all().map(|k| (k.name(), initial_shape(k, &t)));
         let genus1 = TorusShape::all().map(|k| (k.name(), torus_shape(k, &tt)));
         for (shape, s) in genus0.iter().chain(&genus1) {
-            for kind in DeformationKind::all() {
+            for kind in DeformationKind::extended() {
                 let params = DeformParams::of(s).with_amplitude(1.5);
                 let pos = deform(s, kind, 1.0, &params);
                 let d = Shape::new_checked(s.topology.clone(), pos.clone(), DEGENERATE_REL_TOL);

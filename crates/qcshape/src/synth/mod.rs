@@ -7,6 +7,7 @@
 mod benchmark;
 mod deformations;
 mod noise;
+mod perturb;
 mod primitives;
 mod shapes;
 
@@ -15,5 +16,6 @@ pub use benchmark::{
 };
 pub use deformations::{deform, DeformParams, DeformationKind, Frame};
 pub use noise::{add_noise, noise_sigma, NoiseKind};
+pub use perturb::{perturbed_benchmark, Perturbation, VertexNoise};
 pub use primitives::{grid, icosphere, torus};
 pub use shapes::{initial_shape, template, torus_shape, torus_template, InitialShape, TorusShape, MAX_LEVEL};

@@ -66,7 +66,7 @@ pub fn add_noise(
 }
 
 /// One draw with mean 0 and variance 1.
-fn sample(rng: &mut ChaCha8Rng, kind: NoiseKind) -> f64 {
+pub(crate) fn sample(rng: &mut ChaCha8Rng, kind: NoiseKind) -> f64 {
     match kind {
         NoiseKind::Uniform => 3f64.sqrt() * (2.0 * rng.random::<f64>() - 1.0),
         NoiseKind::Gaussian => {
