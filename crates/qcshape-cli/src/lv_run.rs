@@ -76,7 +76,11 @@ pub struct RunArgs {
     #[arg(long, default_value = "kmeans")]
     pub(crate) cluster: ClusterMethod,
     /// Clustering methods also reported, on the similarity and the baselines (comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "kmeans,kmedoids,spectral,mds-kmeans:2,mds-kmeans:3")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "kmeans,kmedoids,spectral,mds-kmeans:2,mds-kmeans:3"
+    )]
     pub(crate) compare: Vec<ClusterMethod>,
     /// Placement of every subject on the base before transfer: rigid (area-weighted
     /// Procrustes of its frame 0 onto the base's, the same motion on every frame), similarity

@@ -508,7 +508,6 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
 // ---- The harder (overlapping) phantom and the cohort study (section 4.3). ----
 
 use qcshape::cluster::ClusterMethod;
-use qcshape::transport::{Alignment, Motion};
 use qcshape::lv::cohort::{write_labels, write_subject, LABELS_NAME};
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, MeshSettings};
 use qcshape::lv::phantom::{overlap_model, roster, sample_model};
@@ -516,6 +515,7 @@ use qcshape::lv::study::{analyse, baselines, compare_methods, labels_of, SplitOp
 use qcshape::path::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Motion};
 
 #[test]
 fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
@@ -532,9 +532,25 @@ fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
     assert_eq!(a.frames, b.frames);
     assert_eq!(a.landmarks, b.landmarks);
     assert_eq!(a.model, b.model);
-    let plain = subject("s", Group::Hcm, 2, &PhantomOptions { overlap: false, ..opts.clone() });
+    let plain = subject(
+        "s",
+        Group::Hcm,
+        2,
+        &PhantomOptions {
+            overlap: false,
+            ..opts.clone()
+        },
+    );
     assert_ne!(plain.model, a.model);
-    let exact_lm = subject("s", Group::Hcm, 2, &PhantomOptions { landmark_noise_mm: 0.0, ..opts.clone() });
+    let exact_lm = subject(
+        "s",
+        Group::Hcm,
+        2,
+        &PhantomOptions {
+            landmark_noise_mm: 0.0,
+            ..opts.clone()
+        },
+    );
     assert_eq!(exact_lm.model, a.model);
     assert_ne!(exact_lm.landmarks, a.landmarks);
     // Landmark noise: about 1 mm per coordinate around the model's landmarks.
@@ -555,13 +571,21 @@ fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
     assert!((0.8..1.2).contains(&rms), "landmark noise rms {rms} mm");
     // The heart stays inside the field of view: every border voxel is background.
     for i in 0..6 {
-        let s = subject("s", if i % 2 == 0 { Group::Hcm } else { Group::Control }, i, &opts);
+        let s = subject(
+            "s",
+            if i % 2 == 0 { Group::Hcm } else { Group::Control },
+            i,
+            &opts,
+        );
         let v = &s.frames[0];
         let [nx, ny, nz] = v.dims;
         for z in 0..nz {
             for y in 0..ny {
                 for x in [0, nx - 1] {
-                    assert!(v.data[v.index(x, y, z)] < -300.0, "subject {i}: tissue at the border");
+                    assert!(
+                        v.data[v.index(x, y, z)] < -300.0,
+                        "subject {i}: tissue at the border"
+                    );
                 }
             }
         }
@@ -654,7 +678,10 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
     assert_eq!(c.defs.len(), 4);
     assert_eq!(ticks.load(std::sync::atomic::Ordering::Relaxed), 4);
     let nv = c.defs[0].topology.n_vertices();
-    assert!(c.defs.iter().all(|d| d.poses.len() == 4 && d.poses[0].len() == nv));
+    assert!(c
+        .defs
+        .iter()
+        .all(|d| d.poses.len() == 4 && d.poses[0].len() == nv));
     let opts = PipelineOptions {
         geodesic: GeodesicOptions {
             steps: 2,
@@ -701,7 +728,11 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
     assert!(base.rows[0].values.iter().all(|&v| v > 0.0 && v.is_finite()));
     assert_eq!(base.ed_es.len(), n);
     let labels = labels_of(&c.defs).unwrap();
-    let methods = [ClusterMethod::KernelKMeans, ClusterMethod::KMedoids, ClusterMethod::Spectral { scale: 1.0 }];
+    let methods = [
+        ClusterMethod::KernelKMeans,
+        ClusterMethod::KMedoids,
+        ClusterMethod::Spectral { scale: 1.0 },
+    ];
     let rows = compare_methods(&main, &opts, &base, &labels, &methods, &split).unwrap();
     assert_eq!(rows.len(), 3 * methods.len());
     assert_eq!(rows[0].data, "similarity");

@@ -49,19 +49,21 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
     let bars = Bars::default();
     let progress = |t: Tick<'_>| bars.tick(t);
     // The deformations, their long axes and per-subject meshing seconds.
-    let (defs, axes, mesh_seconds, input_note, from_images) = if is_cohort(&a.dir) {
-        let t0 = Instant::now();
-        let c = mesh_cohort(&a.dir, a.landmarks, &mesh, &progress)?;
-        write_meshes(&a.out.join("meshes"), &c.defs)?;
-        eprintln!(
-            "meshed {} subjects ({} vertices each, {} of {} projected on their own surface) in {:.1} s",
-            c.defs.len(),
-            c.defs[0].topology.n_vertices(),
-            c.snapped,
-            c.defs.len() - 1,
-            t0.elapsed().as_secs_f64()
-        );
-        let note = format!(
+    let (defs, axes, mesh_seconds, input_note, from_images) =
+        if is_cohort(&a.dir) {
+            let t0 = Instant::now();
+            let c = mesh_cohort(&a.dir, a.landmarks, &mesh, &progress)?;
+            write_meshes(&a.out.join("meshes"), &c.defs)?;
+            eprintln!(
+                "meshed {} subjects ({} vertices each, {} of {} projected on their own surface) in {:.1} s",
+                c.defs.len(),
+                c.defs[0].topology.n_vertices(),
+                c.snapped,
+                c.defs.len() - 1,
+                t0.elapsed().as_secs_f64()
+            );
+            let note =
+                format!(
             "cohort `{}`: template = frame 0 of `{}` ({} vertices on the whole surface, {} in the {}), \
              carried to the other subjects by the landmark spline between frame-0 landmarks and projected \
              on each subject's own frame-0 surface ({} of {} projected; the rest kept the spline result, \
@@ -74,46 +76,46 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
             c.snapped,
             c.defs.len() - 1
         );
-        (c.defs, c.axes, c.seconds, note, true)
-    } else {
-        let seq = if a.dir.is_dir() {
-            let f = pattern_files(&a.dir, a.pattern.as_deref())?;
-            (!f.is_empty()).then_some(f)
+            (c.defs, c.axes, c.seconds, note, true)
         } else {
-            None
-        };
-        if let Some(files) = seq {
-            let def = load_sequence(&files)?;
-            eprintln!(
-                "{}: one sequence of {} frames: cycle map only",
-                a.dir.display(),
-                files.len()
-            );
-            let source = format!("{} files from {}", files.len(), a.dir.display());
-            return run_cycle(def, &a.out, &a.common, a.seed, &source);
-        }
-        let t0 = Instant::now();
-        let mut data = Dataset::load(&a.dir)?;
-        if data.deformations.len() == 1 {
-            let def = data.deformations.pop().expect("one");
-            return run_cycle(def, &a.out, &a.common, a.seed, &a.dir.display().to_string());
-        }
-        let note = coarsen(&mut data.deformations, a.common.vertices)?;
-        let axes = data
-            .deformations
-            .iter()
-            .map(|d| Axis::fit(&d.poses[0]).with_context(|| format!("deformation '{}'", d.name)))
-            .collect::<Result<Vec<_>>>()?;
-        let per = t0.elapsed().as_secs_f64() / data.deformations.len() as f64;
-        let n = data.deformations.len();
-        let note = format!(
-            "meshes from `{}` (no images: registration and meshing skipped, long axes fitted to \
+            let seq = if a.dir.is_dir() {
+                let f = pattern_files(&a.dir, a.pattern.as_deref())?;
+                (!f.is_empty()).then_some(f)
+            } else {
+                None
+            };
+            if let Some(files) = seq {
+                let def = load_sequence(&files)?;
+                eprintln!(
+                    "{}: one sequence of {} frames: cycle map only",
+                    a.dir.display(),
+                    files.len()
+                );
+                let source = format!("{} files from {}", files.len(), a.dir.display());
+                return run_cycle(def, &a.out, &a.common, a.seed, &source);
+            }
+            let t0 = Instant::now();
+            let mut data = Dataset::load(&a.dir)?;
+            if data.deformations.len() == 1 {
+                let def = data.deformations.pop().expect("one");
+                return run_cycle(def, &a.out, &a.common, a.seed, &a.dir.display().to_string());
+            }
+            let note = coarsen(&mut data.deformations, a.common.vertices)?;
+            let axes = data
+                .deformations
+                .iter()
+                .map(|d| Axis::fit(&d.poses[0]).with_context(|| format!("deformation '{}'", d.name)))
+                .collect::<Result<Vec<_>>>()?;
+            let per = t0.elapsed().as_secs_f64() / data.deformations.len() as f64;
+            let n = data.deformations.len();
+            let note = format!(
+                "meshes from `{}` (no images: registration and meshing skipped, long axes fitted to \
              frame 0{}).",
-            a.dir.display(),
-            note.map_or(String::new(), |n| format!("; {n}"))
-        );
-        (data.deformations, axes, vec![per; n], note, false)
-    };
+                a.dir.display(),
+                note.map_or(String::new(), |n| format!("; {n}"))
+            );
+            (data.deformations, axes, vec![per; n], note, false)
+        };
     let frames = defs[0].poses.len();
 
     let main = analyse(&defs, &opts, a.common.open, &split, &progress)?;

@@ -98,9 +98,9 @@ impl ClusterMethod {
         match self {
             ClusterMethod::KernelKMeans => "kernel k-means on squared similarities".into(),
             ClusterMethod::KMedoids => "k-medoids (PAM)".into(),
-            ClusterMethod::Spectral { scale } => format!(
-                "spectral clustering (Gaussian affinity, bandwidth {scale} x the median distance)"
-            ),
+            ClusterMethod::Spectral { scale } => {
+                format!("spectral clustering (Gaussian affinity, bandwidth {scale} x the median distance)")
+            }
             ClusterMethod::MdsKMeans { dims } => {
                 format!("k-means in the {dims} leading classical-MDS coordinates")
             }

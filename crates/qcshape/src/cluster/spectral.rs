@@ -96,7 +96,11 @@ pub fn spectral(d: &DistanceMatrix, scale: f64, opts: &ClusterOptions) -> Result
 /// drops the trailing directions (small or negative eigenvalues of `-1/2 J D^(2) J`) that a
 /// non-Euclidean matrix adds to kernel k-means. The objective is the within-cluster sum of
 /// squares in those coordinates (units of `d` squared).
-pub fn mds_kmeans(d: &DistanceMatrix, dims: usize, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
+pub fn mds_kmeans(
+    d: &DistanceMatrix,
+    dims: usize,
+    opts: &ClusterOptions,
+) -> Result<Clustering, ClusterError> {
     opts.check(d.len())?;
     let x = mds_coordinates(d, dims)?;
     kmeans(&points_matrix(d.names(), &x)?, opts)
@@ -114,7 +118,9 @@ pub fn mds_coordinates(d: &DistanceMatrix, dims: usize) -> Result<Vec<Vec<f64>>,
         .collect();
     let grand = row_mean.iter().sum::<f64>() / n as f64;
     let b = Mat::<f64>::from_fn(n, n, |i, j| -0.5 * (sq(i, j) - row_mean[i] - row_mean[j] + grand));
-    let evd = b.self_adjoint_eigen(Side::Lower).map_err(|_| ClusterError::Eigen)?;
+    let evd = b
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|_| ClusterError::Eigen)?;
     let (u, s) = (evd.U(), evd.S().column_vector());
     let mut x = vec![vec![0.0; dims]; n];
     for k in 0..dims {

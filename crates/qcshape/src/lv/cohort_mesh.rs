@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use super::analysis::{carry_template, Axis};
 use super::cohort::{
-    read_frame0, read_subject_landmarks, subjects, LvError, Registration, LABELS_NAME, LANDMARKS_NAME,
+    read_frame0, read_subject_landmarks, subjects, LvError, Registration, SubjectDir, LABELS_NAME,
+    LANDMARKS_NAME,
 };
 use super::freewall::{free_wall, LvAxis, SectorOptions};
 use super::landmarks::{Landmarks, APEX, BASE_CENTRE, SEPTUM};
@@ -233,4 +234,102 @@ pub fn write_meshes(out: &Path, defs: &[Deformation]) -> Result<PathBuf, StudyEr
     let path = out.join(MANIFEST_NAME);
     write_manifest(&path, &rows)?;
     Ok(path)
+}
+
+/// How one subject is meshed on its own (`qcshape lv mesh`).
+#[derive(Debug, Clone)]
+pub struct SubjectMeshOptions {
+    /// Surface extraction of frame 0.
+    pub surface: SurfaceOptions,
+    /// Free-wall sector (used with `free_wall`).
+    pub sector: SectorOptions,
+    /// Landmarks of the registration (the first N of each frame).
+    pub landmarks: usize,
+    /// Thin-plate-spline regularization when the registration is fitted here.
+    pub lambda: f64,
+    /// Keep the free-wall submesh only.
+    pub free_wall: bool,
+}
+
+/// One subject's frame-0 surface carried to every frame.
+#[derive(Debug, Clone)]
+pub struct MeshedSubject {
+    /// One pose per frame (#V x 3, world mm).
+    pub poses: Vec<Vec<[f64; 3]>>,
+    /// The faces (#F x 3) shared by the poses.
+    pub faces: Vec<[u32; 3]>,
+    /// The cavity threshold used (image units).
+    pub threshold: f64,
+    /// Vertices of the raw isosurface.
+    pub raw_vertices: usize,
+    /// Vertices of the decimated whole surface.
+    pub surface_vertices: usize,
+    /// Landmarks of the registration.
+    pub landmarks: usize,
+    /// Whether the registration was read from the subject's saved `tps_nNN.json`.
+    pub saved_maps: bool,
+}
+
+/// The subject's saved registration with `n` landmarks (`tps_nNN.json`), else one fitted here;
+/// the flag says which.
+pub fn registration_for(s: &SubjectDir, n: usize, lambda: f64) -> Result<(Registration, bool), LvError> {
+    let saved = s.path.join(Registration::file_name(n));
+    if saved.is_file() {
+        let r = Registration::read(&saved)?;
+        if r.landmarks == n {
+            return Ok((r, true));
+        }
+    }
+    let (lm, path) = read_subject_landmarks(&s.path)?;
+    Ok((Registration::fit(&lm, n, lambda, &path)?, false))
+}
+
+/// Extracts the subject's frame-0 cavity surface and carries it to every frame through its
+/// landmark splines (section 4.2 steps 2-3), keeping the free wall if asked.
+pub fn mesh_subject(s: &SubjectDir, o: &SubjectMeshOptions) -> Result<MeshedSubject, StudyError> {
+    let (vol, file) = read_frame0(&s.path)?;
+    let surface =
+        extract_surface(&vol, &o.surface).map_err(|error| LvError::Surface { path: file, error })?;
+    let (reg, saved_maps) = registration_for(s, o.landmarks, o.lambda)?;
+    let (lm, lm_path) = read_subject_landmarks(&s.path)?;
+    if lm.n_frames() != reg.maps.len() {
+        return Err(StudyError::Input(format!(
+            "{}: {} frames of landmarks but {} registration maps",
+            lm_path.display(),
+            lm.n_frames(),
+            reg.maps.len()
+        )));
+    }
+    let mut poses = reg.carry(&surface.shape.positions);
+    let mut faces = surface.shape.topology.faces().to_vec();
+    if o.free_wall {
+        let freewall = |error| LvError::FreeWall {
+            path: s.path.clone(),
+            error,
+        };
+        let axis = LvAxis::new(
+            landmark(&lm, APEX, &lm_path)?,
+            landmark(&lm, BASE_CENTRE, &lm_path)?,
+            landmark(&lm, SEPTUM, &lm_path)?,
+        )
+        .map_err(freewall)?;
+        let sub = free_wall(
+            &surface.shape.topology,
+            &surface.shape.positions,
+            &axis,
+            &o.sector,
+        )
+        .map_err(freewall)?;
+        poses = poses.iter().map(|p| sub.restrict(p)).collect();
+        faces = sub.topology.faces().to_vec();
+    }
+    Ok(MeshedSubject {
+        poses,
+        faces,
+        threshold: surface.threshold,
+        raw_vertices: surface.raw_vertices,
+        surface_vertices: surface.shape.n_vertices(),
+        landmarks: reg.landmarks,
+        saved_maps,
+    })
 }

@@ -158,7 +158,32 @@ pub struct PhantomSubject {
     pub cavity_ml: Vec<f64>,
 }
 
+/// The header of the cohort's `phantom.csv` (one [`PhantomSubject::summary_row`] per
+/// subject).
+pub const SUMMARY_HEADER: &str =
+    "subject,label,edv_ml,esv_ml,ef,wall_mm,free_wall_mm,long_strain,circ_strain,free_wall_motion,twist_deg,seconds";
+
 impl PhantomSubject {
+    /// The subject's row of `phantom.csv` (volumes in mL, walls in mm, strains as fractions,
+    /// twist in degrees; `seconds` its generation time), without a line end.
+    pub fn summary_row(&self, seconds: f64) -> String {
+        let m = &self.model;
+        let max = self.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
+        let min = self.cavity_ml.iter().copied().fold(f64::MAX, f64::min);
+        format!(
+            "{},{},{max:.1},{min:.1},{:.3},{:.1},{:.1},{:.3},{:.3},{:.2},{:.1},{seconds:.2}",
+            self.name,
+            self.group.label(),
+            self.ejection_fraction(),
+            m.wall,
+            m.free_wall,
+            m.long_strain,
+            m.circ_strain,
+            m.free_wall_motion,
+            m.twist_apex_deg - m.twist_base_deg,
+        )
+    }
+
     /// Ejection fraction `(max - min) / max` of the cavity volumes over the frames.
     pub fn ejection_fraction(&self) -> f64 {
         let max = self.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
@@ -251,11 +276,7 @@ pub fn overlap_model(m: &mut LvModel, group: Group, rng: &mut ChaCha8Rng) {
     m.endo_radius = pick(rng, (21.0, 26.0), (19.0, 24.0));
     m.wall = pick(rng, (8.0, 12.0), (9.0, 12.0));
     m.apex_wall = 0.8 * m.wall;
-    m.free_wall = if hcm {
-        uniform(rng, 11.0, 20.0)
-    } else {
-        m.wall
-    };
+    m.free_wall = if hcm { uniform(rng, 11.0, 20.0) } else { m.wall };
     m.circ_strain = pick(rng, (-0.35, -0.25), (-0.40, -0.28));
     m.long_strain = pick(rng, (-0.22, -0.15), (-0.18, -0.11));
     m.free_wall_motion = if hcm { uniform(rng, 0.55, 0.95) } else { 1.0 };

@@ -358,7 +358,9 @@ impl Baseline {
     /// The distance matrix `|x_i - x_j|` of the feature (n x n, mm or mm per frame).
     pub fn matrix(&self, names: &[String]) -> Result<DistanceMatrix, StudyError> {
         let v = &self.values;
-        Ok(DistanceMatrix::from_fn(names.to_vec(), |i, j| (v[i] - v[j]).abs())?)
+        Ok(DistanceMatrix::from_fn(names.to_vec(), |i, j| {
+            (v[i] - v[j]).abs()
+        })?)
     }
 }
 
