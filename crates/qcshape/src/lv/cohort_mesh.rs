@@ -116,7 +116,10 @@ pub fn mesh_cohort(
             landmark(&lm0, BASE_CENTRE, &lm0_path)?,
             landmark(&lm0, SEPTUM, &lm0_path)?,
         )
-        .map_err(|e| StudyError::Input(format!("{}: long axis: {e}", lm0_path.display())))?;
+        .map_err(|error| LvError::FreeWall {
+            path: subs[0].path.clone(),
+            error,
+        })?;
         let sub = free_wall(
             &whole_topo,
             &template.shape.positions,
@@ -189,7 +192,10 @@ pub fn mesh_cohort(
                 landmark(&lm, APEX, &lm_path)?,
                 landmark(&lm, BASE_CENTRE, &lm_path)?,
             )
-            .map_err(|e| StudyError::Input(format!("{}: {e}", lm_path.display())))?,
+            .map_err(|error| StudyError::Subject {
+                subject: sub.name.clone(),
+                error,
+            })?,
         );
         out.defs.push(Deformation {
             name: sub.name.clone(),
