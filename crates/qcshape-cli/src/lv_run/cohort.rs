@@ -32,7 +32,6 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         transport: Transport::Parallel,
         base: 0,
         align: a.align,
-        ..Default::default()
     };
     let split = SplitOptions {
         method: a.cluster,
