@@ -54,6 +54,10 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = "rigid")]
     align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    smooth: usize,
     /// Number of clusters.
     #[arg(long)]
     k: usize,
@@ -218,6 +222,7 @@ pub fn run(args: &Args) -> Result<()> {
             levels: 1,
             transport: args.transport,
             align: args.align,
+            smoothing: args.smooth,
             base: 0,
         };
         let r = classify_set(

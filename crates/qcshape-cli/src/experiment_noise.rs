@@ -56,6 +56,10 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = "rigid")]
     align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    smooth: usize,
     /// Number of classes (default: the number of distinct labels).
     #[arg(long)]
     k: Option<usize>,
@@ -111,6 +115,7 @@ pub fn run(args: &Args) -> Result<()> {
         levels: 1,
         transport: args.transport,
         align: args.align,
+        smoothing: args.smooth,
         base: 0,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;

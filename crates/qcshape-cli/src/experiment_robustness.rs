@@ -10,6 +10,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::similarity::PipelineOptions;
+use qcshape::synth::InitialShape;
 use qcshape::transport::Alignment;
 
 use crate::args::SolverArgs;
@@ -43,6 +44,13 @@ pub struct Args {
         default_value = "l2,rigid,isometric,conformal,quasi-conformal"
     )]
     metrics: Vec<MetricKind>,
+    /// Taubin smoothing iterations of the pipeline's poses (comma-separated: every metric is run
+    /// with each value; the library's default when not given).
+    #[arg(long, value_delimiter = ',')]
+    smooth: Vec<usize>,
+    /// Shapes of the benchmark (comma-separated; default all six).
+    #[arg(long, value_delimiter = ',')]
+    shapes: Vec<InitialShape>,
     /// Also run the paper's pipeline (no alignment) with the quasi-conformal metric.
     #[arg(long)]
     paper: bool,
@@ -92,29 +100,42 @@ pub fn run_command(args: &Args) -> Result<()> {
             .collect::<Result<_>>()?
     };
     let geodesic = args.solver.options()?;
-    let pipeline = |kind: MetricKind, align: Alignment| PipelineOptions {
+    let smooth = if args.smooth.is_empty() {
+        vec![PipelineOptions::default().smoothing]
+    } else {
+        args.smooth.clone()
+    };
+    let pipeline = |kind: MetricKind, align: Alignment, smoothing: usize| PipelineOptions {
         metric: MetricSpec {
             lambda: args.lambda,
             ..MetricSpec::new(kind)
         },
         geodesic: geodesic.clone(),
         align,
+        smoothing,
         ..Default::default()
     };
     let mut methods: Vec<Method> = Baseline::all().into_iter().map(Method::Baseline).collect();
     for kind in &args.metrics {
-        methods.push(Method::Pipeline {
-            name: kind.label().to_string(),
-            options: Box::new(pipeline(*kind, Alignment::Rigid)),
-        });
+        for &s in &smooth {
+            let name = if smooth.len() > 1 {
+                format!("{} (smooth {s})", kind.label())
+            } else {
+                kind.label().to_string()
+            };
+            methods.push(Method::Pipeline {
+                name,
+                options: Box::new(pipeline(*kind, Alignment::Rigid, s)),
+            });
+        }
     }
     if args.paper {
         methods.push(Method::Pipeline {
-            name: "quasi-conformal (paper: no alignment)".into(),
-            options: Box::new(pipeline(MetricKind::QuasiConformal, Alignment::None)),
+            name: "quasi-conformal (paper: no alignment, no smoothing)".into(),
+            options: Box::new(pipeline(MetricKind::QuasiConformal, Alignment::None, 0)),
         });
     }
-    let opts = RobustnessOptions {
+    let mut opts = RobustnessOptions {
         level: args.level,
         poses: args.poses,
         scenarios,
@@ -123,6 +144,9 @@ pub fn run_command(args: &Args) -> Result<()> {
         restarts: args.restarts,
         ..Default::default()
     };
+    if !args.shapes.is_empty() {
+        opts.shapes = args.shapes.clone();
+    }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let total = opts.scenarios.len() * opts.methods.len();
     let done = AtomicUsize::new(0);

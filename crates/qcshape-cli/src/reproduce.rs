@@ -82,6 +82,10 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = "rigid")]
     align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    smooth: usize,
     /// Seed of the synthetic amplitudes, k-means and noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -308,6 +312,7 @@ fn options_for(kind: MetricKind, s: &Settings, args: &Args) -> PipelineOptions {
         levels: 1,
         transport: args.transport,
         align: args.align,
+        smoothing: args.smooth,
         base: 0,
     }
 }

@@ -50,6 +50,10 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = "rigid")]
     align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    smooth: usize,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -113,6 +117,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     )?;
     let opts = qcshape::similarity::PipelineOptions {
         align: args.align,
+        smoothing: args.smooth,
         ..opts
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;

@@ -53,6 +53,10 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = "rigid")]
     align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    smooth: usize,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -111,6 +115,7 @@ pub(crate) fn pipeline_options(
         transport,
         base,
         align: Alignment::default(),
+        smoothing: 0,
     })
 }
 
@@ -155,6 +160,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     )?;
     let opts = PipelineOptions {
         align: args.align,
+        smoothing: args.smooth,
         ..opts
     };
     eprintln!(

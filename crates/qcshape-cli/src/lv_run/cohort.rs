@@ -32,6 +32,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         transport: Transport::Parallel,
         base: 0,
         align: a.align,
+        smoothing: PipelineOptions::default().smoothing,
     };
     let split = SplitOptions {
         method: a.cluster,

@@ -465,7 +465,7 @@ impl RobustnessReport {
                 methods.push((r.method.clone(), r.baseline));
             }
         }
-        let scores: [(&str, fn(&Row) -> f64); 4] = [
+        let scores: [(&str, Score); 4] = [
             ("Leave-one-out 1-NN accuracy", |r| r.nn),
             ("Kernel k-means accuracy", |r| r.kmeans),
             ("k-medoids accuracy", |r| r.kmedoids),
@@ -521,6 +521,9 @@ impl RobustnessReport {
         s
     }
 }
+
+/// Reads one score of a row.
+type Score = fn(&Row) -> f64;
 
 /// Two decimals, `-` for NaN.
 fn fmt(v: f64) -> String {

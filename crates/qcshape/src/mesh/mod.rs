@@ -7,6 +7,7 @@
 mod error;
 pub mod geometry;
 mod shape;
+pub mod smooth;
 mod topology;
 
 pub use error::MeshError;

@@ -39,6 +39,11 @@ pub struct PipelineOptions {
     pub transport: Transport,
     /// Index of the reference deformation whose first pose is the common base (METHOD.md).
     pub base: usize,
+    /// Taubin iterations ([`crate::mesh::smooth::taubin`]) applied to every pose of every
+    /// deformation (the base included) before anything else: a low-pass filter of the
+    /// positions, the same linear operator for every pose, that takes vertex noise out of real
+    /// data; 0 = none.
+    pub smoothing: usize,
     /// How each deformation is placed on the base before interpolation and transfer
     /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
     /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
@@ -55,6 +60,7 @@ impl Default for PipelineOptions {
             transport: Transport::Euclidean,
             base: 0,
             align: Alignment::Rigid,
+            smoothing: 0,
         }
     }
 }
@@ -189,24 +195,44 @@ fn check(defs: &[Deformation], base: usize) -> Result<Arc<Topology>, PipelineErr
     Ok(topo)
 }
 
-/// Interpolates every deformation (`opts.insert` poses between key poses) and transfers it to
-/// the first pose of deformation `opts.base`, deformations in parallel. `progress(stage, name)`
-/// is called as each deformation finishes a stage.
+/// Smooths every pose ([`PipelineOptions::smoothing`]), aligns each deformation to the first
+/// pose of deformation `opts.base` ([`PipelineOptions::align`]), interpolates it (`opts.insert`
+/// poses between key poses) and transfers it to that base, deformations in parallel.
+/// `progress(stage, name)` is called as each deformation finishes a stage.
 pub fn prepare(
     defs: &[Deformation],
     opts: &PipelineOptions,
     progress: &(dyn Fn(Stage, &str) + Sync),
 ) -> Result<Prepared, PipelineError> {
     let topo = check(defs, opts.base)?;
-    let base_pose = &defs[opts.base].poses[0];
+    let smoothed: Vec<Vec<Pose>> = if opts.smoothing > 0 {
+        defs.par_iter()
+            .map(|d| {
+                d.poses
+                    .iter()
+                    .map(|p| crate::mesh::smooth::taubin(&topo, p, opts.smoothing))
+                    .collect()
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let poses_of = |i: usize| -> &[Pose] {
+        if opts.smoothing > 0 {
+            &smoothed[i]
+        } else {
+            &defs[i].poses
+        }
+    };
+    let base_pose = &poses_of(opts.base)[0];
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &topo, base_pose);
     let metric = opts.metric.build();
     let mut converged = true;
 
     // Placement on the base (the deformation's own motion is kept).
-    let aligned: Vec<Vec<Pose>> = defs
-        .par_iter()
-        .map(|d| align_deformation(&topo, &d.poses, base_pose, opts.align).0)
+    let aligned: Vec<Vec<Pose>> = (0..defs.len())
+        .into_par_iter()
+        .map(|i| align_deformation(&topo, poses_of(i), base_pose, opts.align).0)
         .collect();
 
     // Interpolation.
@@ -323,7 +349,7 @@ where
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
     format!(
-        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}",
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}|smoothing={}",
         opts.metric,
         g.steps,
         g.solver,
@@ -337,7 +363,8 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         opts.levels,
         opts.transport,
         opts.base,
-        opts.align
+        opts.align,
+        opts.smoothing
     )
 }
 
