@@ -9,13 +9,12 @@ use indicatif::ProgressBar;
 use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
 use qcshape::io;
 use qcshape::lv::cohort::{
-    self, read_frame0, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
+    self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
-use qcshape::lv::freewall::{free_wall, LvAxis, SectorOptions};
-use qcshape::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
-use qcshape::lv::meshing::{extract_surface, SurfaceOptions};
-use qcshape::lv::phantom::{roster, subject, PhantomOptions};
-use qcshape::lv::LvError;
+use qcshape::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
+use qcshape::lv::freewall::SectorOptions;
+use qcshape::lv::meshing::SurfaceOptions;
+use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
 
 /// Arguments of `qcshape lv`.
 #[derive(Debug, clap::Args)]
@@ -72,6 +71,15 @@ struct PhantomArgs {
     /// Write one 4D image.nii.gz per subject instead of one file per frame.
     #[arg(long = "4d")]
     four_d: bool,
+    /// The harder cohort: overlapping parameter ranges between controls and HCM, a random
+    /// rigid pose per subject (long axis tilted up to 25 degrees, any spin, centre moved up to
+    /// 5 mm) and landmark noise (sources in the library's lv::phantom docs).
+    #[arg(long)]
+    overlap: bool,
+    /// Standard deviation (mm) of the Gaussian noise on every landmark coordinate of every
+    /// frame (default: 1 with --overlap, else 0).
+    #[arg(long)]
+    landmark_noise: Option<f64>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -159,31 +167,28 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
         frames: a.frames,
         noise_hu: a.noise,
         seed: a.seed,
+        overlap: a.overlap,
+        landmark_noise_mm: a.landmark_noise.unwrap_or(if a.overlap {
+            OVERLAP_LANDMARK_NOISE_MM
+        } else {
+            0.0
+        }),
     };
+    if !(opts.landmark_noise_mm.is_finite() && opts.landmark_noise_mm >= 0.0) {
+        bail!(
+            "--landmark-noise {} must be a non-negative number",
+            opts.landmark_noise_mm
+        );
+    }
     let names = roster(a.controls, a.hcm, a.seed);
     let bar = progress(names.len());
-    let mut summary = String::from(
-        "subject,label,edv_ml,esv_ml,ef,wall_mm,free_wall_mm,long_strain,circ_strain,free_wall_motion,twist_deg,seconds\n",
-    );
+    let mut summary = format!("{SUMMARY_HEADER}\n");
     for (i, (name, group)) in names.iter().enumerate() {
         let t0 = Instant::now();
         let s = subject(name, *group, i as u64, &opts);
         write_subject(&a.out, &s, a.four_d)?;
-        let m = &s.model;
-        let max = s.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
-        let min = s.cavity_ml.iter().copied().fold(f64::MAX, f64::min);
-        summary.push_str(&format!(
-            "{name},{},{max:.1},{min:.1},{:.3},{:.1},{:.1},{:.3},{:.3},{:.2},{:.1},{:.2}\n",
-            group.label(),
-            s.ejection_fraction(),
-            m.wall,
-            m.free_wall,
-            m.long_strain,
-            m.circ_strain,
-            m.free_wall_motion,
-            m.twist_apex_deg - m.twist_base_deg,
-            t0.elapsed().as_secs_f64()
-        ));
+        summary.push_str(&s.summary_row(t0.elapsed().as_secs_f64()));
+        summary.push('\n');
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -194,10 +199,15 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
     write_labels(&a.out.join(cohort::LABELS_NAME), &labels)?;
     io::write_atomically(&a.out.join("phantom.csv"), |w| w.write_all(summary.as_bytes()))?;
     println!(
-        "wrote {} subjects ({} control, {} hcm), {} frames of {}^3 voxels, to {}",
+        "wrote {} subjects ({} control, {} hcm{}), {} frames of {}^3 voxels, to {}",
         names.len(),
         a.controls,
         a.hcm,
+        if a.overlap {
+            ", overlapping ranges, random poses"
+        } else {
+            ""
+        },
         a.frames,
         a.size,
         a.out.display()
@@ -238,18 +248,6 @@ fn register(a: &RegisterArgs) -> Result<()> {
     Ok(())
 }
 
-fn registration_for(s: &cohort::SubjectDir, n: usize, lambda: f64) -> Result<(Registration, bool), LvError> {
-    let saved = s.path.join(Registration::file_name(n));
-    if saved.is_file() {
-        let r = Registration::read(&saved)?;
-        if r.landmarks == n {
-            return Ok((r, true));
-        }
-    }
-    let (lm, path) = read_subject_landmarks(&s.path)?;
-    Ok((Registration::fit(&lm, n, lambda, &path)?, false))
-}
-
 fn mesh(a: &MeshArgs) -> Result<()> {
     if a.heights.len() != 2 {
         bail!("--heights takes two numbers LO,HI");
@@ -267,53 +265,24 @@ fn mesh(a: &MeshArgs) -> Result<()> {
         width_deg: a.sector_width,
         heights: (a.heights[0], a.heights[1]),
     };
+    let mopts = SubjectMeshOptions {
+        surface: opts,
+        sector,
+        landmarks: a.landmarks,
+        lambda: a.lambda,
+        free_wall: a.region == "free-wall",
+    };
     let mut rows = Vec::new();
     let bar = progress(subs.len());
     for s in &subs {
         let t0 = Instant::now();
-        let (vol, file) = read_frame0(&s.path)?;
-        let surface = extract_surface(&vol, &opts).map_err(|error| LvError::Surface { path: file, error })?;
-        let (reg, saved) = registration_for(s, a.landmarks, a.lambda)?;
-        let (lm, lm_path) = read_subject_landmarks(&s.path)?;
-        if lm.n_frames() != reg.maps.len() {
-            bail!(
-                "{}: {} frames of landmarks but {} registration maps",
-                lm_path.display(),
-                lm.n_frames(),
-                reg.maps.len()
-            );
-        }
-        let mut poses = reg.carry(&surface.shape.positions);
-        let mut faces = surface.shape.topology.faces().to_vec();
-        if a.region == "free-wall" {
-            let pick = |id| {
-                lm.get(0, id).with_context(|| {
-                    format!(
-                        "{}: landmark {id} is missing (needed for the long axis)",
-                        lm_path.display()
-                    )
-                })
-            };
-            let axis = LvAxis::new(pick(APEX)?, pick(BASE_CENTRE)?, pick(SEPTUM)?).map_err(|error| {
-                LvError::FreeWall {
-                    path: s.path.clone(),
-                    error,
-                }
-            })?;
-            let sub = free_wall(&surface.shape.topology, &surface.shape.positions, &axis, &sector).map_err(
-                |error| LvError::FreeWall {
-                    path: s.path.clone(),
-                    error,
-                },
-            )?;
-            poses = poses.iter().map(|p| sub.restrict(p)).collect();
-            faces = sub.topology.faces().to_vec();
-        }
+        let m = mesh_subject(s, &mopts)?;
+        let (poses, faces) = (&m.poses, &m.faces);
         let dir = a.out.join(&s.name);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (k, p) in poses.iter().enumerate() {
             let name = format!("pose{k:02}.ply");
-            io::write_mesh(&dir.join(&name), p, &faces, &Default::default())?;
+            io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
             rows.push(ManifestRow {
                 deformation: s.name.clone(),
                 label: s.label.clone(),
@@ -325,14 +294,14 @@ fn mesh(a: &MeshArgs) -> Result<()> {
             println!(
                 "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses, {} landmarks{}, {:.2} s",
                 s.name,
-                surface.threshold,
-                surface.raw_vertices,
-                surface.shape.n_vertices(),
+                m.threshold,
+                m.raw_vertices,
+                m.surface_vertices,
                 poses[0].len(),
                 a.region,
                 poses.len(),
-                reg.landmarks,
-                if saved { " (saved maps)" } else { "" },
+                m.landmarks,
+                if m.saved_maps { " (saved maps)" } else { "" },
                 t0.elapsed().as_secs_f64()
             )
         });

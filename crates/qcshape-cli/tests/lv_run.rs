@@ -114,6 +114,20 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
             "{r:?}"
         );
     }
+    // Every clustering method of --compare on the similarity and on both baselines.
+    assert!(report.contains("## Clustering methods"), "{report}");
+    let methods = rows(&res.join("clustering.csv"));
+    assert_eq!(methods.len(), 3 * 5);
+    assert_eq!(methods[0][..2], ["similarity", "kmeans"]);
+    for r in &methods {
+        let (sens, spec): (f64, f64) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        assert!(
+            (0.0..=1.0).contains(&sens) && (0.0..=1.0).contains(&spec),
+            "{r:?}"
+        );
+    }
+    // The main split is the kmeans row.
+    assert_eq!(methods[0][2], format!("{:.4}", t4[0][1].parse::<f64>().unwrap()));
     // Table 5: one row per landmark count.
     let t5 = rows(&res.join("table5.csv"));
     assert_eq!(t5.iter().map(|r| r[0].as_str()).collect::<Vec<_>>(), ["8", "16"]);
@@ -159,6 +173,19 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("has no class label"), "{err}");
+    // An unknown clustering method is a usage error naming the choices.
+    let out = qcshape(&[
+        "lv",
+        "run",
+        s(&manifest),
+        "--out",
+        s(&again),
+        "--cluster",
+        "kmeams",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("spectral[:SCALE]"), "{err}");
 }
 
 /// The shared data folder: `$QCSHAPE_DATA`, else `../../../shared/data` from this crate.

@@ -504,3 +504,268 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
         .count();
     assert_eq!(near, sub.faces.len());
 }
+
+// ---- The harder (overlapping) phantom and the cohort study (section 4.3). ----
+
+use qcshape::cluster::ClusterMethod;
+use qcshape::lv::cohort::{write_labels, write_subject, LABELS_NAME};
+use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, MeshSettings};
+use qcshape::lv::phantom::{overlap_model, roster, sample_model};
+use qcshape::lv::study::{analyse, baselines, compare_methods, labels_of, SplitOptions, Tick};
+use qcshape::path::GeodesicOptions;
+use qcshape::similarity::PipelineOptions;
+use qcshape::transport::Transport;
+use qcshape::transport::{Alignment, Motion};
+
+#[test]
+fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {
+    let opts = PhantomOptions {
+        size: 24,
+        frames: 4,
+        seed: 3,
+        overlap: true,
+        landmark_noise_mm: qcshape::lv::phantom::OVERLAP_LANDMARK_NOISE_MM,
+        ..Default::default()
+    };
+    let a = subject("s", Group::Hcm, 2, &opts);
+    let b = subject("s", Group::Hcm, 2, &opts);
+    assert_eq!(a.frames, b.frames);
+    assert_eq!(a.landmarks, b.landmarks);
+    assert_eq!(a.model, b.model);
+    let plain = subject(
+        "s",
+        Group::Hcm,
+        2,
+        &PhantomOptions {
+            overlap: false,
+            ..opts.clone()
+        },
+    );
+    assert_ne!(plain.model, a.model);
+    let exact_lm = subject(
+        "s",
+        Group::Hcm,
+        2,
+        &PhantomOptions {
+            landmark_noise_mm: 0.0,
+            ..opts.clone()
+        },
+    );
+    assert_eq!(exact_lm.model, a.model);
+    assert_ne!(exact_lm.landmarks, a.landmarks);
+    // Landmark noise: about 1 mm per coordinate around the model's landmarks.
+    let exact: Vec<Vec<[f64; 3]>> = (0..4)
+        .map(|t| qcshape::lv::anatomy::landmarks(&a.model, t as f64))
+        .collect();
+    let mut sq = 0.0;
+    let mut count = 0.0;
+    for (f, g) in a.landmarks.frames.iter().zip(&exact) {
+        for (p, q) in f.iter().zip(g) {
+            for k in 0..3 {
+                sq += (p[k] - q[k]).powi(2);
+                count += 1.0;
+            }
+        }
+    }
+    let rms = (sq / count).sqrt();
+    assert!((0.8..1.2).contains(&rms), "landmark noise rms {rms} mm");
+    // The heart stays inside the field of view: every border voxel is background.
+    for i in 0..6 {
+        let s = subject(
+            "s",
+            if i % 2 == 0 { Group::Hcm } else { Group::Control },
+            i,
+            &opts,
+        );
+        let v = &s.frames[0];
+        let [nx, ny, nz] = v.dims;
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in [0, nx - 1] {
+                    assert!(
+                        v.data[v.index(x, y, z)] < -300.0,
+                        "subject {i}: tissue at the border"
+                    );
+                }
+            }
+        }
+    }
+    // Tilts up to 25 degrees (the default cohort: 6), and overlapping parameter ranges.
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let mut tilt_max = 0.0f64;
+    let mut range = |group: Group, rng: &mut ChaCha8Rng| {
+        let mut lo = [f64::MAX; 4];
+        let mut hi = [f64::MIN; 4];
+        for _ in 0..300 {
+            let mut m = sample_model(group, 8, rng);
+            overlap_model(&mut m, group, rng);
+            tilt_max = tilt_max.max(m.rotation[2][2].acos().to_degrees());
+            let x = [
+                m.free_wall,
+                m.long_strain,
+                m.circ_strain * m.free_wall_motion,
+                m.twist_apex_deg - m.twist_base_deg,
+            ];
+            for k in 0..4 {
+                lo[k] = lo[k].min(x[k]);
+                hi[k] = hi[k].max(x[k]);
+            }
+        }
+        (lo, hi)
+    };
+    let (c_lo, c_hi) = range(Group::Control, &mut rng);
+    let (h_lo, h_hi) = range(Group::Hcm, &mut rng);
+    for k in 0..4 {
+        assert!(
+            h_lo[k] < c_hi[k] && c_lo[k] < h_hi[k],
+            "parameter {k}: control {}..{}, HCM {}..{} do not overlap",
+            c_lo[k],
+            c_hi[k],
+            h_lo[k],
+            h_hi[k]
+        );
+    }
+    assert!((20.0..25.0).contains(&tilt_max), "largest tilt {tilt_max}");
+}
+
+fn write_cohort(dir: &std::path::Path, controls: usize, hcm: usize, opts: &PhantomOptions) {
+    let names = roster(controls, hcm, opts.seed);
+    for (i, (name, group)) in names.iter().enumerate() {
+        let s = subject(name, *group, i as u64, opts);
+        write_subject(dir, &s, false).unwrap();
+    }
+    let labels: Vec<(String, Option<String>)> = names
+        .iter()
+        .map(|(n, g)| (n.clone(), Some(g.label().to_string())))
+        .collect();
+    write_labels(&dir.join(LABELS_NAME), &labels).unwrap();
+}
+
+fn rotation_z(angle: f64) -> Motion {
+    let (s, c) = angle.sin_cos();
+    Motion {
+        rotation: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+        scale: 1.0,
+        translation: [3.0, -2.0, 1.0],
+    }
+}
+
+#[test]
+fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_pose() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("cohort");
+    let popts = PhantomOptions {
+        size: 24,
+        frames: 4,
+        seed: 2,
+        ..Default::default()
+    };
+    write_cohort(&dir, 2, 2, &popts);
+    assert!(is_cohort(&dir));
+    let ticks = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |t: Tick<'_>| {
+        if !t.what.is_empty() {
+            ticks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    let mesh = MeshSettings {
+        threshold: None,
+        smooth: 10,
+        vertices: 120,
+        free_wall: true,
+    };
+    let c = mesh_cohort(&dir, 16, &mesh, &progress).unwrap();
+    assert_eq!(c.defs.len(), 4);
+    assert_eq!(ticks.load(std::sync::atomic::Ordering::Relaxed), 4);
+    let nv = c.defs[0].topology.n_vertices();
+    assert!(c
+        .defs
+        .iter()
+        .all(|d| d.poses.len() == 4 && d.poses[0].len() == nv));
+    let opts = PipelineOptions {
+        geodesic: GeodesicOptions {
+            steps: 2,
+            ..Default::default()
+        },
+        insert: 1,
+        levels: 1,
+        transport: Transport::Parallel,
+        base: 0,
+        align: Alignment::Rigid,
+        ..Default::default()
+    };
+    let split = SplitOptions {
+        method: ClusterMethod::KernelKMeans,
+        restarts: 5,
+        seed: 0,
+    };
+    let main = analyse(&c.defs, &opts, false, &split, &progress).unwrap();
+    let n = 4;
+    assert_eq!(main.matrix.len(), n);
+    for i in 0..n {
+        assert_eq!(main.matrix.get(i, i), 0.0);
+        for j in 0..n {
+            assert_eq!(main.matrix.get(i, j), main.matrix.get(j, i));
+            if i != j {
+                assert!(main.matrix.get(i, j) > 0.0);
+            }
+        }
+    }
+    // 4 frames, closed, 1 inserted pose per gap: 8 poses, 4 of them keys.
+    assert_eq!(main.prepared.is_key.len(), 8);
+    assert_eq!(main.prepared.is_key.iter().filter(|&&k| k).count(), 4);
+    let s = &main.scores;
+    let [tp, fn_, fp, tn] = s.counts;
+    assert_eq!(tp + fn_ + fp + tn, n as f64);
+    assert_eq!(tp + fn_, 2.0);
+    assert!((s.sensitivity - tp / (tp + fn_)).abs() < 1e-12);
+    assert!((s.specificity - tn / (tn + fp)).abs() < 1e-12);
+    assert_eq!(s.positive, "hcm");
+    assert_eq!(main.clustering.assignments.len(), n);
+    assert_eq!(main.pair_seconds.len(), n * (n - 1) / 2);
+    let base = baselines(&c.defs, &c.axes, false, &split).unwrap();
+    assert_eq!(base.rows.len(), 2);
+    assert!(base.rows[0].values.iter().all(|&v| v > 0.0 && v.is_finite()));
+    assert_eq!(base.ed_es.len(), n);
+    let labels = labels_of(&c.defs).unwrap();
+    let methods = [
+        ClusterMethod::KernelKMeans,
+        ClusterMethod::KMedoids,
+        ClusterMethod::Spectral { scale: 1.0 },
+    ];
+    let rows = compare_methods(&main, &opts, &base, &labels, &methods, &split).unwrap();
+    assert_eq!(rows.len(), 3 * methods.len());
+    assert_eq!(rows[0].data, "similarity");
+    assert_eq!(rows[0].scores, main.scores, "the kmeans row is the main split");
+    assert_eq!(rows[3].scores.sensitivity, base.rows[0].scores.sensitivity);
+    // The structs serialize.
+    let json = serde_json::to_string(&main).unwrap();
+    assert!(json.contains("\"sensitivity\""));
+
+    // Move one subject rigidly: with alignment the matrix is the same (to solver tolerance),
+    // without it the matrix changes.
+    let mut moved = c.defs.clone();
+    let m = rotation_z(1.3);
+    for p in &mut moved[2].poses {
+        p.iter_mut().for_each(|v| *v = m.apply(*v));
+    }
+    let again = analyse(&moved, &opts, false, &split, &progress).unwrap();
+    let scale = main.matrix.values().iter().cloned().fold(0.0, f64::max);
+    for (a, b) in again.matrix.values().iter().zip(main.matrix.values()) {
+        assert!((a - b).abs() < 1e-3 * scale, "aligned: {a} vs {b}");
+    }
+    let none = PipelineOptions {
+        align: Alignment::None,
+        ..opts.clone()
+    };
+    let unaligned = analyse(&c.defs, &none, false, &split, &progress).unwrap();
+    let posed = analyse(&moved, &none, false, &split, &progress).unwrap();
+    let worst = posed
+        .matrix
+        .values()
+        .iter()
+        .zip(unaligned.matrix.values())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst > 1e-2 * scale, "without alignment the pose shows: {worst}");
+}

@@ -20,9 +20,13 @@
 
 pub mod kmeans;
 pub mod kmedoids;
+pub mod method;
+pub mod spectral;
 
 pub use kmeans::{kmeans, KernelKMeans};
 pub use kmedoids::kmedoids;
+pub use method::ClusterMethod;
+pub use spectral::{mds_kmeans, median_distance, spectral, spectral_embedding};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -52,6 +56,19 @@ pub enum ClusterError {
         /// The cost.
         value: f64,
     },
+    /// The eigendecomposition of a spectral or MDS embedding did not converge.
+    #[error("the eigendecomposition of the embedding did not converge")]
+    Eigen,
+    /// The affinity bandwidth of spectral clustering is not positive and finite (all
+    /// distances zero, or a bad scale).
+    #[error("the affinity bandwidth must be positive and finite, got {0}")]
+    Bandwidth(f64),
+    /// The method needs the deformations, not only their distance matrix.
+    #[error("intrinsic k-means needs the deformations, not only their distance matrix")]
+    NeedsDeformations,
+    /// The points of an embedding do not give a valid distance matrix.
+    #[error("embedded points: {0}")]
+    Matrix(#[from] crate::similarity::MatrixError),
 }
 
 /// Options shared by the clustering algorithms.
@@ -92,7 +109,7 @@ impl ClusterOptions {
 }
 
 /// The result of a clustering of `n` items.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Clustering {
     /// Number of clusters `k`.
     pub k: usize,

@@ -10,15 +10,24 @@
 //! 5. [`freewall`]: the free-wall faces as an open submesh (section 4.3).
 //!
 //! [`cohort`] holds the folder layout and the per-subject steps.
+//!
+//! The analysis (section 4.3): [`cohort_mesh`] puts a whole cohort on one connectivity,
+//! [`study`] runs the classification (Tables 4 and 5; each subject's rigid pose removed by
+//! [`crate::transport::align`] before transfer) beside the radial baselines of [`analysis`],
+//! [`cycle_map`] maps one cycle (Fig. 9), and [`study_report`] writes their Markdown and CSV.
 
 pub mod analysis;
 pub mod anatomy;
 pub mod cohort;
+pub mod cohort_mesh;
+pub mod cycle_map;
 pub mod freewall;
 pub mod landmarks;
 pub mod meshing;
 pub mod nifti;
 pub mod phantom;
+pub mod study;
+pub mod study_report;
 pub mod surface;
 pub mod tps;
 

@@ -47,6 +47,37 @@
 //! - **Twist.** Peak LV twist 10–16° (apex +7..+11°, base −3..−5°; Sengupta et al., "Twist
 //!   mechanics of the left ventricle", JACC Cardiovasc Imaging 2008;1:366–376; Notomi et al.,
 //!   J Am Coll Cardiol 2005;45:2034–2041). HCM: similar peak twist, delayed untwisting.
+//!
+//! # The overlapping cohort (`overlap`)
+//! The default cohort separates the groups on every parameter; real cohorts do not. With
+//! `PhantomOptions::overlap` the ranges overlap as they do in published series and the pose is
+//! random; `qcshape lv phantom --overlap` also makes the landmarks noisy
+//! (`PhantomOptions::landmark_noise_mm`):
+//! - **Wall thickness.** Controls 8–12 mm (12 mm is the upper limit of normal in Lang et al.
+//!   2015); HCM free wall 11–20 mm: mild phenotypes and genotype-positive relatives have
+//!   12–14 mm walls (the ESC 2014 guideline, Elliott et al., accepts ≥ 13 mm in first-degree
+//!   relatives), and the free wall is not always the thickest segment (asymmetric septal
+//!   hypertrophy is the commonest form), so HCM free walls of 11–12 mm overlap the upper
+//!   normal range; elsewhere 9–12 mm in HCM.
+//! - **Longitudinal strain.** Controls −15 to −22% (the normal range of Yingchoncharoen et
+//!   al. 2013 reaches −15.9%); HCM −11 to −18% (Serri et al. 2006: −11 ± 3%, with preserved
+//!   strain in mild hypertrophy).
+//! - **Circumferential strain.** Controls −25 to −35%; HCM remote walls −28 to −40%, free wall
+//!   55–95% of it (mild HCM has near-normal regional function).
+//! - **Ejection fraction** (from the strains): controls ≈ 50–68%, HCM ≈ 52–72% (normal LVEF
+//!   52–72%, Lang et al. 2015; HCM preserved or hyperdynamic, Elliott et al. 2014).
+//! - **Twist.** Apex +6..+12° in controls, +6..+14° in HCM, base −2..−6° in both (peak twist
+//!   10–16° normal, Sengupta et al. 2008; normal or increased in HCM, Notomi et al. 2005).
+//! - **Size and filling.** Cavity diameter 42–52 mm (controls) and 38–48 mm (HCM), length
+//!   66–78 and 62–74 mm; filling exponent 0.5–1.0 and 0.8–1.4 (impaired relaxation is common
+//!   in older controls too).
+//! - **Pose.** Long axis tilted by up to 25° (any direction) besides the random spin about it,
+//!   centre moved by up to ±5 mm in x and y and 12–20 mm in z: a random rigid pose per
+//!   subject, kept inside the field of view.
+//! - **Landmark (surface) noise.** Gaussian noise of σ = 1 mm on every landmark coordinate of
+//!   every frame (about half a voxel; manual landmark placement on CT varies by a few mm), so
+//!   every frame's mesh, carried from frame 0 by the landmark splines, is perturbed by a smooth
+//!   random field, and so are the long axes of the baselines.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -85,6 +116,13 @@ pub struct PhantomOptions {
     pub noise_hu: f64,
     /// Seed of every random choice.
     pub seed: u64,
+    /// The harder cohort: overlapping parameter ranges and a random pose (module docs, "The
+    /// overlapping cohort").
+    pub overlap: bool,
+    /// Standard deviation (mm) of the Gaussian noise on every landmark coordinate of every
+    /// frame (0: exact landmarks; the overlapping cohort uses
+    /// [`OVERLAP_LANDMARK_NOISE_MM`]).
+    pub landmark_noise_mm: f64,
 }
 
 impl Default for PhantomOptions {
@@ -94,9 +132,14 @@ impl Default for PhantomOptions {
             frames: 8,
             noise_hu: 25.0,
             seed: 1,
+            overlap: false,
+            landmark_noise_mm: 0.0,
         }
     }
 }
+
+/// Standard deviation (mm) of the landmark noise of the overlapping cohort.
+pub const OVERLAP_LANDMARK_NOISE_MM: f64 = 1.0;
 
 /// One generated subject.
 #[derive(Debug, Clone)]
@@ -115,7 +158,32 @@ pub struct PhantomSubject {
     pub cavity_ml: Vec<f64>,
 }
 
+/// The header of the cohort's `phantom.csv` (one [`PhantomSubject::summary_row`] per
+/// subject).
+pub const SUMMARY_HEADER: &str =
+    "subject,label,edv_ml,esv_ml,ef,wall_mm,free_wall_mm,long_strain,circ_strain,free_wall_motion,twist_deg,seconds";
+
 impl PhantomSubject {
+    /// The subject's row of `phantom.csv` (volumes in mL, walls in mm, strains as fractions,
+    /// twist in degrees; `seconds` its generation time), without a line end.
+    pub fn summary_row(&self, seconds: f64) -> String {
+        let m = &self.model;
+        let max = self.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
+        let min = self.cavity_ml.iter().copied().fold(f64::MAX, f64::min);
+        format!(
+            "{},{},{max:.1},{min:.1},{:.3},{:.1},{:.1},{:.3},{:.3},{:.2},{:.1},{seconds:.2}",
+            self.name,
+            self.group.label(),
+            self.ejection_fraction(),
+            m.wall,
+            m.free_wall,
+            m.long_strain,
+            m.circ_strain,
+            m.free_wall_motion,
+            m.twist_apex_deg - m.twist_base_deg,
+        )
+    }
+
     /// Ejection fraction `(max - min) / max` of the cavity volumes over the frames.
     pub fn ejection_fraction(&self) -> f64 {
         let max = self.cavity_ml.iter().copied().fold(f64::MIN, f64::max);
@@ -197,6 +265,51 @@ pub fn sample_model(group: Group, frames: usize, rng: &mut ChaCha8Rng) -> LvMode
     m
 }
 
+/// Redraws a model's parameters from the overlapping ranges and gives it a random pose (module
+/// docs, "The overlapping cohort").
+pub fn overlap_model(m: &mut LvModel, group: Group, rng: &mut ChaCha8Rng) {
+    let hcm = group == Group::Hcm;
+    let pick = |rng: &mut ChaCha8Rng, c: (f64, f64), h: (f64, f64)| {
+        let (lo, hi) = if hcm { h } else { c };
+        uniform(rng, lo, hi)
+    };
+    m.endo_radius = pick(rng, (21.0, 26.0), (19.0, 24.0));
+    m.wall = pick(rng, (8.0, 12.0), (9.0, 12.0));
+    m.apex_wall = 0.8 * m.wall;
+    m.free_wall = if hcm { uniform(rng, 11.0, 20.0) } else { m.wall };
+    m.circ_strain = pick(rng, (-0.35, -0.25), (-0.40, -0.28));
+    m.long_strain = pick(rng, (-0.22, -0.15), (-0.18, -0.11));
+    m.free_wall_motion = if hcm { uniform(rng, 0.55, 0.95) } else { 1.0 };
+    m.unevenness = pick(rng, (0.05, 0.2), (0.2, 0.5));
+    m.twist_apex_deg = pick(rng, (6.0, 12.0), (6.0, 14.0));
+    m.twist_base_deg = -uniform(rng, 2.0, 6.0);
+    m.filling_exponent = pick(rng, (0.5, 1.0), (0.8, 1.4));
+    let length = pick(rng, (66.0, 78.0), (62.0, 74.0));
+    m.endo_half_length = length / (1.0 + m.base_fraction);
+    m.centre = [
+        uniform(rng, -5.0, 5.0),
+        uniform(rng, -5.0, 5.0),
+        uniform(rng, 12.0, 20.0),
+    ];
+    let tilt = uniform(rng, 0.0, 25.0).to_radians();
+    let tilt_dir = uniform(rng, 0.0, std::f64::consts::TAU);
+    let spin = uniform(rng, 0.0, std::f64::consts::TAU);
+    m.rotation = anatomy::frame_rotation(tilt, tilt_dir, spin);
+}
+
+/// Adds Gaussian noise of standard deviation `sigma` (mm) to every landmark coordinate.
+fn jitter(frames: &mut [Vec<[f64; 3]>], sigma: f64, rng: &mut ChaCha8Rng) {
+    for f in frames {
+        for p in f.iter_mut() {
+            for c in p.iter_mut() {
+                let u1: f64 = rng.random::<f64>().max(1e-300);
+                let u2: f64 = rng.random();
+                *c += sigma * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            }
+        }
+    }
+}
+
 /// The image grid of the cohort: `size³` voxels over 104 x 104 x 130 mm centred on the
 /// origin, x and y flipped (see the module docs).
 pub fn grid(size: usize) -> Volume {
@@ -213,7 +326,10 @@ pub fn grid(size: usize) -> Volume {
 pub fn subject(name: &str, group: Group, index: u64, opts: &PhantomOptions) -> PhantomSubject {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     rng.set_stream(2 * index + 1);
-    let model = sample_model(group, opts.frames, &mut rng);
+    let mut model = sample_model(group, opts.frames, &mut rng);
+    if opts.overlap {
+        overlap_model(&mut model, group, &mut rng);
+    }
     let grid = grid(opts.size);
     let rendered: Vec<(Volume, f64)> = {
         use rayon::prelude::*;
@@ -226,12 +342,17 @@ pub fn subject(name: &str, group: Group, index: u64, opts: &PhantomOptions) -> P
             })
             .collect()
     };
-    let landmarks = Landmarks {
+    let mut landmarks = Landmarks {
         ids: (0..anatomy::N_LANDMARKS as u32).collect(),
         frames: (0..opts.frames)
             .map(|t| anatomy::landmarks(&model, t as f64))
             .collect(),
     };
+    if opts.landmark_noise_mm > 0.0 {
+        let mut noise = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5851_f42d_4c95_7f2d);
+        noise.set_stream(index);
+        jitter(&mut landmarks.frames, opts.landmark_noise_mm, &mut noise);
+    }
     let (frames, cavity_ml) = rendered.into_iter().unzip();
     PhantomSubject {
         name: name.to_string(),

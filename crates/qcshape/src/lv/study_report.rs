@@ -1,13 +1,17 @@
-//! The report of `lv run` and `lv cycle`: Tables 4 and 5 beside the paper's, times, Fig. 9,
-//! and the CSVs behind them.
+//! The report of the cohort study and of a single cycle ([`super::study`],
+//! [`super::cycle_map`]): Tables 4 and 5 beside the paper's, the clustering methods, times,
+//! Fig. 9, and the CSVs behind them.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Result;
-use qcshape::dataset::Deformation;
+use serde::Serialize;
 
-use super::{Analysis, Baseline, Binary, CycleCommon, CycleMap};
+use super::cycle_map::{CycleMap, CycleSettings, CycleStudy};
+use super::study::{Analysis, Baseline, BinaryScores as Binary, MethodRow, StudyError};
+use crate::dataset::Deformation;
+
+type Result<T> = std::result::Result<T, StudyError>;
 
 /// The paper's Table 4 (sensitivity, specificity in %) by row.
 const PAPER_TABLE4: [(&str, f64, f64); 3] = [
@@ -25,19 +29,36 @@ const PAPER_TABLE5: [(usize, f64, f64); 4] = [
 ];
 
 /// What the report needs besides the analyses.
-pub(crate) struct RunSummary {
-    pub(crate) args_line: String,
-    pub(crate) input_note: String,
-    pub(crate) landmarks: usize,
-    pub(crate) from_images: bool,
-    pub(crate) region: String,
-    pub(crate) frames: usize,
-    pub(crate) restarts: usize,
-    pub(crate) seed: u64,
-    pub(crate) mesh_seconds: Vec<f64>,
-    pub(crate) ed_es: Vec<(usize, usize)>,
-    pub(crate) total_seconds: f64,
-    pub(crate) mds_subject: String,
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// The command line, as typed.
+    pub args_line: String,
+    /// A sentence on where the meshes came from.
+    pub input_note: String,
+    /// Registration landmarks.
+    pub landmarks: usize,
+    /// Whether the cohort was meshed from images here.
+    pub from_images: bool,
+    /// `free-wall` or `whole`.
+    pub region: String,
+    /// Frames per subject.
+    pub frames: usize,
+    /// Clustering restarts.
+    pub restarts: usize,
+    /// Seed of clustering and MDS.
+    pub seed: u64,
+    /// Seconds of registration and meshing per subject.
+    pub mesh_seconds: Vec<f64>,
+    /// End-diastolic and end-systolic frame per subject.
+    pub ed_es: Vec<(usize, usize)>,
+    /// Wall seconds of the whole run.
+    pub total_seconds: f64,
+    /// The subject of Fig. 9.
+    pub mds_subject: String,
+    /// How the subjects were split (a sentence).
+    pub split: String,
+    /// How the deformations were aligned before transfer (a sentence).
+    pub align: String,
 }
 
 fn pct(x: f64) -> String {
@@ -57,7 +78,7 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
 }
 
 fn write(path: &Path, text: &str) -> Result<()> {
-    qcshape::io::write_atomically(path, |w| w.write_all(text.as_bytes()))?;
+    crate::io::write_atomically(path, |w| w.write_all(text.as_bytes()))?;
     Ok(())
 }
 
@@ -81,17 +102,20 @@ fn subject_seconds(s: &RunSummary, main: &Analysis) -> Vec<[f64; 4]> {
         .collect()
 }
 
-/// Writes the CSVs and the heat map and returns OUT/report.md's text.
+/// Writes OUT/subjects.csv, table4.csv, table5.csv (with a sweep), similarity.svg and
+/// subjects_mds.svg|png and returns OUT/report.md's text. `sweep` holds Table 5's rows
+/// (landmarks, scores, seconds; 0 s for the main run).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn run_report(
+pub fn run_report(
     out: &Path,
     s: &RunSummary,
-    common: &CycleCommon,
+    common: &CycleSettings,
     defs: &[Deformation],
     main: &Analysis,
     base: &[Baseline],
     sweep: &[(usize, Binary, f64)],
     map: &CycleMap,
+    methods: &[MethodRow],
 ) -> Result<String> {
     let labels: Vec<String> = defs.iter().map(|d| d.label.clone().unwrap_or_default()).collect();
     let secs = subject_seconds(s, main);
@@ -151,17 +175,17 @@ pub(crate) fn run_report(
     }
     let mut order: Vec<usize> = (0..defs.len()).collect();
     order.sort_by(|&a, &b| labels[a].cmp(&labels[b]).then(a.cmp(&b)));
-    qcshape::plot::heatmap(&out.join("similarity.svg"), &main.matrix, &order, Some(&labels))?;
-    let e = qcshape::embed::smacof(
+    crate::plot::heatmap(&out.join("similarity.svg"), &main.matrix, &order, Some(&labels))?;
+    let e = crate::embed::smacof(
         &main.matrix,
-        &qcshape::embed::MdsOptions {
+        &crate::embed::MdsOptions {
             dims: 2,
             seed: s.seed,
             ..Default::default()
         },
     )?;
     for ext in ["svg", "png"] {
-        qcshape::plot::scatter_map(
+        crate::plot::scatter_map(
             &out.join(format!("subjects_mds.{ext}")),
             &e.coords,
             main.matrix.names(),
@@ -188,9 +212,8 @@ pub(crate) fn run_report(
         md,
         "{n} subjects ({npos} {}, {} {}), {} frames each, region: {}, {} vertices, registration with {} \
          landmarks{}. Pipeline: the cycle {} ({} poses per subject: {} frames + {} interpolated), \
-         transfer by parallel transport to frame 0 of `{}`, similarity (eq. 13) with the {} metric, \
-         geodesics with N = {} segments, k-means (kernel k-means on squared similarities) with k = 2, \
-         {} restarts, seed {}.\n",
+         {}transfer by parallel transport to frame 0 of `{}`, similarity (eq. 13) with the {} metric, \
+         geodesics with N = {} segments, {} with k = 2, {} restarts, seed {}.\n",
         main.scores.positive,
         n - npos,
         main.scores.negative,
@@ -213,9 +236,11 @@ pub(crate) fn run_report(
         main.prepared.is_key.len(),
         main.prepared.is_key.iter().filter(|&&k| k).count(),
         main.prepared.is_key.iter().filter(|&&k| !k).count(),
+        s.align,
         main.prepared.names[0],
-        common.metric.spec()?.build().name(),
-        common.steps,
+        common.metric.build().name(),
+        common.geodesic.steps,
+        s.split,
         s.restarts,
         s.seed
     )?;
@@ -275,6 +300,10 @@ pub(crate) fn run_report(
             " (closing pair last -> frame 0 included)"
         }
     )?;
+    if !methods.is_empty() {
+        methods_section(&mut md, methods)?;
+        write(&out.join("clustering.csv"), &methods_csv(methods)?)?;
+    }
     if main.unconverged > 0 {
         writeln!(
             md,
@@ -401,27 +430,21 @@ fn fig9_text(md: &mut String, map: &CycleMap) -> std::fmt::Result {
     )
 }
 
-/// OUT/report.md of one sequence's cycle map.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn cycle_report(
+/// OUT/report.md of one sequence's cycle map (`source` says where the frames came from,
+/// `total_seconds` the wall time of the whole command).
+pub fn cycle_report(
+    args_line: &str,
     source: &str,
-    name: &str,
-    frames: usize,
-    raw_vertices: usize,
-    vertices: usize,
-    note: Option<&str>,
-    common: &CycleCommon,
-    map: &CycleMap,
-    seconds: [f64; 3],
-    interp_converged: bool,
+    c: &CycleStudy,
+    common: &CycleSettings,
+    total_seconds: f64,
 ) -> Result<String> {
+    let (name, frames, raw_vertices, vertices) = (&c.name, c.frames, c.raw_vertices, c.vertices);
+    let (note, map, interp_converged) = (c.note.as_deref(), &c.map, c.interpolation_converged);
+    let seconds = [c.interpolation_seconds, map.seconds, total_seconds];
     let mut md = String::new();
     writeln!(md, "# Cycle map of `{name}` (Fig. 9)\n")?;
-    writeln!(
-        md,
-        "Command: `{}`  ",
-        std::env::args().collect::<Vec<_>>().join(" ")
-    )?;
+    writeln!(md, "Command: `{args_line}`  ")?;
     writeln!(
         md,
         "qcshape {}, {} worker threads, total {:.1} s.\n",
@@ -441,8 +464,8 @@ pub(crate) fn cycle_report(
             "closed (frame 0 appended so the gap last -> frame 0 is interpolated too)"
         },
         common.insert,
-        common.metric.spec()?.build().name(),
-        common.steps,
+        common.metric.build().name(),
+        common.geodesic.steps,
         if interp_converged {
             ""
         } else {
@@ -458,4 +481,50 @@ pub(crate) fn cycle_report(
     fig9_text(&mut md, map)?;
     writeln!(md)?;
     Ok(md)
+}
+
+/// `clustering.csv`: one row per (data, method).
+pub fn methods_csv(rows: &[MethodRow]) -> Result<String> {
+    let mut csv = String::from("data,method,sensitivity,specificity,accuracy,ari,tp,fn,fp,tn\n");
+    for r in rows {
+        let b = &r.scores;
+        let [tp, fn_, fp, tn] = b.counts;
+        writeln!(
+            csv,
+            "{},{},{:.4},{:.4},{:.4},{:.4},{tp},{fn_},{fp},{tn}",
+            r.data, r.method, b.sensitivity, b.specificity, b.accuracy, b.ari
+        )?;
+    }
+    Ok(csv)
+}
+
+/// The Markdown table of the clustering methods (data x method -> sensitivity / specificity
+/// / ARI).
+pub fn methods_section(md: &mut String, rows: &[MethodRow]) -> Result<()> {
+    writeln!(md, "## Clustering methods (k = 2)\n")?;
+    writeln!(
+        md,
+        "| data | method | sensitivity (%) | specificity (%) | accuracy (%) | ARI | TP / FN / FP / TN |"
+    )?;
+    writeln!(md, "|---|---|---|---|---|---|---|")?;
+    for r in rows {
+        let b = &r.scores;
+        writeln!(
+            md,
+            "| {} | `{}` | {} | {} | {} | {:.3} | {} |",
+            r.data,
+            r.method,
+            pct(b.sensitivity),
+            pct(b.specificity),
+            pct(b.accuracy),
+            b.ari,
+            counts(b)
+        )?;
+    }
+    writeln!(
+        md,
+        "\nEvery method on the same matrices, same restarts and seed (`--compare`); `clustering.csv`. \
+         The baselines' matrices are `|x_i - x_j|` of their one feature.\n"
+    )?;
+    Ok(())
 }

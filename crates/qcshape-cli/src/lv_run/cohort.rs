@@ -1,0 +1,229 @@
+//! `qcshape lv run` on a cohort (images or meshes): file names, printing and the order of the
+//! library's steps ([`qcshape::lv::cohort_mesh`], [`qcshape::lv::study`],
+//! [`qcshape::lv::study_report`]).
+
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use qcshape::dataset::{load_sequence, Dataset};
+use qcshape::lv::analysis::Axis;
+use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
+use qcshape::lv::cycle_map::cycle_map;
+use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
+use qcshape::lv::study_report::{run_report, RunSummary};
+use qcshape::similarity::PipelineOptions;
+use qcshape::transport::{Alignment, Transport};
+
+use super::progress::Bars;
+use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
+
+/// Runs `lv run` inside the worker pool.
+pub(super) fn run(a: &RunArgs) -> Result<()> {
+    let t_all = Instant::now();
+    if a.restarts == 0 {
+        bail!("--restarts must be at least 1");
+    }
+    let settings = cycle_settings(&a.common)?;
+    let opts = PipelineOptions {
+        metric: settings.metric,
+        geodesic: settings.geodesic.clone(),
+        insert: a.common.insert,
+        levels: 1,
+        transport: Transport::Parallel,
+        base: 0,
+        align: a.align,
+        smoothing: PipelineOptions::default().smoothing,
+    };
+    let split = SplitOptions {
+        method: a.cluster,
+        restarts: a.restarts,
+        seed: a.seed,
+    };
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let mesh = MeshSettings {
+        threshold: a.threshold,
+        smooth: a.smooth,
+        vertices: a.common.vertices,
+        free_wall: a.region == "free-wall",
+    };
+    let bars = Bars::default();
+    let progress = |t: Tick<'_>| bars.tick(t);
+    // The deformations, their long axes and per-subject meshing seconds.
+    let (defs, axes, mesh_seconds, input_note, from_images) =
+        if is_cohort(&a.dir) {
+            let t0 = Instant::now();
+            let c = mesh_cohort(&a.dir, a.landmarks, &mesh, &progress)?;
+            write_meshes(&a.out.join("meshes"), &c.defs)?;
+            eprintln!(
+                "meshed {} subjects ({} vertices each, {} of {} projected on their own surface) in {:.1} s",
+                c.defs.len(),
+                c.defs[0].topology.n_vertices(),
+                c.snapped,
+                c.defs.len() - 1,
+                t0.elapsed().as_secs_f64()
+            );
+            let note =
+                format!(
+            "cohort `{}`: template = frame 0 of `{}` ({} vertices on the whole surface, {} in the {}), \
+             carried to the other subjects by the landmark spline between frame-0 landmarks and projected \
+             on each subject's own frame-0 surface ({} of {} projected; the rest kept the spline result, \
+             which would otherwise fold a triangle); meshes in `meshes/manifest.csv`.",
+            a.dir.display(),
+            c.defs[0].name,
+            c.whole_vertices,
+            c.defs[0].topology.n_vertices(),
+            if mesh.free_wall { "free wall" } else { "whole surface" },
+            c.snapped,
+            c.defs.len() - 1
+        );
+            (c.defs, c.axes, c.seconds, note, true)
+        } else {
+            let seq = if a.dir.is_dir() {
+                let f = pattern_files(&a.dir, a.pattern.as_deref())?;
+                (!f.is_empty()).then_some(f)
+            } else {
+                None
+            };
+            if let Some(files) = seq {
+                let def = load_sequence(&files)?;
+                eprintln!(
+                    "{}: one sequence of {} frames: cycle map only",
+                    a.dir.display(),
+                    files.len()
+                );
+                let source = format!("{} files from {}", files.len(), a.dir.display());
+                return run_cycle(def, &a.out, &a.common, a.seed, &source);
+            }
+            let t0 = Instant::now();
+            let mut data = Dataset::load(&a.dir)?;
+            if data.deformations.len() == 1 {
+                let def = data.deformations.pop().expect("one");
+                return run_cycle(def, &a.out, &a.common, a.seed, &a.dir.display().to_string());
+            }
+            let note = coarsen(&mut data.deformations, a.common.vertices)?;
+            let axes = data
+                .deformations
+                .iter()
+                .map(|d| Axis::fit(&d.poses[0]).with_context(|| format!("deformation '{}'", d.name)))
+                .collect::<Result<Vec<_>>>()?;
+            let per = t0.elapsed().as_secs_f64() / data.deformations.len() as f64;
+            let n = data.deformations.len();
+            let note = format!(
+                "meshes from `{}` (no images: registration and meshing skipped, long axes fitted to \
+             frame 0{}).",
+                a.dir.display(),
+                note.map_or(String::new(), |n| format!("; {n}"))
+            );
+            (data.deformations, axes, vec![per; n], note, false)
+        };
+    let frames = defs[0].poses.len();
+
+    let main = analyse(&defs, &opts, a.common.open, &split, &progress)?;
+    eprintln!(
+        "{} landmarks: our method sensitivity {:.1} %, specificity {:.1} % ({:.1} s)",
+        a.landmarks,
+        100.0 * main.scores.sensitivity,
+        100.0 * main.scores.specificity,
+        main.wall.iter().sum::<f64>()
+    );
+    let base = baselines(&defs, &axes, a.common.open, &split)?;
+    for b in &base.rows {
+        eprintln!(
+            "{}: sensitivity {:.1} %, specificity {:.1} %",
+            b.name,
+            100.0 * b.scores.sensitivity,
+            100.0 * b.scores.specificity
+        );
+    }
+    main.matrix.write_csv(&a.out.join("similarity.csv"))?;
+    let methods = compare_methods(&main, &opts, &base, &labels_of(&defs)?, &a.compare, &split)?;
+    for m in &methods {
+        eprintln!(
+            "{} / {}: sensitivity {:.1} %, specificity {:.1} %, ARI {:.3}",
+            m.data,
+            m.method,
+            100.0 * m.scores.sensitivity,
+            100.0 * m.scores.specificity,
+            m.scores.ari
+        );
+    }
+
+    // Table 5.
+    let mut sweep = Vec::new();
+    if from_images && !a.no_sweep {
+        for &n in &a.landmark_sweep {
+            if n == a.landmarks {
+                sweep.push((n, main.scores.clone(), 0.0));
+                continue;
+            }
+            let t0 = Instant::now();
+            let c = mesh_cohort(&a.dir, n, &mesh, &progress)?;
+            let r = analyse(&c.defs, &opts, a.common.open, &split, &progress)?;
+            let secs = t0.elapsed().as_secs_f64();
+            eprintln!(
+                "{n} landmarks: sensitivity {:.1} %, specificity {:.1} % ({secs:.1} s)",
+                100.0 * r.scores.sensitivity,
+                100.0 * r.scores.specificity
+            );
+            sweep.push((n, r.scores, secs));
+        }
+    }
+
+    // Fig. 9.
+    let idx = match &a.mds_subject {
+        Some(name) => defs
+            .iter()
+            .position(|d| &d.name == name)
+            .with_context(|| format!("--mds-subject {name:?} is not a subject"))?,
+        None => 0,
+    };
+    let map = cycle_map(
+        &main.prepared.interpolated[idx],
+        &main.prepared.is_key,
+        a.common.insert + 1,
+        &main.prepared.topology,
+        main.prepared.factor,
+        &settings,
+        a.seed,
+        &progress,
+    )?;
+    map.write_files(
+        &a.out,
+        &format!("{}: {} frames + interpolated poses", defs[idx].name, frames),
+    )?;
+
+    let summary = RunSummary {
+        args_line: super::args_line(),
+        input_note,
+        landmarks: a.landmarks,
+        from_images,
+        region: a.region.clone(),
+        frames,
+        restarts: a.restarts,
+        seed: a.seed,
+        mesh_seconds,
+        ed_es: base.ed_es.clone(),
+        total_seconds: t_all.elapsed().as_secs_f64(),
+        mds_subject: defs[idx].name.clone(),
+        split: split.sentence(),
+        align: match a.align {
+            Alignment::None => String::new(),
+            m => format!(
+                "{} alignment of every subject to the base (area-weighted Procrustes of its frame 0, the \
+                 same motion on all its frames), ",
+                m.label()
+            ),
+        },
+    };
+    let md = run_report(
+        &a.out, &summary, &settings, &defs, &main, &base.rows, &sweep, &map, &methods,
+    )?;
+    let path = a.out.join("report.md");
+    qcshape::io::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    eprintln!(
+        "wrote {} in {:.1} s",
+        path.display(),
+        t_all.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,45 @@
+//! Progress bars for the library's progress callbacks ([`qcshape::lv::study::Tick`]): one bar
+//! per stage name, created at its first tick, all cleared by `Tick::DONE`.
+
+use std::sync::Mutex;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use qcshape::lv::study::Tick;
+
+/// The bars of the running stages.
+#[derive(Default)]
+pub(crate) struct Bars {
+    bars: Mutex<Vec<(String, ProgressBar)>>,
+}
+
+fn bar(len: usize, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len as u64);
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg:>14} {bar:40} {pos}/{len} [{elapsed_precise}, ETA {eta}]")
+    {
+        pb.set_style(style);
+    }
+    pb.set_message(what.to_string());
+    pb
+}
+
+impl Bars {
+    /// Advances the bar of `t.what` (or clears every bar on `Tick::DONE`).
+    pub(crate) fn tick(&self, t: Tick<'_>) {
+        let mut bars = self.bars.lock().unwrap_or_else(|e| e.into_inner());
+        if t.what.is_empty() {
+            for (_, b) in bars.drain(..) {
+                b.finish_and_clear();
+            }
+            return;
+        }
+        match bars.iter().find(|(w, _)| w == t.what) {
+            Some((_, b)) => b.inc(1),
+            None => {
+                let b = bar(t.total, t.what);
+                b.inc(1);
+                bars.push((t.what.to_string(), b));
+            }
+        }
+    }
+}
