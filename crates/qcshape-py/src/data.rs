@@ -266,15 +266,16 @@ pub fn run_pipeline(
 /// pose of the base deformation, sum of pose distances), equal to its CSV. Options (None or
 /// left out: the library's defaults): metric, form, weights, lam, l2_areas (the metric);
 /// steps, solver, tolerance, energy_tolerance (the geodesics); insert (poses inserted between
-/// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), base (name or
-/// index, 0); threads (None: all cores); progress (True: counts on stderr). Distances are in
+/// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), align ("rigid" |
+/// "similarity" | "none": placement of each deformation on the base), smooth (Taubin iterations
+/// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0); threads (None: all cores); progress (True: counts on stderr). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
 #[pyfunction]
 #[pyo3(signature = (dataset, **options))]
 #[pyo3(
     text_signature = "(dataset, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, insert=0, levels=None, \
-transport='euclidean', base=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
 pub fn similarity_matrix<'py>(
     py: Python<'py>,

@@ -144,6 +144,8 @@ pub struct PipelineKw {
     pub insert: Option<usize>,
     pub levels: Option<usize>,
     pub transport: Option<String>,
+    pub align: Option<String>,
+    pub smooth: Option<usize>,
     pub base: Option<BaseKw>,
     pub threads: Option<usize>,
     pub progress: Option<bool>,
@@ -151,7 +153,7 @@ pub struct PipelineKw {
 
 /// The keywords of the pipeline, for the docstrings and the error on an unknown one.
 pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, steps, solver, tolerance, \
-energy_tolerance, insert, levels, transport, base, threads, progress";
+energy_tolerance, insert, levels, transport, align, smooth, base, threads, progress";
 
 impl PipelineKw {
     /// Reads the keywords of a `**kwargs` dict; an unknown keyword is a `TypeError`.
@@ -179,6 +181,8 @@ impl PipelineKw {
                 "insert" => k.insert = Some(value.extract().map_err(bad)?),
                 "levels" => k.levels = Some(value.extract().map_err(bad)?),
                 "transport" => k.transport = Some(value.extract().map_err(bad)?),
+                "align" => k.align = Some(value.extract().map_err(bad)?),
+                "smooth" => k.smooth = Some(value.extract().map_err(bad)?),
                 "base" => {
                     k.base = Some(if let Ok(i) = value.extract::<usize>() {
                         BaseKw::Index(i)
@@ -229,6 +233,13 @@ impl PipelineKw {
             insert: self.insert.unwrap_or(d.insert),
             levels,
             transport: transport(self.transport.as_deref(), d.transport)?,
+            align: match self.align.as_deref() {
+                None => d.align,
+                Some(a) => a
+                    .parse::<qcshape::transport::Alignment>()
+                    .map_err(|e| PyValueError::new_err(format!("align: {e}")))?,
+            },
+            smoothing: self.smooth.unwrap_or(d.smoothing),
             base,
             ..d
         })

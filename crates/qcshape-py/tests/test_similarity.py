@@ -36,6 +36,10 @@ def read_matrix_csv(path):
             ["--metric", "quasi-conformal", "--steps", "2", "--insert", "1", "--transport", "parallel"],
             dict(metric="quasi-conformal", steps=2, insert=1, transport="parallel"),
         ),
+        (
+            ["--metric", "l2", "--steps", "2", "--align", "none", "--smooth", "0"],
+            dict(metric="l2", steps=2, align="none", smooth=0),
+        ),
     ],
 )
 def test_similarity_matrix_equals_the_cli_csv(tmp_path, args, kwargs):

@@ -150,6 +150,8 @@ def similarity_matrix(
     insert: Optional[int] = None,
     levels: Optional[int] = None,
     transport: Optional[str] = None,
+    align: Optional[str] = None,
+    smooth: Optional[int] = None,
     base: Optional[Union[int, str]] = None,
     threads: Optional[int] = None,
     progress: Optional[bool] = None,
