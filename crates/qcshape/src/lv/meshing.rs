@@ -45,29 +45,11 @@ pub struct Surface {
     pub raw_vertices: usize,
 }
 
-/// Taubin smoothing (lambda | mu) with uniform weights over the one-ring, `iterations` times.
+/// Taubin smoothing (lambda | mu) with uniform weights over the one-ring, `iterations` times, in
+/// place ([`crate::mesh::smooth::taubin`]).
 pub fn taubin_smooth(topo: &Topology, positions: &mut [[f64; 3]], iterations: usize) {
-    let mut next = positions.to_vec();
-    for _ in 0..iterations {
-        for factor in [0.5, -0.53] {
-            for (v, out) in next.iter_mut().enumerate() {
-                let nb = topo.neighbors(v);
-                if nb.is_empty() {
-                    continue;
-                }
-                let mut mean = [0.0; 3];
-                for &u in nb {
-                    for c in 0..3 {
-                        mean[c] += positions[u as usize][c] / nb.len() as f64;
-                    }
-                }
-                for c in 0..3 {
-                    out[c] = positions[v][c] + factor * (mean[c] - positions[v][c]);
-                }
-            }
-            positions.copy_from_slice(&next);
-        }
-    }
+    let smoothed = crate::mesh::smooth::taubin(topo, positions, iterations);
+    positions.copy_from_slice(&smoothed);
 }
 
 /// Tangential relaxation: each vertex moves half-way towards the centroid of its one-ring,

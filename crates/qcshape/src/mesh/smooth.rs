@@ -25,16 +25,17 @@ fn umbrella(topo: &Topology, src: &[[f64; 3]], dst: &mut [[f64; 3]], step: f64) 
             *out = p;
             continue;
         }
-        let inv = 1.0 / nb.len() as f64;
+        // The neighbours' mean summed as `q / n` (the arithmetic lv::meshing's meshes were made with).
+        let n = nb.len() as f64;
         let mut m = [0.0; 3];
         for &u in nb {
             let q = src[u as usize];
             for c in 0..3 {
-                m[c] += q[c];
+                m[c] += q[c] / n;
             }
         }
         for c in 0..3 {
-            out[c] = p[c] + step * (m[c] * inv - p[c]);
+            out[c] = p[c] + step * (m[c] - p[c]);
         }
     }
 }
