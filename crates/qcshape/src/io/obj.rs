@@ -158,6 +158,19 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     }
     for p in &pending {
         if p.resolved as usize >= positions.len() {
+            if let Some((unknown_line, shown)) = &first_unknown {
+                return Err(ParseError::Syntax {
+                    line: p.line,
+                    message: format!(
+                        "face {} refers to vertex {}, but there are only {} vertices; {n_unknown} line(s) \
+                         with a keyword OBJ does not know were skipped, the first is line {unknown_line}: {shown} \
+                         (a mistyped `v` line?)",
+                        p.face,
+                        p.written,
+                        positions.len()
+                    ),
+                });
+            }
             return Err(ParseError::IndexOutOfRange {
                 face: p.face,
                 index: p.written,

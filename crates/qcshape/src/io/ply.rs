@@ -339,6 +339,50 @@ impl Source<'_> {
         Ok(())
     }
 
+    /// For ASCII: a face whose list count `n` disagrees with the values left on its line is most
+    /// often a vertex line read as a face, because the file holds more elements of the previous
+    /// kind than the header declares. Names both numbers and the line; `None` when the line
+    /// holds exactly `n` more values (then the face itself is short).
+    fn misread_face_hint(
+        &self,
+        item: usize,
+        count: u64,
+        n: u64,
+        elements: &[Element],
+        ei: usize,
+    ) -> Option<ParseError> {
+        let Source::Ascii(c) = self else {
+            return None;
+        };
+        let line = c.line();
+        let mut peek = c.clone();
+        let rest = peek.rest_of_line();
+        let left = text::tokens(rest).count() as u64;
+        if left == n {
+            return None;
+        }
+        let previous = elements[..ei]
+            .iter()
+            .rev()
+            .find(|e| e.count > 0)
+            .map(|e| {
+                format!(
+                    "; the file may hold more {} elements than the {} the header declares",
+                    String::from_utf8_lossy(&e.name),
+                    e.count
+                )
+            })
+            .unwrap_or_default();
+        Some(syntax(
+            line,
+            format!(
+                "face {item} (of the {count} the header declares) starts with a vertex count of {n} (a face needs at least 3), \
+                 but its line holds {} values{previous}, or a wrong list count",
+                left + 1
+            ),
+        ))
+    }
+
     fn has_trailing_data(&mut self) -> bool {
         match self {
             Source::Ascii(c) => c.next_token().is_some(),
@@ -469,6 +513,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                         if Some(ei) == face_el && pi == face_list {
                             src.ensure(n, ity.size() as u64, &what)?;
                             if n < 3 {
+                                if let Some(err) = src.misread_face_hint(item, count, n, &header.elements, ei)
+                                {
+                                    return Err(err);
+                                }
                                 return Err(ParseError::BadFace {
                                     face: item,
                                     count: n,
