@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::cluster::{kmeans, kmedoids, ClusterOptions, Clustering};
+use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions, Clustering};
 use qcshape::dataset::Dataset;
 use qcshape::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
@@ -203,7 +203,7 @@ pub fn run(args: &Args) -> Result<()> {
         let d = load_matrix(&args.matrix)?;
         let c = match args.method.as_str() {
             "kmedoids" => kmedoids(&d, &opts),
-            _ => kmeans(&d, &opts),
+            _ => kernel_kmeans(&d, &opts),
         }
         .with_context(|| format!("{}: cannot cluster", args.matrix.display()))?;
         (d, c, None)

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::cluster::{kmeans, ClusterOptions, Clustering};
+use qcshape::cluster::{kernel_kmeans, ClusterOptions, Clustering};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::embed::{smacof, MdsOptions};
 use qcshape::experiment::interpolation::InterpolationExperiment;
@@ -267,7 +267,7 @@ pub(crate) fn cluster_intrinsic(
     restarts: usize,
     seed: u64,
 ) -> Result<(Clustering, Clustering)> {
-    let kernel = kmeans(
+    let kernel = kernel_kmeans(
         matrix,
         &ClusterOptions {
             k,

@@ -8,7 +8,7 @@
 //!   `T_c (x) A` refitted at every iteration (one sparse Cholesky of size 3 #V whose symbolic
 //!   factorization is built once per (topology, metric) and reused for every iteration and
 //!   every pair solved by one [`GeodesicSolver`]);
-//! - [`Solver::GaussNewtonDirect`]: Levenberg-Marquardt with a sparse Cholesky factorization
+//! - [`Solver::LevenbergMarquardt`]: Levenberg-Marquardt with a sparse Cholesky factorization
 //!   of the full block-tridiagonal normal equations `J^T J + mu D` (exact steps; the factor
 //!   grows with `N` times the spatial fill, practical up to a few hundred vertices);
 //! - [`Solver::Newton`]: the truncated iteration on the exact Hessian (the metrics'
@@ -28,11 +28,11 @@
 
 mod compact;
 mod energy;
-mod gauss_newton;
 mod hessian;
 mod interpolate;
 mod kronecker;
 mod lbfgs;
+mod levenberg_marquardt;
 mod pairs;
 mod plbfgs;
 #[cfg(test)]
@@ -76,9 +76,11 @@ pub enum Solver {
     /// problem). Metrics without second derivatives (rigid, paper forms, segment weights,
     /// per-pose L2) run as Gauss-Newton.
     Newton,
-    /// Levenberg-Marquardt with a sparse Cholesky factorization of the full block-tridiagonal
-    /// normal equations at every iteration (small meshes).
-    GaussNewtonDirect,
+    /// Levenberg-Marquardt: damped Gauss-Newton steps from a sparse Cholesky factorization of
+    /// the full block-tridiagonal normal equations `J^T J + mu D` at every iteration (small
+    /// meshes). Command-line values `gauss-newton-direct`, `gn-direct`, `lm` or
+    /// `levenberg-marquardt`. Formerly `Solver::GaussNewtonDirect`.
+    LevenbergMarquardt,
     /// L-BFGS (the paper's quasi-Newton method) through argmin (More-Thuente line search).
     Lbfgs,
     /// [`Solver::Preconditioned`] without its preconditioner (`H0 = gamma I`, same compact
@@ -94,7 +96,7 @@ impl std::str::FromStr for Solver {
         match s {
             "gauss-newton" | "gn" => Ok(Solver::GaussNewton),
             "newton" => Ok(Solver::Newton),
-            "gauss-newton-direct" | "gn-direct" | "lm" => Ok(Solver::GaussNewtonDirect),
+            "gauss-newton-direct" | "gn-direct" | "lm" | "levenberg-marquardt" => Ok(Solver::LevenbergMarquardt),
             "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
             "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
             "plain-lbfgs" => Ok(Solver::PlainLbfgs),
@@ -270,7 +272,7 @@ impl<'m> GeodesicSolver<'m> {
             )));
         }
         let energy = PathEnergy::new(metric, topo, options.steps);
-        let layout = if options.solver == Solver::GaussNewtonDirect && energy.n_vars() > 0 {
+        let layout = if options.solver == Solver::LevenbergMarquardt && energy.n_vars() > 0 {
             Some(
                 hessian::HessianLayout::new(&energy)
                     .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
@@ -390,12 +392,12 @@ impl<'m> GeodesicSolver<'m> {
                     let newton = self.options.solver == Solver::Newton;
                     truncated::minimize(pe, layout, ends, x0, &self.options, newton)?
                 }
-                Solver::GaussNewtonDirect => {
+                Solver::LevenbergMarquardt => {
                     let layout = self
                         .layout
                         .as_ref()
-                        .expect("layout is built for direct Gauss-Newton");
-                    gauss_newton::minimize(pe, layout, ends, x0, &self.options)?
+                        .expect("layout is built for Levenberg-Marquardt");
+                    levenberg_marquardt::minimize(pe, layout, ends, x0, &self.options)?
                 }
                 Solver::Lbfgs => lbfgs::minimize(pe, ends, x0, &self.options)?,
                 Solver::Preconditioned => {
