@@ -240,9 +240,17 @@ mod tests {
         })
         .unwrap()
         .into_iter()
-        .filter(|d| matches!(d.label.as_deref(), Some("twist") | Some("stretch")))
-        .take(4)
+        .filter(|d| {
+            [
+                "sphere-twist",
+                "ellipsoid-twist",
+                "sphere-stretch",
+                "ellipsoid-stretch",
+            ]
+            .contains(&d.name.as_str())
+        })
         .collect();
+        assert_eq!(defs.len(), 4);
         let exp = NoiseExperiment {
             pipeline: PipelineOptions {
                 geodesic: crate::path::GeodesicOptions {
