@@ -1,22 +1,20 @@
 //! `qcshape classify`: cluster deformations from their distance matrix and, given class
 //! labels, score the clustering (eq. 15, 1-NN, ARI).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use qcshape::cluster::{kmeans, kmedoids, ClusterOptions, Clustering};
+use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions};
 use qcshape::dataset::Dataset;
-use qcshape::eval::{
-    adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
-    ConfusionMatrix, Matching, OneVsRest,
-};
-use qcshape::io::write_atomically;
+use qcshape::experiment::analysis::dataset_labels;
+use qcshape::experiment::classification::{classify_set, score, write_assignments, write_confusion};
 use qcshape::path::GeodesicOptions;
-use qcshape::similarity::{read_labels, DistanceMatrix, PipelineOptions};
+use qcshape::similarity::PipelineOptions;
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::MetricArgs;
-use crate::reproduce::classify_set;
+use crate::input::{is_matrix, load_labels, load_matrix};
+use crate::progress::PipelineBars;
 
 /// Cluster deformations into K classes from a distance matrix or a data set (eq. 14).
 ///
@@ -87,110 +85,6 @@ pub struct Args {
     json: bool,
 }
 
-/// Whether INPUT is a distance matrix CSV rather than a data set (a folder, or a manifest whose
-/// header names the `deformation` column).
-fn is_matrix(path: &Path) -> Result<bool> {
-    if path.is_dir() {
-        return Ok(false);
-    }
-    // An unreadable file is left to the matrix reader, whose error names the file.
-    let Ok(file) = std::fs::File::open(path) else {
-        return Ok(true);
-    };
-    let mut first = String::new();
-    if std::io::BufRead::read_line(&mut std::io::BufReader::new(file), &mut first).is_err() {
-        return Ok(true);
-    }
-    let first = first.trim_start_matches('\u{feff}');
-    Ok(first.starts_with("name,") || !first.contains("deformation"))
-}
-
-/// Reads the distance matrix of the deformations to classify.
-pub(crate) fn load_matrix(path: &Path) -> Result<DistanceMatrix> {
-    Ok(DistanceMatrix::read_csv(path)?)
-}
-
-/// The label of each deformation of `d` (matrix order) from a label file.
-pub(crate) fn load_labels(path: &Path, d: &DistanceMatrix) -> Result<Vec<String>> {
-    let pairs = read_labels(path)?;
-    d.labels_for(&pairs)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
-}
-
-/// Scores of a clustering against known classes.
-pub(crate) struct Scores {
-    pub(crate) classes: Vec<String>,
-    pub(crate) class_of: Vec<usize>,
-    pub(crate) matching: Matching,
-    pub(crate) confusion: ConfusionMatrix,
-    pub(crate) eq15: OneVsRest,
-    pub(crate) nn_accuracy: f64,
-    pub(crate) ari: f64,
-}
-
-pub(crate) fn score(d: &DistanceMatrix, c: &Clustering, labels: &[String]) -> Result<Scores> {
-    let (class_of, classes) = encode_labels(labels);
-    if classes.len() < 2 {
-        bail!(
-            "the labels name only one class ({:?}): nothing to score",
-            classes[0]
-        );
-    }
-    let (matching, confusion) = matched_confusion(&c.assignments, c.k, &class_of, classes.len())?;
-    Ok(Scores {
-        eq15: one_vs_rest(&confusion)?,
-        nn_accuracy: loo_nearest_neighbour_accuracy(d, &class_of)?,
-        ari: adjusted_rand_index(&c.assignments, &class_of)?,
-        classes,
-        class_of,
-        matching,
-        confusion,
-    })
-}
-
-pub(crate) fn write_assignments(
-    path: &Path,
-    d: &DistanceMatrix,
-    c: &Clustering,
-    scores: Option<&Scores>,
-) -> Result<()> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    match scores {
-        Some(_) => w.write_record(["name", "cluster", "label", "matched_label"])?,
-        None => w.write_record(["name", "cluster"])?,
-    }
-    for (i, name) in d.names().iter().enumerate() {
-        let cluster = c.assignments[i].to_string();
-        match scores {
-            Some(s) => {
-                let matched =
-                    s.matching.cluster_class[c.assignments[i]].map_or("", |k| s.classes[k].as_str());
-                w.write_record([name.as_str(), &cluster, &s.classes[s.class_of[i]], matched])?;
-            }
-            None => w.write_record([name.as_str(), &cluster])?,
-        }
-    }
-    let bytes = w.into_inner()?;
-    write_atomically(path, |o| o.write_all(&bytes))?;
-    Ok(())
-}
-
-pub(crate) fn write_confusion(path: &Path, s: &Scores) -> Result<()> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    let mut header = vec!["actual".to_string()];
-    header.extend(s.classes.iter().cloned());
-    header.push("unmatched".into());
-    w.write_record(&header)?;
-    for (k, row) in s.confusion.counts.iter().enumerate() {
-        let mut rec = vec![s.classes[k].clone()];
-        rec.extend(row.iter().map(usize::to_string));
-        w.write_record(&rec)?;
-    }
-    let bytes = w.into_inner()?;
-    write_atomically(path, |o| o.write_all(&bytes))?;
-    Ok(())
-}
-
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
     let opts = ClusterOptions {
@@ -203,7 +97,7 @@ pub fn run(args: &Args) -> Result<()> {
         let d = load_matrix(&args.matrix)?;
         let c = match args.method.as_str() {
             "kmedoids" => kmedoids(&d, &opts),
-            _ => kmeans(&d, &opts),
+            _ => kernel_kmeans(&d, &opts),
         }
         .with_context(|| format!("{}: cannot cluster", args.matrix.display()))?;
         (d, c, None)
@@ -225,24 +119,22 @@ pub fn run(args: &Args) -> Result<()> {
             smoothing: args.smooth,
             base: 0,
         };
+        let bars = PipelineBars::new(data.deformations.len());
         let r = classify_set(
             &data.deformations,
             &popts,
             args.k,
             args.restarts,
             args.seed,
-            "pairs",
-        )?;
+            &|s| bars.tick("pairs", s),
+        );
+        bars.finish();
+        let r = r?;
         let c = match args.method.as_str() {
             "kmedoids" => kmedoids(&r.matrix, &opts)?,
             _ => r.clustering,
         };
-        let labels: Option<Vec<String>> = data
-            .deformations
-            .iter()
-            .map(|d| d.label.clone().filter(|l| !l.is_empty()))
-            .collect();
-        (r.matrix, c, labels)
+        (r.matrix, c, dataset_labels(&data.deformations))
     };
     let labels = match (&args.labels, data_labels) {
         (Some(p), _) => Some(load_labels(p, &d)?),

@@ -8,7 +8,7 @@ use qcshape::eval::encode_labels;
 use qcshape::io::write_atomically;
 use qcshape::plot::{heatmap, scatter_map};
 
-use crate::classify::{load_labels, load_matrix};
+use crate::input::{load_labels, load_matrix};
 
 /// Project deformations onto 2 or 3 dimensions from their distance matrix (eq. 16).
 ///

@@ -103,7 +103,11 @@ pub fn run(args: &Args) -> Result<()> {
             "metric": metric.name(),
             "vertices": a.n_vertices(),
             "steps": opts.steps,
-            "solver": format!("{:?}", opts.solver),
+            // The name before `Solver::LevenbergMarquardt` was renamed, kept for compatibility.
+            "solver": match opts.solver {
+                qcshape::path::Solver::LevenbergMarquardt => "GaussNewtonDirect".to_string(),
+                s => format!("{s:?}"),
+            },
             "distance": g.length,
             "energy": g.energy,
             "linear_energy": g.initial_energy,

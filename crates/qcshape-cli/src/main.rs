@@ -1,7 +1,11 @@
 //! The `qcshape` command-line tool.
 //!
 //! This file only parses arguments and dispatches: each subcommand lives in its own module
-//! (`info.rs`, ...) with a clap `Args` struct and a `run(&Args) -> anyhow::Result<()>`.
+//! (`info.rs`, ...; nested subcommands in `experiment/` and `lv/`) with a clap `Args` struct and
+//! a `run(&Args) -> anyhow::Result<()>`. The analysis itself is in the library (`qcshape::
+//! experiment`, `qcshape::similarity`, ...); the modules here parse arguments, show progress,
+//! name the output files and print. Helpers shared by several commands: `args.rs`, `input.rs`,
+//! `pipeline.rs`, `progress.rs`.
 //! Errors are printed to stderr as `error: ...` with exit status 1; clap's usage errors exit
 //! with status 2.
 
@@ -13,14 +17,13 @@ mod args;
 mod classify;
 mod embed;
 mod experiment;
-mod experiment_noise;
-mod experiment_robustness;
-mod experiment_transfer;
 mod geodesic;
 mod info;
+mod input;
 mod interpolate;
 mod lv;
-mod lv_run;
+mod pipeline;
+mod progress;
 mod reproduce;
 mod run;
 mod similarity;

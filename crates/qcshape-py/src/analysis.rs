@@ -4,7 +4,7 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use qcshape::cluster::{kmeans, kmedoids, ClusterOptions, Clustering};
+use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions, Clustering};
 use qcshape::embed::{smacof, MdsOptions};
 use qcshape::eval::{adjusted_rand_index, encode_labels, matched_confusion, one_vs_rest};
 use qcshape::similarity::{DistanceMatrix, IntrinsicOptions};
@@ -166,7 +166,8 @@ impl PyKMeans {
             let kw = PipelineKw::from_kwargs(options)?;
             let (r, popts) = run_pipeline(py, ds.get(), &kw)?;
             let (kernel, intrinsic) = detached(py, kw.threads, |_| {
-                let kernel = kmeans(&r.matrix, &opts).map_err(|e| PyValueError::new_err(e.to_string()))?;
+                let kernel =
+                    kernel_kmeans(&r.matrix, &opts).map_err(|e| PyValueError::new_err(e.to_string()))?;
                 let space =
                     ShapeSpace::new(r.prepared.topology.clone(), popts.metric, popts.geodesic.clone())
                         .map_err(errors::space)?;
@@ -201,7 +202,7 @@ impl PyKMeans {
             }
             let m = distance_matrix(x, "X")?;
             let c = detached(py, None, |_| {
-                kmeans(&m, &opts).map_err(|e| PyValueError::new_err(e.to_string()))
+                kernel_kmeans(&m, &opts).map_err(|e| PyValueError::new_err(e.to_string()))
             })?;
             slf.fitted = Some(c);
             slf.kernel = None;

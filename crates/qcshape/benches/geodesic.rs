@@ -168,7 +168,7 @@ fn main() {
             let gn_t = if skip_gn {
                 (f64::NAN, 0, false)
             } else if gn_direct {
-                to_target(Solver::GaussNewtonDirect, gn_cap)
+                to_target(Solver::LevenbergMarquardt, gn_cap)
             } else {
                 to_target(Solver::GaussNewton, gn_cap)
             };

@@ -316,7 +316,7 @@ impl ShapeSpace {
             self.shape(&format!("curve sample {j}"), s)?;
         }
         self.vector("the vector", v)?;
-        if method == Transport::Euclidean {
+        if method == Transport::Translate {
             // No scale needed: the vector comes back bit for bit.
             return Ok(euclidean_transport(curve, v).vector);
         }

@@ -133,7 +133,7 @@ fn all_solvers_reach_the_same_energy() {
         for solver in [
             Solver::Newton,
             Solver::GaussNewton,
-            Solver::GaussNewtonDirect,
+            Solver::LevenbergMarquardt,
             Solver::Preconditioned,
             Solver::PlainLbfgs,
         ] {

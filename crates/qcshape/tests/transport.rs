@@ -335,7 +335,7 @@ fn euclidean_transfer_is_exactly_the_translated_deformation() {
         &spec(MetricKind::QuasiConformal, 0.1),
         &m,
         &b,
-        Transport::Euclidean,
+        Transport::Translate,
         &TransferOptions::default(),
     )
     .unwrap();
@@ -368,7 +368,7 @@ fn round_trip(a: &Shape, b: &Shape, m: &[Shape], f: f64, sp: &MetricSpec) {
     let setup = TransferSetup::new(sp, a.topology.clone(), opts).unwrap();
     let solver = setup.solver().unwrap();
     let there = solver.run_shapes(m, b, Transport::Parallel).unwrap();
-    let euclid = solver.run_shapes(m, b, Transport::Euclidean).unwrap();
+    let euclid = solver.run_shapes(m, b, Transport::Translate).unwrap();
     let n: Vec<Shape> = there
         .poses
         .iter()
@@ -413,7 +413,7 @@ fn on_a_flat_metric_parallel_and_schild_equal_euclidean() {
     let sp = spec(MetricKind::L2, 0.0);
     let setup = TransferSetup::new(&sp, a.topology.clone(), options(3, f)).unwrap();
     let solver = setup.solver().unwrap();
-    let e = solver.run_shapes(&m, &b, Transport::Euclidean).unwrap();
+    let e = solver.run_shapes(&m, &b, Transport::Translate).unwrap();
     let size = max_dist(&m[2].positions, &m[0].positions);
     for method in [Transport::Parallel, Transport::Schild] {
         let t = solver.run_shapes(&m, &b, method).unwrap();
@@ -487,7 +487,7 @@ fn mismatched_topology_is_a_clear_error() {
     faces[5] = [faces[5][1], faces[5][2], faces[5][0]];
     let topo = Topology::new(a.n_vertices(), faces).unwrap();
     let base = Shape::new(topo, a.positions.clone()).unwrap();
-    let err = transfer(&sp, &m, &base, Transport::Euclidean, &TransferOptions::default()).unwrap_err();
+    let err = transfer(&sp, &m, &base, Transport::Translate, &TransferOptions::default()).unwrap_err();
     assert!(err.to_string().contains("face 5"), "{err}");
     // Wrong vertex counts through the pose API.
     let setup = TransferSetup::new(&sp, a.topology.clone(), TransferOptions::default()).unwrap();

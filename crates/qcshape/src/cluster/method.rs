@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use serde::Serialize;
 
-use super::{kmeans, kmedoids, mds_kmeans, spectral, ClusterError, ClusterOptions, Clustering};
+use super::{kernel_kmeans, kmedoids, mds_kmeans, spectral, ClusterError, ClusterOptions, Clustering};
 use crate::similarity::DistanceMatrix;
 
 /// A clustering method of a distance matrix (or, for `Intrinsic`, of the deformations behind
@@ -14,7 +14,7 @@ use crate::similarity::DistanceMatrix;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(into = "String")]
 pub enum ClusterMethod {
-    /// Kernel k-means on squared distances ([`kmeans()`], eq. 14 from the matrix alone).
+    /// Kernel k-means on squared distances ([`kernel_kmeans()`], eq. 14 from the matrix alone).
     KernelKMeans,
     /// k-medoids by PAM ([`kmedoids()`]).
     KMedoids,
@@ -114,7 +114,7 @@ impl ClusterMethod {
     /// [`ClusterError::NeedsDeformations`].
     pub fn on_matrix(&self, d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
         match *self {
-            ClusterMethod::KernelKMeans => kmeans(d, opts),
+            ClusterMethod::KernelKMeans => kernel_kmeans(d, opts),
             ClusterMethod::KMedoids => kmedoids(d, opts),
             ClusterMethod::Spectral { scale } => spectral(d, scale, opts),
             ClusterMethod::MdsKMeans { dims } => mds_kmeans(d, dims, opts),

@@ -7,7 +7,7 @@
 //! ([`CentreModel::cost`], a *squared* distance for k-means), the centre made of one item (for
 //! seeding and empty clusters) and how to recompute a centre from its members.
 //! [`lloyd`] runs k-means++ seeding and Lloyd iterations on such a model and
-//! [`best_of_restarts`] keeps the best of several seeded runs. [`kmeans()`] is the model whose
+//! [`best_of_restarts`] keeps the best of several seeded runs. [`kernel_kmeans()`] is the model whose
 //! centres are implicit (kernel k-means on squared distances); k-means with intrinsic (Karcher)
 //! means of deformations is another model over the same driver.
 //!
@@ -18,12 +18,12 @@
 //! assignment, then the lowest index. Clusters are renumbered in order of first appearance
 //! (item 0 is always in cluster 0).
 
-pub mod kmeans;
+pub mod kernel_kmeans;
 pub mod kmedoids;
 pub mod method;
 pub mod spectral;
 
-pub use kmeans::{kmeans, KernelKMeans};
+pub use kernel_kmeans::{kernel_kmeans, KernelKMeans};
 pub use kmedoids::kmedoids;
 pub use method::ClusterMethod;
 pub use spectral::{mds_kmeans, median_distance, spectral, spectral_embedding};

@@ -10,7 +10,7 @@
 
 use faer::{Mat, Side};
 
-use super::{kmeans, ClusterError, ClusterOptions, Clustering};
+use super::{kernel_kmeans, ClusterError, ClusterOptions, Clustering};
 use crate::similarity::DistanceMatrix;
 
 /// The median of the off-diagonal entries `d_ij, i < j` (0 for fewer than two items).
@@ -89,7 +89,7 @@ pub fn spectral_embedding(d: &DistanceMatrix, k: usize, sigma: f64) -> Result<Ve
 pub fn spectral(d: &DistanceMatrix, scale: f64, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
     opts.check(d.len())?;
     let x = spectral_embedding(d, opts.k, scale * median_distance(d))?;
-    kmeans(&points_matrix(d.names(), &x)?, opts)
+    kernel_kmeans(&points_matrix(d.names(), &x)?, opts)
 }
 
 /// k-means (seeded restarts) in the `dims` leading classical-MDS coordinates of the matrix:
@@ -103,7 +103,7 @@ pub fn mds_kmeans(
 ) -> Result<Clustering, ClusterError> {
     opts.check(d.len())?;
     let x = mds_coordinates(d, dims)?;
-    kmeans(&points_matrix(d.names(), &x)?, opts)
+    kernel_kmeans(&points_matrix(d.names(), &x)?, opts)
 }
 
 /// Classical MDS in any dimension: the `dims` leading eigenvectors of `B = -1/2 J D^(2) J`
@@ -182,7 +182,7 @@ mod tests {
         assert_eq!(s.assignments, truth);
         // The same seed gives the same result.
         assert_eq!(spectral(&d, 0.5, &opts).unwrap(), s);
-        let km = kmeans(&d, &opts).unwrap();
+        let km = kernel_kmeans(&d, &opts).unwrap();
         assert_ne!(km.assignments, truth, "the example must defeat plain k-means");
     }
 
@@ -191,7 +191,7 @@ mod tests {
         let (d, _) = ring_and_arc();
         let opts = ClusterOptions::default();
         let a = mds_kmeans(&d, d.len(), &opts).unwrap();
-        let b = kmeans(&d, &opts).unwrap();
+        let b = kernel_kmeans(&d, &opts).unwrap();
         assert_eq!(a.assignments, b.assignments);
         assert!((a.objective - b.objective).abs() < 1e-8 * b.objective);
     }

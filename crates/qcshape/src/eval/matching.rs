@@ -7,7 +7,7 @@ use super::{check_range, EvalError};
 
 /// A one-to-one matching of `k` clusters to `c` classes maximizing the number of items whose
 /// cluster is matched to their class.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Matching {
     /// The class matched to each cluster (k); `None` for clusters left over when `k > c`.
     pub cluster_class: Vec<Option<usize>>,
@@ -72,7 +72,7 @@ pub fn hungarian_match(
 
 /// A confusion matrix of `c` classes: `counts[actual][predicted]`, with one extra last column
 /// for items predicted as no class (in a cluster left unmatched).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ConfusionMatrix {
     /// c x (c + 1) counts.
     pub counts: Vec<Vec<usize>>,

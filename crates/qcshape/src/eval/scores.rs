@@ -6,7 +6,7 @@ use crate::similarity::DistanceMatrix;
 
 /// A two-class (one class against the rest) confusion matrix; `f64` so that averages are
 /// exact.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct BinaryCounts {
     /// True positives: items of the class predicted as the class.
     pub tp: f64,
@@ -41,7 +41,7 @@ impl BinaryCounts {
 /// items predicted as their class, and the specificity is `sum TN_k / sum (FP_k + TN_k)`.)
 /// The means of the per-class values are given as `macro_sensitivity` and
 /// `macro_specificity`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct OneVsRest {
     /// One binary confusion matrix per class (c).
     pub per_class: Vec<BinaryCounts>,

@@ -619,5 +619,20 @@ fn summarize(groups: &[String], methods: &[String], cases: &[CaseError]) -> Vec<
     out
 }
 
+/// `count` interior frames (indices `1 .. poses - 2`) of a sequence of `poses` poses, evenly
+/// spaced, for leave-one-frame-out (all if `count` is 0 or more than there are).
+pub fn pick_frames(poses: usize, count: usize) -> Vec<usize> {
+    let interior = poses.saturating_sub(2);
+    if count == 0 || count >= interior {
+        return (1..=interior).collect();
+    }
+    if count == 1 {
+        return vec![1 + (interior - 1) / 2];
+    }
+    (0..count)
+        .map(|i| 1 + (i * (interior - 1) + (count - 1) / 2) / (count - 1))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests;

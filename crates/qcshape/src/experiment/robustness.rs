@@ -14,7 +14,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::cluster::{kmeans, kmedoids, ClusterError, ClusterOptions, Clustering};
+use crate::cluster::{kernel_kmeans, kmedoids, ClusterError, ClusterOptions, Clustering};
 use crate::dataset::Deformation;
 use crate::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
@@ -356,7 +356,7 @@ pub fn score(
         ..Default::default()
     };
     let nn = loo_nearest_neighbour_accuracy(d, classes)?;
-    let km = kmeans(d, &opts)?;
+    let km = kernel_kmeans(d, &opts)?;
     let kmed = kmedoids(d, &opts)?;
     let (km_acc, ..) = clustering_scores(&km, classes, k)?;
     let (kmed_acc, sens, spec, ari) = clustering_scores(&kmed, classes, k)?;

@@ -79,7 +79,7 @@ impl Default for TransferExperiment {
                 MetricSpec::new(MetricKind::Isometric),
                 MetricSpec::new(MetricKind::Conformal),
             ],
-            transports: vec![Transport::Parallel, Transport::Schild, Transport::Euclidean],
+            transports: vec![Transport::Parallel, Transport::Schild, Transport::Translate],
             kinds: DeformationKind::all().to_vec(),
             source: InitialShape::Sphere,
             bases: vec![
@@ -266,9 +266,9 @@ impl TransferExperiment {
         let geodesic = self
             .transports
             .iter()
-            .filter(|t| **t != Transport::Euclidean)
+            .filter(|t| **t != Transport::Translate)
             .count();
-        let euclidean = usize::from(self.transports.contains(&Transport::Euclidean));
+        let euclidean = usize::from(self.transports.contains(&Transport::Translate));
         self.kinds.len() * self.bases.len() * (self.metrics.len() * geodesic + euclidean)
     }
 
@@ -385,13 +385,13 @@ impl TransferExperiment {
             .transports
             .iter()
             .copied()
-            .find(|t| *t != Transport::Euclidean);
+            .find(|t| *t != Transport::Translate);
 
         let mut jobs: Vec<Job> = Vec::with_capacity(self.n_transfers());
         for ki in 0..self.kinds.len() {
             for bi in 0..bases.len() {
                 for &tr in &self.transports {
-                    if tr == Transport::Euclidean {
+                    if tr == Transport::Translate {
                         jobs.push((ki, bi, None, tr));
                     } else {
                         jobs.extend((0..self.metrics.len()).map(|mi| (ki, bi, Some(mi), tr)));
@@ -442,7 +442,7 @@ impl TransferExperiment {
                     .all(|s| s.geodesic_converged && s.rungs.iter().all(|r| r.converged));
                 let figure = (ki == fig_kind
                     && bi == fig_base
-                    && (tr == Transport::Euclidean || Some(tr) == fig_transport))
+                    && (tr == Transport::Translate || Some(tr) == fig_transport))
                     .then(|| FigurePose {
                         label: match mi {
                             Some(m) => format!("{}-{}", labels[m], tr.label()),
@@ -699,7 +699,7 @@ mod tests {
         assert_eq!(labels, ["quasi-conformal-parallel", "euclidean"]);
         // Euclidean transfer of a non-trivial deformation to a different shape is not exact, and
         // its error is what the summary reports.
-        let eu = r.summary(0, Transport::Euclidean, None, Measure::Raw).unwrap();
+        let eu = r.summary(0, Transport::Translate, None, Measure::Raw).unwrap();
         assert_eq!(eu.n, 2);
         assert!(eu.mean > 1e-3);
         let c = r.comparison(0, Transport::Parallel, Measure::Raw).unwrap();

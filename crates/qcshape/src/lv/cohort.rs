@@ -310,6 +310,23 @@ impl Registration {
         })
     }
 
+    /// The largest distance (world mm) between a landmark carried by a map and its position in
+    /// that frame, over the first [`Registration::landmarks`] landmarks of `lm` and every
+    /// frame (0 up to rounding when the regularization is 0); `None` if `lm` has fewer
+    /// landmarks.
+    pub fn max_landmark_residual(&self, lm: &Landmarks) -> Option<f64> {
+        let sub = lm.first(self.landmarks)?;
+        let mut worst = 0.0f64;
+        for (m, f) in self.maps.iter().zip(&sub.frames) {
+            for (p, q) in sub.frames[0].iter().zip(f) {
+                let r = m.apply(*p);
+                worst =
+                    worst.max(((r[0] - q[0]).powi(2) + (r[1] - q[1]).powi(2) + (r[2] - q[2]).powi(2)).sqrt());
+            }
+        }
+        Some(worst)
+    }
+
     /// Writes the registration as JSON, atomically.
     pub fn write(&self, path: &Path) -> Result<(), LvError> {
         let text =

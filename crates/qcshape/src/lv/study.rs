@@ -12,7 +12,7 @@ use thiserror::Error;
 
 use super::analysis::{close_cycle, drop_closing_pose, radial_features, AnalysisError, Axis};
 use super::cohort::LvError;
-use crate::cluster::{kmeans, ClusterError, ClusterMethod, ClusterOptions, Clustering};
+use crate::cluster::{kernel_kmeans, ClusterError, ClusterMethod, ClusterOptions, Clustering};
 use crate::dataset::{DatasetError, Deformation};
 use crate::embed::MdsError;
 use crate::eval::{
@@ -221,7 +221,7 @@ pub fn split_prepared(
     if s.method != ClusterMethod::Intrinsic {
         return split_matrix(d, s);
     }
-    let start = kmeans(d, &s.cluster_options())?;
+    let start = kernel_kmeans(d, &s.cluster_options())?;
     let metric = opts.metric.build();
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     let r = intrinsic_kmeans(

@@ -1,24 +1,29 @@
 //! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
-//! path with `N` segments, started from the linear interpolation. Six solvers:
+//! path with `N` segments, started from the linear interpolation. Six solvers, the default
+//! first:
+//! - [`Solver::Preconditioned`] (default, `plbfgs.rs`): L-BFGS whose initial inverse Hessian is
+//!   a Kronecker model `T_c (x) A` of the Gauss-Newton Hessian (`kronecker.rs`; one sparse
+//!   Cholesky of size 3 #V whose symbolic factorization is built once per (topology, metric)
+//!   and reused for every refit and every pair solved by one [`GeodesicSolver`]) plus the
+//!   block-Jacobi inverse of its 3 x 3 vertex blocks per pose (`vertex_blocks.rs`), refitted
+//!   periodically;
+//! - [`Solver::LevenbergMarquardt`] (`levenberg_marquardt.rs`): Levenberg-Marquardt with a
+//!   sparse Cholesky factorization of the full block-tridiagonal normal equations
+//!   `J^T J + mu D` (exact steps; the factor grows with `N` times the spatial fill, practical
+//!   up to a few hundred vertices);
+//! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
+//!
+//! Kept for the benchmark and the `--solver` choices (module `research`):
 //! - [`Solver::GaussNewton`]: truncated Gauss-Newton on the stacked residuals; the normal
 //!   equations `J^T J p = -J^T r` (block-tridiagonal in the poses) are solved by conjugate
-//!   gradients on the assembled 3 x 3 vertex blocks, preconditioned by a Kronecker model
-//!   `T_c (x) A` refitted at every iteration (one sparse Cholesky of size 3 #V whose symbolic
-//!   factorization is built once per (topology, metric) and reused for every iteration and
-//!   every pair solved by one [`GeodesicSolver`]);
-//! - [`Solver::GaussNewtonDirect`]: Levenberg-Marquardt with a sparse Cholesky factorization
-//!   of the full block-tridiagonal normal equations `J^T J + mu D` (exact steps; the factor
-//!   grows with `N` times the spatial fill, practical up to a few hundred vertices);
+//!   gradients on the assembled 3 x 3 vertex blocks, preconditioned by the Kronecker model
+//!   refitted at every iteration;
 //! - [`Solver::Newton`]: the truncated iteration on the exact Hessian (the metrics'
 //!   second-order parts added to `J^T J`);
-//! - [`Solver::Preconditioned`] (default): L-BFGS whose initial inverse Hessian is the same
-//!   Kronecker model plus the block-Jacobi inverse of the Gauss-Newton Hessian's 3 x 3 vertex
-//!   blocks per pose, refitted periodically;
 //! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
-//!   line search) on the exact gradient;
-//! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
+//!   line search) on the exact gradient.
 //!
 //! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
 //! distance `dis(A, B)` is the length of the discrete geodesic.
@@ -28,16 +33,15 @@
 
 mod compact;
 mod energy;
-mod gauss_newton;
 mod hessian;
 mod interpolate;
 mod kronecker;
-mod lbfgs;
+mod levenberg_marquardt;
 mod pairs;
 mod plbfgs;
+mod research;
 #[cfg(test)]
 mod second_order_tests;
-mod truncated;
 mod vertex_blocks;
 
 use std::sync::Arc;
@@ -76,9 +80,11 @@ pub enum Solver {
     /// problem). Metrics without second derivatives (rigid, paper forms, segment weights,
     /// per-pose L2) run as Gauss-Newton.
     Newton,
-    /// Levenberg-Marquardt with a sparse Cholesky factorization of the full block-tridiagonal
-    /// normal equations at every iteration (small meshes).
-    GaussNewtonDirect,
+    /// Levenberg-Marquardt: damped Gauss-Newton steps from a sparse Cholesky factorization of
+    /// the full block-tridiagonal normal equations `J^T J + mu D` at every iteration (small
+    /// meshes). Command-line values `gauss-newton-direct`, `gn-direct`, `lm` or
+    /// `levenberg-marquardt`. Formerly `Solver::GaussNewtonDirect`.
+    LevenbergMarquardt,
     /// L-BFGS (the paper's quasi-Newton method) through argmin (More-Thuente line search).
     Lbfgs,
     /// [`Solver::Preconditioned`] without its preconditioner (`H0 = gamma I`, same compact
@@ -94,7 +100,7 @@ impl std::str::FromStr for Solver {
         match s {
             "gauss-newton" | "gn" => Ok(Solver::GaussNewton),
             "newton" => Ok(Solver::Newton),
-            "gauss-newton-direct" | "gn-direct" | "lm" => Ok(Solver::GaussNewtonDirect),
+            "gauss-newton-direct" | "gn-direct" | "lm" | "levenberg-marquardt" => Ok(Solver::LevenbergMarquardt),
             "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
             "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
             "plain-lbfgs" => Ok(Solver::PlainLbfgs),
@@ -270,7 +276,7 @@ impl<'m> GeodesicSolver<'m> {
             )));
         }
         let energy = PathEnergy::new(metric, topo, options.steps);
-        let layout = if options.solver == Solver::GaussNewtonDirect && energy.n_vars() > 0 {
+        let layout = if options.solver == Solver::LevenbergMarquardt && energy.n_vars() > 0 {
             Some(
                 hessian::HessianLayout::new(&energy)
                     .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
@@ -388,16 +394,16 @@ impl<'m> GeodesicSolver<'m> {
                 Solver::GaussNewton | Solver::Newton => {
                     let layout = self.spatial.as_ref().expect("layout is built for Gauss-Newton");
                     let newton = self.options.solver == Solver::Newton;
-                    truncated::minimize(pe, layout, ends, x0, &self.options, newton)?
+                    research::truncated::minimize(pe, layout, ends, x0, &self.options, newton)?
                 }
-                Solver::GaussNewtonDirect => {
+                Solver::LevenbergMarquardt => {
                     let layout = self
                         .layout
                         .as_ref()
-                        .expect("layout is built for direct Gauss-Newton");
-                    gauss_newton::minimize(pe, layout, ends, x0, &self.options)?
+                        .expect("layout is built for Levenberg-Marquardt");
+                    levenberg_marquardt::minimize(pe, layout, ends, x0, &self.options)?
                 }
-                Solver::Lbfgs => lbfgs::minimize(pe, ends, x0, &self.options)?,
+                Solver::Lbfgs => research::lbfgs::minimize(pe, ends, x0, &self.options)?,
                 Solver::Preconditioned => {
                     let layout = self
                         .spatial

@@ -63,6 +63,31 @@ pub struct PairDistance {
     pub seconds: f64,
 }
 
+/// The per-pose distances of `pairs` as CSV: header `a,b,pose,distance,converged`, one row per
+/// pair and pose `k` with `dis(M_k, N_k)` at full precision; `names` (n) name the deformations
+/// (quoted when they hold a comma, a quote or a line break).
+pub fn details_csv(names: &[String], pairs: &[PairDistance]) -> String {
+    fn field(s: &str) -> String {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.to_string()
+        }
+    }
+    let mut text = String::from("a,b,pose,distance,converged\n");
+    for p in pairs {
+        for (k, d) in p.per_pose.iter().enumerate() {
+            text.push_str(&format!(
+                "{},{},{k},{d:?},{}\n",
+                field(&names[p.i]),
+                field(&names[p.j]),
+                p.converged
+            ));
+        }
+    }
+    text
+}
+
 /// `dis(M_k, N_k)` for every pose `k` of two deformations given as pose lists (each #V x 3,
 /// already multiplied by the common normalization factor). Identical poses (bit for bit, such
 /// as the common base after transfer) have distance 0 without a solve.

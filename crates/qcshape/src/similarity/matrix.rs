@@ -136,7 +136,7 @@ pub enum MatrixFileError {
 
 /// A symmetric matrix of non-negative distances `d_ij` between `n` named deformations (for
 /// example the similarities of eq. 13), stored row-major (n x n) with a zero diagonal.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct DistanceMatrix {
     names: Vec<String>,
     values: Vec<f64>,

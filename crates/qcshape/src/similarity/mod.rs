@@ -9,7 +9,9 @@ pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
 
-pub use engine::{all_pairs, assemble, compute_pairs, pose_distances, PairDistance, Pose, SimilarityError};
+pub use engine::{
+    all_pairs, assemble, compute_pairs, details_csv, pose_distances, PairDistance, Pose, SimilarityError,
+};
 pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
 pub use journal::{fingerprint, Journal};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};

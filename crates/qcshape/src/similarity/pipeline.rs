@@ -34,7 +34,7 @@ pub struct PipelineOptions {
     /// made 1 the default).
     pub levels: usize,
     /// How deformations are carried to the common base (section 2.2.2). Default
-    /// [`Transport::Euclidean`]: it gave lower transfer errors and better classification than
+    /// [`Transport::Translate`]: it gave lower transfer errors and better classification than
     /// parallel transport in the measurements (README).
     pub transport: Transport,
     /// Index of the reference deformation whose first pose is the common base (METHOD.md).
@@ -60,7 +60,7 @@ impl Default for PipelineOptions {
             geodesic: GeodesicOptions::default(),
             insert: 0,
             levels: 1,
-            transport: Transport::Euclidean,
+            transport: Transport::Translate,
             base: 0,
             align: Alignment::Rigid,
             smoothing: 10,

@@ -3,7 +3,7 @@
 //! A deformation `M_0 .. M_K` (poses #V x 3) is carried to a new base `N_0`: for
 //! `k = 0 .. K-1`, the discrete geodesic `gamma_k` from `M_k` to `N_k` is computed, the segment
 //! `X_k = M_{k+1} - M_k` is transported along its samples to `Y_k`, and `N_{k+1} = N_k + Y_k`.
-//! [`Transport::Euclidean`] is the baseline `N_k = N_0 + M_k - M_0`.
+//! [`Transport::Translate`] is the baseline `N_k = N_0 + M_k - M_0`.
 //!
 //! All shapes are scaled by one common factor before the geodesics and the transport
 //! ([`TransferOptions::normalization`]; [`Normalization::MeanEdgeOfFirst`] uses the base
@@ -34,17 +34,22 @@ pub enum Transport {
     Parallel,
     /// Schild's ladder along the geodesic ([`schild_ladder`]).
     Schild,
-    /// Euclidean transfer, `N_k = N_0 + M_k - M_0` (no geodesics).
-    Euclidean,
+    /// Translation ("Euclidean transfer"), `N_k = N_0 + (M_k - M_0)`: each displacement of the
+    /// source is added to the base unchanged. This is no transport along a path (no geodesics,
+    /// no metric); it is the identity map of flat space and the measured best choice for
+    /// classification. Its label, serialized name and command-line value stay `euclidean` for
+    /// compatibility (`translate` is accepted as well). Formerly `Transport::Euclidean`.
+    #[serde(rename = "euclidean")]
+    Translate,
 }
 
 impl Transport {
-    /// `"parallel"`, `"schild"` or `"euclidean"`.
+    /// `"parallel"`, `"schild"` or `"euclidean"` ([`Transport::Translate`]).
     pub fn label(self) -> &'static str {
         match self {
             Transport::Parallel => "parallel",
             Transport::Schild => "schild",
-            Transport::Euclidean => "euclidean",
+            Transport::Translate => "euclidean",
         }
     }
 }
@@ -55,7 +60,7 @@ impl std::str::FromStr for Transport {
         match s {
             "parallel" => Ok(Transport::Parallel),
             "schild" => Ok(Transport::Schild),
-            "euclidean" => Ok(Transport::Euclidean),
+            "euclidean" | "translate" => Ok(Transport::Translate),
             _ => Err(format!(
                 "unknown transport '{s}' (expected parallel, schild or euclidean)"
             )),
@@ -279,7 +284,7 @@ impl Transfer<'_> {
         let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
         let mut poses = vec![base.to_vec()];
         let mut segments = Vec::with_capacity(deformation.len() - 1);
-        if method == Transport::Euclidean {
+        if method == Transport::Translate {
             for m in &deformation[1..] {
                 let n: Vec<[f64; 3]> = base
                     .iter()
@@ -303,7 +308,7 @@ impl Transfer<'_> {
             let x = difference(&mk, &mk1);
             let mut report = SegmentReport::default();
             let (y, frozen) = match method {
-                Transport::Euclidean => {
+                Transport::Translate => {
                     report.geodesic_converged = true;
                     let frozen = self.setup.transport.frozen_weights(&mk, &nk);
                     let nk1 = scale(&poses[k + 1]);
@@ -338,7 +343,7 @@ impl Transfer<'_> {
             report.input_norm = gm.squared_norm(&x).max(0.0).sqrt();
             let gn = self.setup.transport.at(&nk, frozen.as_deref())?;
             report.output_norm = gn.squared_norm(&y).max(0.0).sqrt();
-            if method != Transport::Euclidean {
+            if method != Transport::Translate {
                 let next: Vec<[f64; 3]> = poses[k]
                     .iter()
                     .zip(&y)
@@ -386,7 +391,7 @@ mod tests {
 
     #[test]
     fn transport_names_parse() {
-        for t in [Transport::Parallel, Transport::Schild, Transport::Euclidean] {
+        for t in [Transport::Parallel, Transport::Schild, Transport::Translate] {
             assert_eq!(t.label().parse::<Transport>().unwrap(), t);
         }
         assert!("bogus".parse::<Transport>().is_err());

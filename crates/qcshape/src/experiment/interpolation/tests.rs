@@ -197,3 +197,17 @@ fn write_produces_tables_figure_and_error_maps() {
     let m = crate::io::read_mesh(&dir.path().join("interpolation_lin_isometric.ply")).unwrap();
     assert_eq!(m.positions.len(), d.topology.n_vertices());
 }
+
+#[test]
+fn frames_are_interior_and_evenly_spaced() {
+    assert_eq!(pick_frames(25, 0), (1..=23).collect::<Vec<_>>());
+    assert_eq!(pick_frames(5, 8), vec![1, 2, 3]);
+    assert_eq!(pick_frames(25, 3), vec![1, 12, 23]);
+    let f = pick_frames(25, 8);
+    assert_eq!(f.len(), 8);
+    assert!(
+        f[0] == 1 && f[7] == 23 && f.windows(2).all(|w| w[0] < w[1]),
+        "{f:?}"
+    );
+    assert_eq!(pick_frames(25, 1), vec![12]);
+}

@@ -106,7 +106,7 @@ impl TransferReport {
     /// The cases of `(metric, transport)`: for Euclidean transfer, the metric-free cases.
     pub fn cases_of(&self, metric: usize, transport: Transport) -> impl Iterator<Item = &TransferCase> {
         self.cases.iter().filter(move |c| {
-            c.transport == transport && (transport == Transport::Euclidean || c.metric == Some(metric))
+            c.transport == transport && (transport == Transport::Translate || c.metric == Some(metric))
         })
     }
 
@@ -132,7 +132,7 @@ impl TransferReport {
     /// `(metric, transport)`.
     pub fn comparison(&self, metric: usize, transport: Transport, measure: Measure) -> Option<Comparison> {
         let euclid: HashMap<(&str, &str), f64> = self
-            .cases_of(metric, Transport::Euclidean)
+            .cases_of(metric, Transport::Translate)
             .map(|c| ((c.kind.as_str(), c.base.as_str()), measure.of(c)))
             .collect();
         let pairs: Vec<(f64, f64)> = self
@@ -304,7 +304,7 @@ impl TransferReport {
     fn sentences(&self, s: &mut String, measure: Measure) {
         for (m, label) in self.metrics.iter().enumerate() {
             let mut parts = Vec::new();
-            for &t in self.transports.iter().filter(|t| **t != Transport::Euclidean) {
+            for &t in self.transports.iter().filter(|t| **t != Transport::Translate) {
                 let Some(c) = self.comparison(m, t, measure) else {
                     continue;
                 };
@@ -346,12 +346,12 @@ impl TransferReport {
     fn columns(&self) -> Vec<(String, usize, Transport)> {
         let mut cols = Vec::new();
         for (m, label) in self.metrics.iter().enumerate() {
-            for &t in self.transports.iter().filter(|t| **t != Transport::Euclidean) {
+            for &t in self.transports.iter().filter(|t| **t != Transport::Translate) {
                 cols.push((format!("{label} {}", t.label()), m, t));
             }
         }
-        if self.transports.contains(&Transport::Euclidean) {
-            cols.push(("euclidean".into(), 0, Transport::Euclidean));
+        if self.transports.contains(&Transport::Translate) {
+            cols.push(("euclidean".into(), 0, Transport::Translate));
         }
         cols
     }

@@ -2,18 +2,18 @@
 //! Table 3, eq. 17).
 
 use std::collections::HashSet;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{Dataset, Deformation};
+use qcshape::experiment::noise::NoiseExperiment;
 use qcshape::path::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::MetricArgs;
-use crate::reproduce::{classify_set, noisy_set};
+use crate::progress::PipelineBars;
 
 /// Noise resistance of the classification (Table 3, eq. 17).
 ///
@@ -119,40 +119,21 @@ pub fn run(args: &Args) -> Result<()> {
         base: 0,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let reference = classify_set(&defs, &opts, k, args.restarts, args.seed, "noise-free")?;
-    let mut csv = String::from("level,kind,tau\n");
-    let mut md = format!(
-        "# Noise resistance ({}, {} deformations, k = {k})\n\n| noise variance (%) | {} |\n|---|{}\n",
-        opts.metric.build().name(),
-        defs.len(),
-        args.kinds
-            .iter()
-            .map(|k| format!("{} tau (%)", k.name()))
-            .collect::<Vec<_>>()
-            .join(" | "),
-        "---|".repeat(args.kinds.len())
-    );
-    for &level in &args.levels {
-        let mut row = format!("| {level} |");
-        for &kind in &args.kinds {
-            let noisy = noisy_set(&defs, kind, level, args.seed);
-            let c = classify_set(&noisy, &opts, k, args.restarts, args.seed, kind.name())?;
-            let tau = qcshape::eval::tau(&reference.clustering.assignments, &c.clustering.assignments)?;
-            writeln!(csv, "{level},{},{tau:?}", kind.name())?;
-            write!(row, " {:.1} |", 100.0 * tau)?;
-        }
-        writeln!(md, "{row}")?;
-    }
-    writeln!(
-        md,
-        "\ntau (eq. 17): share of deformations whose cluster is unchanged against the noise-free run, \
-         after Hungarian matching of the clusters."
-    )?;
-    for (name, text) in [("noise.csv", &csv), ("noise.md", &md)] {
-        let path = args.out.join(name);
-        qcshape::io::write_atomically(&path, |w| w.write_all(text.as_bytes()))
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    print!("{md}");
+    let experiment = NoiseExperiment {
+        pipeline: opts,
+        k,
+        restarts: args.restarts,
+        seed: args.seed,
+        levels: args.levels.clone(),
+        kinds: args.kinds.clone(),
+    };
+    let bars = PipelineBars::new(defs.len());
+    let report = experiment.run(&defs, &|run, s| bars.tick(run, s));
+    bars.finish();
+    let report = report?;
+    report
+        .write(&args.out)
+        .with_context(|| format!("writing the report to {}", args.out.display()))?;
+    print!("{}", report.to_markdown());
     Ok(())
 }

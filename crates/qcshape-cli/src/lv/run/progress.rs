@@ -3,24 +3,15 @@
 
 use std::sync::Mutex;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use qcshape::lv::study::Tick;
+
+use crate::progress::bar;
 
 /// The bars of the running stages.
 #[derive(Default)]
 pub(crate) struct Bars {
     bars: Mutex<Vec<(String, ProgressBar)>>,
-}
-
-fn bar(len: usize, what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(len as u64);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>14} {bar:40} {pos}/{len} [{elapsed_precise}, ETA {eta}]")
-    {
-        pb.set_style(style);
-    }
-    pb.set_message(what.to_string());
-    pb
 }
 
 impl Bars {

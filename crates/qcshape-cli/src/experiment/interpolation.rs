@@ -1,44 +1,18 @@
-//! `qcshape experiment`: the paper's experiments (section 3), one subcommand each.
+//! `qcshape experiment interpolation`: interpolation accuracy per metric (paper section 3.1,
+//! Fig. 4).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use clap::Subcommand;
 use indicatif::{ProgressBar, ProgressStyle};
 use qcshape::dataset::{load_sequence, mesh_files, Dataset, Deformation};
-use qcshape::experiment::interpolation::InterpolationExperiment;
+use qcshape::experiment::interpolation::{pick_frames, InterpolationExperiment};
 use qcshape::metric::MetricKind;
 use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
 use crate::args::{non_negative, MetricArgs};
-
-/// Run one of the paper's experiments and write its tables and figures.
-#[derive(Debug, clap::Args)]
-#[command(about = "Run one of the paper's experiments (tables and figures)", long_about)]
-pub struct Args {
-    #[command(subcommand)]
-    command: Experiment,
-}
-
-#[derive(Debug, Subcommand)]
-enum Experiment {
-    Interpolation(InterpolationArgs),
-    Transfer(super::experiment_transfer::Args),
-    Noise(super::experiment_noise::Args),
-    Robustness(super::experiment_robustness::Args),
-}
-
-/// Runs the chosen experiment.
-pub fn run(args: &Args) -> Result<()> {
-    match &args.command {
-        Experiment::Interpolation(a) => run_interpolation(a),
-        Experiment::Transfer(a) => super::experiment_transfer::run(a),
-        Experiment::Noise(a) => super::experiment_noise::run(a),
-        Experiment::Robustness(a) => super::experiment_robustness::run_command(a),
-    }
-}
 
 /// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
 ///
@@ -63,7 +37,7 @@ pub fn run(args: &Args) -> Result<()> {
     about = "Interpolation error of each metric (paper section 3.1, Fig. 4)",
     long_about
 )]
-pub struct InterpolationArgs {
+pub struct Args {
     /// A data set (manifest CSV or folder); default: the built-in genus-0 benchmark.
     input: Option<PathBuf>,
     /// Icosphere level of the built-in benchmark (10 * 4^level + 2 vertices: 2 gives 162).
@@ -148,21 +122,6 @@ fn progress_bar(n: usize, what: &str) -> ProgressBar {
     bar
 }
 
-/// `count` interior frames of a sequence of `poses` poses, evenly spaced (all if 0 or more
-/// than there are).
-fn pick_frames(poses: usize, count: usize) -> Vec<usize> {
-    let interior = poses.saturating_sub(2);
-    if count == 0 || count >= interior {
-        return (1..=interior).collect();
-    }
-    if count == 1 {
-        return vec![1 + (interior - 1) / 2];
-    }
-    (0..count)
-        .map(|i| 1 + (i * (interior - 1) + (count - 1) / 2) / (count - 1))
-        .collect()
-}
-
 fn load_real(dir: &Path, pattern: &str) -> Result<Deformation> {
     let files = if dir.is_dir() {
         mesh_files(dir)?
@@ -191,7 +150,8 @@ fn load_real(dir: &Path, pattern: &str) -> Result<Deformation> {
     })
 }
 
-fn run_interpolation(args: &InterpolationArgs) -> Result<()> {
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let metrics = args
         .metrics
@@ -273,23 +233,4 @@ fn run_interpolation(args: &InterpolationArgs) -> Result<()> {
     }
     eprintln!("wrote {}", args.out.display());
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::pick_frames;
-
-    #[test]
-    fn frames_are_interior_and_evenly_spaced() {
-        assert_eq!(pick_frames(25, 0), (1..=23).collect::<Vec<_>>());
-        assert_eq!(pick_frames(5, 8), vec![1, 2, 3]);
-        assert_eq!(pick_frames(25, 3), vec![1, 12, 23]);
-        let f = pick_frames(25, 8);
-        assert_eq!(f.len(), 8);
-        assert!(
-            f[0] == 1 && f[7] == 23 && f.windows(2).all(|w| w[0] < w[1]),
-            "{f:?}"
-        );
-        assert_eq!(pick_frames(25, 1), vec![12]);
-    }
 }

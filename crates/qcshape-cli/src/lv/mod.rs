@@ -1,19 +1,19 @@
 //! `qcshape lv phantom | register | mesh`: the left-ventricle pipeline from 4D images and
-//! landmarks to one deformation per subject (paper section 4.2).
+//! landmarks to one deformation per subject (paper section 4.2), and the cohort classification
+//! (`run`, `cycle`).
 
-use std::path::{Path, PathBuf};
+mod mesh;
+mod run;
+
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
-use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
 use qcshape::io;
 use qcshape::lv::cohort::{
     self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
-use qcshape::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
-use qcshape::lv::freewall::SectorOptions;
-use qcshape::lv::meshing::SurfaceOptions;
 use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
 
 /// Arguments of `qcshape lv`.
@@ -38,11 +38,11 @@ enum LvCommand {
     /// Fit landmark thin-plate splines from frame 0 to every frame (writes tps_nNN.json).
     Register(RegisterArgs),
     /// Extract the frame-0 cavity surface and carry it to every frame; write a manifest.
-    Mesh(MeshArgs),
+    Mesh(mesh::Args),
     /// Classify a cohort's wall motion (Tables 4 and 5, Fig. 9), from images or meshes.
-    Run(crate::lv_run::RunArgs),
+    Run(run::RunArgs),
     /// MDS map of one heart cycle with interpolated poses (Fig. 9) from mesh files.
-    Cycle(crate::lv_run::CycleArgs),
+    Cycle(run::CycleArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -94,57 +94,19 @@ struct RegisterArgs {
     lambda: f64,
 }
 
-#[derive(Debug, clap::Args)]
-struct MeshArgs {
-    /// Cohort folder.
-    dir: PathBuf,
-    /// Output folder: OUT/<subject>/poseNN.ply and OUT/manifest.csv.
-    #[arg(long)]
-    out: PathBuf,
-    /// Cavity threshold (image units); default: upper two-level Otsu threshold of frame 0.
-    #[arg(long)]
-    threshold: Option<f64>,
-    /// Target vertex count of the whole surface after decimation (0: no decimation).
-    #[arg(long, default_value_t = 1000)]
-    vertices: usize,
-    /// Taubin smoothing iterations before decimation.
-    #[arg(long, default_value_t = 10)]
-    smooth: usize,
-    /// Tangential relaxation sweeps after decimation (more regular triangles).
-    #[arg(long, default_value_t = 5)]
-    relax: usize,
-    /// Number of landmarks for the registration (uses DIR/<subject>/tps_nNN.json if present).
-    #[arg(long, default_value_t = 16)]
-    landmarks: usize,
-    /// Thin-plate-spline regularization when fitting here.
-    #[arg(long, default_value_t = 0.0)]
-    lambda: f64,
-    /// Region written: the whole closed surface or the free-wall submesh.
-    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "whole"])]
-    region: String,
-    /// Free-wall sector centre, degrees from the septum landmark about the long axis.
-    #[arg(long, default_value_t = 180.0)]
-    sector_centre: f64,
-    /// Free-wall sector width (degrees).
-    #[arg(long, default_value_t = 180.0)]
-    sector_width: f64,
-    /// Free-wall height band LO,HI (0 apex, 1 base centre).
-    #[arg(long, default_value = "0.15,0.9", value_delimiter = ',', num_args = 2)]
-    heights: Vec<f64>,
-}
-
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
     match &args.command {
         LvCommand::Phantom(a) => phantom(a),
         LvCommand::Register(a) => register(a),
-        LvCommand::Mesh(a) => mesh(a),
-        LvCommand::Run(a) => crate::lv_run::run(a),
-        LvCommand::Cycle(a) => crate::lv_run::cycle(a),
+        LvCommand::Mesh(a) => mesh::run(a),
+        LvCommand::Run(a) => run::run(a),
+        LvCommand::Cycle(a) => run::cycle(a),
     }
 }
 
-fn progress(n: usize) -> ProgressBar {
+/// A plain progress bar of `n` subjects.
+pub(crate) fn progress(n: usize) -> ProgressBar {
     ProgressBar::new(n as u64)
 }
 
@@ -224,15 +186,7 @@ fn register(a: &RegisterArgs) -> Result<()> {
         let out = s.path.join(Registration::file_name(a.landmarks));
         reg.write(&out)?;
         // Largest landmark residual over frames (0 up to rounding when lambda = 0).
-        let sub = lm.first(a.landmarks).context("landmark subset")?;
-        let mut worst = 0.0f64;
-        for (m, f) in reg.maps.iter().zip(&sub.frames) {
-            for (p, q) in sub.frames[0].iter().zip(f) {
-                let r = m.apply(*p);
-                worst =
-                    worst.max(((r[0] - q[0]).powi(2) + (r[1] - q[1]).powi(2) + (r[2] - q[2]).powi(2)).sqrt());
-            }
-        }
+        let worst = reg.max_landmark_residual(&lm).context("landmark subset")?;
         bar.suspend(|| {
             println!(
                 "{}: {} frames, {} landmarks, max landmark residual {worst:.3e} mm -> {}",
@@ -245,74 +199,5 @@ fn register(a: &RegisterArgs) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    Ok(())
-}
-
-fn mesh(a: &MeshArgs) -> Result<()> {
-    if a.heights.len() != 2 {
-        bail!("--heights takes two numbers LO,HI");
-    }
-    let subs = subjects(&a.dir)?;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let opts = SurfaceOptions {
-        threshold: a.threshold,
-        smoothing_iterations: a.smooth,
-        target_vertices: (a.vertices > 0).then_some(a.vertices),
-        relax_iterations: a.relax,
-    };
-    let sector = SectorOptions {
-        centre_deg: a.sector_centre,
-        width_deg: a.sector_width,
-        heights: (a.heights[0], a.heights[1]),
-    };
-    let mopts = SubjectMeshOptions {
-        surface: opts,
-        sector,
-        landmarks: a.landmarks,
-        lambda: a.lambda,
-        free_wall: a.region == "free-wall",
-    };
-    let mut rows = Vec::new();
-    let bar = progress(subs.len());
-    for s in &subs {
-        let t0 = Instant::now();
-        let m = mesh_subject(s, &mopts)?;
-        let (poses, faces) = (&m.poses, &m.faces);
-        let dir = a.out.join(&s.name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        for (k, p) in poses.iter().enumerate() {
-            let name = format!("pose{k:02}.ply");
-            io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
-            rows.push(ManifestRow {
-                deformation: s.name.clone(),
-                label: s.label.clone(),
-                pose: k as i64,
-                path: Path::new(&s.name).join(name),
-            });
-        }
-        bar.suspend(|| {
-            println!(
-                "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses, {} landmarks{}, {:.2} s",
-                s.name,
-                m.threshold,
-                m.raw_vertices,
-                m.surface_vertices,
-                poses[0].len(),
-                a.region,
-                poses.len(),
-                m.landmarks,
-                if m.saved_maps { " (saved maps)" } else { "" },
-                t0.elapsed().as_secs_f64()
-            )
-        });
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
-    println!(
-        "wrote {} deformations to {}",
-        subs.len(),
-        a.out.join(MANIFEST_NAME).display()
-    );
     Ok(())
 }

@@ -1,4 +1,5 @@
-//! k-means (eq. 14) from a distance matrix alone, as kernel k-means on squared distances.
+//! Kernel k-means: k-means (eq. 14) from a distance matrix alone, on squared distances with
+//! implicit centroids (not the intrinsic k-means of [`crate::similarity::intrinsic`]).
 //!
 //! With `D2 = (d_ij^2)`, the squared distance of item `i` to the (implicit) centroid of a
 //! cluster `C` is
@@ -80,11 +81,16 @@ impl CentreModel for KernelKMeans {
     }
 }
 
-/// k-means clustering (eq. 14) of the `n` items of a distance matrix into `opts.k` clusters:
-/// kernel k-means on squared distances (module docs), k-means++ seeding on squared distances,
-/// Lloyd iterations, best of `opts.restarts` seeded runs. The objective is the within-cluster
-/// sum of squared distances to the (implicit) centroids.
-pub fn kmeans(d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
+/// Kernel k-means of the `n` items of a distance matrix into `opts.k` clusters: k-means on
+/// squared distances with implicit centroids (module docs), k-means++ seeding on squared
+/// distances, Lloyd iterations, best of `opts.restarts` seeded runs. The objective is the
+/// within-cluster sum of squared distances to the (implicit) centroids.
+///
+/// This is eq. 14 from the matrix alone; the paper's k-means with intrinsic means (class means
+/// that are deformations, Karcher means of poses) is
+/// [`crate::similarity::intrinsic_kmeans`], which is usually started from this partition.
+/// (Formerly `cluster::kmeans`.)
+pub fn kernel_kmeans(d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
     lloyd_restarts(&KernelKMeans::new(d), opts)
 }
 
@@ -136,7 +142,7 @@ mod tests {
             seed: 1,
             ..Default::default()
         };
-        let c = kmeans(&d, &opts).unwrap();
+        let c = kernel_kmeans(&d, &opts).unwrap();
         assert!(c.converged);
         for i in 0..30 {
             assert_eq!(c.assignments[i], c.assignments[i % 3], "item {i}");
@@ -157,14 +163,14 @@ mod tests {
         assert_eq!(c.restart_objectives.len(), 5);
         assert!(c.restart_objectives.iter().all(|&o| o >= c.objective));
         // Same seed, same result.
-        assert_eq!(kmeans(&d, &opts).unwrap(), c);
+        assert_eq!(kernel_kmeans(&d, &opts).unwrap(), c);
     }
 
     #[test]
     fn duplicates_and_k_equal_n_leave_no_cluster_empty() {
         let d = points_matrix(&[[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [1.0, 0.0]]);
         for k in 1..=4 {
-            let c = kmeans(
+            let c = kernel_kmeans(
                 &d,
                 &ClusterOptions {
                     k,
@@ -178,7 +184,7 @@ mod tests {
             assert!(c.objective.is_finite() && c.objective >= -1e-12);
         }
         assert!(matches!(
-            kmeans(
+            kernel_kmeans(
                 &d,
                 &ClusterOptions {
                     k: 5,

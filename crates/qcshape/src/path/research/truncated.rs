@@ -14,7 +14,7 @@
 //! Auxiliary unknowns (rigid motions) are eliminated: they are reset to their optimum after
 //! every step, and the conjugate gradients run on the Schur complement of their blocks.
 //!
-//! Newton's method ([`super::Solver::Newton`]) runs the same iteration on the exact Hessian:
+//! Newton's method ([`crate::path::Solver::Newton`]) runs the same iteration on the exact Hessian:
 //! the metric's second-order part `sum r_i d2 r_i` is added to the blocks (the geodesic is a
 //! large-residual problem, on which the Gauss-Newton model converges only linearly). Far from
 //! the geodesic that Hessian is indefinite: conjugate gradients stop at the first direction of
@@ -31,10 +31,10 @@
 
 use rayon::prelude::*;
 
-use super::energy::{Ends, PathEnergy};
-use super::hessian::{SegmentBlocks, Structure};
-use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
-use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use crate::path::energy::{Ends, PathEnergy};
+use crate::path::hessian::{SegmentBlocks, Structure};
+use crate::path::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
+use crate::path::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
 const MAX_CG: usize = 250;
@@ -336,7 +336,7 @@ pub(crate) fn minimize(
     let g0 = 2.0 * norm(&g);
     let mut iterations = 0;
     let mut stop = StopReason::MaxIterations;
-    if super::at_roundoff(g0, energy) {
+    if crate::path::at_roundoff(g0, energy) {
         return Ok(SolveOutput {
             x,
             iterations,

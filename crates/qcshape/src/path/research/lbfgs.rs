@@ -4,8 +4,8 @@ use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, T
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 
-use super::energy::{Ends, PathEnergy};
-use super::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use crate::path::energy::{Ends, PathEnergy};
+use crate::path::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 struct Problem<'a, 'm> {
     pe: &'a PathEnergy<'m>,
@@ -42,8 +42,8 @@ pub(crate) fn minimize(
     let problem = Problem { pe, ends };
     let mut g = vec![0.0; x0.len()];
     let e0 = pe.energy_gradient(&x0, ends, &mut g);
-    let g0 = super::norm(&g);
-    if super::at_roundoff(g0, e0) {
+    let g0 = crate::path::norm(&g);
+    if crate::path::at_roundoff(g0, e0) {
         return Ok(SolveOutput {
             x: x0,
             iterations: 0,
@@ -75,7 +75,7 @@ pub(crate) fn minimize(
             let mut g = vec![0.0; pe.n_vars()];
             let x = state.get_best_param().expect("argmin keeps the best parameter");
             pe.energy_gradient(x, ends, &mut g);
-            if super::norm(&g) <= opts.gradient_tolerance * g0 {
+            if crate::path::norm(&g) <= opts.gradient_tolerance * g0 {
                 StopReason::GradientTolerance
             } else {
                 StopReason::EnergyTolerance

@@ -1,7 +1,7 @@
 //! `qcshape lv run` and `qcshape lv cycle`: the left-ventricle analysis of section 4.3 from
 //! one command (Tables 4 and 5, Fig. 9). The analysis is in the library
 //! ([`qcshape::lv::study`], [`qcshape::lv::cycle_map`], [`qcshape::lv::study_report`]); this
-//! module parses the arguments, `lv_run/cohort.rs` runs a cohort, `lv_run/progress.rs` shows
+//! module parses the arguments, `lv/run/cohort.rs` runs a cohort, `lv/run/progress.rs` shows
 //! the library's progress.
 
 mod cohort;

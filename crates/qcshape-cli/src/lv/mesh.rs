@@ -1,0 +1,124 @@
+//! `qcshape lv mesh`: the frame-0 cavity surface carried to every frame, one deformation per
+//! subject, and a manifest.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
+use qcshape::io;
+use qcshape::lv::cohort::subjects;
+use qcshape::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
+use qcshape::lv::freewall::SectorOptions;
+use qcshape::lv::meshing::SurfaceOptions;
+
+use super::progress;
+
+#[derive(Debug, clap::Args)]
+pub(crate) struct Args {
+    /// Cohort folder.
+    dir: PathBuf,
+    /// Output folder: OUT/<subject>/poseNN.ply and OUT/manifest.csv.
+    #[arg(long)]
+    out: PathBuf,
+    /// Cavity threshold (image units); default: upper two-level Otsu threshold of frame 0.
+    #[arg(long)]
+    threshold: Option<f64>,
+    /// Target vertex count of the whole surface after decimation (0: no decimation).
+    #[arg(long, default_value_t = 1000)]
+    vertices: usize,
+    /// Taubin smoothing iterations before decimation.
+    #[arg(long, default_value_t = 10)]
+    smooth: usize,
+    /// Tangential relaxation sweeps after decimation (more regular triangles).
+    #[arg(long, default_value_t = 5)]
+    relax: usize,
+    /// Number of landmarks for the registration (uses DIR/<subject>/tps_nNN.json if present).
+    #[arg(long, default_value_t = 16)]
+    landmarks: usize,
+    /// Thin-plate-spline regularization when fitting here.
+    #[arg(long, default_value_t = 0.0)]
+    lambda: f64,
+    /// Region written: the whole closed surface or the free-wall submesh.
+    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "whole"])]
+    region: String,
+    /// Free-wall sector centre, degrees from the septum landmark about the long axis.
+    #[arg(long, default_value_t = 180.0)]
+    sector_centre: f64,
+    /// Free-wall sector width (degrees).
+    #[arg(long, default_value_t = 180.0)]
+    sector_width: f64,
+    /// Free-wall height band LO,HI (0 apex, 1 base centre).
+    #[arg(long, default_value = "0.15,0.9", value_delimiter = ',', num_args = 2)]
+    heights: Vec<f64>,
+}
+
+/// Runs `qcshape lv mesh`.
+pub(crate) fn run(a: &Args) -> Result<()> {
+    if a.heights.len() != 2 {
+        bail!("--heights takes two numbers LO,HI");
+    }
+    let subs = subjects(&a.dir)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let opts = SurfaceOptions {
+        threshold: a.threshold,
+        smoothing_iterations: a.smooth,
+        target_vertices: (a.vertices > 0).then_some(a.vertices),
+        relax_iterations: a.relax,
+    };
+    let sector = SectorOptions {
+        centre_deg: a.sector_centre,
+        width_deg: a.sector_width,
+        heights: (a.heights[0], a.heights[1]),
+    };
+    let mopts = SubjectMeshOptions {
+        surface: opts,
+        sector,
+        landmarks: a.landmarks,
+        lambda: a.lambda,
+        free_wall: a.region == "free-wall",
+    };
+    let mut rows = Vec::new();
+    let bar = progress(subs.len());
+    for s in &subs {
+        let t0 = Instant::now();
+        let m = mesh_subject(s, &mopts)?;
+        let (poses, faces) = (&m.poses, &m.faces);
+        let dir = a.out.join(&s.name);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (k, p) in poses.iter().enumerate() {
+            let name = format!("pose{k:02}.ply");
+            io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
+            rows.push(ManifestRow {
+                deformation: s.name.clone(),
+                label: s.label.clone(),
+                pose: k as i64,
+                path: Path::new(&s.name).join(name),
+            });
+        }
+        bar.suspend(|| {
+            println!(
+                "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses, {} landmarks{}, {:.2} s",
+                s.name,
+                m.threshold,
+                m.raw_vertices,
+                m.surface_vertices,
+                poses[0].len(),
+                a.region,
+                poses.len(),
+                m.landmarks,
+                if m.saved_maps { " (saved maps)" } else { "" },
+                t0.elapsed().as_secs_f64()
+            )
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
+    println!(
+        "wrote {} deformations to {}",
+        subs.len(),
+        a.out.join(MANIFEST_NAME).display()
+    );
+    Ok(())
+}

@@ -1,0 +1,16 @@
+//! Solvers kept for the benchmark (`benches/geodesic.rs`) and the `--solver` choices, not on
+//! the default path: the paper's L-BFGS through argmin ([`Solver::Lbfgs`]), truncated
+//! Gauss-Newton ([`Solver::GaussNewton`]) and truncated Newton ([`Solver::Newton`], which uses
+//! the metrics' second-order kernels, `Metric::add_second_order`). The default solver is
+//! [`Solver::Preconditioned`] (`path/plbfgs.rs` with `path/kronecker.rs` and
+//! `path/vertex_blocks.rs`); small meshes may use [`Solver::LevenbergMarquardt`]
+//! (`path/levenberg_marquardt.rs`). See `docs/design.md` for what remains to be separated.
+//!
+//! [`Solver::Lbfgs`]: crate::path::Solver::Lbfgs
+//! [`Solver::GaussNewton`]: crate::path::Solver::GaussNewton
+//! [`Solver::Newton`]: crate::path::Solver::Newton
+//! [`Solver::Preconditioned`]: crate::path::Solver::Preconditioned
+//! [`Solver::LevenbergMarquardt`]: crate::path::Solver::LevenbergMarquardt
+
+pub(super) mod lbfgs;
+pub(super) mod truncated;
