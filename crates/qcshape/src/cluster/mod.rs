@@ -454,7 +454,7 @@ mod tests {
         .unwrap();
         let found = (0..50u64)
             .filter(|&seed| {
-                let c = kmeans::kmeans(
+                let c = kernel_kmeans::kernel_kmeans(
                     &d,
                     &ClusterOptions {
                         k: 8,
