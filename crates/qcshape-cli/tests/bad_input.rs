@@ -431,6 +431,10 @@ fn dataset_cases() -> Vec<Case> {
         case("pose starting at 1", sim, &["manifest.csv", "sphere-twist", "no pose 0"]).dataset().edit(",0,sphere-twist/pose0.ply", ",3,sphere-twist/pose0.ply"),
         case("duplicate pose", sim, &["manifest.csv", "pose 1 twice"]).dataset().edit(",2,sphere-twist/pose2.ply", ",1,sphere-twist/pose2.ply"),
         case("missing pose file", sim, &["manifest.csv", "line 3", "does not exist"]).dataset().edit("sphere-twist/pose1.ply", "sphere-twist/none.ply"),
+        case("classify: one deformation without a label", "classify {d}/S/manifest.csv --k 2 --steps 2", &["manifest.csv", "needs a label for every deformation", "\"sphere-twist\""]).dataset()
+            .edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,"),
+        case("run: one deformation without a label", "run {d}/S/manifest.csv --steps 2 --out {d}/R", &["manifest.csv", "needs a label for every deformation", "\"sphere-twist\""]).dataset()
+            .edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").no_output("R"),
         case("label differs within a deformation", sim, &["manifest.csv", "line 3", "label"]).dataset().edit("sphere-twist,twist,1", "sphere-twist,bulge,1"),
         case("pose with another vertex count", sim, &["odd.ply", "vertices", "manifest", "line 3"]).dataset().edit("sphere-twist/pose1.ply", "odd.ply").file("S/odd.ply", {
             let (p, f) = octahedron();
