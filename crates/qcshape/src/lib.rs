@@ -14,6 +14,7 @@
 #![warn(missing_docs)]
 
 pub mod cluster;
+pub mod contribution;
 pub mod dataset;
 pub mod embed;
 pub mod eval;
