@@ -9,7 +9,8 @@
 //! (`OFFSETS` and `CONNECTIVITY` arrays). `POINT_DATA` is read into named arrays: `SCALARS`
 //! (with or without `LOOKUP_TABLE`), `VECTORS`, `NORMALS`, `TEXTURE_COORDINATES`, `TENSORS`,
 //! `COLOR_SCALARS` and `FIELD` arrays; reading stops at `CELL_DATA` or `METADATA`.
-//! Writes ASCII POLYDATA, with `POINT_DATA` `SCALARS`, `VECTORS` and `COLOR_SCALARS`.
+//! Writes ASCII UNSTRUCTURED_GRID triangles (version 4.2 layout, readable by ParaView, pyvista
+//! and meshio), with `POINT_DATA` `SCALARS`, `VECTORS` and `COLOR_SCALARS`.
 
 use std::io::Write;
 
@@ -632,17 +633,23 @@ pub(crate) fn write(
     faces: &[[u32; 3]],
     payload: &Payload,
 ) -> std::io::Result<()> {
+    // UNSTRUCTURED_GRID of triangles (VTK_TRIANGLE cells) rather than POLYDATA: ParaView and
+    // pyvista read both, meshio only the former.
     writeln!(
         w,
-        "# vtk DataFile Version 3.0\nwritten by qcshape\nASCII\nDATASET POLYDATA"
+        "# vtk DataFile Version 4.2\nwritten by qcshape\nASCII\nDATASET UNSTRUCTURED_GRID"
     )?;
     writeln!(w, "POINTS {} double", positions.len())?;
     for p in positions {
         writeln!(w, "{} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
     }
-    writeln!(w, "POLYGONS {} {}", faces.len(), 4 * faces.len())?;
+    writeln!(w, "CELLS {} {}", faces.len(), 4 * faces.len())?;
     for f in faces {
         writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
+    }
+    writeln!(w, "CELL_TYPES {}", faces.len())?;
+    for _ in faces {
+        writeln!(w, "{VTK_TRIANGLE}")?;
     }
     if !payload.fields.is_empty() || payload.colors.is_some() {
         writeln!(w, "POINT_DATA {}", positions.len())?;
