@@ -19,6 +19,7 @@ mod experiment_transfer;
 mod geodesic;
 mod info;
 mod interpolate;
+mod localize;
 mod lv;
 mod lv_run;
 mod reproduce;
@@ -54,6 +55,7 @@ enum Command {
     Embed(embed::Args),
     Experiment(experiment::Args),
     Lv(lv::Args),
+    Localize(localize::Args),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Embed(args) => embed::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Lv(args) => lv::run(args),
+        Command::Localize(args) => localize::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

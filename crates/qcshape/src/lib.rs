@@ -20,6 +20,7 @@ pub mod embed;
 pub mod eval;
 pub mod experiment;
 pub mod io;
+pub mod localize;
 pub mod lv;
 pub mod mesh;
 pub mod metric;
