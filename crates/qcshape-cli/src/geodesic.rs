@@ -108,7 +108,12 @@ fn write_maps(
         Field::vector("displacement", &d),
     ];
     for ext in ["vtk", "ply"] {
-        io::write_mesh_fields(&dir.join(format!("contribution.{ext}")), &g.poses[0], faces, &fields)?;
+        io::write_mesh_fields(
+            &dir.join(format!("contribution.{ext}")),
+            &g.poses[0],
+            faces,
+            &fields,
+        )?;
     }
     Ok(())
 }

@@ -238,8 +238,11 @@ fn speeds(
             .zip(&poses[s + 1])
             .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
             .collect();
-        out.euclidean
-            .push(v.iter().map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).collect());
+        out.euclidean.push(
+            v.iter()
+                .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                .collect(),
+        );
         out.velocity.push(v);
         out.speed.push(c.segment_length[s].clone());
     }
@@ -269,7 +272,8 @@ fn write_outputs(
         let sp = if args.format == "obj" {
             None
         } else {
-            speeds(metric, &d.topology, &r.poses, factor).with_context(|| format!("deformation {:?}", d.name))?
+            speeds(metric, &d.topology, &r.poses, factor)
+                .with_context(|| format!("deformation {:?}", d.name))?
         };
         for (i, (pose, key)) in r.poses.iter().zip(&r.is_key).enumerate() {
             let file = format!("pose{i:03}.{}", args.format);

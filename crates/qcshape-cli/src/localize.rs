@@ -27,7 +27,10 @@ use crate::args::{in_pool, MetricArgs, SolverArgs};
 /// files of the same name on the common base mesh with the point data score, p_value,
 /// significant (0/1), between and within (the PLY's quality is the score).
 #[derive(Debug, clap::Args)]
-#[command(about = "Per-vertex maps of where labelled groups of deformations differ", long_about)]
+#[command(
+    about = "Per-vertex maps of where labelled groups of deformations differ",
+    long_about
+)]
 pub struct Args {
     /// A labelled data set (manifest CSV or folder of labelled deformation folders).
     input: PathBuf,
@@ -62,7 +65,13 @@ pub struct Args {
 fn file_part(s: &str) -> String {
     let t: String = s
         .chars()
-        .map(|c| if c.is_alphanumeric() || matches!(c, '-' | '_') { c } else { '_' })
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_') {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     if t.is_empty() {
         "_".into()
@@ -79,7 +88,10 @@ pub fn run(args: &Args) -> Result<()> {
     for d in &defs {
         match &d.label {
             Some(l) if !l.is_empty() => labels.push(l.clone()),
-            _ => bail!("deformation {:?} has no label: localize needs a labelled data set", d.name),
+            _ => bail!(
+                "deformation {:?} has no label: localize needs a labelled data set",
+                d.name
+            ),
         }
     }
     let opts = PipelineOptions {
@@ -123,9 +135,15 @@ pub fn run(args: &Args) -> Result<()> {
         let stem = format!("contrast_{}_vs_{}", file_part(&c.a), file_part(&c.b));
         let mut csv = String::from("vertex,score,p_value,significant\n");
         for v in 0..c.score.len() {
-            writeln!(csv, "{v},{:.12e},{:.6},{}", c.score[v], c.p_value[v], c.significant[v])?;
+            writeln!(
+                csv,
+                "{v},{:.12e},{:.6},{}",
+                c.score[v], c.p_value[v], c.significant[v]
+            )?;
         }
-        io::write_atomically(&args.out.join(format!("{stem}.csv")), |w| w.write_all(csv.as_bytes()))?;
+        io::write_atomically(&args.out.join(format!("{stem}.csv")), |w| {
+            w.write_all(csv.as_bytes())
+        })?;
         let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
         let fields = [
             Field::scalar("score", &c.score),

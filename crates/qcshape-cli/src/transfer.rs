@@ -155,7 +155,10 @@ pub fn run(args: &Args) -> Result<()> {
                     .zip(p)
                     .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
                     .collect();
-                let mag: Vec<f64> = disp.iter().map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).collect();
+                let mag: Vec<f64> = disp
+                    .iter()
+                    .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                    .collect();
                 let fields = [
                     io::Field::vector("displacement", &disp),
                     io::Field::scalar("magnitude", &mag),

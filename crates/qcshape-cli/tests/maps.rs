@@ -14,7 +14,16 @@ fn qcshape() -> Command {
 fn geodesic_out_writes_segment_and_contribution_maps_that_sum_to_the_distance() {
     let dir = tempfile::tempdir().unwrap();
     let out = qcshape()
-        .args(["geodesic", "--demo", "--demo-level", "1", "--steps", "3", "--json", "--out"])
+        .args([
+            "geodesic",
+            "--demo",
+            "--demo-level",
+            "1",
+            "--steps",
+            "3",
+            "--json",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
@@ -25,7 +34,10 @@ fn geodesic_out_writes_segment_and_contribution_maps_that_sum_to_the_distance() 
     let c = qcshape::io::read_mesh(&dir.path().join("contribution.vtk")).unwrap();
     let length: f64 = c.point_array("length").unwrap().values.iter().sum();
     let e: f64 = c.point_array("energy").unwrap().values.iter().sum();
-    assert!((length - distance).abs() <= 1e-9 * distance, "{length} vs {distance}");
+    assert!(
+        (length - distance).abs() <= 1e-9 * distance,
+        "{length} vs {distance}"
+    );
     assert!((e - energy).abs() <= 1e-8 * energy, "{e} vs {energy}");
     assert_eq!(c.point_array("displacement").unwrap().components, 3);
     let mut seg_sum = 0.0;
@@ -59,7 +71,11 @@ fn labelled_set(dir: &Path) -> PathBuf {
         let a = 0.1 + 0.02 * (k % 5) as f64;
         let name = format!("d{k}");
         std::fs::create_dir_all(dir.join(&name)).unwrap();
-        let end: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0] * (1.0 + a), p[1], p[2]]).collect();
+        let end: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| [p[0] * (1.0 + a), p[1], p[2]])
+            .collect();
         for (pose, pos) in [s.positions.clone(), bumped(&end, h)].iter().enumerate() {
             let rel = PathBuf::from(&name).join(format!("p{pose}.ply"));
             qcshape::io::write_mesh(&dir.join(&rel), pos, faces, &Default::default()).unwrap();
@@ -82,8 +98,25 @@ fn localize_finds_the_bumped_cap() {
     let manifest = labelled_set(dir.path());
     let out_dir = dir.path().join("maps");
     let out = qcshape()
-        .args(["localize", manifest.to_str().unwrap(), "--steps", "3", "--smoothing", "0"])
-        .args(["--permutations", "199", "--seed", "3", "--threads", "1", "--alpha", "0.1", "--out"])
+        .args([
+            "localize",
+            manifest.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--smoothing",
+            "0",
+        ])
+        .args([
+            "--permutations",
+            "199",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "--alpha",
+            "0.1",
+            "--out",
+        ])
         .arg(&out_dir)
         .output()
         .unwrap();

@@ -273,7 +273,13 @@ pub fn mass_fraction(values: &[f64], mask: &[bool]) -> f64 {
     if total <= 0.0 {
         return 0.0;
     }
-    values.iter().zip(mask).filter(|(_, &m)| m).map(|(v, _)| v).sum::<f64>() / total
+    values
+        .iter()
+        .zip(mask)
+        .filter(|(_, &m)| m)
+        .map(|(v, _)| v)
+        .sum::<f64>()
+        / total
 }
 
 #[cfg(test)]
@@ -320,13 +326,16 @@ mod tests {
     }
 
     fn stretched(base: &[[f64; 3]], a: f64) -> Vec<[f64; 3]> {
-        base.iter().map(|p| [p[0] * (1.0 + a), p[1], p[2] * (1.0 - 0.5 * a)]).collect()
+        base.iter()
+            .map(|p| [p[0] * (1.0 + a), p[1], p[2] * (1.0 - 0.5 * a)])
+            .collect()
     }
 
     #[test]
     fn contributions_sum_to_energy_and_length_for_every_metric() {
         let s = icosphere(1);
-        let b = crate::mesh::Shape::new(s.topology.clone(), bumped(&stretched(&s.positions, 0.3), 0.3)).unwrap();
+        let b =
+            crate::mesh::Shape::new(s.topology.clone(), bumped(&stretched(&s.positions, 0.3), 0.3)).unwrap();
         let opts = GeodesicOptions {
             steps: 3,
             max_iterations: 5,
@@ -338,7 +347,12 @@ mod tests {
             let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
             let e: f64 = c.energy.iter().sum();
             let l: f64 = c.length.iter().sum();
-            assert!(rel(e, c.energy_total) < 1e-10, "{}: {e} vs {}", m.name(), c.energy_total);
+            assert!(
+                rel(e, c.energy_total) < 1e-10,
+                "{}: {e} vs {}",
+                m.name(),
+                c.energy_total
+            );
             assert!(rel(l, g.length) < 1e-10, "{}: {l} vs {}", m.name(), g.length);
             for (i, row) in c.segment_length.iter().enumerate() {
                 let si: f64 = row.iter().sum();
@@ -361,11 +375,7 @@ mod tests {
         let unit = &s.positions;
         let sc = |p: Vec<[f64; 3]>| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * scale)).collect() };
         // Two deformations of 3 poses from the common base; the second adds a bump on the cap.
-        let m: Vec<Pose> = vec![
-            base.clone(),
-            sc(stretched(unit, 0.15)),
-            sc(stretched(unit, 0.3)),
-        ];
+        let m: Vec<Pose> = vec![base.clone(), sc(stretched(unit, 0.15)), sc(stretched(unit, 0.3))];
         let n: Vec<Pose> = vec![
             base.clone(),
             sc(bumped(&stretched(unit, 0.15), 0.1)),

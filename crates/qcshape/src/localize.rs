@@ -179,7 +179,11 @@ pub fn benjamini_hochberg(p: &[f64], alpha: f64) -> Vec<bool> {
 
 /// The contrast of every pair of distinct labels (in order of first appearance) of the
 /// deformations behind `maps` (`labels`: one per deformation).
-pub fn contrasts(maps: &PairMaps, labels: &[String], opts: &LocalizeOptions) -> Result<Vec<Contrast>, LocalizeError> {
+pub fn contrasts(
+    maps: &PairMaps,
+    labels: &[String],
+    opts: &LocalizeOptions,
+) -> Result<Vec<Contrast>, LocalizeError> {
     if labels.len() != maps.n {
         return Err(LocalizeError::Input(format!(
             "{} labels for {} deformations",
@@ -188,7 +192,10 @@ pub fn contrasts(maps: &PairMaps, labels: &[String], opts: &LocalizeOptions) -> 
         )));
     }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
-        return Err(LocalizeError::Input(format!("alpha must be in (0, 1), got {}", opts.alpha)));
+        return Err(LocalizeError::Input(format!(
+            "alpha must be in (0, 1), got {}",
+            opts.alpha
+        )));
     }
     let mut names: Vec<&String> = Vec::new();
     for l in labels {
@@ -206,7 +213,9 @@ pub fn contrasts(maps: &PairMaps, labels: &[String], opts: &LocalizeOptions) -> 
     for x in 0..names.len() {
         for y in x + 1..names.len() {
             let (a, b) = (names[x], names[y]);
-            let members: Vec<usize> = (0..maps.n).filter(|&k| labels[k] == *a || labels[k] == *b).collect();
+            let members: Vec<usize> = (0..maps.n)
+                .filter(|&k| labels[k] == *a || labels[k] == *b)
+                .collect();
             let in_a: Vec<bool> = members.iter().map(|&k| labels[k] == *a).collect();
             let na = in_a.iter().filter(|&&t| t).count();
             if na < 2 && members.len() - na < 2 {
@@ -292,7 +301,9 @@ mod tests {
     fn planted_difference_is_found_and_the_rest_is_not() {
         let n = 10;
         let nv = 10;
-        let labels: Vec<String> = (0..n).map(|k| if k < 5 { "a" } else { "b" }.to_string()).collect();
+        let labels: Vec<String> = (0..n)
+            .map(|k| if k < 5 { "a" } else { "b" }.to_string())
+            .collect();
         let mut maps = Vec::new();
         for (k, (i, j)) in all_pairs(n).into_iter().enumerate() {
             let between = (i < 5) != (j < 5);

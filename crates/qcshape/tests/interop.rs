@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use qcshape::io::{self, Field, Format, MeshData, ParseError};
 
 fn fixture(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
 }
 
 const POINTS: [[f64; 3]; 6] = [
@@ -31,12 +33,17 @@ const FACES: [[u32; 3]; 8] = [
 fn check_octahedron(d: &MeshData, what: &str) {
     assert_eq!(d.positions, POINTS, "{what}");
     assert_eq!(d.faces, FACES, "{what}");
-    let h = d.point_array("height").unwrap_or_else(|| panic!("{what}: no height"));
+    let h = d
+        .point_array("height")
+        .unwrap_or_else(|| panic!("{what}: no height"));
     assert_eq!(h.components, 1, "{what}");
     let want: Vec<f64> = POINTS.iter().map(|p| p[2] + 0.5).collect();
     assert_eq!(h.values, want, "{what}");
     let disp = d.point_array("disp").unwrap_or_else(|| panic!("{what}: no disp"));
-    let want: Vec<[f64; 3]> = POINTS.iter().map(|p| [0.1 * p[0], 0.2 * p[1], 0.3 * p[2]]).collect();
+    let want: Vec<[f64; 3]> = POINTS
+        .iter()
+        .map(|p| [0.1 * p[0], 0.2 * p[1], 0.3 * p[2]])
+        .collect();
     assert_eq!(disp.as_vectors().unwrap(), want, "{what}");
 }
 
@@ -62,7 +69,10 @@ fn meshio_and_pyvista_fixtures_read_with_points_faces_and_arrays() {
 #[test]
 fn written_fields_read_back_from_vtk_and_vtp_and_ply_has_quality() {
     let height: Vec<f64> = POINTS.iter().map(|p| p[2] + 0.5).collect();
-    let disp: Vec<[f64; 3]> = POINTS.iter().map(|p| [0.1 * p[0], 0.2 * p[1], 0.3 * p[2]]).collect();
+    let disp: Vec<[f64; 3]> = POINTS
+        .iter()
+        .map(|p| [0.1 * p[0], 0.2 * p[1], 0.3 * p[2]])
+        .collect();
     let fields = [Field::scalar("height", &height), Field::vector("disp", &disp)];
     let dir = tempfile::tempdir().unwrap();
     for ext in ["vtk", "vtp"] {
@@ -100,13 +110,23 @@ fn broken_vtp_and_unstructured_grids_are_typed_errors_with_positions() {
     assert!(matches!(e, ParseError::Invalid(_)), "{e}");
     // An unterminated tag names its line.
     let e = io::parse_mesh(&good[..good.len() / 3], Format::Vtp).unwrap_err();
-    assert!(matches!(e, ParseError::Syntax { .. } | ParseError::Invalid(_)), "{e}");
+    assert!(
+        matches!(e, ParseError::Syntax { .. } | ParseError::Invalid(_)),
+        "{e}"
+    );
     // Appended raw zlib data cut short.
     let app = std::fs::read(fixture("octa_vtk_appended_zlib.vtp")).unwrap();
     let e = io::parse_mesh(&app[..app.len() - 60], Format::Vtp).unwrap_err();
-    assert!(matches!(e, ParseError::Truncated { .. } | ParseError::Invalid(_)), "{e}");
+    assert!(
+        matches!(e, ParseError::Truncated { .. } | ParseError::Invalid(_)),
+        "{e}"
+    );
     // Every prefix of every fixture is an error or a mesh, never a panic.
-    for name in ["octa_vtk_appended_base64_zlib.vtp", "octa_meshio_binary.vtk", "octa_pyvista_ascii.vtp"] {
+    for name in [
+        "octa_vtk_appended_base64_zlib.vtp",
+        "octa_meshio_binary.vtk",
+        "octa_pyvista_ascii.vtp",
+    ] {
         let b = std::fs::read(fixture(name)).unwrap();
         let f = Format::from_path(std::path::Path::new(name)).unwrap();
         for k in 0..b.len() {

@@ -89,11 +89,6 @@ pub struct PointArray {
 impl PointArray {
     /// The values of a 3-component array as #V x 3 vectors; `None` for other component counts.
     pub fn as_vectors(&self) -> Option<Vec<[f64; 3]>> {
-        (self.components == 3).then(|| {
-            self.values
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect()
-        })
+        (self.components == 3).then(|| self.values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
     }
 }

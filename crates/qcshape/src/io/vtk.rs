@@ -413,7 +413,9 @@ fn grid_faces(
     warnings: &mut Vec<String>,
 ) -> Result<(), ParseError> {
     let Some((cells, line)) = cells else {
-        return Err(ParseError::Invalid("the UNSTRUCTURED_GRID has no CELLS section".into()));
+        return Err(ParseError::Invalid(
+            "the UNSTRUCTURED_GRID has no CELLS section".into(),
+        ));
     };
     let Some(types) = types else {
         return Err(ParseError::Invalid(
@@ -518,7 +520,10 @@ fn read_point_data(
                     });
                 }
                 let mut peek = r.c.clone();
-                if peek.next_token().is_some_and(|t| t.eq_ignore_ascii_case(b"LOOKUP_TABLE")) {
+                if peek
+                    .next_token()
+                    .is_some_and(|t| t.eq_ignore_ascii_case(b"LOOKUP_TABLE"))
+                {
                     r.c = peek;
                     r.token(&|| "the lookup table name".into())?;
                 }

@@ -17,7 +17,10 @@ use super::{check_finite, check_index, FaceBuilder, Field, MeshData, ParseError,
 
 /// Line (1-based) of byte `pos`.
 fn line_of(bytes: &[u8], pos: usize) -> usize {
-    1 + bytes[..pos.min(bytes.len())].iter().filter(|&&b| b == b'\n').count()
+    1 + bytes[..pos.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
 }
 
 fn syntax(bytes: &[u8], pos: usize, message: String) -> ParseError {
@@ -38,7 +41,10 @@ struct Tag<'a> {
 
 impl Tag<'_> {
     fn attr(&self, key: &str) -> Option<&[u8]> {
-        self.attrs.iter().find(|(k, _)| *k == key.as_bytes()).map(|(_, v)| *v)
+        self.attrs
+            .iter()
+            .find(|(k, _)| *k == key.as_bytes())
+            .map(|(_, v)| *v)
     }
     fn attr_str(&self, key: &str) -> Option<String> {
         self.attr(key).map(|v| String::from_utf8_lossy(v).into_owned())
@@ -84,17 +90,23 @@ impl<'a> Scanner<'a> {
         }
         if b[self.pos] != b'<' {
             let start = self.pos;
-            let end = b[start..].iter().position(|&c| c == b'<').map_or(b.len(), |k| start + k);
+            let end = b[start..]
+                .iter()
+                .position(|&c| c == b'<')
+                .map_or(b.len(), |k| start + k);
             self.pos = end;
             return Ok(Step::Event(Event::Text(start, end)));
         }
         let start = self.pos;
         let find = |from: usize, pat: &[u8]| -> Option<usize> {
-            b.get(from..)?.windows(pat.len()).position(|w| w == pat).map(|k| from + k)
+            b.get(from..)?
+                .windows(pat.len())
+                .position(|w| w == pat)
+                .map(|k| from + k)
         };
         if b[start..].starts_with(b"<!--") {
-            let end = find(start + 4, b"-->")
-                .ok_or_else(|| syntax(b, start, "a comment is not closed".into()))?;
+            let end =
+                find(start + 4, b"-->").ok_or_else(|| syntax(b, start, "a comment is not closed".into()))?;
             self.pos = end + 3;
             return Ok(Step::Skip);
         }
@@ -423,7 +435,9 @@ impl Decoder<'_> {
         let total = if nb == 0 {
             0
         } else {
-            (nb - 1).saturating_mul(bs).saturating_add(if last == 0 { bs } else { last })
+            (nb - 1)
+                .saturating_mul(bs)
+                .saturating_add(if last == 0 { bs } else { last })
         };
         if total != expected {
             return Err(ParseError::Invalid(format!(
@@ -553,10 +567,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     });
                 }
                 b"PointData" | b"CellData" | b"Points" | b"Polys" | b"Strips" | b"Verts" | b"Lines"
-                | b"FieldData" => {
-                    if !tag.empty {
-                        section = Some(tag.name.to_vec());
-                    }
+                | b"FieldData"
+                    if !tag.empty =>
+                {
+                    section = Some(tag.name.to_vec());
                 }
                 b"DataArray" => {
                     if tag.empty {
@@ -601,7 +615,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             },
         }
     }
-    let settings = settings.ok_or_else(|| ParseError::Invalid("not a VTK XML file: no VTKFile element".into()))?;
+    let settings =
+        settings.ok_or_else(|| ParseError::Invalid("not a VTK XML file: no VTKFile element".into()))?;
     let piece = piece.ok_or_else(|| ParseError::Invalid("the .vtp file has no Piece".into()))?;
     let values = |a: &Array, count: u64| -> Result<Vec<f64>, ParseError> {
         read_values(bytes, settings, appended, a, count)
@@ -629,7 +644,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     }
     let mut faces = FaceBuilder::default();
     let mut warnings = Vec::new();
-    for (cells, count, strip) in [(&piece.polys, piece.n_polys, false), (&piece.strips, piece.n_strips, true)] {
+    for (cells, count, strip) in [
+        (&piece.polys, piece.n_polys, false),
+        (&piece.strips, piece.n_strips, true),
+    ] {
         if count == 0 {
             continue;
         }
@@ -660,7 +678,14 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             let face = faces.n_polygons();
             let idx = connectivity[prev as usize..o as usize]
                 .iter()
-                .map(|&v| check_index(face, if v.fract() == 0.0 { v as i64 } else { -1 }, n as usize, None))
+                .map(|&v| {
+                    check_index(
+                        face,
+                        if v.fract() == 0.0 { v as i64 } else { -1 },
+                        n as usize,
+                        None,
+                    )
+                })
                 .collect::<Result<Vec<u32>, _>>()?;
             if strip {
                 if idx.len() < 3 {
@@ -729,7 +754,10 @@ fn finish_array(
     let bad = |message: String| ParseError::Syntax { line, message };
     let ty_s = tag.attr("type").unwrap_or_default();
     let ty = Ty::parse(ty_s).ok_or_else(|| {
-        bad(format!("unknown DataArray type {:?}", String::from_utf8_lossy(ty_s)))
+        bad(format!(
+            "unknown DataArray type {:?}",
+            String::from_utf8_lossy(ty_s)
+        ))
     })?;
     let name = tag.attr_str("Name").unwrap_or_default();
     let components = match tag.attr("NumberOfComponents") {
@@ -744,13 +772,20 @@ fn finish_array(
         b"ascii" => Source::Ascii(a, b),
         b"binary" => Source::Binary(a, b),
         b"appended" => {
-            let off = tag.attr("offset").ok_or_else(|| bad("an appended DataArray has no offset".into()))?;
+            let off = tag
+                .attr("offset")
+                .ok_or_else(|| bad("an appended DataArray has no offset".into()))?;
             Source::Appended(
                 super::text::parse_count(off.trim_ascii())
                     .ok_or_else(|| bad(format!("offset={:?}", String::from_utf8_lossy(off))))?,
             )
         }
-        o => return Err(bad(format!("unknown DataArray format {:?}", String::from_utf8_lossy(o)))),
+        o => {
+            return Err(bad(format!(
+                "unknown DataArray format {:?}",
+                String::from_utf8_lossy(o)
+            )))
+        }
     };
     let arr = Array {
         name,
@@ -762,7 +797,11 @@ fn finish_array(
     match section {
         Some(b"Points") => piece.points = Some(arr),
         Some(s @ (b"Polys" | b"Strips")) => {
-            let slot = if s == b"Polys" { &mut piece.polys } else { &mut piece.strips };
+            let slot = if s == b"Polys" {
+                &mut piece.polys
+            } else {
+                &mut piece.strips
+            };
             match arr.name.as_str() {
                 "connectivity" => slot[0] = Some(arr),
                 "offsets" => slot[1] = Some(arr),
@@ -794,8 +833,7 @@ fn read_values(
                 });
             }
             let mut out = Vec::with_capacity(count as usize);
-            let mut line = line_of(bytes, x);
-            for l in text.split(|&c| c == b'\n') {
+            for (line, l) in (line_of(bytes, x)..).zip(text.split(|&c| c == b'\n')) {
                 for tok in super::text::tokens(l) {
                     let v = super::text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
                         line,
@@ -803,7 +841,6 @@ fn read_values(
                     })?;
                     out.push(v);
                 }
-                line += 1;
             }
             if out.len() as u64 != count {
                 return Err(ParseError::Syntax {
@@ -814,7 +851,11 @@ fn read_values(
             return Ok(out);
         }
         Source::Binary(x, y) => {
-            let text: Vec<u8> = bytes[x..y].iter().copied().filter(|c| !c.is_ascii_whitespace()).collect();
+            let text: Vec<u8> = bytes[x..y]
+                .iter()
+                .copied()
+                .filter(|c| !c.is_ascii_whitespace())
+                .collect();
             let d = Decoder {
                 bytes: &text,
                 s,
@@ -840,7 +881,10 @@ fn read_values(
             d.array(off, expected)?
         }
     };
-    Ok(raw.chunks_exact(a.ty.size()).map(|c| a.ty.decode(c, s.big)).collect())
+    Ok(raw
+        .chunks_exact(a.ty.size())
+        .map(|c| a.ty.decode(c, s.big))
+        .collect())
 }
 
 /// XML-escapes an attribute value.
