@@ -32,7 +32,8 @@ def test_meshio_reads_named_arrays_of_a_qcshape_vtk(tmp_path, sphere):
     np.testing.assert_array_equal(m.points, V)
     assert m.cells[0].type == "triangle"
     np.testing.assert_array_equal(m.cells[0].data, F)
-    np.testing.assert_array_equal(m.point_data["height"], height)
+    # meshio returns SCALARS as (nV, 1).
+    np.testing.assert_array_equal(np.ravel(m.point_data["height"]), height)
     np.testing.assert_array_equal(m.point_data["disp"], disp)
 
 
