@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::io;
+use qcshape::contribution::path_contributions;
+use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
 use qcshape::path::{geodesic, Normalization};
 
@@ -16,7 +17,13 @@ use crate::args::{MetricArgs, SolverArgs};
 /// mean edge length of B) / 2): symmetric in A and B, so that `geodesic A B` and `geodesic B A`
 /// give the same distance. Distance and energy are reported in those normalized units (the
 /// JSON's `scale` is the factor, `normalization` says how it was chosen). With --out, the N + 1 poses of
-/// the path are written as pose_000.ply ... in the input's units.
+/// the path are written as pose_000.ply ... in the input's units, together with maps of where
+/// the two shapes differ (docs/maps.md): segment_000.vtk ... (on pose i: `energy`, the
+/// per-vertex energy contribution of segment i, `length`, its length contribution, and
+/// `displacement`, P_{i+1} - P_i as vectors in the input's units) and contribution.vtk plus
+/// contribution.ply (on A: `energy` and `length` summed over the segments, whose sums are the
+/// path energy and the distance, and `displacement` B - A; the PLY's `quality` is `length`,
+/// for MeshLab). Face and edge terms are shared equally among their vertices.
 #[derive(Debug, clap::Args)]
 #[command(about = "Discrete geodesic and distance between two poses", long_about)]
 pub struct Args {
@@ -37,9 +44,12 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Write the path's poses (PLY) to this folder.
+    /// Write the path's poses (PLY) and the per-vertex contribution maps to this folder.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Format of the segment maps: vtk (legacy, ParaView), vtp (VTK XML) or ply (MeshLab).
+    #[arg(long, default_value = "vtk", value_parser = ["vtk", "vtp", "ply"])]
+    maps_format: String,
     /// Print the result as JSON.
     #[arg(long)]
     json: bool,
@@ -61,6 +71,51 @@ fn demo_pair(level: u32) -> (Shape, Shape) {
         .collect();
     let b = Shape::new(a.topology.clone(), pos).expect("demo shape is valid");
     (a, b)
+}
+
+/// `b - a` per vertex (#V x 3).
+fn displacement(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| [q[0] - p[0], q[1] - p[1], q[2] - p[2]])
+        .collect()
+}
+
+/// The per-segment and whole-path contribution maps (see the command's help).
+fn write_maps(
+    dir: &Path,
+    ext: &str,
+    metric: &dyn qcshape::metric::Metric,
+    a: &Shape,
+    g: &qcshape::path::Geodesic,
+) -> Result<()> {
+    let c = path_contributions(metric, &a.topology, &g.poses, g.scale)?;
+    let faces = a.topology.faces();
+    for (i, w) in g.poses.windows(2).enumerate() {
+        let d = displacement(&w[0], &w[1]);
+        let fields = [
+            Field::scalar("energy", &c.segment_energy[i]),
+            Field::scalar("length", &c.segment_length[i]),
+            Field::vector("displacement", &d),
+        ];
+        io::write_mesh_fields(&dir.join(format!("segment_{i:03}.{ext}")), &w[0], faces, &fields)?;
+    }
+    let last = g.poses.last().expect("a path has poses");
+    let d = displacement(&g.poses[0], last);
+    let fields = [
+        Field::scalar("length", &c.length),
+        Field::scalar("energy", &c.energy),
+        Field::vector("displacement", &d),
+    ];
+    for ext in ["vtk", "ply"] {
+        io::write_mesh_fields(
+            &dir.join(format!("contribution.{ext}")),
+            &g.poses[0],
+            faces,
+            &fields,
+        )?;
+    }
+    Ok(())
 }
 
 fn load(p: &Path) -> Result<Shape> {
@@ -97,6 +152,7 @@ pub fn run(args: &Args) -> Result<()> {
             let path = dir.join(format!("pose_{i:03}.ply"));
             io::write_mesh(&path, p, a.topology.faces(), &Default::default())?;
         }
+        write_maps(dir, &args.maps_format, metric.as_ref(), &a, &g)?;
     }
     if args.json {
         let v = serde_json::json!({

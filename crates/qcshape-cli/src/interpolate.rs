@@ -26,7 +26,10 @@ use crate::args::{non_negative, MetricArgs};
 ///
 /// Writes DIR/<deformation>/pose000.ply ..., DIR/manifest.csv (readable as a data set; its
 /// extra column `key` marks the key poses) and DIR/segments.csv (deformation, segment, from,
-/// to, length).
+/// to, length). PLY, VTK and VTP poses carry per-vertex speed fields of the segment leaving
+/// the pose (entering it, for the last pose): `speed` (the vertex's share of the segment's
+/// metric length, normalized units; docs/maps.md), `euclidean_speed` and the vector
+/// `velocity` (displacement to the next pose, input units). PLY's `quality` is `speed`.
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Insert interpolated poses between the poses of deformations",
@@ -63,7 +66,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Mesh format of the written poses.
-    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk"])]
+    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk", "vtp"])]
     format: String,
 }
 
@@ -154,7 +157,7 @@ pub fn run(args: &Args) -> Result<()> {
         results.push(out);
     }
     bar.finish_and_clear();
-    write_outputs(args, &data, &results)?;
+    write_outputs(args, &data, &results, metric.as_ref(), factor)?;
     println!("deformation,key_poses,poses,length,energy,converged_pairs,seconds");
     for (d, r) in data.deformations.iter().zip(&results) {
         println!(
@@ -203,7 +206,56 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-fn write_outputs(args: &Args, data: &Dataset, results: &[Interpolated]) -> Result<()> {
+/// Per-vertex speed fields of pose `i` of an interpolated sequence (#poses >= 2): the outgoing
+/// segment `i -> i + 1` (the incoming one for the last pose). `speed` is the vertex's share of
+/// the segment's metric length (normalized units, docs/maps.md), `euclidean_speed` the length
+/// of `velocity`, the vertex's displacement over that segment (input units per step).
+struct Speeds {
+    speed: Vec<Vec<f64>>,
+    euclidean: Vec<Vec<f64>>,
+    velocity: Vec<Vec<[f64; 3]>>,
+}
+
+fn speeds(
+    metric: &dyn qcshape::metric::Metric,
+    topo: &Topology,
+    poses: &[Vec<[f64; 3]>],
+    factor: f64,
+) -> Result<Option<Speeds>> {
+    if poses.len() < 2 {
+        return Ok(None);
+    }
+    let c = qcshape::contribution::path_contributions(metric, topo, poses, factor)?;
+    let mut out = Speeds {
+        speed: Vec::new(),
+        euclidean: Vec::new(),
+        velocity: Vec::new(),
+    };
+    for i in 0..poses.len() {
+        let s = i.min(poses.len() - 2);
+        let v: Vec<[f64; 3]> = poses[s]
+            .iter()
+            .zip(&poses[s + 1])
+            .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+            .collect();
+        out.euclidean.push(
+            v.iter()
+                .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                .collect(),
+        );
+        out.velocity.push(v);
+        out.speed.push(c.segment_length[s].clone());
+    }
+    Ok(Some(out))
+}
+
+fn write_outputs(
+    args: &Args,
+    data: &Dataset,
+    results: &[Interpolated],
+    metric: &dyn qcshape::metric::Metric,
+    factor: f64,
+) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut manifest = String::from("deformation,label,pose,path,key\n");
     let mut segments = String::from("deformation,segment,from,to,length\n");
@@ -217,9 +269,25 @@ fn write_outputs(args: &Args, data: &Dataset, results: &[Interpolated]) -> Resul
         }
         let dir = args.out.join(&folder);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let sp = if args.format == "obj" {
+            None
+        } else {
+            speeds(metric, &d.topology, &r.poses, factor)
+                .with_context(|| format!("deformation {:?}", d.name))?
+        };
         for (i, (pose, key)) in r.poses.iter().zip(&r.is_key).enumerate() {
             let file = format!("pose{i:03}.{}", args.format);
-            io::write_mesh(&dir.join(&file), pose, d.topology.faces(), &Default::default())?;
+            match &sp {
+                Some(sp) => {
+                    let fields = [
+                        io::Field::scalar("speed", &sp.speed[i]),
+                        io::Field::scalar("euclidean_speed", &sp.euclidean[i]),
+                        io::Field::vector("velocity", &sp.velocity[i]),
+                    ];
+                    io::write_mesh_fields(&dir.join(&file), pose, d.topology.faces(), &fields)?;
+                }
+                None => io::write_mesh(&dir.join(&file), pose, d.topology.faces(), &Default::default())?,
+            }
             manifest.push_str(&format!(
                 "{},{},{i},{},{key}\n",
                 csv_field(&d.name),

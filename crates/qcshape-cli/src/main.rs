@@ -21,6 +21,7 @@ mod geodesic;
 mod info;
 mod input;
 mod interpolate;
+mod localize;
 mod lv;
 mod pipeline;
 mod progress;
@@ -57,6 +58,7 @@ enum Command {
     Embed(embed::Args),
     Experiment(experiment::Args),
     Lv(lv::Args),
+    Localize(localize::Args),
 }
 
 fn main() -> ExitCode {
@@ -74,6 +76,7 @@ fn main() -> ExitCode {
         Command::Embed(args) => embed::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Lv(args) => lv::run(args),
+        Command::Localize(args) => localize::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

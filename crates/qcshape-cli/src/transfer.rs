@@ -17,6 +17,9 @@ use crate::args::{MetricArgs, SolverArgs};
 /// segment. `--transport euclidean` gives N_k = N_0 + M_k - M_0. All shapes are scaled by one
 /// common factor (1 / mean edge length of the base) for the geodesics; the poses are written
 /// in the input's units as DIR/<deformation>/pose000.<format> ..., listed in DIR/manifest.csv.
+/// PLY, VTK and VTP poses carry the transferred displacement N_k - N_0 as the vector field
+/// `displacement` (PLY: `displacement_x/_y/_z`) and its length as the scalar `magnitude` (the
+/// PLY's `quality`), in the input's units.
 #[derive(Debug, clap::Args)]
 #[command(about = "Transfer deformations to a common base pose", long_about)]
 pub struct Args {
@@ -41,7 +44,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Mesh format of the written poses.
-    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk"])]
+    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk", "vtp"])]
     format: String,
     /// Print the per-deformation summary as JSON.
     #[arg(long)]
@@ -142,7 +145,26 @@ pub fn run(args: &Args) -> Result<()> {
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (k, p) in out.poses.iter().enumerate() {
             let file = format!("pose{k:03}.{}", args.format);
-            io::write_mesh(&dir.join(&file), p, base.topology.faces(), &Default::default())?;
+            let path = dir.join(&file);
+            if args.format == "obj" {
+                io::write_mesh(&path, p, base.topology.faces(), &Default::default())?;
+            } else {
+                let n0 = &out.poses[0];
+                let disp: Vec<[f64; 3]> = n0
+                    .iter()
+                    .zip(p)
+                    .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+                    .collect();
+                let mag: Vec<f64> = disp
+                    .iter()
+                    .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                    .collect();
+                let fields = [
+                    io::Field::vector("displacement", &disp),
+                    io::Field::scalar("magnitude", &mag),
+                ];
+                io::write_mesh_fields(&path, p, base.topology.faces(), &fields)?;
+            }
             rows.push(ManifestRow {
                 deformation: d.name.clone(),
                 label: d.label.clone(),

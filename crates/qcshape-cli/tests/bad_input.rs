@@ -305,6 +305,12 @@ fn parser_cases() -> Vec<Case> {
     let good_off = off(&p, &f);
     let good_stl = stl(&p, &f);
     let good_vtk = vtk(&p, &f);
+    // pyvista's octahedron (inline base64, zlib), from the library's interop fixtures.
+    let good_vtp = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../qcshape/tests/fixtures/octa_pyvista_binary.vtp"),
+    )
+    .unwrap();
     let mut c = vec![
         // Files that cannot be read.
         case("missing file", "geodesic {d}/nope.obj {d}/nope2.obj --out {d}/path", &["nope.obj", "cannot read"])
@@ -406,6 +412,11 @@ fn parser_cases() -> Vec<Case> {
         info_case("vtk: index out of range", "e.vtk", good_vtk.replacen("\n3 0 2 4\n", "\n3 0 2 8\n", 1), &["vertex 8"]),
         info_case("vtk: nan", "e.vtk", good_vtk.replacen("1e0 0e0 0e0", "nan 0e0 0e0", 1), &["non-finite"]),
         info_case("vtk: truncated", "e.vtk", good_vtk[..good_vtk.len() - 12].to_string(), &["vtk"]),
+        // VTP.
+        info_case("vtp: bad base64", "e.vtp", good_vtp.replacen("eF5jYACBD", "eF5*YACBD", 1), &["bad base64", "byte offset"]),
+        info_case("vtp: more points than data", "e.vtp", good_vtp.replacen("NumberOfPoints=\"6\"", "NumberOfPoints=\"7\"", 1), &["Points", "declares"]),
+        info_case("vtp: cut in half", "e.vtp", good_vtp[..good_vtp.len() / 2].to_string(), &["vtp"]),
+        info_case("vtp: not PolyData", "e.vtp", good_vtp.replacen("type=\"PolyData\"", "type=\"ImageData\"", 1), &["ImageData", "only PolyData"]),
     ];
     // Cut files: every format at half its length.
     for (ext, text) in [("ply", &good_ply), ("off", &good_off), ("obj", &good_obj)] {

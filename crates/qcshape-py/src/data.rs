@@ -30,7 +30,8 @@ pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<(Bound<'py, Py
 
 /// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) in the format of
 /// the file name's extension, atomically (complete or absent). point_data = {"name": values}
-/// adds one per-vertex scalar (nV,) (.ply and .vtk only).
+/// adds named per-vertex fields, each a scalar (nV,) or a vector (nV, 3) (.ply, .vtk and .vtp
+/// only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`).
 #[pyfunction]
 #[pyo3(signature = (path, vertices, faces, point_data=None))]
 pub fn write_mesh(
@@ -42,29 +43,40 @@ pub fn write_mesh(
 ) -> PyResult<()> {
     let v = points(vertices, "vertices", None)?;
     let f = crate::convert::faces(faces, "faces")?;
-    let scalar = match point_data {
-        None => None,
-        Some(d) if d.is_empty() => None,
-        Some(d) if d.len() > 1 => {
-            return Err(PyValueError::new_err(
-                "point_data: the writers store one per-vertex scalar; pass a dict with one entry",
-            ))
-        }
-        Some(d) => {
-            let (k, vals) = d.iter().next().expect("one entry");
+    enum Values {
+        Scalar(Vec<f64>),
+        Vector(Vec<[f64; 3]>),
+    }
+    let mut fields: Vec<(String, Values)> = Vec::new();
+    if let Some(d) = point_data {
+        for (k, vals) in d.iter() {
             let name: String = k
                 .extract()
                 .map_err(|_| PyValueError::new_err("point_data: keys must be strings"))?;
-            let vals = vector(&vals, &format!("point_data[{name:?}]"), v.len())?;
-            Some((name, vals))
+            let what = format!("point_data[{name:?}]");
+            let values = match vector(&vals, &what, v.len()) {
+                Ok(s) => Values::Scalar(s),
+                Err(scalar_err) => match points(&vals, &what, Some(v.len())) {
+                    Ok(x) => Values::Vector(x),
+                    Err(_) => return Err(scalar_err),
+                },
+            };
+            fields.push((name, values));
         }
-    };
+    }
     py.detach(|| {
-        let attrs = VertexAttributes {
-            scalar: scalar.as_ref().map(|(n, s)| (n.as_str(), s.as_slice())),
-            colors: None,
-        };
-        io::write_mesh(&path, &v, &f, &attrs)
+        let refs: Vec<io::Field> = fields
+            .iter()
+            .map(|(n, x)| match x {
+                Values::Scalar(s) => io::Field::scalar(n, s),
+                Values::Vector(x) => io::Field::vector(n, x),
+            })
+            .collect();
+        if refs.is_empty() {
+            io::write_mesh(&path, &v, &f, &VertexAttributes::default())
+        } else {
+            io::write_mesh_fields(&path, &v, &f, &refs)
+        }
     })
     .map_err(errors::io)
 }

@@ -14,11 +14,13 @@
 #![warn(missing_docs)]
 
 pub mod cluster;
+pub mod contribution;
 pub mod dataset;
 pub mod embed;
 pub mod eval;
 pub mod experiment;
 pub mod io;
+pub mod localize;
 pub mod lv;
 pub mod mesh;
 pub mod metric;

@@ -23,7 +23,7 @@ def read_mesh(path: _Path) -> Tuple[_F64, _I64]:
 def write_mesh(
     path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, npt.ArrayLike]] = None
 ) -> None:
-    """Writes V (nV, 3), F (nF, 3) and at most one per-vertex scalar (nV,) (.ply, .vtk)."""
+    """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp)."""
 
 def icosphere(level: int = 1) -> Tuple[_F64, _I64]:
     """The unit icosphere, 10 * 4**level + 2 vertices."""

@@ -1,6 +1,8 @@
-//! Mesh files: reading OBJ, PLY, OFF, STL and legacy VTK into a triangle soup
-//! ([`MeshData`]) or a validated [`Shape`], and writing OBJ, PLY, OFF, STL and VTK with
-//! optional per-vertex values (heat maps).
+//! Mesh files: reading OBJ, PLY, OFF, STL, legacy VTK (POLYDATA and UNSTRUCTURED_GRID) and
+//! VTK XML PolyData (`.vtp`) into a triangle soup ([`MeshData`], with the VTK files' named
+//! point data) or a validated [`Shape`], and writing OBJ, PLY, OFF, STL, VTK and VTP with
+//! optional per-vertex values (heat maps) or several named scalar and vector fields
+//! ([`Field`], [`write_mesh_fields`]); [`npy`] writes matrices for NumPy.
 //!
 //! # Why hand-written parsers
 //!
@@ -27,6 +29,8 @@
 //! or degenerate) is an error.
 
 mod color;
+mod fields;
+pub mod npy;
 mod obj;
 mod off;
 mod ply;
@@ -38,6 +42,7 @@ mod stress;
 mod tests;
 mod text;
 mod vtk;
+mod vtp;
 
 use std::fmt;
 use std::io::Write;
@@ -49,6 +54,7 @@ use thiserror::Error;
 use crate::mesh::{MeshError, Shape, Topology};
 
 pub use color::heat_colors;
+pub use fields::{Field, FieldValues, PointArray};
 pub use ply::PlyEncoding;
 pub use stl::WELD_REL_TOL;
 
@@ -66,6 +72,16 @@ pub struct MeshData {
     /// Non-fatal remarks from the reader (fan-triangulated polygons, ignored trailing data,
     /// welded STL corners), each one sentence.
     pub warnings: Vec<String>,
+    /// Named per-vertex arrays of the file (VTK `POINT_DATA`, VTP `PointData`), in file
+    /// order; empty for the other formats.
+    pub point_data: Vec<PointArray>,
+}
+
+impl MeshData {
+    /// The point array called `name`, if the file has one.
+    pub fn point_array(&self, name: &str) -> Option<&PointArray> {
+        self.point_data.iter().find(|a| a.name == name)
+    }
 }
 
 /// A mesh file format.
@@ -79,15 +95,25 @@ pub enum Format {
     Off,
     /// STL (ASCII or binary; unindexed, single precision).
     Stl,
-    /// Legacy VTK POLYDATA (ASCII or big-endian binary).
+    /// Legacy VTK POLYDATA or UNSTRUCTURED_GRID (ASCII or big-endian binary).
     Vtk,
+    /// VTK XML PolyData (`.vtp`: ascii, inline base64 or appended data, optionally zlib).
+    Vtp,
 }
 
 impl Format {
     /// Every format, in a fixed order.
-    pub const ALL: [Format; 5] = [Format::Obj, Format::Ply, Format::Off, Format::Stl, Format::Vtk];
+    pub const ALL: [Format; 6] = [
+        Format::Obj,
+        Format::Ply,
+        Format::Off,
+        Format::Stl,
+        Format::Vtk,
+        Format::Vtp,
+    ];
 
-    /// The format for a file name extension (`obj`, `ply`, `off`, `stl`, `vtk`; any case).
+    /// The format for a file name extension (`obj`, `ply`, `off`, `stl`, `vtk`, `vtp`; any
+    /// case).
     pub fn from_extension(ext: &str) -> Option<Format> {
         Format::ALL
             .into_iter()
@@ -107,6 +133,7 @@ impl Format {
             Format::Off => "off",
             Format::Stl => "stl",
             Format::Vtk => "vtk",
+            Format::Vtp => "vtp",
         }
     }
 }
@@ -119,6 +146,7 @@ impl fmt::Display for Format {
             Format::Off => "OFF",
             Format::Stl => "STL",
             Format::Vtk => "VTK",
+            Format::Vtp => "VTP",
         })
     }
 }
@@ -236,8 +264,16 @@ pub enum WriteError {
         /// Number of vertices.
         n_vertices: usize,
     },
+    /// Two fields have the same name, or a name is empty.
+    #[error("field {name:?}: {message}")]
+    Field {
+        /// The field's name.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The format cannot store the given per-vertex attribute.
-    #[error("the {format} format cannot store {what}; write .ply or .vtk instead")]
+    #[error("the {format} format cannot store {what}; write .ply, .vtk or .vtp instead")]
     Unsupported {
         /// Target format.
         format: Format,
@@ -266,7 +302,7 @@ pub enum IoError {
         error: std::io::Error,
     },
     /// The extension names no known format.
-    #[error("{}: unknown mesh format: the file name must end in .obj, .ply, .off, .stl or .vtk", path.display())]
+    #[error("{}: unknown mesh format: the file name must end in .obj, .ply, .off, .stl, .vtk or .vtp", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -319,7 +355,7 @@ pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> 
     }
     // A UTF-8 byte order mark before a text format (not STL, whose binary header is free-form).
     let bytes = match (format, bytes.strip_prefix(b"\xEF\xBB\xBF")) {
-        (Format::Obj | Format::Off | Format::Ply | Format::Vtk, Some(rest)) => rest,
+        (Format::Obj | Format::Off | Format::Ply | Format::Vtk | Format::Vtp, Some(rest)) => rest,
         _ => bytes,
     };
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
@@ -331,7 +367,12 @@ pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> 
         Format::Off => off::parse(bytes),
         Format::Stl => stl::parse(bytes),
         Format::Vtk => vtk::parse(bytes),
+        Format::Vtp => vtp::parse(bytes),
     }?;
+    debug_assert!(data
+        .point_data
+        .iter()
+        .all(|a| a.values.len() == a.components * data.positions.len()));
     debug_assert!(data.positions.iter().flatten().all(|c| c.is_finite()));
     debug_assert!(data
         .faces
@@ -399,11 +440,34 @@ pub struct WriteOptions {
     pub ply_encoding: PlyEncoding,
 }
 
+/// What the writers put beside the geometry: named fields (the [`VertexAttributes`] scalar
+/// first, if any) and colours.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Payload<'a> {
+    pub(crate) fields: Vec<Field<'a>>,
+    pub(crate) colors: Option<&'a [[u8; 3]]>,
+}
+
+impl<'a> Payload<'a> {
+    fn new(attrs: &VertexAttributes<'a>, fields: &[Field<'a>]) -> Self {
+        let mut all: Vec<Field<'a>> = attrs
+            .scalar
+            .map(|(name, s)| Field::scalar(name, s))
+            .into_iter()
+            .collect();
+        all.extend_from_slice(fields);
+        Payload {
+            fields: all,
+            colors: attrs.colors,
+        }
+    }
+}
+
 fn validate(
     format: Format,
     positions: &[[f64; 3]],
     faces: &[[u32; 3]],
-    attrs: &VertexAttributes,
+    payload: &Payload,
 ) -> Result<(), WriteError> {
     let n = positions.len();
     for (face, f) in faces.iter().enumerate() {
@@ -415,22 +479,34 @@ fn validate(
             });
         }
     }
-    if let Some((name, s)) = attrs.scalar {
-        if s.len() != n {
+    for (k, f) in payload.fields.iter().enumerate() {
+        if f.len() != n {
             return Err(WriteError::AttributeLength {
-                what: format!("scalar {name:?}"),
-                got: s.len(),
+                what: format!("{} {:?}", f.kind(), f.name),
+                got: f.len(),
                 expected: n,
+            });
+        }
+        if f.name.trim().is_empty() {
+            return Err(WriteError::Field {
+                name: f.name.into(),
+                message: "a field needs a name".into(),
+            });
+        }
+        if payload.fields[..k].iter().any(|g| g.name == f.name) {
+            return Err(WriteError::Field {
+                name: f.name.into(),
+                message: "two fields have this name".into(),
             });
         }
         if matches!(format, Format::Obj | Format::Off | Format::Stl) {
             return Err(WriteError::Unsupported {
                 format,
-                what: "per-vertex scalars",
+                what: "per-vertex scalars or vectors",
             });
         }
     }
-    if let Some(c) = attrs.colors {
+    if let Some(c) = payload.colors {
         if c.len() != n {
             return Err(WriteError::AttributeLength {
                 what: "colors".into(),
@@ -438,7 +514,7 @@ fn validate(
                 expected: n,
             });
         }
-        if matches!(format, Format::Off | Format::Stl) {
+        if matches!(format, Format::Off | Format::Stl | Format::Vtp) {
             return Err(WriteError::Unsupported {
                 format,
                 what: "per-vertex colors",
@@ -453,15 +529,16 @@ fn encode_to(
     format: Format,
     positions: &[[f64; 3]],
     faces: &[[u32; 3]],
-    attrs: &VertexAttributes,
+    payload: &Payload,
     options: &WriteOptions,
 ) -> std::io::Result<()> {
     match format {
-        Format::Obj => obj::write(w, positions, faces, attrs),
-        Format::Ply => ply::write(w, positions, faces, attrs, options.ply_encoding),
+        Format::Obj => obj::write(w, positions, faces, payload.colors),
+        Format::Ply => ply::write(w, positions, faces, payload, options.ply_encoding),
         Format::Off => off::write(w, positions, faces),
         Format::Stl => stl::write(w, positions, faces),
-        Format::Vtk => vtk::write(w, positions, faces, attrs),
+        Format::Vtk => vtk::write(w, positions, faces, payload),
+        Format::Vtp => vtp::write(w, positions, faces, &payload.fields),
     }
 }
 
@@ -474,10 +551,69 @@ pub fn encode_mesh(
     attrs: &VertexAttributes,
     options: &WriteOptions,
 ) -> Result<Vec<u8>, WriteError> {
-    validate(format, positions, faces, attrs)?;
+    encode_mesh_fields(format, positions, faces, &Payload::new(attrs, &[]), options)
+}
+
+/// Encodes a mesh with named per-vertex fields (each #V scalars or #V x 3 vectors) in memory:
+/// PLY, VTK and VTP only (see [`write_mesh_fields`]).
+pub fn encode_mesh_with_fields(
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    fields: &[Field],
+    options: &WriteOptions,
+) -> Result<Vec<u8>, WriteError> {
+    let payload = Payload::new(&VertexAttributes::default(), fields);
+    encode_mesh_fields(format, positions, faces, &payload, options)
+}
+
+fn encode_mesh_fields(
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    payload: &Payload,
+    options: &WriteOptions,
+) -> Result<Vec<u8>, WriteError> {
+    validate(format, positions, faces, payload)?;
     let mut out = Vec::new();
-    encode_to(&mut out, format, positions, faces, attrs, options).expect("writing to a Vec cannot fail");
+    encode_to(&mut out, format, positions, faces, payload, options).expect("writing to a Vec cannot fail");
     Ok(out)
+}
+
+/// Writes a mesh (positions #V x 3, faces #F x 3) with several named per-vertex fields, in the
+/// format named by `path`'s extension, atomically:
+/// - PLY: each scalar field as a `double` vertex property of its name, each vector field as
+///   `NAME_x`, `NAME_y`, `NAME_z`, and the first scalar field also as `quality` (what MeshLab
+///   shows as vertex quality);
+/// - legacy VTK: `POINT_DATA` with `SCALARS` and `VECTORS` sections of those names (ParaView);
+/// - VTP: `PointData` arrays of those names (`NumberOfComponents` 1 or 3).
+///
+/// OBJ, OFF and STL cannot hold fields ([`WriteError::Unsupported`]); names must be unique
+/// and non-empty.
+pub fn write_mesh_fields(
+    path: &Path,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    fields: &[Field],
+) -> Result<(), IoError> {
+    let format = Format::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.into() })?;
+    let payload = Payload::new(&VertexAttributes::default(), fields);
+    write_payload(path, format, positions, faces, &payload, &WriteOptions::default())
+}
+
+fn write_payload(
+    path: &Path,
+    format: Format,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    payload: &Payload,
+    options: &WriteOptions,
+) -> Result<(), IoError> {
+    validate(format, positions, faces, payload).map_err(|error| IoError::Encode {
+        path: path.into(),
+        error,
+    })?;
+    write_atomically(path, |w| encode_to(w, format, positions, faces, payload, options))
 }
 
 /// Writes a mesh (positions #V x 3, faces #F x 3) in the format named by `path`'s extension,
@@ -510,11 +646,7 @@ pub fn write_mesh_with(
     attrs: &VertexAttributes,
     options: &WriteOptions,
 ) -> Result<(), IoError> {
-    validate(format, positions, faces, attrs).map_err(|error| IoError::Encode {
-        path: path.into(),
-        error,
-    })?;
-    write_atomically(path, |w| encode_to(w, format, positions, faces, attrs, options))
+    write_payload(path, format, positions, faces, &Payload::new(attrs, &[]), options)
 }
 
 /// Writes a file so that it is either complete or absent: `write` fills a temporary file in

@@ -11,7 +11,7 @@
 use std::io::Write;
 
 use super::text::{self, Float};
-use super::{check_finite, FaceBuilder, MeshData, ParseError, VertexAttributes};
+use super::{check_finite, FaceBuilder, MeshData, ParseError};
 
 /// OBJ keywords that are read (`v`, `f`, `fo`) or knowingly ignored (everything else here).
 const KNOWN: [&[u8]; 36] = [
@@ -195,6 +195,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         positions,
         faces,
         warnings,
+        point_data: Vec::new(),
     })
 }
 
@@ -202,7 +203,7 @@ pub(crate) fn write(
     w: &mut dyn Write,
     positions: &[[f64; 3]],
     faces: &[[u32; 3]],
-    attrs: &VertexAttributes,
+    colors: Option<&[[u8; 3]]>,
 ) -> std::io::Result<()> {
     writeln!(
         w,
@@ -212,7 +213,7 @@ pub(crate) fn write(
     )?;
     for (i, p) in positions.iter().enumerate() {
         write!(w, "v {} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
-        if let Some(c) = attrs.colors {
+        if let Some(c) = colors {
             let c = c[i];
             write!(
                 w,

@@ -166,6 +166,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         positions,
         faces,
         warnings,
+        point_data: Vec::new(),
     })
 }
 

@@ -5,13 +5,15 @@
 //! and property is skipped; polygons are triangulated (a fan, or ear clipping when not
 //! convex). In ASCII files every element is one line, and the counts of the header are exact
 //! (a line with more or fewer values, or data after the last element, is an error naming the
-//! line and both numbers). Writes `double` coordinates, an
-//! optional `double` scalar property and optional `uchar` `red`/`green`/`blue` per vertex.
+//! line and both numbers). Writes `double` coordinates, named `double` properties per vertex
+//! (scalar fields under their name, vector fields as `NAME_x`, `NAME_y`, `NAME_z`; the first
+//! scalar field also as `quality`, MeshLab's per-vertex quality) and optional `uchar`
+//! `red`/`green`/`blue`.
 
 use std::io::Write;
 
 use super::text::{self, Cursor, Float};
-use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, VertexAttributes};
+use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, Payload};
 
 /// How a PLY file stores its data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -562,6 +564,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         positions,
         faces,
         warnings,
+        point_data: Vec::new(),
     })
 }
 
@@ -584,11 +587,40 @@ fn sanitize(name: &str) -> String {
     }
 }
 
+/// The vertex properties written for `payload`'s fields: (name, field index, component).
+fn properties(payload: &Payload) -> Vec<(String, usize, usize)> {
+    let mut props: Vec<(String, usize, usize)> = Vec::new();
+    for (k, f) in payload.fields.iter().enumerate() {
+        let name = sanitize(f.name);
+        if f.components() == 1 {
+            props.push((name, k, 0));
+        } else {
+            for (c, axis) in ["x", "y", "z"].iter().enumerate() {
+                props.push((format!("{name}_{axis}"), k, c));
+            }
+        }
+    }
+    if let Some(k) = payload.fields.iter().position(|f| f.components() == 1) {
+        if !props.iter().any(|(n, _, _)| n == "quality") {
+            props.insert(0, ("quality".into(), k, 0));
+        }
+    }
+    // Names made equal by sanitizing get a numeric suffix (PLY needs unique property names).
+    for i in 1..props.len() {
+        let mut n = 1;
+        while props[..i].iter().any(|(p, _, _)| *p == props[i].0) {
+            props[i].0 = format!("{}_{n}", props[i].0);
+            n += 1;
+        }
+    }
+    props
+}
+
 pub(crate) fn write(
     w: &mut dyn Write,
     positions: &[[f64; 3]],
     faces: &[[u32; 3]],
-    attrs: &VertexAttributes,
+    payload: &Payload,
     encoding: PlyEncoding,
 ) -> std::io::Result<()> {
     let big_index = positions.len() > i32::MAX as usize;
@@ -597,27 +629,29 @@ pub(crate) fn write(
         PlyEncoding::BinaryLittleEndian => "binary_little_endian",
         PlyEncoding::BinaryBigEndian => "binary_big_endian",
     };
+    let props = properties(payload);
+    let colors = payload.colors;
     writeln!(w, "ply\nformat {format} 1.0\ncomment written by qcshape")?;
     writeln!(w, "element vertex {}", positions.len())?;
     writeln!(w, "property double x\nproperty double y\nproperty double z")?;
-    if let Some((name, _)) = attrs.scalar {
-        writeln!(w, "property double {}", sanitize(name))?;
+    for (name, _, _) in &props {
+        writeln!(w, "property double {name}")?;
     }
-    if attrs.colors.is_some() {
+    if colors.is_some() {
         writeln!(w, "property uchar red\nproperty uchar green\nproperty uchar blue")?;
     }
     writeln!(w, "element face {}", faces.len())?;
     let ity = if big_index { "uint" } else { "int" };
     writeln!(w, "property list uchar {ity} vertex_indices\nend_header")?;
-    let scalar = attrs.scalar.map(|(_, s)| s);
+    let value = |i: usize, &(_, k, c): &(String, usize, usize)| payload.fields[k].get(i, c);
     match encoding {
         PlyEncoding::Ascii => {
             for (i, p) in positions.iter().enumerate() {
                 write!(w, "{} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
-                if let Some(s) = scalar {
-                    write!(w, " {}", Float(s[i]))?;
+                for prop in &props {
+                    write!(w, " {}", Float(value(i, prop)))?;
                 }
-                if let Some(c) = attrs.colors {
+                if let Some(c) = colors {
                     write!(w, " {} {} {}", c[i][0], c[i][1], c[i][2])?;
                 }
                 writeln!(w)?;
@@ -634,10 +668,10 @@ pub(crate) fn write(
                 for &c in p {
                     w.write_all(&f64b(c))?;
                 }
-                if let Some(s) = scalar {
-                    w.write_all(&f64b(s[i]))?;
+                for prop in &props {
+                    w.write_all(&f64b(value(i, prop)))?;
                 }
-                if let Some(c) = attrs.colors {
+                if let Some(c) = colors {
                     w.write_all(&c[i])?;
                 }
             }

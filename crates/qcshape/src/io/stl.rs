@@ -69,6 +69,7 @@ impl Welder {
             positions: self.positions,
             faces,
             warnings,
+            point_data: Vec::new(),
         }
     }
 }

@@ -97,6 +97,32 @@ fn seeds() -> Vec<(Format, Vec<u8>)> {
           TRIANGLE_STRIPS 2 4\nOFFSETS vtktypeint64\n0 4\nCONNECTIVITY vtktypeint64\n0 1 3 2\n"
             .to_vec(),
     ));
+    // qcshape's VTP, and the meshio / pyvista fixtures (UNSTRUCTURED_GRID, every VTP layout).
+    out.push((
+        Format::Vtp,
+        super::encode_mesh_with_fields(
+            Format::Vtp,
+            &pos,
+            &faces,
+            &[super::Field::scalar("v", &vals)],
+            &WriteOptions::default(),
+        )
+        .unwrap(),
+    ));
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    for name in [
+        "octa_meshio_ascii.vtk",
+        "octa_meshio_binary.vtk",
+        "octa_meshio_42.vtk",
+        "octa_pyvista_ascii.vtp",
+        "octa_pyvista_binary.vtp",
+        "octa_vtk_binary_raw.vtp",
+        "octa_vtk_appended_zlib.vtp",
+        "octa_vtk_appended_base64_zlib.vtp",
+    ] {
+        let f = Format::from_path(std::path::Path::new(name)).unwrap();
+        out.push((f, std::fs::read(dir.join(name)).unwrap()));
+    }
     for (f, b) in &out {
         parse_mesh(b, *f).unwrap_or_else(|e| panic!("seed {f} does not parse: {e}"));
     }

@@ -517,7 +517,7 @@ fn encode_mesh_unchecked_ply(pos: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<u8> {
         &mut out,
         pos,
         faces,
-        &VertexAttributes::default(),
+        &super::Payload::default(),
         PlyEncoding::BinaryLittleEndian,
     )
     .unwrap();
@@ -618,7 +618,7 @@ fn structural_errors_are_specific() {
         ),
         (Format::Off, b"OFF\n3 1\n0 0 0\n1 0 0\n", "the file ends early: expected 3 vertices, found 2"),
         (Format::Off, b"OFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "face 0 has 2 vertices, but a face needs at least 3 (line 6)"),
-        (Format::Vtk, b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\n", "unsupported: VTK dataset type"),
+        (Format::Vtk, b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\n", "unsupported: VTK dataset type"),
         (Format::Obj, b"v 0 0 0\nv 1 0 0\nf 1 2\n", "face 0 has 2 vertices"),
         (
             Format::Vtk,

@@ -1,15 +1,21 @@
-//! Legacy VTK (`.vtk`) POLYDATA, ASCII or BINARY (big endian, as the format requires).
+//! Legacy VTK (`.vtk`) POLYDATA and UNSTRUCTURED_GRID, ASCII or BINARY (big endian, as the
+//! format requires).
 //!
-//! Reads `POINTS` and `POLYGONS` (and `TRIANGLE_STRIPS`, converted to triangles); `VERTICES`
-//! and `LINES` are skipped; reading stops at the first attribute section (`POINT_DATA`,
-//! `CELL_DATA`, `FIELD`, `METADATA`). Cells may use the classic layout (`POLYGONS n size`
-//! followed by `k i1 .. ik` records) or the VTK 5.1 layout (`OFFSETS` and `CONNECTIVITY`
-//! arrays). Writes ASCII, with `POINT_DATA` `SCALARS` and `COLOR_SCALARS` when given.
+//! POLYDATA: reads `POINTS` and `POLYGONS` (and `TRIANGLE_STRIPS`, converted to triangles);
+//! `VERTICES` and `LINES` are skipped. UNSTRUCTURED_GRID (what meshio writes): reads `POINTS`,
+//! `CELLS` and `CELL_TYPES`; triangle (5), polygon (7), quad (9) and triangle-strip (6) cells
+//! become faces, every other cell type is skipped with a warning. Cells may use the classic
+//! layout (`POLYGONS n size` followed by `k i1 .. ik` records) or the VTK 5.1 layout
+//! (`OFFSETS` and `CONNECTIVITY` arrays). `POINT_DATA` is read into named arrays: `SCALARS`
+//! (with or without `LOOKUP_TABLE`), `VECTORS`, `NORMALS`, `TEXTURE_COORDINATES`, `TENSORS`,
+//! `COLOR_SCALARS` and `FIELD` arrays; reading stops at `CELL_DATA` or `METADATA`.
+//! Writes ASCII UNSTRUCTURED_GRID triangles (version 4.2 layout, readable by ParaView, pyvista
+//! and meshio), with `POINT_DATA` `SCALARS`, `VECTORS` and `COLOR_SCALARS`.
 
 use std::io::Write;
 
 use super::text::{self, Cursor, Float};
-use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, VertexAttributes};
+use super::{check_finite, check_index, FaceBuilder, FieldValues, MeshData, ParseError, Payload, PointArray};
 
 #[derive(Debug, Clone, Copy)]
 enum Num {
@@ -266,12 +272,16 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             message: format!("expected DATASET POLYDATA, found {}", text::show(kw)),
         });
     }
-    if !ds.eq_ignore_ascii_case(b"POLYDATA") {
+    let grid = ds.eq_ignore_ascii_case(b"UNSTRUCTURED_GRID");
+    if !(grid || ds.eq_ignore_ascii_case(b"POLYDATA")) {
         return Err(ParseError::Unsupported(format!(
-            "VTK dataset type {} (only POLYDATA is read)",
+            "VTK dataset type {} (only POLYDATA and UNSTRUCTURED_GRID are read)",
             text::show(ds)
         )));
     }
+    let mut grid_cells: Option<(Vec<Vec<i64>>, usize)> = None;
+    let mut cell_types: Option<Vec<f64>> = None;
+    let mut point_data = Vec::new();
 
     let mut positions: Option<Vec<[f64; 3]>> = None;
     let mut faces = FaceBuilder::default();
@@ -304,7 +314,20 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 }
                 positions = Some(pos);
             }
-            b"POLYGONS" | b"TRIANGLE_STRIPS" | b"VERTICES" | b"LINES" => {
+            b"CELLS" if grid => {
+                if grid_cells.is_some() {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: "a second CELLS section".into(),
+                    });
+                }
+                grid_cells = Some((read_cells(&mut r, "CELLS")?, line));
+            }
+            b"CELL_TYPES" if grid => {
+                let n = r.count("the CELL_TYPES count")?;
+                cell_types = Some(r.numbers(n, Num::I32, "CELL_TYPES")?);
+            }
+            b"POLYGONS" | b"TRIANGLE_STRIPS" | b"VERTICES" | b"LINES" if !grid => {
                 let keyword = String::from_utf8_lossy(&kw).into_owned();
                 let cells = read_cells(&mut r, &keyword)?;
                 if matches!(kw.as_slice(), b"VERTICES" | b"LINES") {
@@ -329,25 +352,23 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                         faces.push(&idx, cell_line)?;
                     } else {
                         strips += 1;
-                        if idx.len() < 3 {
-                            return Err(ParseError::BadFace {
-                                face,
-                                count: idx.len() as u64,
-                                line: cell_line,
-                            });
-                        }
-                        for k in 0..idx.len() - 2 {
-                            let t = if k % 2 == 0 {
-                                [idx[k], idx[k + 1], idx[k + 2]]
-                            } else {
-                                [idx[k + 1], idx[k], idx[k + 2]]
-                            };
-                            faces.push(&t, cell_line)?;
-                        }
+                        push_strip(&mut faces, &idx, cell_line)?;
                     }
                 }
             }
-            b"POINT_DATA" | b"CELL_DATA" | b"FIELD" | b"METADATA" => break,
+            b"POINT_DATA" => {
+                let n_points = positions.as_ref().map_or(0, |p| p.len());
+                let n = r.count("the POINT_DATA count")?;
+                if n != n_points as u64 {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("POINT_DATA {n} for {n_points} points"),
+                    });
+                }
+                read_point_data(&mut r, n_points, &mut point_data, &mut warnings)?;
+                break;
+            }
+            b"CELL_DATA" | b"FIELD" | b"METADATA" => break,
             _ => {
                 return Err(ParseError::Syntax {
                     line,
@@ -358,6 +379,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     }
     let positions =
         positions.ok_or_else(|| ParseError::Invalid("the VTK file has no POINTS section".into()))?;
+    if grid {
+        grid_faces(&positions, grid_cells, cell_types, &mut faces, &mut warnings)?;
+    }
     if skipped > 0 {
         warnings.push(format!("ignored {skipped} VERTICES/LINES cell(s)"));
     }
@@ -369,7 +393,230 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         positions,
         faces,
         warnings,
+        point_data,
     })
+}
+
+/// VTK cell type numbers that are surface cells.
+const VTK_TRIANGLE: i64 = 5;
+const VTK_TRIANGLE_STRIP: i64 = 6;
+const VTK_POLYGON: i64 = 7;
+const VTK_QUAD: i64 = 9;
+
+/// The faces of an UNSTRUCTURED_GRID: its surface cells (triangles, strips, polygons, quads);
+/// other cells are counted in a warning.
+fn grid_faces(
+    positions: &[[f64; 3]],
+    cells: Option<(Vec<Vec<i64>>, usize)>,
+    types: Option<Vec<f64>>,
+    faces: &mut FaceBuilder,
+    warnings: &mut Vec<String>,
+) -> Result<(), ParseError> {
+    let Some((cells, line)) = cells else {
+        return Err(ParseError::Invalid(
+            "the UNSTRUCTURED_GRID has no CELLS section".into(),
+        ));
+    };
+    let Some(types) = types else {
+        return Err(ParseError::Invalid(
+            "the UNSTRUCTURED_GRID has CELLS but no CELL_TYPES section".into(),
+        ));
+    };
+    if types.len() != cells.len() {
+        return Err(ParseError::Invalid(format!(
+            "CELL_TYPES lists {} types for {} cells",
+            types.len(),
+            cells.len()
+        )));
+    }
+    let n = positions.len();
+    let mut skipped = std::collections::BTreeMap::<i64, usize>::new();
+    for (cell, ty) in cells.iter().zip(&types) {
+        let ty = as_int(*ty).unwrap_or(-1);
+        if !matches!(ty, VTK_TRIANGLE | VTK_TRIANGLE_STRIP | VTK_POLYGON | VTK_QUAD) {
+            *skipped.entry(ty).or_default() += 1;
+            continue;
+        }
+        let face = faces.n_polygons();
+        let idx = cell
+            .iter()
+            .map(|&i| check_index(face, i, n, Some(line)))
+            .collect::<Result<Vec<u32>, _>>()?;
+        if ty == VTK_TRIANGLE_STRIP {
+            push_strip(faces, &idx, Some(line))?;
+        } else {
+            faces.push(&idx, Some(line))?;
+        }
+    }
+    if !skipped.is_empty() {
+        let list: Vec<String> = skipped.iter().map(|(t, k)| format!("{k} of type {t}")).collect();
+        warnings.push(format!(
+            "ignored {} cell(s) that are not triangles, quads, polygons or strips ({})",
+            skipped.values().sum::<usize>(),
+            list.join(", ")
+        ));
+    }
+    Ok(())
+}
+
+/// Adds the triangles of a strip (alternating orientation, as VTK defines it).
+fn push_strip(faces: &mut FaceBuilder, idx: &[u32], line: Option<usize>) -> Result<(), ParseError> {
+    if idx.len() < 3 {
+        return Err(ParseError::BadFace {
+            face: faces.n_polygons(),
+            count: idx.len() as u64,
+            line,
+        });
+    }
+    for k in 0..idx.len() - 2 {
+        let t = if k % 2 == 0 {
+            [idx[k], idx[k + 1], idx[k + 2]]
+        } else {
+            [idx[k + 1], idx[k], idx[k + 2]]
+        };
+        faces.push(&t, line)?;
+    }
+    Ok(())
+}
+
+/// Reads the arrays of a `POINT_DATA` section (`n` points) until its end, `CELL_DATA` or
+/// `METADATA`.
+fn read_point_data(
+    r: &mut Reader,
+    n: usize,
+    out: &mut Vec<PointArray>,
+    warnings: &mut Vec<String>,
+) -> Result<(), ParseError> {
+    let n64 = n as u64;
+    loop {
+        let Some(tok) = r.c.next_token() else {
+            return Ok(());
+        };
+        let line = r.c.line();
+        let kw = tok.to_ascii_uppercase();
+        let name = |r: &mut Reader| -> Result<String, ParseError> {
+            let t = r.token(&|| "an array name".into())?;
+            Ok(String::from_utf8_lossy(t).into_owned())
+        };
+        match kw.as_slice() {
+            b"SCALARS" => {
+                let name = name(r)?;
+                let ty = r.num_type(&format!("SCALARS {name}"))?;
+                // Optional component count on the same line, optional LOOKUP_TABLE line.
+                let mut comps = 1u64;
+                let mut peek = r.c.clone();
+                if let Some(t) = peek.next_token() {
+                    if peek.line() == line {
+                        if let Some(k) = text::parse_count(t) {
+                            comps = k;
+                            r.c = peek;
+                        }
+                    }
+                }
+                if !(1..=4).contains(&comps) {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("SCALARS {name} has {comps} components (1 to 4 allowed)"),
+                    });
+                }
+                let mut peek = r.c.clone();
+                if peek
+                    .next_token()
+                    .is_some_and(|t| t.eq_ignore_ascii_case(b"LOOKUP_TABLE"))
+                {
+                    r.c = peek;
+                    r.token(&|| "the lookup table name".into())?;
+                }
+                let values = r.numbers(n64 * comps, ty, &format!("SCALARS {name}"))?;
+                out.push(array(name, comps as usize, values));
+            }
+            b"VECTORS" | b"NORMALS" => {
+                let name = name(r)?;
+                let ty = r.num_type(&format!("VECTORS {name}"))?;
+                let values = r.numbers(n64 * 3, ty, &format!("VECTORS {name}"))?;
+                out.push(array(name, 3, values));
+            }
+            b"TENSORS" => {
+                let name = name(r)?;
+                let ty = r.num_type(&format!("TENSORS {name}"))?;
+                let values = r.numbers(n64 * 9, ty, &format!("TENSORS {name}"))?;
+                out.push(array(name, 9, values));
+            }
+            b"TEXTURE_COORDINATES" => {
+                let name = name(r)?;
+                let dim = r.count("the texture coordinate dimension")?;
+                if !(1..=3).contains(&dim) {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("TEXTURE_COORDINATES {name} of dimension {dim}"),
+                    });
+                }
+                let ty = r.num_type(&format!("TEXTURE_COORDINATES {name}"))?;
+                let values = r.numbers(n64 * dim, ty, &format!("TEXTURE_COORDINATES {name}"))?;
+                out.push(array(name, dim as usize, values));
+            }
+            b"COLOR_SCALARS" => {
+                let name = name(r)?;
+                let comps = r.count(&format!("the component count of COLOR_SCALARS {name}"))?;
+                if !(1..=4).contains(&comps) {
+                    return Err(ParseError::Syntax {
+                        line,
+                        message: format!("COLOR_SCALARS {name} has {comps} components"),
+                    });
+                }
+                // ASCII colours are floats in 0..1; binary ones unsigned chars.
+                let ty = if r.binary { Num::U8 } else { Num::F64 };
+                let values = r.numbers(n64 * comps, ty, &format!("COLOR_SCALARS {name}"))?;
+                out.push(array(name, comps as usize, values));
+            }
+            b"LOOKUP_TABLE" => {
+                let name = name(r)?;
+                let size = r.count(&format!("the size of LOOKUP_TABLE {name}"))?;
+                let ty = if r.binary { Num::U8 } else { Num::F64 };
+                r.numbers(size.saturating_mul(4), ty, &format!("LOOKUP_TABLE {name}"))?;
+            }
+            b"FIELD" => {
+                let _field = name(r)?;
+                let k = r.count("the FIELD array count")?;
+                for _ in 0..k {
+                    let name = name(r)?;
+                    let comps = r.count(&format!("the component count of {name}"))?;
+                    let tuples = r.count(&format!("the tuple count of {name}"))?;
+                    let ty = r.num_type(&name)?;
+                    if tuples != n64 {
+                        return Err(ParseError::Syntax {
+                            line: r.c.line(),
+                            message: format!("FIELD array {name} has {tuples} tuples for {n} points"),
+                        });
+                    }
+                    if comps == 0 || comps > 1 << 20 {
+                        return Err(ParseError::Syntax {
+                            line: r.c.line(),
+                            message: format!("FIELD array {name} has {comps} components"),
+                        });
+                    }
+                    let values = r.numbers(n64.saturating_mul(comps), ty, &name)?;
+                    out.push(array(name, comps as usize, values));
+                }
+            }
+            b"CELL_DATA" | b"METADATA" => return Ok(()),
+            _ => {
+                warnings.push(format!(
+                    "stopped reading POINT_DATA at the unknown keyword {} (line {line})",
+                    text::show(tok)
+                ));
+                return Ok(());
+            }
+        }
+    }
+}
+
+fn array(name: String, components: usize, values: Vec<f64>) -> PointArray {
+    PointArray {
+        name,
+        components,
+        values,
+    }
 }
 
 /// A VTK array name: no whitespace.
@@ -389,30 +636,46 @@ pub(crate) fn write(
     w: &mut dyn Write,
     positions: &[[f64; 3]],
     faces: &[[u32; 3]],
-    attrs: &VertexAttributes,
+    payload: &Payload,
 ) -> std::io::Result<()> {
+    // UNSTRUCTURED_GRID of triangles (VTK_TRIANGLE cells) rather than POLYDATA: ParaView and
+    // pyvista read both, meshio only the former.
     writeln!(
         w,
-        "# vtk DataFile Version 3.0\nwritten by qcshape\nASCII\nDATASET POLYDATA"
+        "# vtk DataFile Version 4.2\nwritten by qcshape\nASCII\nDATASET UNSTRUCTURED_GRID"
     )?;
     writeln!(w, "POINTS {} double", positions.len())?;
     for p in positions {
         writeln!(w, "{} {} {}", Float(p[0]), Float(p[1]), Float(p[2]))?;
     }
-    writeln!(w, "POLYGONS {} {}", faces.len(), 4 * faces.len())?;
+    writeln!(w, "CELLS {} {}", faces.len(), 4 * faces.len())?;
     for f in faces {
         writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
     }
-    if attrs.scalar.is_some() || attrs.colors.is_some() {
+    writeln!(w, "CELL_TYPES {}", faces.len())?;
+    for _ in faces {
+        writeln!(w, "{VTK_TRIANGLE}")?;
+    }
+    if !payload.fields.is_empty() || payload.colors.is_some() {
         writeln!(w, "POINT_DATA {}", positions.len())?;
     }
-    if let Some((name, s)) = attrs.scalar {
-        writeln!(w, "SCALARS {} double 1\nLOOKUP_TABLE default", sanitize(name))?;
-        for &v in s {
-            writeln!(w, "{}", Float(v))?;
+    for f in &payload.fields {
+        match f.values {
+            FieldValues::Scalar(s) => {
+                writeln!(w, "SCALARS {} double 1\nLOOKUP_TABLE default", sanitize(f.name))?;
+                for &v in s {
+                    writeln!(w, "{}", Float(v))?;
+                }
+            }
+            FieldValues::Vector(x) => {
+                writeln!(w, "VECTORS {} double", sanitize(f.name))?;
+                for v in x {
+                    writeln!(w, "{} {} {}", Float(v[0]), Float(v[1]), Float(v[2]))?;
+                }
+            }
         }
     }
-    if let Some(c) = attrs.colors {
+    if let Some(c) = payload.colors {
         writeln!(w, "COLOR_SCALARS colors 3")?;
         for c in c {
             let [r, g, b] = c.map(|v| Float(v as f64 / 255.0));

@@ -200,6 +200,17 @@ pub trait Metric: Send + Sync + Debug {
     /// Number of residuals on `topo` (cheap; equals `pattern(topo).n_residuals()`).
     fn n_residuals(&self, topo: &Topology) -> usize;
 
+    /// The mesh element each residual belongs to, as a pattern with one row per residual: the
+    /// vertices of its face (triangle terms), edge (edge terms) or vertex (per-vertex terms).
+    /// [`crate::contribution`] splits each squared residual equally among its row's vertices.
+    /// The default is [`Metric::pattern`], which is that element for every metric whose
+    /// residuals depend only on their own element; metrics whose Jacobian reaches further
+    /// (curvature weights of the quasi-conformal `segment` reading depend on one-rings)
+    /// override it with the element itself.
+    fn support(&self, topo: &Topology) -> Pattern {
+        self.pattern(topo)
+    }
+
     /// Number of auxiliary unknowns per segment term (6 for [`Rigid`], else 0). They are
     /// optimized together with the path, `G(X) = min_aux |r(X, aux)|^2`.
     fn n_aux(&self) -> usize {

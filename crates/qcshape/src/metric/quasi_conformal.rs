@@ -88,6 +88,12 @@ impl Metric for QuasiConformal {
         self.form.residuals_per_face() * topo.n_faces()
     }
 
+    /// The face of each residual (also for [`QcWeights::Segment`], whose Jacobian rows reach
+    /// the faces' one-rings through the curvature weights).
+    fn support(&self, topo: &Topology) -> Pattern {
+        face_pattern(topo, self.form.residuals_per_face())
+    }
+
     /// `K(end) - K(start)` (#V, radians) for [`QcWeights::Endpoints`] (`None` if a pose does
     /// not have #V vertices); `None` for [`QcWeights::Segment`].
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {

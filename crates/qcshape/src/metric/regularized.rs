@@ -63,6 +63,12 @@ impl Metric for Regularized {
         self.inner.n_residuals(topo) + self.l2().n_residuals(topo)
     }
 
+    fn support(&self, topo: &Topology) -> Pattern {
+        let mut p = self.inner.support(topo);
+        p.append(&self.l2().support(topo));
+        p
+    }
+
     fn n_aux(&self) -> usize {
         self.inner.n_aux()
     }

@@ -1,0 +1,173 @@
+//! End-to-end tests of the per-vertex maps: `geodesic --out`, `transfer` and `interpolate`
+//! fields, and `qcshape localize`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use qcshape::dataset::{write_manifest, ManifestRow};
+
+fn qcshape() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_qcshape"))
+}
+
+#[test]
+fn geodesic_out_writes_segment_and_contribution_maps_that_sum_to_the_distance() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = qcshape()
+        .args([
+            "geodesic",
+            "--demo",
+            "--demo-level",
+            "1",
+            "--steps",
+            "3",
+            "--json",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let distance = v["distance"].as_f64().unwrap();
+    let energy = v["energy"].as_f64().unwrap();
+    let c = qcshape::io::read_mesh(&dir.path().join("contribution.vtk")).unwrap();
+    let length: f64 = c.point_array("length").unwrap().values.iter().sum();
+    let e: f64 = c.point_array("energy").unwrap().values.iter().sum();
+    assert!(
+        (length - distance).abs() <= 1e-9 * distance,
+        "{length} vs {distance}"
+    );
+    assert!((e - energy).abs() <= 1e-8 * energy, "{e} vs {energy}");
+    assert_eq!(c.point_array("displacement").unwrap().components, 3);
+    let mut seg_sum = 0.0;
+    for i in 0..3 {
+        let s = qcshape::io::read_mesh(&dir.path().join(format!("segment_{i:03}.vtk"))).unwrap();
+        seg_sum += s.point_array("length").unwrap().values.iter().sum::<f64>();
+    }
+    assert!((seg_sum - distance).abs() <= 1e-9 * distance);
+    let ply = std::fs::read(dir.path().join("contribution.ply")).unwrap();
+    assert!(String::from_utf8_lossy(&ply).contains("property double quality\nproperty double length\n"));
+}
+
+/// `base` with a radial bump of height `h` on the cap z > 0.6.
+fn bumped(base: &[[f64; 3]], h: f64) -> Vec<[f64; 3]> {
+    base.iter()
+        .map(|p| {
+            let t = ((p[2] - 0.6) / 0.4).max(0.0);
+            p.map(|c| c * (1.0 + h * t * t))
+        })
+        .collect()
+}
+
+/// 5 + 5 deformations of two poses on a 162-vertex sphere: all stretch along x by slightly
+/// different amounts; group "bump" also grows a bump on the cap z > 0.6.
+fn labelled_set(dir: &Path) -> PathBuf {
+    let s = qcshape::synth::icosphere(2);
+    let faces = s.topology.faces();
+    let mut rows = Vec::new();
+    for k in 0..10 {
+        let (label, h) = if k < 5 { ("plain", 0.0) } else { ("bump", 0.25) };
+        let a = 0.1 + 0.02 * (k % 5) as f64;
+        let name = format!("d{k}");
+        std::fs::create_dir_all(dir.join(&name)).unwrap();
+        let end: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| [p[0] * (1.0 + a), p[1], p[2]])
+            .collect();
+        for (pose, pos) in [s.positions.clone(), bumped(&end, h)].iter().enumerate() {
+            let rel = PathBuf::from(&name).join(format!("p{pose}.ply"));
+            qcshape::io::write_mesh(&dir.join(&rel), pos, faces, &Default::default()).unwrap();
+            rows.push(ManifestRow {
+                deformation: name.clone(),
+                label: Some(label.into()),
+                pose: pose as i64,
+                path: rel,
+            });
+        }
+    }
+    let m = dir.join("manifest.csv");
+    write_manifest(&m, &rows).unwrap();
+    m
+}
+
+#[test]
+fn localize_finds_the_bumped_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = labelled_set(dir.path());
+    let out_dir = dir.path().join("maps");
+    let out = qcshape()
+        .args([
+            "localize",
+            manifest.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--smoothing",
+            "0",
+        ])
+        .args([
+            "--permutations",
+            "199",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "--alpha",
+            "0.1",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(out_dir.join("contrast_plain_vs_bump.csv")).unwrap();
+    let s = qcshape::synth::icosphere(2);
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("vertex,score,p_value,significant"));
+    let (mut sig_cap, mut sig_off, mut n_cap) = (0, 0, 0);
+    let (mut score_cap, mut score_all) = (0.0, 0.0);
+    for (v, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        let score: f64 = f[1].parse().unwrap();
+        let significant = f[3] == "true";
+        let on_cap = s.positions[v][2] > 0.5;
+        n_cap += usize::from(on_cap);
+        score_all += score.max(0.0);
+        if on_cap {
+            score_cap += score.max(0.0);
+            sig_cap += usize::from(significant);
+        } else {
+            sig_off += usize::from(significant);
+        }
+    }
+    eprintln!(
+        "cap: {sig_cap} of {n_cap} significant, elsewhere {sig_off}; cap share of positive score {:.4}",
+        score_cap / score_all
+    );
+    assert!(score_cap / score_all > 0.9, "{}", score_cap / score_all);
+    assert!(sig_cap >= n_cap / 2, "{sig_cap} of {n_cap}");
+    assert!(sig_off <= 3, "{sig_off}");
+    let m = qcshape::io::read_mesh(&out_dir.join("contrast_plain_vs_bump.vtk")).unwrap();
+    for name in ["score", "p_value", "significant", "between", "within"] {
+        assert!(m.point_array(name).is_some(), "{name}");
+    }
+    assert!(out_dir.join("contrast_plain_vs_bump.ply").exists());
+}
+
+#[test]
+fn localize_needs_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = labelled_set(dir.path());
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let unlabelled: String = text.replace(",bump,", ",,").replace(",plain,", ",,");
+    std::fs::write(&manifest, unlabelled).unwrap();
+    let out = qcshape()
+        .args(["localize", manifest.to_str().unwrap(), "--out"])
+        .arg(dir.path().join("m"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no label"), "{err}");
+}
