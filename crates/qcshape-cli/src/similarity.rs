@@ -63,7 +63,8 @@ pub struct Args {
     /// Reuse the pairs recorded in OUTPUT.journal by an interrupted run with the same inputs and settings.
     #[arg(long)]
     resume: bool,
-    /// Output CSV: header `name,<name_1>,...,<name_n>`, one row per deformation.
+    /// Output CSV: header `name,<name_1>,...,<name_n>`, one row per deformation; a name ending
+    /// in .npy writes a NumPy float64 (n, n) array instead, with the names in NAME.names.txt.
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
     /// Also write the per-pose distances dis(M_i, N_i) of every pair to this CSV.
@@ -116,7 +117,20 @@ fn run_in_pool(args: &Args) -> Result<()> {
     );
     let prepared = prepare_with_progress(&data, &opts)?;
     let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
-    matrix.write_csv(&args.output)?;
+    if args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+    {
+        // A NumPy array (n, n) float64; the names, which .npy cannot hold, go to NAME.names.txt.
+        let n = matrix.len();
+        qcshape::io::npy::write_matrix(&args.output, matrix.values(), n, n)?;
+        let names = args.output.with_extension("names.txt");
+        let text: String = matrix.names().iter().map(|s| format!("{s}\n")).collect();
+        qcshape::io::write_atomically(&names, |w: &mut dyn std::io::Write| w.write_all(text.as_bytes()))?;
+    } else {
+        matrix.write_csv(&args.output)?;
+    }
     if let Some(path) = &args.details {
         write_details(path, &prepared, &pairs)?;
     }

@@ -276,3 +276,40 @@ fn a_torn_last_journal_record_is_recomputed() {
         assert!(!journal.exists());
     }
 }
+
+/// `-o D.npy` writes the same matrix as the CSV, as a NumPy float64 array (n, n) in C order, with
+/// the names beside it in D.names.txt.
+#[test]
+fn npy_output_holds_the_csv_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dataset(&dir.path().join("S"), 0, 4);
+    let csv = dir.path().join("D.csv");
+    let npy = dir.path().join("D.npy");
+    for out in [&csv, &npy] {
+        let status = qcshape()
+            .args(args(&manifest, out))
+            .stderr(Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
+    let d = DistanceMatrix::read_csv(&csv).unwrap();
+    let bytes = std::fs::read(&npy).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
+    assert!(
+        header.contains("'descr': '<f8'") && header.contains("'fortran_order': False"),
+        "{header}"
+    );
+    assert!(header.contains("'shape': (4, 4)"), "{header}");
+    let data = &bytes[10 + header_len..];
+    assert_eq!(data.len(), 16 * 8);
+    let values: Vec<f64> = data
+        .chunks(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(values, d.values());
+    let names = std::fs::read_to_string(dir.path().join("D.names.txt")).unwrap();
+    assert_eq!(names.lines().collect::<Vec<_>>(), d.names());
+}
