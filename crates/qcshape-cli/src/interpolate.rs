@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressStyle;
 use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
 use qcshape::io;
 use qcshape::mesh::Topology;
@@ -117,11 +117,12 @@ pub fn run(args: &Args) -> Result<()> {
         args.insert,
         metric.name()
     );
-    let bar = ProgressBar::new(n_pairs as u64);
+    let bar = crate::progress::new_bar(n_pairs);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} pairs, {elapsed} (eta {eta})")
             .expect("valid progress template"),
     );
+    crate::progress::start(&bar);
     // One interpolator (hierarchy and solvers) per distinct topology.
     let mut interpolators: Vec<(Arc<Topology>, Interpolator)> = Vec::new();
     let mut results: Vec<Interpolated> = Vec::with_capacity(data.deformations.len());

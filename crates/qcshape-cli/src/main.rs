@@ -38,6 +38,10 @@ mod transfer;
 #[derive(Debug, Parser)]
 #[command(name = "qcshape", version, propagate_version = true)]
 struct Cli {
+    /// No progress bars or progress lines on stderr (errors and results are still printed).
+    /// Without it, progress is a bar on a terminal and a plain line at least every 10 s otherwise.
+    #[arg(long, short = 'q', global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -63,6 +67,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    progress::set_quiet(cli.quiet);
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Geodesic(args) => geodesic::run(args),

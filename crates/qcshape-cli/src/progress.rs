@@ -1,20 +1,122 @@
-//! Progress bars on stderr (hidden when stderr is not a terminal) for the library's progress
-//! callbacks.
+//! Progress on stderr for the library's progress callbacks, in three modes: bars with an ETA when
+//! stderr is a terminal; plain lines (`step  done/total [elapsed, ETA]`) at most every 10 s
+//! (`QCSHAPE_PROGRESS_SECONDS` overrides the interval) when it is not, so that the log of a batch
+//! job shows where a run is; nothing with `--quiet`.
 
+use std::io::{IsTerminal, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
 use qcshape::similarity::Stage;
+
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Silences every progress bar and line (the global `--quiet`).
+pub(crate) fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, Ordering::Relaxed);
+}
+
+/// Interval of the plain progress lines on a non-terminal stderr.
+fn line_interval() -> Duration {
+    std::env::var("QCSHAPE_PROGRESS_SECONDS")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .map_or(Duration::from_secs(10), Duration::from_secs_f64)
+}
+
+/// A draw target for logs: each redraw of a bar becomes one plain line, at most one per interval.
+#[derive(Debug)]
+struct LogLines {
+    every: Duration,
+    last: Mutex<Option<Instant>>,
+}
+
+impl LogLines {
+    fn emit(&self, s: &str) -> std::io::Result<()> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Ok(());
+        }
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        if last.is_none_or(|t| t.elapsed() >= self.every) {
+            *last = Some(Instant::now());
+            let mut err = std::io::stderr().lock();
+            writeln!(err, "{s}")?;
+            err.flush()?;
+        }
+        Ok(())
+    }
+}
+
+impl TermLike for LogLines {
+    fn width(&self) -> u16 {
+        100
+    }
+    fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn write_line(&self, s: &str) -> std::io::Result<()> {
+        self.emit(s)
+    }
+    fn write_str(&self, s: &str) -> std::io::Result<()> {
+        self.emit(s)
+    }
+    fn clear_line(&self) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn flush(&self) -> std::io::Result<()> {
+        std::io::stderr().flush()
+    }
+}
+
+/// A progress bar of `len` steps in the mode of this run (module docs), unstyled.
+pub(crate) fn new_bar(len: usize) -> ProgressBar {
+    if QUIET.load(Ordering::Relaxed) {
+        return ProgressBar::hidden();
+    }
+    if std::io::stderr().is_terminal() {
+        return ProgressBar::new(len as u64);
+    }
+    let target = ProgressDrawTarget::term_like_with_hz(
+        Box::new(LogLines {
+            every: line_interval(),
+            last: Mutex::new(None),
+        }),
+        4,
+    );
+    ProgressBar::with_draw_target(Some(len as u64), target)
+}
+
+/// Call after styling a bar of [`new_bar`]: in the plain-line mode it is then redrawn every
+/// second even when no step ends, so that a slow step still gets its line every interval.
+pub(crate) fn start(pb: &ProgressBar) {
+    if !QUIET.load(Ordering::Relaxed) && !std::io::stderr().is_terminal() {
+        pb.enable_steady_tick(Duration::from_secs(1));
+    }
+}
 
 /// A progress bar of `len` steps labelled `what`.
 pub(crate) fn bar(len: usize, what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(len as u64);
+    let pb = new_bar(len);
     if let Ok(style) =
         ProgressStyle::with_template("{msg:>14} {bar:40} {pos}/{len} [{elapsed_precise}, ETA {eta}]")
     {
         pb.set_style(style);
     }
     pb.set_message(what.to_string());
+    start(&pb);
     pb
 }
 

@@ -84,10 +84,11 @@ fn folder_for(name: &str) -> String {
 }
 
 fn progress(n: usize) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::new(n as u64);
+    let pb = crate::progress::new_bar(n);
     if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]") {
         pb.set_style(style);
     }
+    crate::progress::start(&pb);
     pb
 }
 

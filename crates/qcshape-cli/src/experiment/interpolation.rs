@@ -112,13 +112,14 @@ struct VariantArgs {
 }
 
 fn progress_bar(n: usize, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(n as u64);
+    let bar = crate::progress::new_bar(n);
     bar.set_style(
         ProgressStyle::with_template(&format!(
             "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} (eta {{eta}})"
         ))
         .expect("valid progress template"),
     );
+    crate::progress::start(&bar);
     bar
 }
 

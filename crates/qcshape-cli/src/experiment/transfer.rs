@@ -117,10 +117,11 @@ pub fn run(args: &Args) -> Result<()> {
         args.lambda,
         args.solver.steps
     );
-    let pb = indicatif::ProgressBar::new(n as u64);
+    let pb = crate::progress::new_bar(n);
     if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} [{elapsed}<{eta}]") {
         pb.set_style(style);
     }
+    crate::progress::start(&pb);
     let report = experiment.run(&|| pb.inc(1));
     pb.finish_and_clear();
     let report = report?;

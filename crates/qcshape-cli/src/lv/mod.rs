@@ -107,7 +107,9 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// A plain progress bar of `n` subjects.
 pub(crate) fn progress(n: usize) -> ProgressBar {
-    ProgressBar::new(n as u64)
+    let pb = crate::progress::new_bar(n);
+    crate::progress::start(&pb);
+    pb
 }
 
 fn phantom(a: &PhantomArgs) -> Result<()> {

@@ -1,0 +1,65 @@
+//! Progress on a non-terminal stderr: plain lines (step, done/total, elapsed, ETA) at the
+//! interval `QCSHAPE_PROGRESS_SECONDS` (10 s by default), none with `--quiet`.
+
+use std::process::Command;
+
+fn noise_run(dir: &std::path::Path, interval: &str, quiet: bool) -> String {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_qcshape"));
+    cmd.args([
+        "experiment",
+        "noise",
+        "--level",
+        "0",
+        "--levels",
+        "1",
+        "--kinds",
+        "uniform",
+        "--steps",
+        "2",
+        "--restarts",
+        "2",
+        "--out",
+    ])
+    .arg(dir)
+    .env("QCSHAPE_PROGRESS_SECONDS", interval);
+    if quiet {
+        cmd.arg("--quiet");
+    }
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stderr).unwrap()
+}
+
+fn progress_lines(log: &str) -> Vec<&str> {
+    log.lines()
+        .filter(|l| l.contains("ETA") && l.contains('/'))
+        .collect()
+}
+
+#[test]
+fn a_log_gets_progress_lines_and_quiet_silences_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = noise_run(&dir.path().join("a"), "0", false);
+    let lines = progress_lines(&log);
+    // Every stage of both runs (noise-free and noisy: interpolation, transfer, pairs) reports.
+    assert!(lines.len() >= 6, "{log}");
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains("pairs") || l.contains("noise-free")),
+        "{log}"
+    );
+    assert!(
+        lines.iter().all(|l| !l.contains('\u{1b}')),
+        "no terminal escapes in a log: {log}"
+    );
+    // With the default 10 s interval a run this short prints at most one line per bar.
+    let sparse = progress_lines(&noise_run(&dir.path().join("b"), "10", false)).len();
+    assert!(
+        sparse < lines.len(),
+        "{sparse} lines at 10 s against {} at 0 s",
+        lines.len()
+    );
+    let quiet = noise_run(&dir.path().join("c"), "0", true);
+    assert!(progress_lines(&quiet).is_empty(), "{quiet}");
+}
