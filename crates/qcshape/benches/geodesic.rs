@@ -150,7 +150,7 @@ fn main() {
                     steps: 8,
                     solver,
                     target_energy: Some(target),
-                    max_iterations,
+                    max_iterations: Some(max_iterations),
                     gradient_tolerance: 0.0,
                     energy_tolerance: 0.0,
                     preconditioner_refresh: refresh,
@@ -163,7 +163,7 @@ fn main() {
             let fmt = |(t, its, reached): (f64, usize, bool)| {
                 format!("{}{t:.3} ({its})", if reached { "" } else { ">" })
             };
-            let pc_t = to_target(Solver::Preconditioned, 100);
+            let pc_t = to_target(Solver::Preconditioned, 1000);
             let nt_t = to_target(Solver::Newton, gn_cap);
             let gn_t = if skip_gn {
                 (f64::NAN, 0, false)
@@ -175,12 +175,12 @@ fn main() {
             let lb_t = if skip_lbfgs {
                 (f64::NAN, 0, false)
             } else {
-                to_target(Solver::Lbfgs, cap / 50)
+                to_target(Solver::Lbfgs, cap)
             };
             let pl_t = if skip_lbfgs {
                 (f64::NAN, 0, false)
             } else {
-                to_target(Solver::PlainLbfgs, cap / 50)
+                to_target(Solver::PlainLbfgs, cap)
             };
             let ratio_to = |base: (f64, usize, bool), x: (f64, usize, bool)| {
                 let gt = if base.2 { "" } else { ">" };

@@ -338,7 +338,7 @@ mod tests {
             crate::mesh::Shape::new(s.topology.clone(), bumped(&stretched(&s.positions, 0.3), 0.3)).unwrap();
         let opts = GeodesicOptions {
             steps: 3,
-            max_iterations: 5,
+            max_iterations: Some(5),
             ..Default::default()
         };
         for m in metrics() {

@@ -61,7 +61,7 @@ fn opts(solver: Solver, steps: usize) -> GeodesicOptions {
         steps,
         solver,
         gradient_tolerance: 1e-8,
-        max_iterations: 200,
+        max_iterations: Some(200),
         ..Default::default()
     }
 }
@@ -257,7 +257,7 @@ fn newton_needs_fewer_iterations_than_gauss_newton() {
             solver,
             gradient_tolerance: 1e-8,
             energy_tolerance: 0.0,
-            max_iterations: 200,
+            max_iterations: Some(200),
             ..Default::default()
         };
         let norm = Normalization::MeanEdgeOfFirst;
@@ -424,4 +424,45 @@ fn zero_lambda_conformal_still_returns_a_finite_result() {
     assert!(g.energy.is_finite() && g.length.is_finite());
     assert!(g.poses.iter().flatten().all(|p| p.iter().all(|c| c.is_finite())));
     assert!(g.energy <= g.initial_energy);
+}
+
+/// `max_iterations: Some(n)` is the limit itself for every solver (no hidden multiplier), and
+/// `None` is the solver's documented default.
+#[test]
+fn the_iteration_limit_is_the_one_given() {
+    let a = icosphere(2);
+    let b = twist_stretch(&a, 1.2, 1.5);
+    let m = Regularized::new(Box::new(Isometric), 0.1);
+    for solver in [
+        Solver::Preconditioned,
+        Solver::PlainLbfgs,
+        Solver::GaussNewton,
+        Solver::Newton,
+        Solver::Lbfgs,
+    ] {
+        let o = GeodesicOptions {
+            steps: 4,
+            solver,
+            max_iterations: Some(3),
+            gradient_tolerance: 0.0,
+            energy_tolerance: 0.0,
+            ..Default::default()
+        };
+        assert_eq!(o.iteration_limit(), 3);
+        let g = geodesic(&m, &a, &b, &o, Normalization::MeanEdgeOfFirst).unwrap();
+        assert!(
+            g.iterations <= 3,
+            "{solver:?}: {} iterations with a limit of 3",
+            g.iterations
+        );
+        assert!(!g.converged, "{solver:?} cannot converge in 3 iterations here");
+        let d = GeodesicOptions {
+            solver,
+            ..Default::default()
+        };
+        assert_eq!(d.iteration_limit(), solver.default_max_iterations());
+    }
+    assert_eq!(Solver::Preconditioned.default_max_iterations(), 1000);
+    assert_eq!(Solver::GaussNewton.default_max_iterations(), 100);
+    assert_eq!(Solver::PlainLbfgs.default_max_iterations(), 5000);
 }

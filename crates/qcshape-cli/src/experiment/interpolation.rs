@@ -73,9 +73,10 @@ pub struct Args {
     /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
     #[arg(long, default_value_t = 1e-12)]
     energy_tolerance: f64,
-    /// Iteration limit (see `qcshape geodesic`).
-    #[arg(long, default_value_t = 100)]
-    max_iterations: usize,
+    /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
+    /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
+    #[arg(long)]
+    max_iterations: Option<usize>,
     /// Deformation whose predicted poses are written as error maps (default: the first `bend`).
     #[arg(long)]
     showcase: Option<String>,

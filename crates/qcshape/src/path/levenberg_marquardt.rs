@@ -34,7 +34,10 @@ pub(crate) fn minimize(
             stop: StopReason::GradientTolerance,
         });
     }
-    while iterations < opts.max_iterations {
+    let limit = opts
+        .max_iterations
+        .unwrap_or_else(|| super::Solver::LevenbergMarquardt.default_max_iterations());
+    while iterations < limit {
         if let Some(reason) = opts.stop_before_iteration(energy, 2.0 * norm(&g), g0) {
             stop = reason;
             break;

@@ -111,6 +111,20 @@ impl std::str::FromStr for Solver {
     }
 }
 
+impl Solver {
+    /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`: 100 outer
+    /// steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a linear system),
+    /// 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers
+    /// (`plain-lbfgs`, `lbfgs`), whose steps are cheaper and more numerous.
+    pub fn default_max_iterations(self) -> usize {
+        match self {
+            Solver::GaussNewton | Solver::Newton | Solver::LevenbergMarquardt => 100,
+            Solver::Preconditioned => 1000,
+            Solver::PlainLbfgs | Solver::Lbfgs => 5000,
+        }
+    }
+}
+
 /// Options of the geodesic solvers.
 #[derive(Debug, Clone)]
 pub struct GeodesicOptions {
@@ -118,9 +132,11 @@ pub struct GeodesicOptions {
     pub steps: usize,
     /// The optimizer. Default [`Solver::Preconditioned`].
     pub solver: Solver,
-    /// Iteration limit: Gauss-Newton uses it as is (default 100), the preconditioned solver
-    /// 10 times it, the unpreconditioned L-BFGS solvers 50 times it.
-    pub max_iterations: usize,
+    /// Iteration limit of the solver; `None` (the default): the solver's own limit,
+    /// [`Solver::default_max_iterations`] (100 outer steps for the Gauss-Newton family, 1,000
+    /// for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers). A `Some`
+    /// value is the limit itself, for every solver.
+    pub max_iterations: Option<usize>,
     /// Converged when the gradient norm falls below this fraction of its value at the start.
     /// Default 1e-6.
     pub gradient_tolerance: f64,
@@ -149,12 +165,20 @@ pub struct GeodesicOptions {
     pub vertex_block_weight: f64,
 }
 
+impl GeodesicOptions {
+    /// The iteration limit in force: `max_iterations`, or the solver's default.
+    pub fn iteration_limit(&self) -> usize {
+        self.max_iterations
+            .unwrap_or_else(|| self.solver.default_max_iterations())
+    }
+}
+
 impl Default for GeodesicOptions {
     fn default() -> Self {
         GeodesicOptions {
             steps: 8,
             solver: Solver::Preconditioned,
-            max_iterations: 100,
+            max_iterations: None,
             gradient_tolerance: 1e-6,
             energy_tolerance: 1e-12,
             target_energy: None,

@@ -131,7 +131,11 @@ pub(crate) fn minimize(
     let mut hist = CompactHistory::new(opts.lbfgs_memory);
     hist.reset_gradient(&g);
     let mut iterations = 0;
-    let max_iterations = opts.max_iterations * if layout.is_some() { 10 } else { 50 };
+    let max_iterations = opts.max_iterations.unwrap_or(if layout.is_some() {
+        super::Solver::Preconditioned.default_max_iterations()
+    } else {
+        super::Solver::PlainLbfgs.default_max_iterations()
+    });
     let mut stop = StopReason::MaxIterations;
     if np == 0 || super::at_roundoff(g0, e) {
         return Ok(SolveOutput {

@@ -359,7 +359,7 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         g.solver,
         g.gradient_tolerance,
         g.energy_tolerance,
-        g.max_iterations,
+        g.max_iterations.map_or_else(|| "default".to_string(), |n| n.to_string()),
         g.lbfgs_memory,
         g.preconditioner_refresh,
         g.vertex_block_weight,

@@ -56,7 +56,9 @@ pub(crate) fn minimize(
         .map_err(err)?
         .with_tolerance_cost(opts.energy_tolerance)
         .map_err(err)?;
-    let max_iters = (opts.max_iterations * 50) as u64;
+    let max_iters = opts
+        .max_iterations
+        .unwrap_or_else(|| crate::path::Solver::Lbfgs.default_max_iterations()) as u64;
     let target = opts.target_energy;
     let res = Executor::new(problem, solver)
         .configure(|state| {

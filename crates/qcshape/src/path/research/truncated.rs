@@ -343,7 +343,8 @@ pub(crate) fn minimize(
             stop: StopReason::GradientTolerance,
         });
     }
-    while iterations < opts.max_iterations {
+    let limit = opts.max_iterations.unwrap_or(100);
+    while iterations < limit {
         let gn = 2.0 * norm(&g);
         if let Some(reason) = opts.stop_before_iteration(energy, gn, g0) {
             stop = reason;
