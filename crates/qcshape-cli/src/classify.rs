@@ -35,6 +35,7 @@ use crate::progress::PipelineBars;
 )]
 pub struct Args {
     /// Distance matrix CSV (name,<name_1>,...,<name_n>), or a data set (manifest CSV or folder).
+    #[arg(value_name = "INPUT")]
     matrix: PathBuf,
     #[command(flatten)]
     metric: MetricArgs,

@@ -316,7 +316,8 @@ fn parser_cases() -> Vec<Case> {
         case("missing file", "geodesic {d}/nope.obj {d}/nope2.obj --out {d}/path", &["nope.obj", "cannot read"])
             .no_output("path"),
         case("unknown extension", "info {d}/mesh.xyz", &["mesh.xyz", "unknown mesh format"]).file("mesh.xyz", good_obj.clone()),
-        case("a folder as a mesh", "info {d}/dir.obj", &["dir.obj", "cannot read"]).file("dir.obj/x", "x"),
+        case("a folder as a mesh", "info {d}/dir.obj", &["dir.obj", "cannot read", "a folder"]).file("dir.obj/x", "x"),
+        case("a missing folder as a mesh", "info {d}/nope/", &["nope", "cannot read", "No such file"]),
         // OBJ.
         info_case("obj: empty", "e.obj", "", &["empty"]),
         info_case("obj: whitespace only", "e.obj", "  \n\n \t\n", &["empty"]),

@@ -384,6 +384,22 @@ pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> 
 
 /// Reads and parses a mesh file, choosing the format from its extension.
 pub fn read_mesh(path: &Path) -> Result<MeshData, IoError> {
+    // A missing path or a folder is reported as such before its name is judged.
+    match std::fs::metadata(path) {
+        Err(error) => {
+            return Err(IoError::Read {
+                path: path.into(),
+                error,
+            })
+        }
+        Ok(m) if m.is_dir() => {
+            return Err(IoError::Read {
+                path: path.into(),
+                error: std::io::Error::other("a folder, not a mesh file"),
+            })
+        }
+        Ok(_) => {}
+    }
     let format = Format::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.into() })?;
     let bytes = std::fs::read(path).map_err(|error| IoError::Read {
         path: path.into(),
