@@ -280,7 +280,7 @@ pub fn cluster_intrinsic(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn matrix() -> DistanceMatrix {
@@ -335,8 +335,10 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_two_class_set_is_classified() {
+    /// Twist and stretch of the sphere and the ellipsoid at level 0 (4 deformations, 2 classes),
+    /// and fast isometric pipeline options (N = 2): a data set the pipeline classifies in
+    /// well under a second (shared with the noise tests).
+    pub(crate) fn two_class_set() -> (Vec<Deformation>, PipelineOptions) {
         use crate::synth::{genus0_benchmark, SynthOptions};
         let defs: Vec<Deformation> = genus0_benchmark(&SynthOptions {
             level: 0,
@@ -363,6 +365,12 @@ mod tests {
             metric: crate::metric::MetricSpec::new(crate::metric::MetricKind::Isometric),
             ..Default::default()
         };
+        (defs, opts)
+    }
+
+    #[test]
+    fn a_two_class_set_is_classified() {
+        let (defs, opts) = two_class_set();
         let ticks = std::sync::atomic::AtomicUsize::new(0);
         let c = classify_set(&defs, &opts, 2, 2, 0, &|_| {
             ticks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

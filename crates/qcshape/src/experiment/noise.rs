@@ -233,33 +233,9 @@ mod tests {
 
     #[test]
     fn zero_noise_keeps_every_cluster() {
-        use crate::synth::{genus0_benchmark, SynthOptions};
-        let defs: Vec<Deformation> = genus0_benchmark(&SynthOptions {
-            level: 0,
-            ..Default::default()
-        })
-        .unwrap()
-        .into_iter()
-        .filter(|d| {
-            [
-                "sphere-twist",
-                "ellipsoid-twist",
-                "sphere-stretch",
-                "ellipsoid-stretch",
-            ]
-            .contains(&d.name.as_str())
-        })
-        .collect();
-        assert_eq!(defs.len(), 4);
+        let (defs, pipeline) = crate::experiment::classification::tests::two_class_set();
         let exp = NoiseExperiment {
-            pipeline: PipelineOptions {
-                geodesic: crate::path::GeodesicOptions {
-                    steps: 2,
-                    ..Default::default()
-                },
-                metric: crate::metric::MetricSpec::new(crate::metric::MetricKind::Isometric),
-                ..Default::default()
-            },
+            pipeline,
             k: 2,
             restarts: 2,
             seed: 0,
