@@ -104,14 +104,9 @@ pub fn run(args: &Args) -> Result<()> {
         (d, c, None)
     } else {
         let data = Dataset::load(&args.matrix)?;
-        if args.labels.is_none()
-            && data
-                .deformations
-                .iter()
-                .any(|d| d.label.as_deref().is_some_and(|l| !l.is_empty()))
-        {
-            // Some deformations are labelled: scoring needs all of them, so name those without.
-            data.require_labels(&args.matrix, "classify")?;
+        if args.labels.is_none() {
+            // Scoring needs a label on every deformation once any has one.
+            data.refuse_partial_labels(&args.matrix, "classify")?;
         }
         if args.steps == 0 {
             bail!("--steps must be at least 1");

@@ -86,14 +86,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
             args.input.display()
         );
     }
-    if data
-        .deformations
-        .iter()
-        .any(|d| d.label.as_deref().is_some_and(|l| !l.is_empty()))
-    {
-        // Some deformations are labelled: the report's scores need all of them.
-        data.require_labels(&args.input, "run")?;
-    }
+    // The report's scores need a label on every deformation once any has one.
+    data.refuse_partial_labels(&args.input, "run")?;
     let labels = dataset_labels(&data.deformations);
     let k = match (args.k, class_count(labels.as_deref())) {
         (Some(k), _) => k,

@@ -275,6 +275,20 @@ impl Dataset {
         Ok(())
     }
 
+    /// Refuses a partly labelled data set: when any deformation has a (non-empty) label, every
+    /// one must have one ([`Dataset::require_labels`], whose error lists those without). A data
+    /// set without any label passes (`what` names the command).
+    pub fn refuse_partial_labels(&self, source: &Path, what: &str) -> Result<(), DatasetError> {
+        if self
+            .deformations
+            .iter()
+            .any(|d| d.label.as_deref().is_some_and(|l| !l.is_empty()))
+        {
+            self.require_labels(source, what)?;
+        }
+        Ok(())
+    }
+
     /// The labels of all deformations, or one error listing every deformation without one
     /// (`what` names the command that needs them).
     pub fn require_labels(&self, source: &Path, what: &str) -> Result<Vec<&str>, DatasetError> {
