@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
     assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PairDistance,
-    PipelineOptions, Prepared, Stage,
+    PipelineOptions, Prepared, Shard, Stage,
 };
 use qcshape::transport::{Alignment, Transport};
 
@@ -113,6 +113,42 @@ pub(crate) fn journaled_matrix(
     pairs.sort_by_key(|p| (p.i, p.j));
     let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
     Ok((matrix, pairs, journal))
+}
+
+/// The pairs of shard `shard` of the similarity matrix, recorded in the shard journal `file` as
+/// they finish (with `resume`, the pairs already in it are kept). Returns the shard's pairs.
+pub(crate) fn sharded_pairs(
+    prepared: &Prepared,
+    opts: &PipelineOptions,
+    shard: Shard,
+    file: &Path,
+    resume: bool,
+) -> Result<Vec<PairDistance>> {
+    let n = prepared.names.len();
+    let settings = settings_key(opts);
+    let key = fingerprint(&prepared.names, &prepared.transferred, &settings);
+    let (journal, done_pairs) = Journal::open_shard(file, key, &settings, &prepared.names, shard, resume)?;
+    let total = shard.pairs(n).len();
+    if resume {
+        eprintln!(
+            "resuming shard {shard}: {} of its {total} pairs already done",
+            done_pairs.len()
+        );
+    }
+    let mut skip = shard.others(n);
+    skip.extend(done_pairs.iter().map(|p| (p.i, p.j)));
+    let pb = bar(total, "pairs");
+    pb.set_position(done_pairs.len() as u64);
+    let new_pairs = similarities(prepared, opts, &skip, None, |p| {
+        journal.record(p)?;
+        pb.inc(1);
+        Ok(())
+    })?;
+    pb.finish_and_clear();
+    let mut pairs = done_pairs;
+    pairs.extend(new_pairs);
+    pairs.sort_by_key(|p| (p.i, p.j));
+    Ok(pairs)
 }
 
 /// `OUTPUT.journal` beside the output.

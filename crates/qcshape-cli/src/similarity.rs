@@ -5,11 +5,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
-use qcshape::similarity::{PipelineOptions, Prepared};
+use qcshape::similarity::{merge_shards, DistanceMatrix, PairDistance, PipelineOptions, Shard};
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{journal_path, journaled_matrix, pipeline_options, prepare_with_progress};
+use crate::pipeline::{
+    journal_path, journaled_matrix, pipeline_options, prepare_with_progress, sharded_pairs,
+};
 
 /// Compute the similarity matrix of the deformations of a data set.
 ///
@@ -70,6 +72,34 @@ pub struct Args {
     /// Also write the per-pose distances dis(M_i, N_i) of every pair to this CSV.
     #[arg(long)]
     details: Option<PathBuf>,
+    /// Compute only shard K of S of the pairs (a deterministic round-robin split) into
+    /// OUTPUT.shard-K-of-S, for batch systems (one array task per shard); then
+    /// `qcshape similarity-merge OUTPUT.shard-*-of-S -o OUTPUT` writes the matrix, byte-identical
+    /// to a single run. A killed shard continues with --resume.
+    #[arg(long, value_name = "K/S")]
+    shard: Option<Shard>,
+}
+
+/// Merge the shards of a sharded similarity run into the matrix.
+///
+/// Checks that the files are the shards of one run (same data fingerprint, settings and shard
+/// count), that every shard is there once and complete, and writes the matrix: the same bytes as
+/// a single `qcshape similarity` run with the same inputs and settings.
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Merge the shards of `similarity --shard K/S` into the matrix",
+    long_about
+)]
+pub struct MergeArgs {
+    /// The shard files, OUTPUT.shard-K-of-S for K = 1..S (any order).
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Output matrix: CSV, or .npy (names in NAME.names.txt), as for `qcshape similarity`.
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// Also write the per-pose distances of every pair to this CSV.
+    #[arg(long)]
+    details: Option<PathBuf>,
 }
 
 /// Runs the command.
@@ -82,6 +112,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let data = Dataset::load(&args.input)?;
     data.refuse_overwrite(&args.input, &args.output, "-o")?;
     data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
+    if let Some(shard) = args.shard {
+        data.refuse_overwrite(&args.input, &shard.file_for(&args.output), "the shard file of -o")?;
+        if args.details.is_some() {
+            bail!("--details goes with similarity-merge, not with --shard (a shard holds only some pairs)");
+        }
+    }
     if let Some(details) = &args.details {
         data.refuse_overwrite(&args.input, details, "--details")?;
         if details == &args.output {
@@ -116,23 +152,26 @@ fn run_in_pool(args: &Args) -> Result<()> {
         opts.metric.build().name()
     );
     let prepared = prepare_with_progress(&data, &opts)?;
-    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
-    if args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
-    {
-        // A NumPy array (n, n) float64; the names, which .npy cannot hold, go to NAME.names.txt.
-        let n = matrix.len();
-        qcshape::io::npy::write_matrix(&args.output, matrix.values(), n, n)?;
-        let names = args.output.with_extension("names.txt");
-        let text: String = matrix.names().iter().map(|s| format!("{s}\n")).collect();
-        qcshape::io::write_atomically(&names, |w: &mut dyn std::io::Write| w.write_all(text.as_bytes()))?;
-    } else {
-        matrix.write_csv(&args.output)?;
+    if let Some(shard) = args.shard {
+        let file = shard.file_for(&args.output);
+        let pairs = sharded_pairs(&prepared, &opts, shard, &file, args.resume)?;
+        eprintln!(
+            "wrote shard {shard} ({} of {} pairs) to {} in {:.1} s; when all {} shards are done: qcshape similarity-merge {}.shard-*-of-{} -o {}",
+            pairs.len(),
+            n * (n - 1) / 2,
+            file.display(),
+            t0.elapsed().as_secs_f64(),
+            shard.count,
+            args.output.display(),
+            shard.count,
+            args.output.display()
+        );
+        return Ok(());
     }
+    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
+    write_matrix(&args.output, &matrix)?;
     if let Some(path) = &args.details {
-        write_details(path, &prepared, &pairs)?;
+        write_details(path, &prepared.names, &pairs)?;
     }
     journal.remove()?;
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
@@ -149,12 +188,47 @@ fn run_in_pool(args: &Args) -> Result<()> {
     Ok(())
 }
 
-fn write_details(
-    path: &Path,
-    prepared: &Prepared,
-    pairs: &[qcshape::similarity::PairDistance],
-) -> Result<()> {
-    let text = qcshape::similarity::details_csv(&prepared.names, pairs);
+/// Runs `similarity-merge`.
+pub fn run_merge(args: &MergeArgs) -> Result<()> {
+    if args.shards.contains(&args.output) || args.details.as_ref().is_some_and(|d| args.shards.contains(d)) {
+        bail!("an output file is one of the shard files");
+    }
+    let merged = merge_shards(&args.shards)?;
+    let n = merged.names.len();
+    let matrix = DistanceMatrix::new(
+        merged.names.clone(),
+        qcshape::similarity::assemble(n, &merged.pairs),
+    )?;
+    write_matrix(&args.output, &matrix)?;
+    if let Some(path) = &args.details {
+        write_details(path, &merged.names, &merged.pairs)?;
+    }
+    eprintln!(
+        "merged {} shards ({} pairs) into {} ({n} x {n})",
+        merged.count,
+        merged.pairs.len(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
+/// (the names, which .npy cannot hold, go to NAME.names.txt).
+fn write_matrix(path: &Path, matrix: &DistanceMatrix) -> Result<()> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
+        let n = matrix.len();
+        qcshape::io::npy::write_matrix(path, matrix.values(), n, n)?;
+        let names = path.with_extension("names.txt");
+        let text: String = matrix.names().iter().map(|s| format!("{s}\n")).collect();
+        qcshape::io::write_atomically(&names, |w: &mut dyn std::io::Write| w.write_all(text.as_bytes()))?;
+    } else {
+        matrix.write_csv(path)?;
+    }
+    Ok(())
+}
+
+fn write_details(path: &Path, names: &[String], pairs: &[PairDistance]) -> Result<()> {
+    let text = qcshape::similarity::details_csv(names, pairs);
     qcshape::io::write_atomically(path, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", path.display()))
 }

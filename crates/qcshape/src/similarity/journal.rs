@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use super::engine::{PairDistance, Pose, SimilarityError};
+use super::shard::Shard;
 
 const HEADER: &str = "# qcshape similarity journal v2";
 
@@ -86,20 +87,70 @@ impl Journal {
         n: usize,
         resume: bool,
     ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
+        Self::open_with(
+            path,
+            &Head {
+                key,
+                n,
+                settings,
+                shard: None,
+                names: None,
+            },
+            resume,
+        )
+    }
+
+    /// Opens the journal of shard `shard` of a sharded run (`qcshape similarity --shard K/S`):
+    /// as [`Journal::open`], and the file also records the shard and the deformation `names`
+    /// (n), so that [`super::shard::merge`] can check and assemble the shards without the data.
+    pub fn open_shard(
+        path: &Path,
+        key: u64,
+        settings: &str,
+        names: &[String],
+        shard: Shard,
+        resume: bool,
+    ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
+        let head = Head {
+            key,
+            n: names.len(),
+            settings,
+            shard: Some(shard),
+            names: Some(names),
+        };
+        Self::open_with(path, &head, resume)
+    }
+
+    fn open_with(
+        path: &Path,
+        head: &Head,
+        resume: bool,
+    ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
         let err = |message: String| SimilarityError::Journal {
             path: path.to_path_buf(),
             message,
         };
-        if settings.contains('\n') {
+        if head.settings.contains('\n') {
             return Err(err("the settings string has a line break".into()));
         }
         let (mut done, mut dropped) = (Vec::new(), 0);
         if resume && path.exists() {
-            (done, dropped) = read(path, key, settings, n)?;
+            (done, dropped) = read(path, head)?;
         }
         // Write the header and the valid pairs to a new file that replaces the old one in one
         // rename: a torn or corrupt record is dropped, and no kill loses pairs.
-        let mut text = format!("{HEADER}\nkey,{key:016x}\nn,{n}\nsettings,{settings}\n");
+        let mut text = format!(
+            "{HEADER}\nkey,{:016x}\nn,{}\nsettings,{}\n",
+            head.key, head.n, head.settings
+        );
+        if let Some(shard) = head.shard {
+            text.push_str(&format!("shard,{shard}\n"));
+        }
+        if let Some(names) = head.names {
+            let json =
+                serde_json::to_string(names).map_err(|e| err(format!("cannot encode the names: {e}")))?;
+            text.push_str(&format!("names,{json}\n"));
+        }
         for p in &done {
             text.push_str(&line(p));
         }
@@ -202,35 +253,125 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
     })
 }
 
-/// The whole records of a journal and the number of records dropped.
-fn read(
-    path: &Path,
+/// The fixed lines of a journal: what identifies the run (and, for a shard, which shard).
+struct Head<'a> {
     key: u64,
-    settings: &str,
     n: usize,
-) -> Result<(Vec<PairDistance>, usize), SimilarityError> {
+    settings: &'a str,
+    shard: Option<Shard>,
+    names: Option<&'a [String]>,
+}
+
+/// Everything a journal file holds, read without judging whose run it belongs to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JournalFile {
+    /// The run's fingerprint ([`fingerprint`]).
+    pub key: u64,
+    /// The number of deformations.
+    pub n: usize,
+    /// The run's settings string ([`super::settings_key`]).
+    pub settings: String,
+    /// The shard, for the journal of a sharded run.
+    pub shard: Option<Shard>,
+    /// The deformation names (n), recorded by sharded runs.
+    pub names: Option<Vec<String>>,
+    /// The whole records, in file order, without repeats.
+    pub pairs: Vec<PairDistance>,
+    /// Records dropped: torn, corrupt (failed their check), malformed or repeated.
+    pub dropped: usize,
+}
+
+impl JournalFile {
+    /// Reads the journal at `path`.
+    pub fn read(path: &Path) -> Result<JournalFile, SimilarityError> {
+        let err = |message: String| SimilarityError::Journal {
+            path: path.to_path_buf(),
+            message,
+        };
+        let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        let lines: Vec<String> = bytes
+            .split(|&b| b == b'\n')
+            .map(|l| String::from_utf8_lossy(l).into_owned())
+            .collect();
+        if lines.len() < 4 || lines[0] != HEADER {
+            return Err(err(format!(
+                "not a qcshape similarity journal of this version (expected the first line {HEADER:?})"
+            )));
+        }
+        let key = lines[1]
+            .strip_prefix("key,")
+            .and_then(|k| u64::from_str_radix(k, 16).ok())
+            .ok_or_else(|| {
+                err(format!(
+                    "line 2: expected `key,<16 hex digits>`, found {:?}",
+                    lines[1]
+                ))
+            })?;
+        let n = lines[2]
+            .strip_prefix("n,")
+            .and_then(|k| k.parse().ok())
+            .ok_or_else(|| err(format!("line 3: expected `n,<count>`, found {:?}", lines[2])))?;
+        let settings = lines[3]
+            .strip_prefix("settings,")
+            .ok_or_else(|| err(format!("line 4: expected `settings,...`, found {:?}", lines[3])))?
+            .to_string();
+        let mut file = JournalFile {
+            key,
+            n,
+            settings,
+            shard: None,
+            names: None,
+            pairs: Vec::new(),
+            dropped: 0,
+        };
+        let mut seen = std::collections::HashSet::new();
+        for (k, raw) in lines.iter().enumerate().skip(4) {
+            if raw.is_empty() {
+                continue;
+            }
+            if let Some(s) = raw.strip_prefix("shard,") {
+                let shard = s.parse().map_err(|e| err(format!("line {}: {e}", k + 1)))?;
+                file.shard = Some(shard);
+            } else if let Some(json) = raw.strip_prefix("names,") {
+                let names: Vec<String> = serde_json::from_str(json)
+                    .map_err(|e| err(format!("line {}: the names do not parse: {e}", k + 1)))?;
+                if names.len() != n {
+                    return Err(err(format!("line {}: {} names for n = {n}", k + 1, names.len())));
+                }
+                file.names = Some(names);
+            } else {
+                match parse_pair(raw, n) {
+                    Some(p) if seen.insert((p.i, p.j)) => file.pairs.push(p),
+                    _ => file.dropped += 1,
+                }
+            }
+        }
+        Ok(file)
+    }
+}
+
+/// The whole records of a journal to resume with `head`, and the number of records dropped.
+fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, usize), SimilarityError> {
     let err = |message: String| SimilarityError::Journal {
         path: path.to_path_buf(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
-    let lines: Vec<&[u8]> = bytes.split(|&b| b == b'\n').collect();
-    let text = |k: usize| String::from_utf8_lossy(lines[k]).into_owned();
-    if lines.len() < 4 || text(0) != HEADER {
+    let file = JournalFile::read(path).map_err(|e| match e {
+        SimilarityError::Journal { path, message } => SimilarityError::Journal {
+            path,
+            message: format!("{message}; remove it or run without --resume"),
+        },
+        e => e,
+    })?;
+    let n = head.n;
+    if file.n != n {
         return Err(err(format!(
-            "not a qcshape similarity journal of this version (expected the first line {HEADER:?}); remove it or run without --resume"
+            "the journal belongs to another run (n = {}, this run has {n} deformations); remove it or run without --resume",
+            file.n
         )));
     }
-    if text(2) != format!("n,{n}") {
-        return Err(err(format!(
-            "the journal belongs to another run ({}, this run has {n} deformations); remove it or run without --resume",
-            text(2).replace("n,", "n = ")
-        )));
-    }
-    if text(1) != format!("key,{key:016x}") {
-        let theirs = text(3);
-        let theirs = theirs.strip_prefix("settings,").unwrap_or("");
-        let differ = settings_diff(theirs, settings);
+    if file.key != head.key {
+        let differ = settings_diff(&file.settings, head.settings);
         let what = if differ.is_empty() {
             "the same settings but different inputs (names or coordinates of the transferred deformations)"
                 .to_string()
@@ -241,19 +382,15 @@ fn read(
             "the journal belongs to another run ({what}); remove it or run without --resume"
         )));
     }
-    let mut pairs: Vec<PairDistance> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    let mut dropped = 0;
-    for raw in &lines[4..] {
-        if raw.is_empty() {
-            continue;
-        }
-        match parse_pair(&String::from_utf8_lossy(raw), n) {
-            Some(p) if seen.insert((p.i, p.j)) => pairs.push(p),
-            _ => dropped += 1,
-        }
+    if file.shard != head.shard {
+        let name = |s: Option<Shard>| s.map_or("the whole matrix".to_string(), |s| format!("shard {s}"));
+        return Err(err(format!(
+            "the journal is of {}, this run computes {}; remove it or run without --resume",
+            name(file.shard),
+            name(head.shard)
+        )));
     }
-    Ok((pairs, dropped))
+    Ok((file.pairs, file.dropped))
 }
 
 /// The `|`-separated fields in which two settings strings differ, as `journal X, now Y`.

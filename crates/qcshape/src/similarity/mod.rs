@@ -8,12 +8,14 @@ pub mod journal;
 pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
+pub mod shard;
 
 pub use engine::{
     all_pairs, assemble, compute_pairs, details_csv, pose_distances, PairDistance, Pose, SimilarityError,
 };
 pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
-pub use journal::{fingerprint, Journal};
+pub use journal::{fingerprint, Journal, JournalFile};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use matrix::*;
 pub use pipeline::{prepare, settings_key, similarities, PipelineError, PipelineOptions, Prepared, Stage};
+pub use shard::{merge as merge_shards, Merged, Shard};

@@ -1,0 +1,337 @@
+//! Sharded similarity runs for batch systems: shard `K` of `S` computes a deterministic share
+//! of the pairs into its own journal (`qcshape similarity --shard K/S -o OUT` writes
+//! `OUT.shard-K-of-S`), and [`merge`] checks that the shards of one run are all there, come
+//! from the same data and settings and cover every pair once, and assembles the matrix
+//! (`qcshape similarity-merge`): the same values, bit for bit, as a single run.
+//!
+//! The split is round-robin over the pairs in row order (pair number `p` of
+//! [`super::all_pairs`] goes to shard `p mod S + 1`), so the shards get nearly equal numbers of
+//! pairs of every row, and their costs are close even when some deformations are expensive.
+
+use std::collections::{BTreeMap, HashSet};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use super::engine::{all_pairs, PairDistance, SimilarityError};
+use super::journal::JournalFile;
+
+/// Shard `index` (1-based) of `count`: `K/S` on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Shard {
+    /// Which shard, 1..=count.
+    pub index: usize,
+    /// How many shards the pairs are split into (at least 1).
+    pub count: usize,
+}
+
+impl Shard {
+    /// Shard `index` of `count`, checked (1 <= index <= count).
+    pub fn new(index: usize, count: usize) -> Result<Shard, String> {
+        if count == 0 || index == 0 || index > count {
+            return Err(format!(
+                "shard {index}/{count}: expected K/S with 1 <= K <= S (e.g. 1/4 .. 4/4)"
+            ));
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// Whether pair number `p` (in the row order of [`super::all_pairs`]) is in this shard.
+    pub fn holds(&self, p: usize) -> bool {
+        p % self.count + 1 == self.index
+    }
+
+    /// The pairs `(i, j)`, `i < j`, of `n` deformations that this shard computes, in row order.
+    pub fn pairs(&self, n: usize) -> Vec<(usize, usize)> {
+        all_pairs(n)
+            .into_iter()
+            .enumerate()
+            .filter(|(p, _)| self.holds(*p))
+            .map(|(_, ij)| ij)
+            .collect()
+    }
+
+    /// The pairs of `n` deformations that other shards compute (to skip in this one).
+    pub fn others(&self, n: usize) -> HashSet<(usize, usize)> {
+        all_pairs(n)
+            .into_iter()
+            .enumerate()
+            .filter(|(p, _)| !self.holds(*p))
+            .map(|(_, ij)| ij)
+            .collect()
+    }
+
+    /// The file a shard of output `OUT` is written to: `OUT.shard-K-of-S`.
+    pub fn file_for(&self, output: &Path) -> PathBuf {
+        let mut s = output.as_os_str().to_owned();
+        s.push(format!(".shard-{}-of-{}", self.index, self.count));
+        PathBuf::from(s)
+    }
+}
+
+impl fmt::Display for Shard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl FromStr for Shard {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let bad = || format!("{s:?}: expected K/S, two whole numbers with 1 <= K <= S (e.g. 2/8)");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let k = k.trim().parse().map_err(|_| bad())?;
+        let n = n.trim().parse().map_err(|_| bad())?;
+        Shard::new(k, n)
+    }
+}
+
+/// The shards of one run, merged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Merged {
+    /// The deformation names (n), as recorded by the shards.
+    pub names: Vec<String>,
+    /// Every pair `i < j`, in row order.
+    pub pairs: Vec<PairDistance>,
+    /// The run's settings string ([`super::settings_key`]).
+    pub settings: String,
+    /// The number of shards.
+    pub count: usize,
+}
+
+/// Reads the shard journals at `paths` and merges them. Refused, with the file named: a file
+/// that is not a shard journal, shards of different runs (another data fingerprint, other
+/// settings, another shard count), a shard given twice or missing, a shard whose pairs are not
+/// exactly its share (a shard that is still running or was killed: rerun it with `--resume`),
+/// and a shard with torn or corrupt records.
+pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
+    let err = |path: &Path, message: String| SimilarityError::Journal {
+        path: path.to_path_buf(),
+        message,
+    };
+    let Some(first_path) = paths.first() else {
+        return Err(SimilarityError::Mismatch("no shard files given".into()));
+    };
+    let mut shards: BTreeMap<usize, (PathBuf, JournalFile)> = BTreeMap::new();
+    let mut first: Option<(Shard, JournalFile)> = None;
+    for path in paths {
+        let file = JournalFile::read(path)?;
+        let Some(shard) = file.shard else {
+            return Err(err(
+                path,
+                "a journal of a whole run, not of a shard (--shard K/S)".into(),
+            ));
+        };
+        let Some(names) = &file.names else {
+            return Err(err(
+                path,
+                "the shard journal does not record the deformation names".into(),
+            ));
+        };
+        if let Some((s0, f0)) = &first {
+            let differs = if f0.settings != file.settings {
+                Some(format!("other settings ({} vs {})", f0.settings, file.settings))
+            } else if f0.key != file.key || f0.names.as_ref() != Some(names) {
+                Some("other data (names or coordinates of the deformations)".to_string())
+            } else if s0.count != shard.count {
+                Some(format!(
+                    "{} shards, {} has {}",
+                    shard.count,
+                    first_path.display(),
+                    s0.count
+                ))
+            } else {
+                None
+            };
+            if let Some(what) = differs {
+                return Err(err(
+                    path,
+                    format!("belongs to another run than {}: {what}", first_path.display()),
+                ));
+            }
+        } else {
+            first = Some((shard, file.clone()));
+        }
+        if file.dropped > 0 {
+            return Err(err(
+                path,
+                format!(
+                    "{} torn or corrupt record(s); rerun this shard with --resume to recompute them",
+                    file.dropped
+                ),
+            ));
+        }
+        let want: HashSet<(usize, usize)> = shard.pairs(file.n).into_iter().collect();
+        let have: HashSet<(usize, usize)> = file.pairs.iter().map(|p| (p.i, p.j)).collect();
+        if let Some(&(i, j)) = have.difference(&want).next() {
+            return Err(err(
+                path,
+                format!("holds pair ({i}, {j}), which is not in shard {shard}"),
+            ));
+        }
+        if have.len() < want.len() {
+            return Err(err(
+                path,
+                format!(
+                    "shard {shard} is incomplete: {} of its {} pairs (still running or interrupted: rerun it with --resume)",
+                    have.len(),
+                    want.len()
+                ),
+            ));
+        }
+        if let Some((other, _)) = shards.get(&shard.index) {
+            return Err(err(
+                path,
+                format!("shard {shard} is also given as {}", other.display()),
+            ));
+        }
+        shards.insert(shard.index, (path.clone(), file));
+    }
+    let (shard0, file0) = first.expect("at least one file");
+    let missing: Vec<String> = (1..=shard0.count)
+        .filter(|k| !shards.contains_key(k))
+        .map(|k| format!("{k}/{}", shard0.count))
+        .collect();
+    if !missing.is_empty() {
+        return Err(SimilarityError::Mismatch(format!(
+            "shard(s) {} of the run of {} missing",
+            missing.join(", "),
+            first_path.display()
+        )));
+    }
+    let mut pairs: Vec<PairDistance> = shards.into_values().flat_map(|(_, f)| f.pairs).collect();
+    pairs.sort_by_key(|p| (p.i, p.j));
+    Ok(Merged {
+        names: file0.names.expect("checked"),
+        pairs,
+        settings: file0.settings,
+        count: shard0.count,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::similarity::Journal;
+
+    fn pair(i: usize, j: usize) -> PairDistance {
+        let d = (i * 10 + j) as f64 / 7.0;
+        PairDistance {
+            i,
+            j,
+            distance: d,
+            per_pose: vec![0.0, d],
+            converged: true,
+            iterations: 3,
+            seconds: 0.5,
+        }
+    }
+
+    #[test]
+    fn shards_partition_the_pairs_evenly() {
+        for n in [2, 3, 7, 20] {
+            for count in 1..6 {
+                let mut all = Vec::new();
+                let sizes: Vec<usize> = (1..=count)
+                    .map(|k| {
+                        let p = Shard::new(k, count).unwrap().pairs(n);
+                        all.extend(p.iter().copied());
+                        p.len()
+                    })
+                    .collect();
+                all.sort();
+                assert_eq!(all, all_pairs(n), "n {n}, {count} shards");
+                let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+                assert!(hi - lo <= 1, "{sizes:?}");
+            }
+        }
+        assert_eq!("2/8".parse::<Shard>().unwrap(), Shard { index: 2, count: 8 });
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0", "-1/2"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        let f = Shard::new(3, 4).unwrap().file_for(Path::new("out/D.csv"));
+        assert_eq!(f, PathBuf::from("out/D.csv.shard-3-of-4"));
+    }
+
+    fn write_shards(dir: &Path, n: usize, count: usize, names: &[String], settings: &str) -> Vec<PathBuf> {
+        (1..=count)
+            .map(|k| {
+                let shard = Shard::new(k, count).unwrap();
+                let path = shard.file_for(&dir.join("D.csv"));
+                let (j, _) = Journal::open_shard(&path, 99, settings, names, shard, false).unwrap();
+                for (i, jj) in shard.pairs(n) {
+                    j.record(&pair(i, jj)).unwrap();
+                }
+                path
+            })
+            .collect()
+    }
+
+    #[test]
+    fn merge_assembles_complete_shards_and_refuses_the_rest() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 5;
+        let names: Vec<String> = (0..n).map(|k| format!("d,{k}\"")).collect();
+        let paths = write_shards(dir.path(), n, 3, &names, "m=a");
+        let m = merge(&paths).unwrap();
+        assert_eq!(m.names, names);
+        assert_eq!(
+            m.pairs,
+            all_pairs(n)
+                .into_iter()
+                .map(|(i, j)| pair(i, j))
+                .collect::<Vec<_>>()
+        );
+        // Order of the files does not matter.
+        let mut rev = paths.clone();
+        rev.reverse();
+        assert_eq!(merge(&rev).unwrap(), m);
+        // A missing shard, a shard given twice.
+        let e = merge(&paths[..2]).unwrap_err().to_string();
+        assert!(e.contains("3/3") && e.contains("missing"), "{e}");
+        let e = merge(&[paths[0].clone(), paths[0].clone(), paths[1].clone()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("also given"), "{e}");
+        // Another run's shard (other settings).
+        let other = tempfile::tempdir().unwrap();
+        let p2 = write_shards(other.path(), n, 3, &names, "m=b");
+        let e = merge(&[paths[0].clone(), paths[1].clone(), p2[2].clone()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("another run") && e.contains("m=a"), "{e}");
+        // An incomplete shard: one record cut off.
+        let text = std::fs::read_to_string(&paths[1]).unwrap();
+        let cut: Vec<&str> = text.lines().collect();
+        std::fs::write(&paths[1], cut[..cut.len() - 1].join("\n") + "\n").unwrap();
+        let e = merge(&paths).unwrap_err().to_string();
+        assert!(e.contains("incomplete") && e.contains("--resume"), "{e}");
+        // A torn record.
+        std::fs::write(&paths[1], text.clone() + "pair,0,1,0.5,tr").unwrap();
+        let e = merge(&paths).unwrap_err().to_string();
+        assert!(e.contains("torn"), "{e}");
+        // A whole-run journal is not a shard.
+        let whole = dir.path().join("D.csv.journal");
+        Journal::open(&whole, 99, "m=a", n, false).unwrap();
+        let e = merge(&[whole]).unwrap_err().to_string();
+        assert!(e.contains("not of a shard"), "{e}");
+    }
+
+    #[test]
+    fn a_shard_resumes_only_its_own_journal() {
+        let dir = tempfile::tempdir().unwrap();
+        let names: Vec<String> = (0..4).map(|k| k.to_string()).collect();
+        let s1 = Shard::new(1, 2).unwrap();
+        let path = dir.path().join("x");
+        let (j, _) = Journal::open_shard(&path, 5, "s", &names, s1, false).unwrap();
+        j.record(&pair(0, 1)).unwrap();
+        drop(j);
+        let (_, done) = Journal::open_shard(&path, 5, "s", &names, s1, true).unwrap();
+        assert_eq!(done, vec![pair(0, 1)]);
+        let e = Journal::open_shard(&path, 5, "s", &names, Shard::new(2, 2).unwrap(), true).unwrap_err();
+        assert!(e.to_string().contains("shard 1/2"), "{e}");
+        let e = Journal::open(&path, 5, "s", 4, true).unwrap_err();
+        assert!(e.to_string().contains("whole matrix"), "{e}");
+    }
+}
