@@ -123,6 +123,7 @@ pub fn run(args: &Args) -> Result<()> {
             align: args.align,
             smoothing: args.smooth,
             base: 0,
+            approx: Default::default(),
         };
         let bars = PipelineBars::new(data.deformations.len());
         let r = classify_set(

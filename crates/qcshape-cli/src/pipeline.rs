@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
-    assemble, fingerprint, prepare, settings_key, similarities, DistanceMatrix, Journal, PairDistance,
-    PipelineOptions, Prepared, Shard, Stage,
+    assemble, fingerprint, prepare, settings_key, similarities, Approx, DistanceMatrix, Journal,
+    PairDistance, PipelineOptions, Prepared, Shard, Stage,
 };
 use qcshape::transport::{Alignment, Transport};
 
@@ -46,6 +46,7 @@ pub(crate) fn pipeline_options(
         base,
         align: Alignment::default(),
         smoothing: PipelineOptions::default().smoothing,
+        approx: Approx::Exact,
     })
 }
 

@@ -18,6 +18,11 @@ pub(crate) fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
+/// Whether `--quiet` was given.
+pub(crate) fn is_quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
 /// Interval of the plain progress lines on a non-terminal stderr.
 fn line_interval() -> Duration {
     std::env::var("QCSHAPE_PROGRESS_SECONDS")

@@ -51,6 +51,11 @@ pub struct Args {
     /// takes vertex noise out of real data; 0 = none).
     #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
     smooth: usize,
+    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's) or
+    /// straight (the straight-path length with the same steps, no optimization: an upper bound,
+    /// much cheaper; error against exact in docs/scale.md). The intrinsic k-means stays exact.
+    #[arg(long, default_value = "exact")]
+    approx: qcshape::similarity::Approx,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
@@ -109,6 +114,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let opts = qcshape::similarity::PipelineOptions {
         align: args.align,
         smoothing: args.smooth,
+        approx: args.approx,
         ..opts
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
-use qcshape::similarity::{merge_shards, DistanceMatrix, PairDistance, PipelineOptions, Shard};
+use qcshape::similarity::{merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Shard};
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
@@ -78,6 +78,11 @@ pub struct Args {
     /// to a single run. A killed shard continues with --resume.
     #[arg(long, value_name = "K/S")]
     shard: Option<Shard>,
+    /// Pose distances: exact (geodesic lengths, the paper's) or straight (the straight-path
+    /// length with the same steps, no optimization: an upper bound, about 20-100x cheaper; its
+    /// error against exact is measured in docs/scale.md). Interpolation and transfer stay exact.
+    #[arg(long, default_value = "exact")]
+    approx: Approx,
 }
 
 /// Merge the shards of a sharded similarity run into the matrix.
@@ -143,6 +148,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let opts = PipelineOptions {
         align: args.align,
         smoothing: args.smooth,
+        approx: args.approx,
         ..opts
     };
     eprintln!(

@@ -442,10 +442,18 @@ impl ShapeSpace {
             .collect();
         let names: Vec<String> = (0..s.len()).map(|i| i.to_string()).collect();
         let solver = self.solver(self.geodesic.steps)?;
-        let pairs = compute_pairs(&solver, &names, &s, &HashSet::new(), cancel, |p| {
-            on_pair(p);
-            Ok(())
-        })?;
+        let pairs = compute_pairs(
+            &solver,
+            crate::similarity::Approx::Exact,
+            &names,
+            &s,
+            &HashSet::new(),
+            cancel,
+            |p| {
+                on_pair(p);
+                Ok(())
+            },
+        )?;
         Ok(assemble(s.len(), &pairs))
     }
 

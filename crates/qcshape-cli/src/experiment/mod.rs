@@ -3,6 +3,7 @@
 use anyhow::Result;
 use clap::Subcommand;
 
+mod approx;
 mod interpolation;
 mod noise;
 mod robustness;
@@ -22,6 +23,7 @@ enum Experiment {
     Transfer(transfer::Args),
     Noise(noise::Args),
     Robustness(robustness::Args),
+    Approx(approx::Args),
 }
 
 /// Runs the chosen experiment.
@@ -31,5 +33,6 @@ pub fn run(args: &Args) -> Result<()> {
         Experiment::Transfer(a) => transfer::run(a),
         Experiment::Noise(a) => noise::run(a),
         Experiment::Robustness(a) => robustness::run_command(a),
+        Experiment::Approx(a) => approx::run(a),
     }
 }

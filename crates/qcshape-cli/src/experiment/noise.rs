@@ -117,6 +117,7 @@ pub fn run(args: &Args) -> Result<()> {
         align: args.align,
         smoothing: args.smooth,
         base: 0,
+        approx: Default::default(),
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let experiment = NoiseExperiment {

@@ -7,11 +7,13 @@
 //! - [`interpolation`]: interpolation accuracy (Fig. 4);
 //! - [`transfer`]: deformation transfer (Fig. 5);
 //! - [`robustness`]: classification under realistic perturbations against baselines;
+//! - [`approx`]: the cost and the error of approximate similarity matrices;
 //! - [`reproduce`]: all synthetic tables and figures in one report;
 //! - [`analysis`]: the whole analysis of one data set (`qcshape run`);
 //! - [`provenance`]: the command line, version and machine of a report.
 
 pub mod analysis;
+pub mod approx;
 pub mod classification;
 pub mod interpolation;
 pub mod noise;

@@ -172,6 +172,7 @@ impl Reproduction {
             align: self.align,
             smoothing: self.smoothing,
             base: 0,
+            approx: Default::default(),
         }
     }
 

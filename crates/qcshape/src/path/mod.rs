@@ -353,6 +353,26 @@ impl<'m> GeodesicSolver<'m> {
         self.solve_from(&ends, x0)
     }
 
+    /// The length of the straight (linear) path from `a` to `b` with the solver's N segments,
+    /// `L = sum_i sqrt((G_{P_i}(X) + G_{P_{i+1}}(X)) / 2)` with `X = (b - a) / N` (eq. 12's
+    /// discretization, no optimization): an upper bound of the geodesic distance `dis(a, b)` (each
+    /// #V x 3, already scaled; normalized length units), at the cost of 2N metric evaluations
+    /// instead of a solve. Used by the `straight` approximation of similarity matrices.
+    pub fn straight_length(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<f64, GeodesicError> {
+        let ends = self.ends(a, b)?;
+        let x0 = self.energy.linear_start(&ends);
+        let length: f64 = self
+            .energy
+            .segment_norms(&x0, &ends)
+            .iter()
+            .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
+            .sum();
+        if !length.is_finite() {
+            return Err(GeodesicError::NonFinite(format!("straight-path length {length}")));
+        }
+        Ok(length)
+    }
+
     /// Geodesic from `a` to `b` started from the given interior poses `P_1 .. P_{N-1}`.
     pub fn solve_with_start(
         &self,

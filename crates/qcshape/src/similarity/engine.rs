@@ -88,15 +88,51 @@ pub fn details_csv(names: &[String], pairs: &[PairDistance]) -> String {
     text
 }
 
+/// How the pose distances `dis(M_k, N_k)` of a similarity matrix are computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Approx {
+    /// The length of the discrete geodesic (eq. 12 minimized): the paper's distance.
+    #[default]
+    Exact,
+    /// The length of the straight path with the same N segments, no optimization
+    /// ([`GeodesicSolver::straight_length`]): an upper bound of the geodesic length, 2N metric
+    /// evaluations per pose instead of a solve. Its error against the exact matrix is measured
+    /// by `qcshape experiment approx` (docs/scale.md).
+    Straight,
+}
+
+impl std::fmt::Display for Approx {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Approx::Exact => "exact",
+            Approx::Straight => "straight",
+        })
+    }
+}
+
+impl std::str::FromStr for Approx {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Approx, String> {
+        match s {
+            "exact" => Ok(Approx::Exact),
+            "straight" => Ok(Approx::Straight),
+            _ => Err(format!("{s:?}: expected exact or straight")),
+        }
+    }
+}
+
 /// `dis(M_k, N_k)` for every pose `k` of two deformations given as pose lists (each #V x 3,
 /// already multiplied by the common normalization factor). Identical poses (bit for bit, such
-/// as the common base after transfer) have distance 0 without a solve.
+/// as the common base after transfer) have distance 0 without a solve. With
+/// [`Approx::Straight`] each distance is the straight-path length instead of a solve.
 ///
 /// Returns the per-pose lengths, whether all solves converged, and the iterations used.
 pub fn pose_distances(
     solver: &GeodesicSolver,
     m: &[Pose],
     n: &[Pose],
+    approx: Approx,
 ) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
     let mut out = Vec::with_capacity(m.len());
     let mut converged = true;
@@ -104,6 +140,10 @@ pub fn pose_distances(
     for (k, (a, b)) in m.iter().zip(n).enumerate() {
         if a == b {
             out.push(0.0);
+            continue;
+        }
+        if approx == Approx::Straight {
+            out.push(solver.straight_length(a, b).map_err(|e| (k, e))?);
             continue;
         }
         let g = solver.solve(a, b).map_err(|e| (k, e))?;
@@ -121,7 +161,8 @@ pub fn all_pairs(n: usize) -> Vec<(usize, usize)> {
 
 /// Computes the distance of every pair `i < j` of `deformations` (each a list of poses on the
 /// solver's topology, #V x 3, already scaled by one common factor; all with the same number of
-/// poses) that is not in `done`, in parallel on the current rayon pool.
+/// poses) that is not in `done`, in parallel on the current rayon pool; `approx` chooses
+/// geodesic or straight-path lengths ([`Approx`]).
 ///
 /// `on_pair` is called from worker threads as soon as a pair is finished (record it in a
 /// journal, advance a progress bar); an error it returns stops the run. `cancel`, when set,
@@ -129,6 +170,7 @@ pub fn all_pairs(n: usize) -> Vec<(usize, usize)> {
 /// row order.
 pub fn compute_pairs<F>(
     solver: &GeodesicSolver,
+    approx: Approx,
     names: &[String],
     deformations: &[Vec<Pose>],
     done: &HashSet<(usize, usize)>,
@@ -150,14 +192,14 @@ where
             }
             let t0 = Instant::now();
             let (per_pose, converged, iterations) =
-                pose_distances(solver, &deformations[i], &deformations[j]).map_err(|(pose, error)| {
-                    SimilarityError::Geodesic {
+                pose_distances(solver, &deformations[i], &deformations[j], approx).map_err(
+                    |(pose, error)| SimilarityError::Geodesic {
                         a: names[i].clone(),
                         b: names[j].clone(),
                         pose,
                         error,
-                    }
-                })?;
+                    },
+                )?;
             let pair = PairDistance {
                 i,
                 j,
@@ -244,10 +286,18 @@ mod tests {
         ];
         let names: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
         let calls = std::sync::atomic::AtomicUsize::new(0);
-        let pairs = compute_pairs(&solver, &names, &defs, &HashSet::new(), None, |_| {
-            calls.fetch_add(1, Ordering::Relaxed);
-            Ok(())
-        })
+        let pairs = compute_pairs(
+            &solver,
+            Approx::Exact,
+            &names,
+            &defs,
+            &HashSet::new(),
+            None,
+            |_| {
+                calls.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            },
+        )
         .unwrap();
         assert_eq!(calls.load(Ordering::Relaxed), 3);
         let d = assemble(3, &pairs);
@@ -264,15 +314,15 @@ mod tests {
 
         // Reversing the order of a pair gives the same distance (symmetry of dis, to solver
         // tolerance).
-        let (fwd, _, _) = pose_distances(&solver, &defs[0], &defs[2]).unwrap();
-        let (bwd, _, _) = pose_distances(&solver, &defs[2], &defs[0]).unwrap();
+        let (fwd, _, _) = pose_distances(&solver, &defs[0], &defs[2], Approx::Exact).unwrap();
+        let (bwd, _, _) = pose_distances(&solver, &defs[2], &defs[0], Approx::Exact).unwrap();
         for (a, b) in fwd.iter().zip(&bwd) {
             assert!((a - b).abs() <= 1e-6 * a.max(1.0), "{a} vs {b}");
         }
 
         // Skipping finished pairs.
         let done: HashSet<_> = [(0, 1), (0, 2)].into_iter().collect();
-        let rest = compute_pairs(&solver, &names, &defs, &done, None, |_| Ok(())).unwrap();
+        let rest = compute_pairs(&solver, Approx::Exact, &names, &defs, &done, None, |_| Ok(())).unwrap();
         assert_eq!(rest.len(), 1);
         assert_eq!((rest[0].i, rest[0].j), (1, 2));
         assert!((rest[0].distance - pairs[2].distance).abs() < 1e-12);
@@ -288,15 +338,32 @@ mod tests {
             deformation(&s.positions, 0.1, 3),
             deformation(&s.positions, 0.1, 2),
         ];
-        let e = compute_pairs(&solver, &names, &defs, &HashSet::new(), None, |_| Ok(())).unwrap_err();
+        let e = compute_pairs(
+            &solver,
+            Approx::Exact,
+            &names,
+            &defs,
+            &HashSet::new(),
+            None,
+            |_| Ok(()),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("'b' has 2 poses"), "{e}");
         let defs = vec![
             deformation(&s.positions, 0.1, 3),
             deformation(&s.positions, 0.2, 3),
         ];
         let cancel = AtomicBool::new(true);
-        let e =
-            compute_pairs(&solver, &names, &defs, &HashSet::new(), Some(&cancel), |_| Ok(())).unwrap_err();
+        let e = compute_pairs(
+            &solver,
+            Approx::Exact,
+            &names,
+            &defs,
+            &HashSet::new(),
+            Some(&cancel),
+            |_| Ok(()),
+        )
+        .unwrap_err();
         assert!(matches!(e, SimilarityError::Cancelled));
     }
 }

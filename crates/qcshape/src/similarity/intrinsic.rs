@@ -6,7 +6,7 @@ use thiserror::Error;
 
 use crate::path::{GeodesicError, GeodesicSolver};
 
-use super::engine::{pose_distances, Pose};
+use super::engine::{pose_distances, Approx, Pose};
 use super::karcher::{karcher_mean, KarcherOptions};
 
 /// Options of [`intrinsic_kmeans`].
@@ -112,7 +112,8 @@ pub fn intrinsic_kmeans(
         let costs: Vec<f64> = pairs
             .par_iter()
             .map(|&(i, c)| {
-                let (d, _, _) = pose_distances(solver, &deformations[i], centres[c]).map_err(|(_, e)| e)?;
+                let (d, _, _) = pose_distances(solver, &deformations[i], centres[c], Approx::Exact)
+                    .map_err(|(_, e)| e)?;
                 let s: f64 = d.iter().sum();
                 Ok(s * s)
             })

@@ -19,7 +19,7 @@ use crate::transport::{
     align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
 };
 
-use super::engine::{compute_pairs, PairDistance, Pose, SimilarityError};
+use super::engine::{compute_pairs, Approx, PairDistance, Pose, SimilarityError};
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]
@@ -51,6 +51,9 @@ pub struct PipelineOptions {
     /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
     /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
     pub align: Alignment,
+    /// Geodesic lengths (the default) or a cheaper approximation of the pose distances
+    /// ([`Approx`]); the interpolation and transfer are always exact.
+    pub approx: Approx,
 }
 
 impl Default for PipelineOptions {
@@ -64,6 +67,7 @@ impl Default for PipelineOptions {
             base: 0,
             align: Alignment::Rigid,
             smoothing: 10,
+            approx: Approx::Exact,
         }
     }
 }
@@ -341,6 +345,7 @@ where
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     Ok(compute_pairs(
         &solver,
+        opts.approx,
         &prepared.names,
         &prepared.scaled(),
         done,
@@ -353,7 +358,7 @@ where
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
     format!(
-        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}|smoothing={}",
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}|smoothing={}{}",
         opts.metric,
         g.steps,
         g.solver,
@@ -368,7 +373,12 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         opts.transport,
         opts.base,
         opts.align,
-        opts.smoothing
+        opts.smoothing,
+        // Exact runs keep the settings strings (and journal keys) they had before `approx`.
+        match opts.approx {
+            Approx::Exact => String::new(),
+            a => format!("|approx={a}"),
+        }
     )
 }
 

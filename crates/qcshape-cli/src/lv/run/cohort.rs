@@ -33,6 +33,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         base: 0,
         align: a.align,
         smoothing: PipelineOptions::default().smoothing,
+        approx: Default::default(),
     };
     let split = SplitOptions {
         method: a.cluster,
