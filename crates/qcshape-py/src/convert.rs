@@ -1,5 +1,5 @@
-//! Arrays in and out: every input is converted with `numpy.ascontiguousarray(x, float64)` and
-//! its shape checked, with a `ValueError` that names the argument.
+//! Arrays in and out: every input is converted with `numpy.require(x, float64, "CA")` (C order,
+//! aligned) and its shape checked, with a `ValueError` that names the argument.
 
 use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -12,8 +12,10 @@ fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<usize>, Vec<
     let np = py.import("numpy")?;
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
+    // C order and aligned: arrays unpickled from a network frame (Dask) can be misaligned.
+    kwargs.set_item("requirements", "CA")?;
     let arr = np
-        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
+        .call_method("require", (obj,), Some(&kwargs))
         .map_err(|e| PyValueError::new_err(format!("{name}: cannot be read as a float64 array ({e})")))?;
     let arr = arr
         .cast_into::<PyArrayDyn<f64>>()
@@ -84,6 +86,61 @@ pub fn sequence(
         )));
     }
     Ok(data.chunks_exact(3 * nv).map(rows3).collect())
+}
+
+/// `obj` as n deformations of K poses each (n x K x #V x 3), n >= 1, K >= 1.
+pub fn deformations(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vec<Vec<[f64; 3]>>>> {
+    let (shape, data) = float_array(obj, name)?;
+    if shape.len() != 4 || shape[3] != 3 || shape[..3].contains(&0) {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected an array of shape (n, K, nV, 3), none of them 0, got {}",
+            shape_text(&shape)
+        )));
+    }
+    if let Some(i) = data.iter().position(|c| !c.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "{name}: element {i} is not a finite number"
+        )));
+    }
+    let (k, nv) = (shape[1], shape[2]);
+    Ok(data
+        .chunks_exact(3 * nv * k)
+        .map(|d| d.chunks_exact(3 * nv).map(rows3).collect())
+        .collect())
+}
+
+/// `obj` as pairs (m x 2) of indices `i < j < n`.
+pub fn index_pairs(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<(usize, usize)>> {
+    let (shape, data) = float_array(obj, name)?;
+    if !(shape.len() == 2 && shape[1] == 2 || shape == [0]) {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected an integer array of shape (m, 2), got {}",
+            shape_text(&shape)
+        )));
+    }
+    data.chunks_exact(2)
+        .enumerate()
+        .map(|(k, c)| {
+            let ok = |x: f64| x >= 0.0 && x.fract() == 0.0 && x < n as f64;
+            if !(ok(c[0]) && ok(c[1]) && c[0] < c[1]) {
+                return Err(PyValueError::new_err(format!(
+                    "{name}: row {k} is ({}, {}), not a pair i < j of {n} deformations",
+                    c[0], c[1]
+                )));
+            }
+            Ok((c[0] as usize, c[1] as usize))
+        })
+        .collect()
+}
+
+/// A (n, K, nV, 3) float64 array of n deformations of K poses.
+pub fn deformations_out<'py>(py: Python<'py>, defs: &[Vec<Vec<[f64; 3]>>]) -> PyResult<Bound<'py, PyAny>> {
+    let k = defs.first().map_or(0, Vec::len);
+    let nv = defs.first().and_then(|d| d.first()).map_or(0, Vec::len);
+    let flat: Vec<f64> = defs.iter().flatten().flatten().flatten().copied().collect();
+    Ok(PyArray1::from_vec(py, flat)
+        .reshape([defs.len(), k, nv, 3])?
+        .into_any())
 }
 
 /// `obj` as triangles (#F x 3) of non-negative integer vertex indices.

@@ -280,7 +280,8 @@ pub fn run_pipeline(
 /// steps, solver, tolerance, energy_tolerance (the geodesics); insert (poses inserted between
 /// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), align ("rigid" |
 /// "similarity" | "none": placement of each deformation on the base), smooth (Taubin iterations
-/// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0); threads (None: all cores); progress (True: counts on stderr). Distances are in
+/// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
+/// "straight": straight-path lengths, much cheaper, see docs/scale.md); threads (None: all cores); progress (True: counts on stderr). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
 #[pyfunction]
 #[pyo3(signature = (dataset, **options))]

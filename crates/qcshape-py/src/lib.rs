@@ -6,6 +6,7 @@
 mod analysis;
 mod convert;
 mod data;
+mod distributed;
 mod errors;
 mod options;
 mod run;
@@ -25,6 +26,8 @@ fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(data::icosphere, m)?)?;
     m.add_function(wrap_pyfunction!(data::similarity_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::prepare_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::pair_distances, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::mds, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::scores, m)?)?;
     Ok(())

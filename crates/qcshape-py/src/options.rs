@@ -149,11 +149,12 @@ pub struct PipelineKw {
     pub base: Option<BaseKw>,
     pub threads: Option<usize>,
     pub progress: Option<bool>,
+    pub approx: Option<String>,
 }
 
 /// The keywords of the pipeline, for the docstrings and the error on an unknown one.
 pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, steps, solver, tolerance, \
-energy_tolerance, insert, levels, transport, align, smooth, base, threads, progress";
+energy_tolerance, insert, levels, transport, align, smooth, base, approx, threads, progress";
 
 impl PipelineKw {
     /// Reads the keywords of a `**kwargs` dict; an unknown keyword is a `TypeError`.
@@ -192,6 +193,7 @@ impl PipelineKw {
                 }
                 "threads" => k.threads = Some(value.extract().map_err(bad)?),
                 "progress" => k.progress = Some(value.extract().map_err(bad)?),
+                "approx" => k.approx = Some(value.extract().map_err(bad)?),
                 _ => {
                     return Err(PyTypeError::new_err(format!(
                         "unexpected keyword argument '{key}' (accepted: {PIPELINE_KEYS})"
@@ -241,6 +243,12 @@ impl PipelineKw {
             },
             smoothing: self.smooth.unwrap_or(d.smoothing),
             base,
+            approx: match self.approx.as_deref() {
+                None => d.approx,
+                Some(a) => a
+                    .parse::<qcshape::similarity::Approx>()
+                    .map_err(|e| PyValueError::new_err(format!("approx: {e}")))?,
+            },
             ..d
         })
     }

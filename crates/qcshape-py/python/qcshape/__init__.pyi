@@ -153,10 +153,12 @@ def similarity_matrix(
     align: Optional[str] = None,
     smooth: Optional[int] = None,
     base: Optional[Union[int, str]] = None,
+    approx: Optional[str] = None,
     threads: Optional[int] = None,
     progress: Optional[bool] = None,
 ) -> _F64:
-    """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV."""
+    """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
+    approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
 
 class KMedoids:
     def __init__(

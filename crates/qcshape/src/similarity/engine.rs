@@ -180,11 +180,35 @@ pub fn compute_pairs<F>(
 where
     F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
 {
-    check_shapes(names, deformations)?;
     let todo: Vec<(usize, usize)> = all_pairs(deformations.len())
         .into_iter()
         .filter(|p| !done.contains(p))
         .collect();
+    compute_listed_pairs(solver, approx, names, deformations, &todo, cancel, on_pair)
+}
+
+/// [`compute_pairs`] for the listed pairs only (each `(i, j)` with `i < j < n`), in the order
+/// given: the batches of a distributed run (`qcshape.dask`). The distances are bit-identical to
+/// those of [`compute_pairs`] for the same pairs.
+pub fn compute_listed_pairs<F>(
+    solver: &GeodesicSolver,
+    approx: Approx,
+    names: &[String],
+    deformations: &[Vec<Pose>],
+    todo: &[(usize, usize)],
+    cancel: Option<&AtomicBool>,
+    on_pair: F,
+) -> Result<Vec<PairDistance>, SimilarityError>
+where
+    F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
+{
+    check_shapes(names, deformations)?;
+    let n = deformations.len();
+    if let Some((i, j)) = todo.iter().find(|(i, j)| i >= j || *j >= n) {
+        return Err(SimilarityError::Mismatch(format!(
+            "pair ({i}, {j}) is not a pair i < j of the {n} deformations"
+        )));
+    }
     todo.par_iter()
         .map(|&(i, j)| {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {

@@ -11,8 +11,8 @@ pub mod pipeline;
 pub mod shard;
 
 pub use engine::{
-    all_pairs, assemble, compute_pairs, details_csv, pose_distances, Approx, PairDistance, Pose,
-    SimilarityError,
+    all_pairs, assemble, compute_listed_pairs, compute_pairs, details_csv, pose_distances, Approx,
+    PairDistance, Pose, SimilarityError,
 };
 pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
 pub use journal::{fingerprint, Journal, JournalFile};
