@@ -71,7 +71,7 @@ def child(args) -> None:
     import qcshape as qs
 
     ds = cohort(args.n, args.level, args.frames, args.seed)
-    opts = dict(approx=args.approx, progress=False)
+    opts = dict(approx=args.approx, progress=False, metric=args.metric)
     if args.steps:
         opts["steps"] = args.steps
     t0 = time.perf_counter()
@@ -137,6 +137,8 @@ def main() -> None:
         "--straight-steps", type=int, default=1, help="segments of the straight paths (exact: the default 8)"
     )
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--metric", default="quasi-conformal")
+    p.add_argument("--modes", default="straight", help="approximate modes: straight and/or tangent (l2, isometric, conformal)")
     p.add_argument("--out", default="bench/results")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--n", type=int, help=argparse.SUPPRESS)
@@ -158,6 +160,7 @@ def main() -> None:
         matrix = out / f"D_{n}_{approx}_{threads}{'_dask' if dask else ''}.npy"
         cmd = [sys.executable, __file__, "--child", "--n", str(n), "--approx", approx, "--threads", str(threads)]
         cmd += ["--level", str(args.level), "--frames", str(args.frames), "--seed", str(args.seed)]
+        cmd += ["--metric", args.metric]
         cmd += ["--matrix", str(matrix), "--batch", str(args.batch)] + (["--dask"] if dask else [])
         if approx == "straight":
             cmd += ["--steps", str(args.straight_steps)]
@@ -168,7 +171,7 @@ def main() -> None:
         pairs = n * (n - 1) // 2
         row = dict(
             n=n,
-            mode=(f"straight-{args.straight_steps}" if approx == "straight" else "exact-8")
+            mode={"straight": f"straight-{args.straight_steps}", "exact": "exact-8"}.get(approx, approx)
             + (" (dask, 2 workers)" if dask else ""),
             threads=threads,
             seconds=res["seconds"],
@@ -181,14 +184,16 @@ def main() -> None:
 
     labels = ["hcm" if s % 2 else "control" for s in range(max(sizes))]
     agreements = {}
+    modes = args.modes.split(",")
     for n in sizes:
         for t in [int(x) for x in args.threads.split(",")]:
-            d_straight = run(n, "straight", t)
+            approx = {m: run(n, m, t) for m in modes}
             if n in exact_sizes:
                 d_exact = run(n, "exact", t)
-                agreements[n] = agreement(d_exact, d_straight, labels[:n])
+                for m, d in approx.items():
+                    agreements[(n, m)] = agreement(d_exact, d, labels[:n])
         if args.dask:
-            run(n, "straight", 2, dask=True)
+            run(n, modes[0], 2, dask=True)
 
     with open(out / "cohort.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -196,11 +201,8 @@ def main() -> None:
         w.writerows(rows)
     # Growth (straight, 2 threads): seconds = a N + b N(N-1)/2, the per-deformation preparation
     # (smoothing, alignment, transfer) and the pairs, fitted by least squares.
-    fit = [
-        (r["n"], r["n"] * (r["n"] - 1) / 2, r["seconds"])
-        for r in rows
-        if r["mode"] == f"straight-{args.straight_steps}" and r["threads"] == 2
-    ]
+    first = {"straight": f"straight-{args.straight_steps}"}.get(modes[0], modes[0])
+    fit = [(r["n"], r["n"] * (r["n"] - 1) / 2, r["seconds"]) for r in rows if r["mode"] == first and r["threads"] == 2]
     n_, pairs_, secs = np.array(fit).T
     if len(fit) >= 2:
         (per_def, per_pair), *_ = np.linalg.lstsq(np.column_stack([n_, pairs_]), secs, rcond=None)
@@ -213,23 +215,23 @@ def main() -> None:
     # the non-identical poses (frames - 1) and, linearly, with the vertices.
     scale = 2500 / nv
     proj = per_pair * (1000 * 999 / 2) * (24 / (args.frames - 1)) * scale + per_def * 1000 * (25 / args.frames) * scale
-    print(f"\n{nv} vertices, {args.frames} frames per subject; seed {args.seed}\n")
+    print(f"\n{args.metric}; {nv} vertices, {args.frames} frames per subject; seed {args.seed}\n")
     print("| N | mode | threads | seconds | peak RSS MB | pairs/s |\n|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['n']} | {r['mode']} | {r['threads']} | {r['seconds']:.2f} | {r['rss_mb']:.0f} | {r['pairs_per_s']:.1f} |"
         )
     print(
-        f"\nstraight, 2 threads: {per_pair * 1e3:.2f} ms per pair and {per_def * 1e3:.1f} ms per deformation "
+        f"\n{first}, 2 threads: {per_pair * 1e3:.2f} ms per pair and {per_def * 1e3:.1f} ms per deformation "
         "(least-squares fit of seconds = a N + b N(N-1)/2)"
     )
     print(
         f"projection to 1,000 subjects x 25 frames x 2,500 vertices: {proj / 3600:.2f} h on 2 cores "
-        f"(straight-{args.straight_steps}; pairs scaled by 24/{args.frames - 1} poses and 2,500/{nv} vertices)"
+        f"({first}; pairs scaled by 24/{args.frames - 1} poses and 2,500/{nv} vertices)"
     )
-    for n, a in agreements.items():
+    for (n, m), a in agreements.items():
         print(
-            f"N = {n}: straight vs exact: Spearman {a['spearman']:.5f}, max rel. error {100 * a['max_rel']:.3f} %, "
+            f"N = {n}: {m} vs exact: Spearman {a['spearman']:.5f}, max rel. error {100 * a['max_rel']:.3f} %, "
             f"1-NN agreement {a['nn_agreement']:.3f}, ARI (spectral, 2 clusters) {a['ari']:.3f}"
         )
 

@@ -51,9 +51,10 @@ pub struct Args {
     /// takes vertex noise out of real data; 0 = none).
     #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
     smooth: usize,
-    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's) or
-    /// straight (the straight-path length with the same steps, no optimization: an upper bound,
-    /// much cheaper; error against exact in docs/scale.md). The intrinsic k-means stays exact.
+    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
+    /// (the straight-path length with the same steps, no optimization: an upper bound, much
+    /// cheaper) or tangent (the metric linearized at the common base; l2, isometric, conformal
+    /// only). Errors against exact: docs/scale.md. The intrinsic k-means stays exact.
     #[arg(long, default_value = "exact")]
     approx: qcshape::similarity::Approx,
     /// Name of the reference deformation whose first pose is the common base (default: the first).

@@ -78,9 +78,11 @@ pub struct Args {
     /// to a single run. A killed shard continues with --resume.
     #[arg(long, value_name = "K/S")]
     shard: Option<Shard>,
-    /// Pose distances: exact (geodesic lengths, the paper's) or straight (the straight-path
-    /// length with the same steps, no optimization: an upper bound, about 20-100x cheaper; its
-    /// error against exact is measured in docs/scale.md). Interpolation and transfer stay exact.
+    /// Pose distances: exact (geodesic lengths, the paper's), straight (the straight-path length
+    /// with the same steps, no optimization: an upper bound, about 20-100x cheaper) or tangent
+    /// (the metric linearized at the common base: one feature vector per pose, then Euclidean
+    /// distances; l2, isometric, conformal only). Errors against exact: docs/scale.md.
+    /// Interpolation and transfer stay exact.
     #[arg(long, default_value = "exact")]
     approx: Approx,
 }

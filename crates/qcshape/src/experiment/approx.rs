@@ -48,7 +48,7 @@ pub struct Mode {
 }
 
 impl Mode {
-    /// `exact-N` (geodesics with N segments) or `straight-N`.
+    /// `exact-N` (geodesics with N segments), `straight-N` or `tangent-N` (N unused).
     pub fn name(&self) -> String {
         format!("{}-{}", self.approx, self.steps)
     }

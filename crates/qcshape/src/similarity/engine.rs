@@ -99,6 +99,10 @@ pub enum Approx {
     /// evaluations per pose instead of a solve. Its error against the exact matrix is measured
     /// by `qcshape experiment approx` (docs/scale.md).
     Straight,
+    /// The metric linearized at the common base: `|J_B (M_k - N_k)|` with `J_B` the residual
+    /// Jacobian at the base ([`super::tangent`]): one sparse product per pose, then one
+    /// Euclidean distance per pair and pose. For l2, isometric and conformal only.
+    Tangent,
 }
 
 impl std::fmt::Display for Approx {
@@ -106,6 +110,7 @@ impl std::fmt::Display for Approx {
         f.write_str(match self {
             Approx::Exact => "exact",
             Approx::Straight => "straight",
+            Approx::Tangent => "tangent",
         })
     }
 }
@@ -117,7 +122,8 @@ impl std::str::FromStr for Approx {
         match s {
             "exact" => Ok(Approx::Exact),
             "straight" => Ok(Approx::Straight),
-            _ => Err(format!("{s:?}: expected exact or straight")),
+            "tangent" => Ok(Approx::Tangent),
+            _ => Err(format!("{s:?}: expected exact, straight or tangent")),
         }
     }
 }
@@ -125,7 +131,8 @@ impl std::str::FromStr for Approx {
 /// `dis(M_k, N_k)` for every pose `k` of two deformations given as pose lists (each #V x 3,
 /// already multiplied by the common normalization factor). Identical poses (bit for bit, such
 /// as the common base after transfer) have distance 0 without a solve. With
-/// [`Approx::Straight`] each distance is the straight-path length instead of a solve.
+/// [`Approx::Straight`] (and [`Approx::Tangent`], which needs every pose at once and is
+/// computed by [`compute_listed_pairs`]) each distance is the straight-path length instead of a solve.
 ///
 /// Returns the per-pose lengths, whether all solves converged, and the iterations used.
 pub fn pose_distances(
@@ -142,7 +149,8 @@ pub fn pose_distances(
             out.push(0.0);
             continue;
         }
-        if approx == Approx::Straight {
+        if approx != Approx::Exact {
+            // Straight (the tangent mode never gets here: it has no per-pose solve).
             out.push(solver.straight_length(a, b).map_err(|e| (k, e))?);
             continue;
         }
@@ -208,6 +216,29 @@ where
         return Err(SimilarityError::Mismatch(format!(
             "pair ({i}, {j}) is not a pair i < j of the {n} deformations"
         )));
+    }
+    if approx == Approx::Tangent {
+        let pe = solver.path_energy();
+        let y = super::tangent::deformation_features(pe.metric, &pe.topo, deformations)?;
+        return todo
+            .par_iter()
+            .map(|&(i, j)| {
+                let t0 = Instant::now();
+                let per_pose: Vec<f64> =
+                    y[i].iter().zip(&y[j]).map(|(a, b)| super::tangent::distance(a, b)).collect();
+                let pair = PairDistance {
+                    i,
+                    j,
+                    distance: per_pose.iter().sum(),
+                    per_pose,
+                    converged: true,
+                    iterations: 0,
+                    seconds: t0.elapsed().as_secs_f64(),
+                };
+                on_pair(&pair)?;
+                Ok(pair)
+            })
+            .collect();
     }
     todo.par_iter()
         .map(|&(i, j)| {

@@ -9,6 +9,7 @@ pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
 pub mod shard;
+pub mod tangent;
 
 pub use engine::{
     all_pairs, assemble, compute_listed_pairs, compute_pairs, details_csv, pose_distances, Approx,
