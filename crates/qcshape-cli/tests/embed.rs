@@ -82,11 +82,12 @@ fn writes_coordinates_map_and_heatmap() {
     }
     let svg = std::fs::read_to_string(dir.path().join("map.svg")).unwrap();
     assert_eq!(
-        svg.matches("<circle").count(),
+        svg.matches("<polygon").count(),
         8 + 2,
         "8 points and 2 legend markers"
     );
-    assert!(svg.contains("d7") && svg.contains("far"));
+    // With classes the legend names them; the points are not named (they would overlap).
+    assert!(!svg.contains("d7") && svg.contains("far"));
     let h = std::fs::read_to_string(dir.path().join("h.svg")).unwrap();
     assert!(h.starts_with("<svg") && h.matches("<rect").count() >= 64);
 }
