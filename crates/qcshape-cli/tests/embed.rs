@@ -117,7 +117,8 @@ fn three_dimensions_png_and_json() {
     // IHDR: width and height, big-endian, at bytes 16..24.
     let w = u32::from_be_bytes(png[16..20].try_into().unwrap());
     let h = u32::from_be_bytes(png[20..24].try_into().unwrap());
-    assert_eq!((w, h), (820, 760));
+    // No labels: no legend panel beside the square chart.
+    assert_eq!((w, h), (760, 760));
     assert!(png.len() > 10_000);
 }
 
