@@ -104,7 +104,9 @@ impl Figure for Bars<'_> {
         let m = self.series.len() as i32;
         let centres: Vec<i32> = (0..ng as i32).map(|g| g * U + U / 2).collect();
         let (w, _) = self.size();
-        let root = root.titled(&self.title, (FAMILY, 20)).map_err(msg)?;
+        let root = root
+            .titled(&self.title, (FAMILY, super::title_size(&self.title, w)))
+            .map_err(msg)?;
         let (plot, legend) = root.split_horizontally(w - self.legend_width());
         let mut chart = ChartBuilder::on(&plot)
             .margin(16)

@@ -110,7 +110,8 @@ impl Figure for Heatmap {
             root.draw(&Text::new(
                 self.title.clone(),
                 (460, 12),
-                TextStyle::from((FAMILY, 20).into_font()).pos(Pos::new(HPos::Center, VPos::Top)),
+                TextStyle::from((FAMILY, super::title_size(&self.title, 920)).into_font())
+                    .pos(Pos::new(HPos::Center, VPos::Top)),
             ))
             .map_err(msg)?;
             (main.margin(title_h, 0, 0, 0), bar.margin(title_h, 0, 0, 0))

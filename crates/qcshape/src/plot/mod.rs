@@ -127,6 +127,14 @@ pub(crate) fn marker_outline(kind: usize, r: i32) -> Vec<(i32, i32)> {
     }
 }
 
+/// The font size of a title: 20 px, smaller (down to 11) when the text would not fit in
+/// `width` pixels with a margin (DejaVu Sans averages about 0.58 em per character).
+pub(crate) fn title_size(title: &str, width: u32) -> u32 {
+    let chars = title.chars().count().max(1) as f64;
+    let fit = (width as f64 - 24.0) / (0.58 * chars);
+    (fit.floor() as u32).clamp(11, 20)
+}
+
 /// What a legend entry shows beside its text.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Swatch {

@@ -149,7 +149,9 @@ impl Figure for Scatter<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let ((x0, x1), (y0, y1)) = self.range;
         let (w, _) = self.size();
-        let root = root.titled(&self.title, (FAMILY, 20)).map_err(msg)?;
+        let root = root
+            .titled(&self.title, (FAMILY, super::title_size(&self.title, w)))
+            .map_err(msg)?;
         let (plot, legend) = root.split_horizontally(w - self.legend_width());
         let mut chart = ChartBuilder::on(&plot)
             .margin(16)
