@@ -95,7 +95,7 @@ pub fn heatmap(
 
 impl Figure for Heatmap {
     fn size(&self) -> (u32, u32) {
-        (920, 800)
+        (940, 800)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
@@ -109,8 +109,8 @@ impl Figure for Heatmap {
             let title_h = 40;
             root.draw(&Text::new(
                 self.title.clone(),
-                (460, 12),
-                TextStyle::from((FAMILY, super::title_size(&self.title, 920)).into_font())
+                (470, 12),
+                TextStyle::from((FAMILY, super::title_size(&self.title, 940)).into_font())
                     .pos(Pos::new(HPos::Center, VPos::Top)),
             ))
             .map_err(msg)?;
@@ -191,8 +191,9 @@ impl Figure for Heatmap {
         let mut cb = ChartBuilder::on(&bar)
             .margin_top(12)
             .margin_bottom(label_area as i32 + 12)
+            .margin_left(6)
             .margin_right(4)
-            .y_label_area_size(76)
+            .right_y_label_area_size(90)
             .build_cartesian_2d(0f64..1f64, 0f64..top)
             .map_err(msg)?;
         cb.configure_mesh()
@@ -290,7 +291,7 @@ mod tests {
         let p = dir.path().join("h.png");
         heatmap(&p, &d, &[0, 1, 2, 3, 4, 5], None, "t", "v").unwrap();
         let (w, h, rgb) = decode_png(&p);
-        assert_eq!((w, h), (920, 800));
+        assert_eq!((w, h), (940, 800));
         let [r, g, b] = heat_colors(&[4.0], 0.0, 4.0)[0];
         let bright = rgb.chunks_exact(3).filter(|p| *p == [r, g, b]).count();
         assert!(bright > 18 * 100, "cells should cover many pixels: {bright}");
