@@ -2,6 +2,7 @@
 //! geodesic solver.
 
 use anyhow::{bail, Context, Result};
+use qcshape::defaults;
 use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
 use qcshape::path::{GeodesicOptions, Solver};
 
@@ -9,7 +10,7 @@ use qcshape::path::{GeodesicOptions, Solver};
 #[derive(Debug, Clone, clap::Args)]
 pub struct MetricArgs {
     /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
-    #[arg(long, default_value = "quasi-conformal")]
+    #[arg(long, default_value = defaults::METRIC.label())]
     pub metric: MetricKind,
     /// Conformal triangle term: quadratic (T_p^2 + T_q^2 + T_r^2) or paper ((|T_p|+|T_q|+|T_r|)^2).
     #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
@@ -18,7 +19,7 @@ pub struct MetricArgs {
     #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
     pub weights: String,
     /// Weight of the L2 regularizer (eq. 11); 0 disables it.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = defaults::LAMBDA)]
     pub lambda: f64,
     /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
     #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
@@ -56,7 +57,7 @@ impl MetricArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct SolverArgs {
     /// Number of path segments N of each geodesic.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = defaults::STEPS)]
     pub steps: usize,
     /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
     /// preconditioner), newton
@@ -64,17 +65,17 @@ pub struct SolverArgs {
     /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
     /// (the paper's, through argmin), plain-lbfgs (the preconditioned solver without its
     /// preconditioner).
-    #[arg(long, default_value = "preconditioned")]
+    #[arg(long, default_value = defaults::SOLVER.label())]
     pub solver: Solver,
     /// Relative gradient tolerance: converged when the gradient norm falls below this fraction
     /// of its value at the start.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = defaults::TOLERANCE)]
     pub tolerance: f64,
     /// Relative energy tolerance: also converged when an accepted step lowers the path energy by
     /// less than this fraction. On flat energies (conformal, isometric on fine meshes) this test
     /// stops first, with the energy converged but the gradient above --tolerance; 0 disables it,
     /// so that the gradient test decides (more iterations).
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value_t = defaults::ENERGY_TOLERANCE)]
     pub energy_tolerance: f64,
 }
 

@@ -40,22 +40,22 @@ pub struct Args {
     #[command(flatten)]
     metric: MetricArgs,
     /// Data set input only: segments N of every geodesic.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = qcshape::defaults::STEPS)]
     steps: usize,
     /// Data set input only: poses inserted between consecutive key poses.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
     insert: usize,
     /// Data set input only: transport to the common base (euclidean, parallel or schild).
-    #[arg(long, default_value = "euclidean")]
+    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
     transport: Transport,
     /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
     /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
     /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = "rigid")]
+    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
     smooth: usize,
     /// Number of clusters.
     #[arg(long)]
@@ -64,10 +64,10 @@ pub struct Args {
     #[arg(long, default_value = "kmeans", value_parser = ["kmeans", "kmedoids"])]
     method: String,
     /// Number of seeded runs; the best objective is kept.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     restarts: usize,
     /// Seed of the random choices.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Maximum Lloyd iterations (k-means) or swaps (k-medoids) per run.
     #[arg(long, default_value_t = 100)]
@@ -118,7 +118,7 @@ pub fn run(args: &Args) -> Result<()> {
                 ..Default::default()
             },
             insert: args.insert,
-            levels: 1,
+            levels: qcshape::defaults::LEVELS,
             transport: args.transport,
             align: args.align,
             smoothing: args.smooth,

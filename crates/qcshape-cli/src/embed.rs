@@ -111,7 +111,18 @@ pub fn run(args: &Args) -> Result<()> {
             }
             None => (0..d.len()).collect(),
         };
-        heatmap(p, &d, &order, labels.as_deref())?;
+        let name = args
+            .matrix
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        heatmap(
+            p,
+            &d,
+            &order,
+            labels.as_deref(),
+            &format!("Distance matrix {name} ({} deformations)", d.len()),
+            "distance",
+        )?;
     }
     if args.json {
         let v = serde_json::json!({

@@ -179,13 +179,17 @@ pub fn run(args: &Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("metric      {}", metric.name());
+        // Six significant digits, fixed-point or engineering notation (--json has every digit).
+        let num = |x: f64| qcshape::numfmt::significant(x, 6);
         println!(
-            "distance    {:.9e}  (normalized units: coordinates x {:.6e})",
-            g.length, g.scale
+            "distance    {}  (normalized units: coordinates x {})",
+            num(g.length),
+            num(g.scale)
         );
         println!(
-            "energy      {:.9e}  (linear path {:.9e})",
-            g.energy, g.initial_energy
+            "energy      {}  (linear path {})",
+            num(g.energy),
+            num(g.initial_energy)
         );
         println!("iterations  {}", g.iterations);
         println!("converged   {} ({:?})", g.converged, g.stop);

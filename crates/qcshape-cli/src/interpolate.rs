@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long)]
     insert: usize,
     /// Spatial resolution levels (1 = no multiresolution).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
     levels: usize,
     /// Share of vertices kept by each coarsening step.
     #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO)]
@@ -51,13 +51,13 @@ pub struct Args {
     #[command(flatten)]
     metric: MetricArgs,
     /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
-    #[arg(long, default_value = "preconditioned")]
+    #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE)]
     tolerance: f64,
     /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).

@@ -22,7 +22,9 @@ use crate::progress::{bar, PipelineBars};
 /// accuracy and the adjusted Rand index), the MDS map (Fig. 6) and a heat map; the time of each
 /// step (Table 2); and the noise resistance of the quasi-conformal classification (Table 3,
 /// eq. 17). Writes DIR/report.md with every table beside the paper's numbers, the figures
-/// (SVG and PNG) and the CSVs.
+/// (SVG and PNG, the PNGs embedded) and the CSVs. report.md is rewritten after every step (each
+/// metric, Fig. 4, Fig. 5, each noise level), marked "Partial report: still running" until the
+/// last one, so an interrupted run leaves the tables done so far.
 ///
 /// --quick uses coarse meshes (42 vertices), one inserted pose, 2-segment geodesics, fewer
 /// restarts and one noise level: it finishes in well under a minute on 2 cores.
@@ -38,10 +40,12 @@ pub struct Args {
     /// Icosphere level of the synthetic meshes (default 2 = 162 vertices; 1 with --quick).
     #[arg(long)]
     level: Option<u32>,
-    /// Poses inserted between consecutive key poses (default 3 as in section 3.3; 1 with --quick).
+    /// Poses inserted between consecutive key poses (default 3 as in section 3.3, not the other
+    /// commands' 0; 1 with --quick).
     #[arg(long)]
     insert: Option<usize>,
-    /// Segments N of every geodesic (default 4; 2 with --quick).
+    /// Segments N of every geodesic (default 4, not the other commands' 8: the setting of the
+    /// README's Table 1; 2 with --quick).
     #[arg(long)]
     steps: Option<usize>,
     /// k-means restarts (default 20; 5 with --quick).
@@ -61,23 +65,23 @@ pub struct Args {
     )]
     metrics: Vec<MetricKind>,
     /// Weight of the L2 regularizer of every metric (eq. 11).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
     lambda: f64,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = "euclidean")]
+    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
     transport: Transport,
     /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
     /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
     /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = "rigid")]
+    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
     smooth: usize,
     /// Seed of the synthetic amplitudes, k-means and noise.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Worker threads (default: all cores).
     #[arg(long)]
@@ -135,6 +139,31 @@ fn run_in_pool(args: &Args) -> Result<()> {
         manifest.display()
     );
     let bars = PipelineBars::new(defs.len());
+    let cmd: Vec<String> = std::env::args().collect();
+    let cmd = cmd.join(" ");
+    let path = args.out.join("report.md");
+    // The report of the steps done so far (`after`: the last one; None: the final report).
+    let write_report = |runs: &[qcshape::experiment::reproduce::MetricRun],
+                        noise_rows: &[(f64, f64, f64)],
+                        figs: [&str; 2],
+                        after: Option<String>|
+     -> Result<()> {
+        let noise_run = Reproduction::noise_reference(runs);
+        let mut report = ReproduceReport::new(
+            &s,
+            &defs,
+            runs,
+            (noise_run, noise_rows),
+            figs,
+            Provenance::current(cmd.clone(), t_all.elapsed().as_secs_f64()),
+        )?;
+        if let Some(after) = after {
+            report = report.partial(after);
+        }
+        report
+            .write(&path)
+            .with_context(|| format!("cannot write {}", path.display()))
+    };
 
     let mut runs = Vec::new();
     for &kind in &args.metrics {
@@ -151,6 +180,16 @@ fn run_in_pool(args: &Args) -> Result<()> {
             r.classified.wall.iter().sum::<f64>()
         );
         runs.push(r);
+        write_report(
+            &runs,
+            &[],
+            ["", ""],
+            Some(format!(
+                "Table 1, {} of {} metrics: {name}",
+                runs.len(),
+                args.metrics.len()
+            )),
+        )?;
     }
 
     // Fig. 4: interpolation of the middle pose from the first and the last.
@@ -160,8 +199,9 @@ fn run_in_pool(args: &Args) -> Result<()> {
         pb.finish_and_clear();
         r.write(&args.out.join("fig4"))?;
         eprintln!("{:>16}: {}", "Fig. 4", r.claim());
-        r.to_markdown()
+        r.to_markdown_in("fig4/")
     };
+    write_report(&runs, &[], [&fig4, ""], Some("Fig. 4".into()))?;
 
     // Fig. 5: transfer of analytic deformations from a sphere to other bases.
     let fig5 = {
@@ -170,8 +210,11 @@ fn run_in_pool(args: &Args) -> Result<()> {
         let r = exp.run(&|| pb.inc(1))?;
         pb.finish_and_clear();
         r.write(&args.out.join("fig5"))?;
-        r.to_markdown()
+        r.to_markdown_in("fig5/")
     };
+    if !args.skip_noise {
+        write_report(&runs, &[], [&fig4, &fig5], Some("Fig. 5".into()))?;
+    }
 
     // Table 3 with the quasi-conformal metric (or the last metric run).
     let noise_run = Reproduction::noise_reference(&runs);
@@ -200,22 +243,22 @@ fn run_in_pool(args: &Args) -> Result<()> {
                 }
             }
             noise_rows.push(row);
+            if noise_rows.len() < s.noise_levels.len() {
+                write_report(
+                    &runs,
+                    &noise_rows,
+                    [&fig4, &fig5],
+                    Some(format!(
+                        "Table 3, {} of {} noise levels",
+                        noise_rows.len(),
+                        s.noise_levels.len()
+                    )),
+                )?;
+            }
         }
     }
 
-    let cmd: Vec<String> = std::env::args().collect();
-    let report = ReproduceReport::new(
-        &s,
-        &defs,
-        &runs,
-        (noise_run, &noise_rows),
-        [&fig4, &fig5],
-        Provenance::current(cmd.join(" "), t_all.elapsed().as_secs_f64()),
-    )?;
-    let path = args.out.join("report.md");
-    report
-        .write(&path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    write_report(&runs, &noise_rows, [&fig4, &fig5], None)?;
     eprintln!(
         "wrote {} in {:.1} s",
         path.display(),

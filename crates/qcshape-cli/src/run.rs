@@ -36,20 +36,20 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses inserted between consecutive key poses (section 2.2.1).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
     insert: usize,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = "euclidean")]
+    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
     transport: Transport,
     /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
     /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
     /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = "rigid")]
+    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
     smooth: usize,
     /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
     /// (the straight-path length with the same steps, no optimization: an upper bound, much
@@ -64,10 +64,10 @@ pub struct Args {
     #[arg(long)]
     k: Option<usize>,
     /// Kernel k-means restarts (the start of the intrinsic k-means).
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     restarts: usize,
     /// Seed of the clustering.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Reuse the finished pairs of an interrupted run.
     #[arg(long)]

@@ -82,11 +82,12 @@ fn writes_coordinates_map_and_heatmap() {
     }
     let svg = std::fs::read_to_string(dir.path().join("map.svg")).unwrap();
     assert_eq!(
-        svg.matches("<circle").count(),
+        svg.matches("<polygon").count(),
         8 + 2,
         "8 points and 2 legend markers"
     );
-    assert!(svg.contains("d7") && svg.contains("far"));
+    // With classes the legend names them; the points are not named (they would overlap).
+    assert!(!svg.contains("d7") && svg.contains("far"));
     let h = std::fs::read_to_string(dir.path().join("h.svg")).unwrap();
     assert!(h.starts_with("<svg") && h.matches("<rect").count() >= 64);
 }
@@ -116,7 +117,8 @@ fn three_dimensions_png_and_json() {
     // IHDR: width and height, big-endian, at bytes 16..24.
     let w = u32::from_be_bytes(png[16..20].try_into().unwrap());
     let h = u32::from_be_bytes(png[20..24].try_into().unwrap());
-    assert_eq!((w, h), (820, 760));
+    // No labels: no legend panel beside the square chart.
+    assert_eq!((w, h), (760, 760));
     assert!(png.len() > 10_000);
 }
 

@@ -97,6 +97,14 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
 
     // Table 4: three rows whose rates agree with their counts (3 hcm, 3 controls).
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    // The final report (written after each step, partial until the last) embeds its figures.
+    assert!(!report.contains("Partial report"), "{report}");
+    for png in ["subjects_mds.png", "similarity.png", "fig9_mds.png"] {
+        assert!(
+            report.contains(&format!("]({png})")) && res.join(png).is_file(),
+            "{png}"
+        );
+    }
     assert!(
         report.contains("## Table 4") && report.contains("## Table 5"),
         "{report}"

@@ -37,6 +37,21 @@ fn quick_reproduction_writes_a_report_with_all_four_metrics() {
         );
     }
     assert!(report.contains("## Table 2") && report.contains("## Table 3"));
+    // The final report is not marked partial, embeds its figures as PNG and has one top-level
+    // heading.
+    assert!(!report.contains("Partial report"), "{report}");
+    for png in [
+        "fig6_mds_rigid.png",
+        "similarity_rigid.png",
+        "fig4/interpolation.png",
+        "fig5/transfer.png",
+    ] {
+        assert!(report.contains(&format!("]({png})")), "{png} not embedded");
+        assert!(out.join(png).exists(), "{png} missing");
+    }
+    assert_eq!(report.lines().filter(|l| l.starts_with("# ")).count(), 1);
+    assert!(report.contains("`fig5/fig5/`") && !report.contains(" 1 poses") && !report.contains("1 rounds"));
+    assert!(!report.contains("e-17"), "rounding noise printed as a number");
     for f in [
         "fig6_mds_quasi-conformal.svg",
         "fig6_mds_quasi-conformal.png",

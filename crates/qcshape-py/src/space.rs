@@ -377,7 +377,7 @@ impl PyShapeSpace {
         points_out(py, &m.mean)
     }
 
-    /// interpolate(poses, insert=3, levels=3) -> ndarray (K*(insert+1)+1, nV, 3): temporal
+    /// interpolate(poses, insert=3, levels=1) -> ndarray (K*(insert+1)+1, nV, 3): temporal
     /// interpolation (section 2.2.1) of the key poses (K + 1, nV, 3): ``insert`` poses between
     /// each consecutive pair (key poses kept bit for bit), on ``levels`` spatial levels (1 =
     /// none); defaults as ``qcshape interpolate``.

@@ -16,6 +16,7 @@
 pub mod cluster;
 pub mod contribution;
 pub mod dataset;
+pub mod defaults;
 pub mod embed;
 pub mod eval;
 pub mod experiment;
@@ -25,6 +26,7 @@ pub mod lv;
 pub mod mesh;
 pub mod metric;
 pub mod multires;
+pub mod numfmt;
 pub mod path;
 pub mod plot;
 pub mod similarity;

@@ -49,7 +49,9 @@ fn reproduction_table1_is_far_above_chance() {
     assert_eq!(report.noise_metric, "isometric");
     assert_eq!(report.poses, 5, "3 key poses, one inserted between each");
     let md = report.to_markdown();
-    assert!(md.contains("## Table 1") && md.contains("## Table 3") && md.contains("fig6_mds_isometric.svg"));
+    assert!(
+        md.contains("## Table 1") && md.contains("## Table 3") && md.contains("](fig6_mds_isometric.png)")
+    );
 }
 
 #[test]

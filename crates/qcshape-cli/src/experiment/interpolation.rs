@@ -62,16 +62,16 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     insert: usize,
     /// Spatial resolution levels of the interpolation (1 = no multiresolution).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
     levels: usize,
     /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
-    #[arg(long, default_value = "preconditioned")]
+    #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE)]
     tolerance: f64,
     /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
@@ -105,7 +105,7 @@ struct VariantArgs {
     #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
     weights: String,
     /// Weight of the L2 regularizer (eq. 11); 0 disables it.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
     lambda: f64,
     /// L2 area weights: frozen at the path's ends, or taken from each pose.
     #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]

@@ -59,7 +59,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     scenarios: Vec<String>,
     /// Weight of the L2 regularizer of every metric (eq. 11).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
     lambda: f64,
     #[command(flatten)]
     solver: SolverArgs,
@@ -67,10 +67,10 @@ pub struct Args {
     #[arg(long, default_value_t = 4)]
     poses: usize,
     /// Clustering restarts.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     restarts: usize,
     /// Seed of the data and the clusterings.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Output folder.
     #[arg(long)]

@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3)]
     poses: usize,
     /// Weight of the L2 regularizer (eq. 11) of every metric; 0 disables it.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
     lambda: f64,
     /// Conformal triangle term: quadratic or paper.
     #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]

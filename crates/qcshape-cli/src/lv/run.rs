@@ -85,10 +85,10 @@ pub struct RunArgs {
     /// Placement of every subject on the base before transfer: rigid (area-weighted
     /// Procrustes of its frame 0 onto the base's, the same motion on every frame), similarity
     /// (also a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = "rigid")]
+    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     pub(crate) align: Alignment,
     /// Clustering restarts.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     pub(crate) restarts: usize,
     /// Seed of the clustering and MDS.
     #[arg(long, default_value_t = 0)]
@@ -103,11 +103,13 @@ pub struct RunArgs {
 pub struct CycleCommon {
     #[command(flatten)]
     pub metric: MetricArgs,
-    /// Poses inserted between consecutive frames (paper: 3).
-    #[arg(long, default_value_t = 3)]
+    /// Poses inserted between consecutive frames (default 3, the paper's section 4 setting, not
+    /// the other commands' 0).
+    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT)]
     pub insert: usize,
-    /// Segments N of every geodesic.
-    #[arg(long, default_value_t = 4)]
+    /// Segments N of every geodesic (default 4, the setting the README's LV tables were measured
+    /// with, not the other commands' 8).
+    #[arg(long, default_value_t = qcshape::defaults::PAPER_STEPS)]
     pub steps: usize,
     /// Vertex budget: the cohort template's whole surface, or meshes given as input are coarsened
     /// (a vertex subset, multires hierarchy) when larger.

@@ -157,9 +157,18 @@ impl Analysis {
         let labels = &self.plot_labels;
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| labels[a].cmp(&labels[b]).then(a.cmp(&b)));
-        let path = dir.join("heatmap.svg");
-        crate::plot::heatmap(&path, matrix, &order, Some(labels))?;
-        files.push(path);
+        for ext in ["svg", "png"] {
+            let path = dir.join(format!("heatmap.{ext}"));
+            crate::plot::heatmap(
+                &path,
+                matrix,
+                &order,
+                Some(labels),
+                &format!("{metric} distances of {n} deformations (by class)"),
+                "distance (normalized units)",
+            )?;
+            files.push(path);
+        }
         Ok(files)
     }
 }
@@ -213,10 +222,16 @@ impl AnalysisReport {
         md.push_str(&self.provenance.to_markdown());
         writeln!(
             md,
-            "{n} deformations, {} key poses each, {} vertices; metric `{}`; {} poses inserted between key \
+            "{n} deformations, {} key poses each, {} vertices; metric `{}`; {} between key \
              poses; {} transport to the first pose of `{}`; geodesics with N = {}. Distances are in units of \
              the base pose's mean edge length.\n",
-            self.key_poses, self.vertices, self.metric, self.insert, self.transport, self.base, self.steps
+            self.key_poses,
+            self.vertices,
+            self.metric,
+            crate::numfmt::count(self.insert, "pose inserted", "poses inserted"),
+            self.transport,
+            self.base,
+            self.steps
         )?;
         writeln!(md, "## Time\n\n| step | seconds |\n|---|---|")?;
         writeln!(md, "| interpolation + transfer | {:.2} |", self.prepare_seconds)?;
@@ -255,7 +270,9 @@ impl AnalysisReport {
         }
         writeln!(
             md,
-            "\n## Map\n\n![MDS map](map.svg)\n\nSMACOF stress-1 {:.4} ({} iterations); similarity heat map: `heatmap.svg`.",
+            "\n## Map\n\n![MDS map of the similarity matrix (SMACOF), colour and marker the label](map.png)\n\n\
+             SMACOF stress-1 {:.4} ({} iterations); `map.svg` beside the PNG.\n\n\
+             ![Heat map of the similarity matrix, deformations ordered by label](heatmap.png)",
             a.stress, a.mds_iterations
         )
     }

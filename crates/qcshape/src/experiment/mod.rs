@@ -21,3 +21,33 @@ pub mod provenance;
 pub mod reproduce;
 pub mod robustness;
 pub mod transfer;
+
+/// `md` with every Markdown heading moved `levels` deeper (`# A` -> `### A` for 2), outside
+/// fenced code blocks: a sub-report embedded under a heading of the enclosing report.
+pub fn demote_headings(md: &str, levels: usize) -> String {
+    let extra = "#".repeat(levels);
+    let mut fenced = false;
+    let mut out = String::with_capacity(md.len() + 16);
+    for line in md.split_inclusive('\n') {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+        }
+        if !fenced && line.starts_with('#') {
+            out.push_str(&extra);
+        }
+        out.push_str(line);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn headings_move_down_outside_code() {
+        let md = "# A\ntext # not\n## B\n```\n# code\n```\n";
+        assert_eq!(
+            super::demote_headings(md, 2),
+            "### A\ntext # not\n#### B\n```\n# code\n```\n"
+        );
+    }
+}

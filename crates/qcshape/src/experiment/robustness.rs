@@ -260,7 +260,7 @@ impl Default for RobustnessOptions {
             scenarios: Scenario::defaults(),
             methods,
             seed: 0,
-            restarts: 20,
+            restarts: crate::defaults::RESTARTS,
         }
     }
 }

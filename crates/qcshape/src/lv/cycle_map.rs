@@ -145,14 +145,18 @@ impl CycleMap {
     /// Writes OUT/fig9_distances.csv, OUT/fig9_mds.csv and OUT/fig9_mds.svg|png.
     pub fn write_files(&self, out: &Path, title: &str) -> Result<(), StudyError> {
         self.distances.write_csv(&out.join("fig9_distances.csv"))?;
+        // Only the frames are named (interpolated poses would crowd the path).
+        let frames = self.kinds.iter().map(|k| k == "key").collect();
+        let names = crate::plot::PointNames::Some(frames);
         for ext in ["svg", "png"] {
-            crate::plot::scatter_map(
+            crate::plot::scatter_map_with(
                 &out.join(format!("fig9_mds.{ext}")),
                 &self.coords,
                 &self.names,
                 Some(&self.kinds),
                 title,
                 Some(self.stress),
+                &names,
             )?;
         }
         let mut csv = String::from("pose,frame_position,kind,x,y\n");

@@ -175,7 +175,19 @@ pub fn run_report(
     }
     let mut order: Vec<usize> = (0..defs.len()).collect();
     order.sort_by(|&a, &b| labels[a].cmp(&labels[b]).then(a.cmp(&b)));
-    crate::plot::heatmap(&out.join("similarity.svg"), &main.matrix, &order, Some(&labels))?;
+    for ext in ["svg", "png"] {
+        crate::plot::heatmap(
+            &out.join(format!("similarity.{ext}")),
+            &main.matrix,
+            &order,
+            Some(&labels),
+            &format!(
+                "Cycle distances (eq. 13) of {} subjects, by group",
+                main.matrix.len()
+            ),
+            "distance (normalized units)",
+        )?;
+    }
     let e = crate::embed::smacof(
         &main.matrix,
         &crate::embed::MdsOptions {
@@ -275,9 +287,15 @@ pub fn run_report(
          reading). The last column is eq. 15 on the average of the two one-vs-rest matrices (as \
          `qcshape classify`), where both numbers equal the accuracy for two classes. 1-NN: \
          leave-one-out nearest-neighbour accuracy on the same distances (no clustering: how much \
-         class information the distances hold, whatever 2-means does with it). MDS of the subjects \
-         by the eq. 13 matrix: `subjects_mds.svg`.\n",
+         class information the distances hold, whatever 2-means does with it).\n",
         main.scores.positive, main.scores.positive, main.scores.negative
+    )?;
+    writeln!(
+        md,
+        "![Subjects by the similarity of their cycles: SMACOF MDS of the eq. 13 matrix, colour and \
+         marker the group](subjects_mds.png)\n\n\
+         ![Heat map of the eq. 13 matrix, subjects ordered by group (white lines between the \
+         groups)](similarity.png)\n"
     )?;
     writeln!(
         md,
@@ -398,19 +416,25 @@ pub fn run_report(
     fig9_text(&mut md, map)?;
     writeln!(
         md,
-        "\nFiles: `similarity.csv` (eq. 13 matrix), `similarity.svg` (heat map by class), `table4.csv`, \
+        "\nFiles: `similarity.csv` (eq. 13 matrix), `similarity.svg|png` (heat map by class), \
+         `subjects_mds.svg|png`, `table4.csv`, \
          `table5.csv`, `subjects.csv`, `fig9_*`, `meshes/` (when meshed here)."
     )?;
     Ok(md)
 }
 
 fn fig9_text(md: &mut String, map: &CycleMap) -> std::fmt::Result {
-    writeln!(md, "![Fig. 9](fig9_mds.svg)\n")?;
+    writeln!(
+        md,
+        "![Fig. 9: MDS of the poses of one cycle; frames (`key`, named by number) and \
+         interpolated poses in two colours and markers](fig9_mds.png)\n"
+    )?;
     writeln!(
         md,
         "{} poses ({} frames as `key`, {} interpolated), geodesic distance dis(P_i, P_j) of every \
-         pair ({} geodesics, one solver{}), SMACOF in 2-D, normalized stress {:.4}. Points are named by \
-         their position in frames (`3` = frame 3, `3.25` = a quarter of the way to frame 4). Length \
+         pair ({} geodesics, one solver{}), SMACOF in 2-D, normalized stress {:.4}. The frames are named \
+         by number in the figure; `fig9_mds.csv` names every pose by its position in frames (`3` = \
+         frame 3, `3.25` = a quarter of the way to frame 4). Length \
          of the path through the poses in order: {:.3}; largest distance {:.3} between `{}` and `{}` \
          (normalized units). Files: `fig9_mds.svg|png`, `fig9_mds.csv`, `fig9_distances.csv`.",
         map.n_poses,

@@ -72,13 +72,14 @@ pub struct MetricSpec {
 }
 
 impl MetricSpec {
-    /// Defaults: quadratic form, endpoint weights, `lambda = 0.1`, frozen areas.
+    /// Defaults: quadratic form, endpoint weights, `lambda` = [`crate::defaults::LAMBDA`]
+    /// (0.1), frozen areas.
     pub fn new(kind: MetricKind) -> Self {
         MetricSpec {
             kind,
             form: ConformalForm::Quadratic,
             weights: QcWeights::Endpoints,
-            lambda: 0.1,
+            lambda: crate::defaults::LAMBDA,
             frozen_areas: true,
         }
     }

@@ -24,9 +24,11 @@ use crate::multires::{Hierarchy, HierarchyError, DEFAULT_RATIO};
 /// Options of the temporal interpolation.
 #[derive(Debug, Clone)]
 pub struct InterpolationOptions {
-    /// Number `n` of poses inserted between two key poses. Default 3 (as in paper section 4).
+    /// Number `n` of poses inserted between two key poses. Default
+    /// [`crate::defaults::PAPER_INSERT`] (3, as in paper sections 3.3 and 4).
     pub insert: usize,
-    /// Number of spatial levels, the input mesh included (1 = no multiresolution). Default 3.
+    /// Number of spatial levels, the input mesh included (1 = no multiresolution). Default
+    /// [`crate::defaults::LEVELS`] (1: the multiresolution solve was not faster, README).
     pub levels: usize,
     /// Share of vertices kept by each coarsening step. Default [`DEFAULT_RATIO`] (0.25).
     pub ratio: f64,
@@ -41,8 +43,8 @@ pub struct InterpolationOptions {
 impl Default for InterpolationOptions {
     fn default() -> Self {
         InterpolationOptions {
-            insert: 3,
-            levels: 3,
+            insert: crate::defaults::PAPER_INSERT,
+            levels: crate::defaults::LEVELS,
             ratio: DEFAULT_RATIO,
             geodesic: GeodesicOptions::default(),
             normalization: Normalization::MeanEdgeOfFirst,

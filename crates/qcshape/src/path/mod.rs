@@ -112,6 +112,19 @@ impl std::str::FromStr for Solver {
 }
 
 impl Solver {
+    /// The command-line name (`preconditioned`, `gauss-newton`, `newton`,
+    /// `gauss-newton-direct`, `lbfgs`, `plain-lbfgs`); [`str::parse`] reads it back.
+    pub fn label(self) -> &'static str {
+        match self {
+            Solver::Preconditioned => "preconditioned",
+            Solver::GaussNewton => "gauss-newton",
+            Solver::Newton => "newton",
+            Solver::LevenbergMarquardt => "gauss-newton-direct",
+            Solver::Lbfgs => "lbfgs",
+            Solver::PlainLbfgs => "plain-lbfgs",
+        }
+    }
+
     /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`: 100 outer
     /// steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a linear system),
     /// 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers
@@ -176,11 +189,11 @@ impl GeodesicOptions {
 impl Default for GeodesicOptions {
     fn default() -> Self {
         GeodesicOptions {
-            steps: 8,
-            solver: Solver::Preconditioned,
+            steps: crate::defaults::STEPS,
+            solver: crate::defaults::SOLVER,
             max_iterations: None,
-            gradient_tolerance: 1e-6,
-            energy_tolerance: 1e-12,
+            gradient_tolerance: crate::defaults::TOLERANCE,
+            energy_tolerance: crate::defaults::ENERGY_TOLERANCE,
             target_energy: None,
             lbfgs_memory: 10,
             preconditioner_refresh: 45,

@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{color, msg, padded, render, Figure, PlotError, FAMILY};
+use super::{color, draw_legend, msg, padded, render, Figure, PlotError, Swatch, FAMILY};
 
 /// One group: its name and `(series, mean, sd)` entries.
 pub type BarGroup = (String, Vec<(String, f64, f64)>);
@@ -17,13 +17,18 @@ struct Bars<'a> {
     title: String,
     y_label: String,
     y_range: (f64, f64),
+    /// Whether every mean is >= 0 (then lower whiskers stop at 0).
+    non_negative: bool,
 }
 
 /// Writes grouped bars to `path` (`.svg` or `.png`, atomically): along x one group per entry
 /// of `groups` (e.g. a deformation type), inside it one bar per series (e.g. a metric) of
-/// height `mean` with an error bar from `mean - sd` to `mean + sd`. Series keep one colour
-/// across groups (legend in order of first appearance); a group may lack some series. Means
-/// and SDs must be finite, SDs non-negative.
+/// height `mean` with an error bar from `mean - sd` to `mean + sd`. When every mean is
+/// non-negative (errors, distances, times) the quantity is taken as non-negative and the lower
+/// whisker is clipped at 0 (asymmetric bars: `max(mean - sd, 0)` to `mean + sd`); say so in the
+/// caption. Series keep one colour across groups (legend in order of first appearance, right
+/// of the chart, outside the data); a group may lack some series. Means and SDs must be
+/// finite, SDs non-negative.
 pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) -> Result<(), PlotError> {
     let invalid = |message: String| PlotError::Invalid {
         path: path.into(),
@@ -33,6 +38,7 @@ pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) 
         return Err(invalid("no bars to plot".into()));
     }
     let mut series: Vec<String> = Vec::new();
+    let non_negative = groups.iter().all(|g| g.1.iter().all(|e| e.1 >= 0.0));
     let (mut lo, mut hi) = (0.0f64, 0.0f64);
     for (g, entries) in groups {
         for (s, mean, sd) in entries {
@@ -44,7 +50,7 @@ pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) 
             if !series.contains(s) {
                 series.push(s.clone());
             }
-            lo = lo.min(mean - sd);
+            lo = lo.min(if non_negative { 0.0 } else { mean - sd });
             hi = hi.max(mean + sd);
         }
     }
@@ -59,14 +65,33 @@ pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) 
         title: title.to_string(),
         y_label: y_label.to_string(),
         y_range,
+        non_negative,
     };
     render(path, &fig)
+}
+
+/// The lower end of a whisker: `mean - sd`, clipped at 0 for a non-negative quantity.
+fn whisker_low(mean: f64, sd: f64, non_negative: bool) -> f64 {
+    if non_negative {
+        (mean - sd).max(0.0)
+    } else {
+        mean - sd
+    }
+}
+
+impl Bars<'_> {
+    /// Width of the legend panel right of the chart.
+    fn legend_width(&self) -> u32 {
+        let longest = self.series.iter().map(|s| s.chars().count()).max().unwrap_or(0) as u32;
+        (44 + 8 * longest).clamp(100, 320)
+    }
 }
 
 impl Figure for Bars<'_> {
     fn size(&self) -> (u32, u32) {
         (
-            (160 + 90 * self.groups.len() as u32 * self.series.len().max(1) as u32 / 2).clamp(640, 1800),
+            (160 + 90 * self.groups.len() as u32 * self.series.len().max(1) as u32 / 2).clamp(640, 1800)
+                + self.legend_width(),
             600,
         )
     }
@@ -78,8 +103,12 @@ impl Figure for Bars<'_> {
         const U: i32 = 1000;
         let m = self.series.len() as i32;
         let centres: Vec<i32> = (0..ng as i32).map(|g| g * U + U / 2).collect();
-        let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, (FAMILY, 22))
+        let (w, _) = self.size();
+        let root = root
+            .titled(&self.title, (FAMILY, super::title_size(&self.title, w)))
+            .map_err(msg)?;
+        let (plot, legend) = root.split_horizontally(w - self.legend_width());
+        let mut chart = ChartBuilder::on(&plot)
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(70)
@@ -99,7 +128,9 @@ impl Figure for Bars<'_> {
             .x_label_formatter(&group_name)
             .y_desc(self.y_label.as_str())
             .label_style((FAMILY, 13))
-            .light_line_style(RGBColor(235, 235, 235))
+            .axis_desc_style((FAMILY, 14))
+            .bold_line_style(RGBColor(225, 225, 225))
+            .max_light_lines(0)
             .draw()
             .map_err(msg)?;
         let width = 8 * U / 10 / m;
@@ -117,18 +148,17 @@ impl Figure for Bars<'_> {
                     bars.iter()
                         .map(|&(x0, mean, _)| Rectangle::new([(x0, 0.0), (x0 + width, mean)], style)),
                 )
-                .map_err(msg)?
-                .label(name.as_str())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], style));
+                .map_err(msg)?;
             let whisker = BLACK.stroke_width(1);
             chart
                 .draw_series(bars.iter().map(|&(x0, mean, sd)| {
                     let (xc, cap) = (x0 + width / 2, width / 4);
+                    let low = whisker_low(mean, sd, self.non_negative);
                     PathElement::new(
                         vec![
-                            (xc - cap, mean - sd),
-                            (xc + cap, mean - sd),
-                            (xc, mean - sd),
+                            (xc - cap, low),
+                            (xc + cap, low),
+                            (xc, low),
                             (xc, mean + sd),
                             (xc - cap, mean + sd),
                             (xc + cap, mean + sd),
@@ -138,14 +168,13 @@ impl Figure for Bars<'_> {
                 }))
                 .map_err(msg)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FAMILY, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(msg)?;
+        let entries: Vec<(String, RGBColor, Swatch)> = self
+            .series
+            .iter()
+            .enumerate()
+            .map(|(s, n)| (n.clone(), color(s), Swatch::Box))
+            .collect();
+        draw_legend(&legend, &entries, 40, None).map_err(msg)?;
         Ok(())
     }
 }
@@ -197,12 +226,26 @@ mod tests {
     }
 
     #[test]
+    fn whiskers_of_non_negative_data_stop_at_zero() {
+        assert_eq!(whisker_low(0.1, 0.5, true), 0.0);
+        assert_eq!(whisker_low(0.6, 0.5, true), 0.6 - 0.5);
+        assert_eq!(whisker_low(0.1, 0.5, false), 0.1 - 0.5);
+        // The axis of non-negative data starts at 0 even when mean - sd < 0.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.svg");
+        let g = vec![("a".to_string(), vec![("s".to_string(), 0.1, 0.5)])];
+        error_bars(&p, &g, "t", "y").unwrap();
+        let svg = std::fs::read_to_string(&p).unwrap();
+        assert!(!svg.contains(">-0."), "no negative tick labels");
+    }
+
+    #[test]
     fn png_bars_and_bad_values() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("bars.png");
         error_bars(&p, &groups(), "Interpolation error", "mean error").unwrap();
         let (w, h, _) = decode_png(&p);
-        assert_eq!((w, h), (640, 600));
+        assert_eq!((w, h), (640 + 164, 600));
         let mut bad = groups();
         bad[1].1[0].2 = -1.0;
         let e = error_bars(&p, &bad, "t", "y").unwrap_err().to_string();

@@ -21,6 +21,8 @@ struct Heatmap {
     /// Display positions after which the class changes.
     boundaries: Vec<usize>,
     max: f64,
+    title: String,
+    value_label: String,
 }
 
 /// Writes a heat map of `d` to `path` (`.svg` or `.png`, atomically): cell `(r, c)` shows
@@ -28,11 +30,15 @@ struct Heatmap {
 /// with a colour bar. `order` must be a permutation of `0..n` (e.g. the deformations sorted
 /// by class). With `labels` (n, in matrix order), axis names read `name (label)` and white
 /// lines separate consecutive runs of one label. Names are written up to 80 deformations.
+/// `title` is drawn above the map (say which metric and data set), `value_label` beside the
+/// colour bar (what the colours measure, e.g. `distance (normalized units)`).
 pub fn heatmap(
     path: &Path,
     d: &DistanceMatrix,
     order: &[usize],
     labels: Option<&[String]>,
+    title: &str,
+    value_label: &str,
 ) -> Result<(), PlotError> {
     let n = d.len();
     let invalid = |message: String| PlotError::Invalid {
@@ -81,13 +87,15 @@ pub fn heatmap(
         names,
         boundaries,
         max,
+        title: title.to_string(),
+        value_label: value_label.to_string(),
     };
     render(path, &fig)
 }
 
 impl Figure for Heatmap {
     fn size(&self) -> (u32, u32) {
-        (900, 800)
+        (940, 800)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
@@ -96,6 +104,18 @@ impl Figure for Heatmap {
         // [2k, 2k + 2], its centre is 2k + 1; display row r occupies y in [2(n-r-1), 2(n-r)].
         let span = 2 * n as i32;
         let (main, bar) = root.split_horizontally(800);
+        // The title spans the whole figure (the map and its colour bar).
+        let (main, bar) = {
+            let title_h = 40;
+            root.draw(&Text::new(
+                self.title.clone(),
+                (470, 12),
+                TextStyle::from((FAMILY, super::title_size(&self.title, 940)).into_font())
+                    .pos(Pos::new(HPos::Center, VPos::Top)),
+            ))
+            .map_err(msg)?;
+            (main.margin(title_h, 0, 0, 0), bar.margin(title_h, 0, 0, 0))
+        };
         let named = n <= MAX_NAMED;
         let label_area = if named {
             let longest = self.names.iter().map(|s| s.chars().count()).max().unwrap_or(0);
@@ -105,7 +125,6 @@ impl Figure for Heatmap {
         };
         let centres: Vec<i32> = (0..n as i32).map(|i| 2 * i + 1).collect();
         let mut chart = ChartBuilder::on(&main)
-            .caption("Distance matrix", (FAMILY, 22))
             .margin(12)
             .x_label_area_size(label_area)
             .y_label_area_size(label_area)
@@ -170,17 +189,20 @@ impl Figure for Heatmap {
         let steps = 64;
         let top = if self.max > 0.0 { self.max } else { 1.0 };
         let mut cb = ChartBuilder::on(&bar)
-            .margin_top(52)
+            .margin_top(12)
             .margin_bottom(label_area as i32 + 12)
-            .margin_right(8)
-            .y_label_area_size(60)
+            .margin_left(6)
+            .margin_right(4)
+            .right_y_label_area_size(90)
             .build_cartesian_2d(0f64..1f64, 0f64..top)
             .map_err(msg)?;
         cb.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
             .y_labels(6)
-            .y_label_style((FAMILY, 10))
+            .y_label_style((FAMILY, 11))
+            .y_desc(self.value_label.as_str())
+            .axis_desc_style((FAMILY, 13))
             .draw()
             .map_err(msg)?;
         let levels: Vec<f64> = (0..steps)
@@ -202,6 +224,10 @@ mod tests {
     use super::super::tests::decode_png;
     use super::*;
 
+    fn svg_has_text(p: &Path, text: &str) -> bool {
+        std::fs::read_to_string(p).unwrap().contains(text)
+    }
+
     fn matrix() -> (DistanceMatrix, Vec<String>) {
         let labels: Vec<String> = (0..6).map(|i| ["a", "b"][i % 2].to_string()).collect();
         let names = (0..6).map(|i| format!("m{i}")).collect();
@@ -215,7 +241,16 @@ mod tests {
         let (d, labels) = matrix();
         let p = dir.path().join("h.svg");
         let order = [0, 2, 4, 1, 3, 5];
-        heatmap(&p, &d, &order, Some(&labels)).unwrap();
+        heatmap(
+            &p,
+            &d,
+            &order,
+            Some(&labels),
+            "Test distances",
+            "distance (units)",
+        )
+        .unwrap();
+        assert!(svg_has_text(&p, "Test distances") && svg_has_text(&p, "distance (units)"));
         let svg = std::fs::read_to_string(&p).unwrap();
         let [r0, g0, b0] = heat_colors(&[0.0], 0.0, 4.0)[0];
         let [r1, g1, b1] = heat_colors(&[4.0], 0.0, 4.0)[0];
@@ -243,7 +278,7 @@ mod tests {
             fills,
             vec![[r0, g0, b0], mid, mid, [r1, g1, b1], [r1, g1, b1], [r1, g1, b1]]
         );
-        let e = heatmap(&p, &d, &[0, 0, 1, 2, 3, 4], None)
+        let e = heatmap(&p, &d, &[0, 0, 1, 2, 3, 4], None, "t", "v")
             .unwrap_err()
             .to_string();
         assert!(e.contains("permutation"), "{e}");
@@ -254,9 +289,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (d, _) = matrix();
         let p = dir.path().join("h.png");
-        heatmap(&p, &d, &[0, 1, 2, 3, 4, 5], None).unwrap();
+        heatmap(&p, &d, &[0, 1, 2, 3, 4, 5], None, "t", "v").unwrap();
         let (w, h, rgb) = decode_png(&p);
-        assert_eq!((w, h), (900, 800));
+        assert_eq!((w, h), (940, 800));
         let [r, g, b] = heat_colors(&[4.0], 0.0, 4.0)[0];
         let bright = rgb.chunks_exact(3).filter(|p| *p == [r, g, b]).count();
         assert!(bright > 18 * 100, "cells should cover many pixels: {bright}");

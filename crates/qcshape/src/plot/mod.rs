@@ -13,7 +13,7 @@ mod scatter;
 
 pub use bars::{error_bars, BarGroup};
 pub use heatmap::heatmap;
-pub use scatter::scatter_map;
+pub use scatter::{scatter_map, scatter_map_with, PointNames};
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
@@ -103,6 +103,88 @@ const PALETTE: [(u8, u8, u8); 10] = [
 pub(crate) fn color(i: usize) -> RGBColor {
     let (r, g, b) = PALETTE[i % PALETTE.len()];
     RGBColor(r, g, b)
+}
+
+/// The outline of marker `kind` (cycled: circle, triangle, square, diamond, inverted
+/// triangle) of radius `r` pixels, as offsets from its centre.
+pub(crate) fn marker_outline(kind: usize, r: i32) -> Vec<(i32, i32)> {
+    let polygon = |n: usize, phase: f64, scale: f64| -> Vec<(i32, i32)> {
+        (0..n)
+            .map(|k| {
+                let a = phase + std::f64::consts::TAU * k as f64 / n as f64;
+                let rr = scale * r as f64;
+                ((rr * a.cos()).round() as i32, (-rr * a.sin()).round() as i32)
+            })
+            .collect()
+    };
+    use std::f64::consts::FRAC_PI_2;
+    match kind % 5 {
+        0 => polygon(16, 0.0, 1.0),
+        1 => polygon(3, FRAC_PI_2, 1.25),
+        2 => vec![(-r, -r), (r, -r), (r, r), (-r, r)],
+        3 => polygon(4, FRAC_PI_2, 1.3),
+        _ => polygon(3, -FRAC_PI_2, 1.25),
+    }
+}
+
+/// The font size of a title: 20 px, smaller (down to 11) when the text would not fit in
+/// `width` pixels with a margin (DejaVu Sans averages about 0.58 em per character).
+pub(crate) fn title_size(title: &str, width: u32) -> u32 {
+    let chars = title.chars().count().max(1) as f64;
+    let fit = (width as f64 - 24.0) / (0.58 * chars);
+    (fit.floor() as u32).clamp(11, 20)
+}
+
+/// What a legend entry shows beside its text.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Swatch {
+    /// A marker of [`marker_outline`]'s kind.
+    Marker(usize),
+    /// A filled box (a bar's colour).
+    Box,
+}
+
+/// Draws a legend (one row per entry: swatch and text) in `area` from `top` pixels down,
+/// outside any chart's data area. Returns the height used.
+pub(crate) fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[(String, RGBColor, Swatch)],
+    top: i32,
+    heading: Option<&str>,
+) -> Result<i32, String> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let row = 22;
+    let mut y = top;
+    let text = TextStyle::from((FAMILY, 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    if let Some(h) = heading {
+        area.draw(&Text::new(h.to_string(), (10, y), text.clone()))
+            .map_err(msg)?;
+        y += row;
+    }
+    for (label, c, swatch) in entries {
+        let (cx, cy) = (20, y);
+        match swatch {
+            Swatch::Marker(kind) => {
+                let pts: Vec<(i32, i32)> = marker_outline(*kind, 6)
+                    .into_iter()
+                    .map(|(dx, dy)| (cx + dx, cy + dy))
+                    .collect();
+                area.draw(&Polygon::new(pts.clone(), c.filled())).map_err(msg)?;
+                let mut closed = pts;
+                closed.push(closed[0]);
+                area.draw(&PathElement::new(closed, BLACK.mix(0.6).stroke_width(1)))
+                    .map_err(msg)?;
+            }
+            Swatch::Box => {
+                area.draw(&Rectangle::new([(cx - 7, cy - 6), (cx + 7, cy + 6)], c.filled()))
+                    .map_err(msg)?;
+            }
+        }
+        area.draw(&Text::new(label.clone(), (cx + 16, cy), text.clone()))
+            .map_err(msg)?;
+        y += row;
+    }
+    Ok(y - top)
 }
 
 /// A figure that can draw itself on any plotters backend.

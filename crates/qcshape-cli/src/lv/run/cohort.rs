@@ -28,7 +28,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         metric: settings.metric,
         geodesic: settings.geodesic.clone(),
         insert: a.common.insert,
-        levels: 1,
+        levels: qcshape::defaults::LEVELS,
         transport: Transport::Parallel,
         base: 0,
         align: a.align,
@@ -149,27 +149,6 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         );
     }
 
-    // Table 5.
-    let mut sweep = Vec::new();
-    if from_images && !a.no_sweep {
-        for &n in &a.landmark_sweep {
-            if n == a.landmarks {
-                sweep.push((n, main.scores.clone(), 0.0));
-                continue;
-            }
-            let t0 = Instant::now();
-            let c = mesh_cohort(&a.dir, n, &mesh, &progress)?;
-            let r = analyse(&c.defs, &opts, a.common.open, &split, &progress)?;
-            let secs = t0.elapsed().as_secs_f64();
-            eprintln!(
-                "{n} landmarks: sensitivity {:.1} %, specificity {:.1} % ({secs:.1} s)",
-                100.0 * r.scores.sensitivity,
-                100.0 * r.scores.specificity
-            );
-            sweep.push((n, r.scores, secs));
-        }
-    }
-
     // Fig. 9.
     let idx = match &a.mds_subject {
         Some(name) => defs
@@ -193,38 +172,91 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         &format!("{}: {} frames + interpolated poses", defs[idx].name, frames),
     )?;
 
-    let summary = RunSummary {
-        args_line: super::args_line(),
-        input_note,
-        landmarks: a.landmarks,
-        from_images,
-        region: a.region.clone(),
-        frames,
-        restarts: a.restarts,
-        seed: a.seed,
-        mesh_seconds,
-        ed_es: base.ed_es.clone(),
-        total_seconds: t_all.elapsed().as_secs_f64(),
-        mds_subject: defs[idx].name.clone(),
-        split: split.sentence(),
-        align: match a.align {
-            Alignment::None => String::new(),
-            m => format!(
-                "{} alignment of every subject to the base (area-weighted Procrustes of its frame 0, the \
-                 same motion on all its frames), ",
-                m.label()
-            ),
-        },
-    };
-    let md = run_report(
-        &a.out, &summary, &settings, &defs, &main, &base.rows, &sweep, &map, &methods,
-    )?;
+    // report.md after the main run and after each landmark count of Table 5 (marked partial
+    // until the last), so an interrupted run leaves what is done.
     let path = a.out.join("report.md");
-    qcshape::io::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    let write_report =
+        |sweep: &[(usize, qcshape::lv::study::BinaryScores, f64)], partial: Option<String>| -> Result<()> {
+            let summary = RunSummary {
+                args_line: super::args_line(),
+                input_note: input_note.clone(),
+                landmarks: a.landmarks,
+                from_images,
+                region: a.region.clone(),
+                frames,
+                restarts: a.restarts,
+                seed: a.seed,
+                mesh_seconds: mesh_seconds.clone(),
+                ed_es: base.ed_es.clone(),
+                total_seconds: t_all.elapsed().as_secs_f64(),
+                mds_subject: defs[idx].name.clone(),
+                split: split.sentence(),
+                align: match a.align {
+                    Alignment::None => String::new(),
+                    m => format!(
+                    "{} alignment of every subject to the base (area-weighted Procrustes of its frame 0, the \
+                     same motion on all its frames), ",
+                    m.label()
+                ),
+                },
+            };
+            let mut md = run_report(
+                &a.out, &summary, &settings, &defs, &main, &base.rows, sweep, &map, &methods,
+            )?;
+            if let Some(after) = partial {
+                md = mark_partial(&md, &after);
+            }
+            qcshape::io::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+            Ok(())
+        };
+
+    // Table 5.
+    let mut sweep = Vec::new();
+    let sweeping = from_images && !a.no_sweep;
+    if sweeping {
+        write_report(&sweep, Some("Table 4 and Fig. 9".into()))?;
+        for &n in &a.landmark_sweep {
+            if n == a.landmarks {
+                sweep.push((n, main.scores.clone(), 0.0));
+                continue;
+            }
+            let t0 = Instant::now();
+            let c = mesh_cohort(&a.dir, n, &mesh, &progress)?;
+            let r = analyse(&c.defs, &opts, a.common.open, &split, &progress)?;
+            let secs = t0.elapsed().as_secs_f64();
+            eprintln!(
+                "{n} landmarks: sensitivity {:.1} %, specificity {:.1} % ({secs:.1} s)",
+                100.0 * r.scores.sensitivity,
+                100.0 * r.scores.specificity
+            );
+            sweep.push((n, r.scores, secs));
+            write_report(
+                &sweep,
+                Some(format!(
+                    "Table 5, {} of {} landmark counts",
+                    sweep.len(),
+                    a.landmark_sweep.len()
+                )),
+            )?;
+        }
+    }
+
+    write_report(&sweep, None)?;
     eprintln!(
         "wrote {} in {:.1} s",
         path.display(),
         t_all.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// `md` with the line "Partial report: still running (written after `after`)" under its title.
+fn mark_partial(md: &str, after: &str) -> String {
+    let note = format!(
+        "**Partial report: still running (written after {after}).** The final report replaces this file.\n\n"
+    );
+    match md.find("\n\n") {
+        Some(i) => format!("{}{note}{}", &md[..i + 2], &md[i + 2..]),
+        None => format!("{note}{md}"),
+    }
 }

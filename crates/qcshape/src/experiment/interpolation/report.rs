@@ -20,13 +20,13 @@ pub struct Comparison {
     pub exceptions: Vec<(String, f64, f64)>,
 }
 
-/// A number for a table: 4 decimals in [0.01, 1000), else 3 significant digits in
-/// scientific notation.
+/// A number for a table: 3 significant digits ([`crate::numfmt::significant`]), and `0` for
+/// an error at most `1e-12` mean edge lengths (an exact interpolation computed with rounding).
 fn num(v: f64) -> String {
-    if v == 0.0 || (0.01..1000.0).contains(&v.abs()) {
-        format!("{v:.4}")
+    if v.abs() <= 1e-12 {
+        "0".into()
     } else {
-        format!("{v:.3e}")
+        crate::numfmt::significant(v, 3)
     }
 }
 
@@ -226,17 +226,27 @@ impl InterpolationReport {
     }
 
     /// A Markdown table: rows = deformation types (and all cases together), columns = methods
-    /// as `mean ± sd` of the relative error, followed by the paper's claim checked.
+    /// as `mean ± sd` of the relative error, followed by the paper's claim checked and the bar
+    /// chart (`interpolation.png`, embedded).
     pub fn to_markdown(&self) -> String {
+        self.to_markdown_in("")
+    }
+
+    /// [`InterpolationReport::to_markdown`] for a Markdown file in another folder: the figure
+    /// is linked as `{prefix}interpolation.png` (e.g. prefix `fig4/`).
+    pub fn to_markdown_in(&self, prefix: &str) -> String {
+        use crate::numfmt::count;
         let mut s =
             String::from("## Interpolation error per deformation type (paper section 3.1, Fig. 4c)\n\n");
         s.push_str(&format!(
-            "The middle pose of each deformation is interpolated from its first and last pose ({} \
-             inserted pose(s), {} spatial level(s)). Error of a case: mean over vertices of \
+            "The middle pose of each deformation is interpolated from its first and last pose ({}, \
+             {}). Error of a case: mean over vertices of \
              |predicted - true| divided by the mean edge length of the true middle pose \
-             (dimensionless). Cells: mean ± sample SD over the n deformations of each type; \
+             (dimensionless). Cells: mean ± sample SD over the n deformations of each type \
+             (0: exact up to rounding, at most 1e-12); \
              `{BASELINE}` is the average of the first and last pose.\n\n",
-            self.insert, self.levels
+            count(self.insert, "inserted pose", "inserted poses"),
+            count(self.levels, "spatial level", "spatial levels")
         ));
         s.push_str("| type | n |");
         for m in &self.methods {
@@ -269,6 +279,10 @@ impl InterpolationReport {
         s.push_str("\n\n");
         s.push_str(&self.claim());
         s.push_str("\n\n");
+        s.push_str(&format!(
+            "![Fig. 4c: interpolation error of the middle pose per deformation type and metric; \
+             bars: mean, whiskers: ± 1 SD, the lower one clipped at 0]({prefix}interpolation.png)\n\n"
+        ));
         s.push_str(&unconverged_note(&self.cases));
         if !self.skipped.is_empty() {
             s.push_str(&format!("\nSkipped: {}.\n", self.skipped.join("; ")));

@@ -197,8 +197,15 @@ impl TransferReport {
     /// The report in Markdown: settings, the metric x transport table (mean ± SD over cases of
     /// the last pose's mean per-vertex error), one sentence per metric on parallel transport
     /// (and Schild's ladder) against Euclidean transfer, the same after the best rigid
-    /// alignment ([`Measure::Rigid`]), and a per-kind table.
+    /// alignment ([`Measure::Rigid`]), a per-kind table and the two bar charts (embedded PNGs).
     pub fn to_markdown(&self) -> String {
+        self.to_markdown_in("")
+    }
+
+    /// [`TransferReport::to_markdown`] for a Markdown file in another folder: the files of
+    /// [`TransferReport::write`] are named as `{prefix}transfer.png`, `{prefix}fig5/` (e.g.
+    /// prefix `fig5/` when the report was written to `fig5/`).
+    pub fn to_markdown_in(&self, prefix: &str) -> String {
         let mut s = String::new();
         let n_cases = self.kinds.len() * self.bases.len();
         let kinds: Vec<&str> = self.kinds.iter().map(|k| k.name()).collect();
@@ -272,9 +279,17 @@ impl TransferReport {
         }
         let _ = writeln!(
             s,
-            "\nFig. 5 case: {} of the {} transferred to the {} (PLY files in `fig5/`, per-vertex error \
+            "\nFig. 5 case: {} of the {} transferred to the {} (PLY files in `{prefix}fig5/`, per-vertex error \
              as the `error` scalar and heat colours on one shared scale). Total time {:.1} s.",
             self.figure.kind, self.source, self.figure.base, self.seconds
+        );
+        let _ = writeln!(
+            s,
+            "\n![Transfer error per metric and transport (mean over the {n_cases} cases; whiskers: \
+             ± 1 SD, the lower one clipped at 0)]({prefix}transfer.png)\n\n\
+             ![Transfer error per deformation kind (mean over the {} bases; whiskers: ± 1 SD, \
+             clipped at 0)]({prefix}transfer-kinds.png)",
+            self.bases.len()
         );
         s
     }
