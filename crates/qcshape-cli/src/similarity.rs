@@ -37,23 +37,23 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses inserted between consecutive key poses before comparing (section 2.2.1).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
     insert: usize,
     /// Spatial levels of the interpolation (1 = single level, the measured fastest).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
     levels: usize,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = "euclidean")]
+    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
     transport: Transport,
     /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
     /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
     /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = "rigid")]
+    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::similarity::PipelineOptions::default().smoothing)]
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
     smooth: usize,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]

@@ -11,7 +11,6 @@ use qcshape::experiment::approx::{compare_modes, Mode};
 use qcshape::experiment::robustness::Scenario;
 use qcshape::similarity::{Approx, PipelineOptions};
 use qcshape::synth::{genus0_benchmark, perturbed_benchmark, DeformationKind, InitialShape, SynthOptions};
-use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 
@@ -55,13 +54,13 @@ pub struct Args {
     )]
     modes: Vec<String>,
     /// Taubin smoothing iterations of every pose (the pipeline's default).
-    #[arg(long, default_value_t = PipelineOptions::default().smoothing)]
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
     smooth: usize,
     /// Clustering restarts of the k-means whose agreement (ARI) is measured.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     restarts: usize,
     /// Seed of the clusterings.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Worker threads (default: all cores).
     #[arg(long)]
@@ -113,8 +112,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let opts = PipelineOptions {
         metric: args.metric.spec()?,
         geodesic,
-        transport: Transport::Translate,
-        align: Alignment::Rigid,
+        transport: qcshape::defaults::TRANSPORT,
+        align: qcshape::defaults::ALIGN,
         smoothing: args.smooth,
         ..Default::default()
     };

@@ -19,6 +19,7 @@ use crate::transport::{
     align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
 };
 
+use crate::defaults;
 use super::engine::{compute_pairs, Approx, PairDistance, Pose, SimilarityError};
 
 /// Options of the whole pipeline.
@@ -59,14 +60,14 @@ pub struct PipelineOptions {
 impl Default for PipelineOptions {
     fn default() -> Self {
         PipelineOptions {
-            metric: MetricSpec::new(crate::metric::MetricKind::QuasiConformal),
+            metric: MetricSpec::new(defaults::METRIC),
             geodesic: GeodesicOptions::default(),
-            insert: 0,
-            levels: 1,
-            transport: Transport::Translate,
+            insert: defaults::INSERT,
+            levels: defaults::LEVELS,
+            transport: defaults::TRANSPORT,
             base: 0,
-            align: Alignment::Rigid,
-            smoothing: 10,
+            align: defaults::ALIGN,
+            smoothing: defaults::SMOOTH,
             approx: Approx::Exact,
         }
     }
