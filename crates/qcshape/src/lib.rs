@@ -27,6 +27,7 @@ pub mod metric;
 pub mod multires;
 pub mod path;
 pub mod plot;
+pub mod render;
 pub mod similarity;
 pub mod space;
 pub mod synth;
