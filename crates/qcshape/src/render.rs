@@ -598,14 +598,38 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
     let err = |e: &dyn std::fmt::Display| RenderError::Draw(e.to_string());
     let root = BitMapBackend::with_buffer(&mut img.rgb, (w, h)).into_drawing_area();
     let black = RGBColor(0, 0, 0);
+    // Title and subtitle: the font shrinks (down to 9 px) until the line fits the width,
+    // then the line is cut with an ellipsis.
+    let fit = |text: &str, size: u32| -> (String, u32) {
+        let room = w.saturating_sub(16);
+        let width = |t: &str, s: u32| {
+            root.estimate_text_size(t, &TextStyle::from((FAMILY, s).into_font()))
+                .map_or(u32::MAX, |(tw, _)| tw)
+        };
+        let mut s = size;
+        while s > 9 && width(text, s) > room {
+            s -= 1;
+        }
+        let mut t: String = text.to_string();
+        while width(&t, s) > room && t.chars().count() > 1 {
+            t.pop();
+            while t.ends_with('\u{2026}') {
+                t.pop();
+            }
+            t.pop();
+            t.push('\u{2026}');
+        }
+        (t, s)
+    };
+    let (title, size) = fit(&opts.title, 19);
     root.draw(&Text::new(
-        opts.title.clone(),
-        (10, 8),
-        (FAMILY, 19).into_font().color(&black),
+        title,
+        (8, 8),
+        (FAMILY, size).into_font().color(&black),
     ))
     .map_err(|e| err(&e))?;
     let sub = format!(
-        "colour: {} ({} map{})",
+        "colour: {} ({} map)",
         if opts.label.is_empty() {
             "value"
         } else {
@@ -616,9 +640,9 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
         } else {
             "sequential"
         },
-        if opts.grey.is_some() { "; grey: masked" } else { "" }
     );
-    root.draw(&Text::new(sub, (10, 32), (FAMILY, 13).into_font().color(&black)))
+    let (sub, size) = fit(&sub, 13);
+    root.draw(&Text::new(sub, (8, 32), (FAMILY, size).into_font().color(&black)))
         .map_err(|e| err(&e))?;
     for (k, v) in opts.views.iter().enumerate() {
         let (x, y) = lay.view_origin(k);
