@@ -19,6 +19,7 @@ pub mod dataset;
 pub mod embed;
 pub mod eval;
 pub mod experiment;
+pub mod explain;
 pub mod io;
 pub mod localize;
 pub mod lv;
