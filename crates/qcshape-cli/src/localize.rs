@@ -30,7 +30,7 @@ use crate::args::{in_pool, MetricArgs, SolverArgs};
 /// Writes DIR/contrast_<A>_vs_<B>.csv (vertex,score,p_value,significant), and .vtk and .ply
 /// files of the same name on the common base mesh with the point data score, p_value,
 /// significant (0/1), between and within (the PLY's quality is the score), and a PNG picture
-/// of the score on the base mesh (four views, non-significant vertices grey when any vertex
+/// of the score on the base mesh (six views, non-significant vertices grey when any vertex
 /// is significant, the --region outlined).
 #[derive(Debug, clap::Args)]
 #[command(

@@ -72,7 +72,7 @@ pub struct Args {
     details: Option<PathBuf>,
     /// With --details: split the similarity of the pair NAME_A,NAME_B per pose and vertex and
     /// write DETAILS_STEM.explain_A_vs_B.csv (vertex,total,pose_000,...), .vtk and .ply on the
-    /// base mesh (those fields as point data) and .png (the total, four views). Normalized
+    /// base mesh (those fields as point data) and .png (the total, six views). Normalized
     /// length units; `total` sums to the pair's similarity.
     #[arg(long, value_name = "NAME_A,NAME_B", requires = "details")]
     explain: Option<String>,

@@ -67,7 +67,7 @@ pub fn explain(
     let find = |name: &str| {
         prepared.names.iter().position(|n| n == name).ok_or_else(|| {
             ExplainError::Name(format!(
-                "--explain: no deformation named {name:?} (the data set has {})",
+                "no deformation named {name:?} (the data set has {})",
                 prepared.names.join(", ")
             ))
         })
@@ -75,7 +75,7 @@ pub fn explain(
     let (i, j) = (find(a)?, find(b)?);
     if i == j {
         return Err(ExplainError::Name(format!(
-            "--explain names {a:?} twice: give two different deformations"
+            "{a:?} is named twice: give two different deformations"
         )));
     }
     let metric = opts.metric.build();

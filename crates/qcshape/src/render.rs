@@ -123,9 +123,10 @@ pub struct RenderOptions {
     pub title: String,
     /// The scalar's name and unit (second line, beside the colour bar's meaning).
     pub label: String,
-    /// Views, laid out in two columns (default front, back, left, top).
+    /// Views, in rows of two (up to four views) or three (default: all six, front, right,
+    /// top in the first row, back, left, bottom in the second, so every side is seen).
     pub views: Vec<View>,
-    /// Side of one view's square in pixels (default 320).
+    /// Side of one view's square in pixels (default 280).
     pub view_size: u32,
     /// Colour map.
     pub colormap: Colormap,
@@ -143,8 +144,15 @@ impl Default for RenderOptions {
         RenderOptions {
             title: String::new(),
             label: String::new(),
-            views: vec![View::Front, View::Back, View::Left, View::Top],
-            view_size: 320,
+            views: vec![
+                View::Front,
+                View::Right,
+                View::Top,
+                View::Back,
+                View::Left,
+                View::Bottom,
+            ],
+            view_size: 280,
             colormap: Colormap::Auto,
             range: None,
             grey: None,
@@ -196,7 +204,7 @@ pub struct Layout {
     pub header: u32,
     /// Side of one view.
     pub view: u32,
-    /// Columns of views.
+    /// Columns of views (two for up to four views, else three).
     pub columns: u32,
     /// Rows of views.
     pub rows: u32,
@@ -207,7 +215,7 @@ pub struct Layout {
 impl Layout {
     fn new(opts: &RenderOptions) -> Layout {
         let n = opts.views.len().max(1) as u32;
-        let columns = n.min(2);
+        let columns = if n > 4 { 3 } else { n.min(2) };
         Layout {
             header: 56,
             view: opts.view_size,
@@ -780,6 +788,8 @@ mod tests {
         let opts = RenderOptions {
             title: "sphere".into(),
             label: "z".into(),
+            views: vec![View::Front, View::Back, View::Left, View::Top],
+            view_size: 320,
             ..Default::default()
         };
         let img = render(&p, &f, &z, &opts).unwrap();
@@ -834,6 +844,7 @@ mod tests {
         let v: Vec<f64> = z.iter().map(|z| z + 1.0).collect();
         let opts = RenderOptions {
             views: vec![View::Front],
+            view_size: 320,
             grey: Some(z.iter().map(|&z| z < 0.0).collect()),
             outline: Some(z.iter().map(|&z| z > 0.5).collect()),
             ..Default::default()
@@ -867,6 +878,9 @@ mod tests {
         let a = render_png(&dir.path().join("a.png"), &p, &f, &z, &opts).unwrap();
         let b = render_png(&dir.path().join("b.png"), &p, &f, &z, &opts).unwrap();
         let (a, b) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
+        // The default: six views in two rows of three.
+        let lay = layout(&opts);
+        assert_eq!((lay.columns, lay.rows, lay.view), (3, 2, 280));
         assert_eq!(a, b);
         assert_eq!(&a[1..4], b"PNG");
     }
