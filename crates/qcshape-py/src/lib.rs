@@ -25,6 +25,7 @@ fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(data::icosphere, m)?)?;
     m.add_function(wrap_pyfunction!(data::similarity_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(data::pair_contributions, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::mds, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::scores, m)?)?;
     Ok(())
