@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::io::{self, Field};
-use qcshape::localize::{contrasts, pair_maps, LocalizeOptions};
+use qcshape::localize::{contrasts, pair_maps, read_vertex_mask, region_share, LocalizeOptions};
 use qcshape::path::GeodesicSolver;
+use qcshape::render::{render_png, RenderOptions};
 use qcshape::similarity::{prepare, PipelineOptions};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
@@ -23,9 +24,14 @@ use crate::args::{in_pool, MetricArgs, SolverArgs};
 /// units), its p-value comes from --permutations random relabellings (seeded), and vertices
 /// passing the Benjamini-Hochberg procedure at --alpha are significant.
 ///
+/// With --region FILE (a vertex mask), DIR/region_summary.csv gives per contrast the region's
+/// share of the area and of the positive score mass.
+///
 /// Writes DIR/contrast_<A>_vs_<B>.csv (vertex,score,p_value,significant), and .vtk and .ply
 /// files of the same name on the common base mesh with the point data score, p_value,
-/// significant (0/1), between and within (the PLY's quality is the score).
+/// significant (0/1), between and within (the PLY's quality is the score), and a PNG picture
+/// of the score on the base mesh (six views, non-significant vertices grey when any vertex
+/// is significant, the --region outlined).
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Per-vertex maps of where labelled groups of deformations differ",
@@ -59,6 +65,12 @@ pub struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// A vertex mask on the base mesh (CSV with `vertex` and `region` columns, e.g. the LV
+    /// phantom's meshes/abnormal_region.csv): reports each contrast's positive mass share in
+    /// the region against its area share (DIR/region_summary.csv) and outlines it in the
+    /// pictures.
+    #[arg(long)]
+    region: Option<PathBuf>,
 }
 
 /// A file name part for a label: letters, digits, `-`, `_` kept, the rest `_`.
@@ -131,6 +143,13 @@ pub fn run(args: &Args) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let base = &prepared.transferred[0][0];
     let faces = prepared.topology.faces();
+    let region = match &args.region {
+        Some(p) => Some(read_vertex_mask(p, base.len())?),
+        None => None,
+    };
+    let mut summary = String::from(
+        "a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant\n",
+    );
     for c in &result {
         let stem = format!("contrast_{}_vs_{}", file_part(&c.a), file_part(&c.b));
         let mut csv = String::from("vertex,score,p_value,significant\n");
@@ -155,6 +174,63 @@ pub fn run(args: &Args) -> Result<()> {
         for ext in ["vtk", "ply"] {
             io::write_mesh_fields(&args.out.join(format!("{stem}.{ext}")), base, faces, &fields)?;
         }
+        let n_sig = c.significant.iter().filter(|&&s| s).count();
+        let picture = RenderOptions {
+            title: format!(
+                "{} vs {}: {}; {n_sig} of {} vertices significant (FDR {})",
+                c.a,
+                c.b,
+                metric.name(),
+                c.score.len(),
+                args.alpha
+            ),
+            label: format!(
+                "score = mean between - mean within similarity split{}{}",
+                if n_sig > 0 { "; grey: not significant" } else { "" },
+                if region.is_some() {
+                    "; black line: --region"
+                } else {
+                    ""
+                }
+            ),
+            grey: (n_sig > 0).then(|| c.significant.iter().map(|&s| !s).collect()),
+            outline: region.clone(),
+            ..Default::default()
+        };
+        render_png(
+            &args.out.join(format!("{stem}.png")),
+            base,
+            faces,
+            &c.score,
+            &picture,
+        )?;
+        if let Some(r) = &region {
+            let share = region_share(&prepared.topology, base, &c.score, &c.significant, r);
+            writeln!(
+                summary,
+                "{},{},{},{},{:.6},{:.6},{:.4},{},{}",
+                c.a,
+                c.b,
+                share.vertices,
+                c.score.len(),
+                share.area_share,
+                share.positive_mass_share,
+                share.ratio,
+                share.significant_in_region,
+                share.significant
+            )?;
+            println!(
+                "{} vs {}: region of {} vertices: {:.1} % of the area, {:.1} % of the positive score mass (ratio {:.2}); {} of {} significant vertices in it",
+                c.a,
+                c.b,
+                share.vertices,
+                100.0 * share.area_share,
+                100.0 * share.positive_mass_share,
+                share.ratio,
+                share.significant_in_region,
+                share.significant
+            );
+        }
         println!(
             "{} vs {}: {} of {} vertices significant (FDR {}), max score {:.4e}, min p {:.4}",
             c.a,
@@ -165,6 +241,11 @@ pub fn run(args: &Args) -> Result<()> {
             c.score.iter().copied().fold(f64::MIN, f64::max),
             c.p_value.iter().copied().fold(1.0, f64::min)
         );
+    }
+    if region.is_some() {
+        io::write_atomically(&args.out.join("region_summary.csv"), |w| {
+            w.write_all(summary.as_bytes())
+        })?;
     }
     Ok(())
 }

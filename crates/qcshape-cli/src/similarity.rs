@@ -5,7 +5,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
-use qcshape::similarity::{merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Shard};
+use qcshape::similarity::{
+    merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Shard,
+};
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
@@ -85,6 +87,12 @@ pub struct Args {
     /// Interpolation and transfer stay exact.
     #[arg(long, default_value = "exact")]
     approx: Approx,
+    /// With --details: split the similarity of the pair NAME_A,NAME_B per pose and vertex and
+    /// write DETAILS_STEM.explain_A_vs_B.csv (vertex,total,pose_000,...), .vtk and .ply on the
+    /// base mesh (those fields as point data) and .png (the total, six views). Normalized
+    /// length units; `total` sums to the pair's similarity.
+    #[arg(long, value_name = "NAME_A,NAME_B", requires = "details")]
+    explain: Option<String>,
 }
 
 /// Merge the shards of a sharded similarity run into the matrix.
@@ -138,6 +146,21 @@ fn run_in_pool(args: &Args) -> Result<()> {
             args.input.display()
         );
     }
+    if let Some(pair) = &args.explain {
+        // Checked before the matrix is computed.
+        let names: Vec<&str> = pair.split(',').map(str::trim).collect();
+        for name in &names {
+            if !data.deformations.iter().any(|d| d.name == *name) {
+                bail!(
+                    "--explain: no deformation named {name:?} in {}",
+                    args.input.display()
+                );
+            }
+        }
+        if names.len() != 2 || names[0] == names[1] {
+            bail!("--explain {pair:?}: give two different deformation names separated by a comma");
+        }
+    }
     let opts = pipeline_options(
         &data,
         &args.metric,
@@ -180,6 +203,9 @@ fn run_in_pool(args: &Args) -> Result<()> {
     write_matrix(&args.output, &matrix)?;
     if let Some(path) = &args.details {
         write_details(path, &prepared.names, &pairs)?;
+        if let Some(pair) = &args.explain {
+            explain_pair(path, pair, &prepared, &opts)?;
+        }
     }
     journal.remove()?;
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
@@ -216,6 +242,34 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
         merged.count,
         merged.pairs.len(),
         args.output.display()
+    );
+    Ok(())
+}
+
+/// `--explain NAME_A,NAME_B`: the pair's per-pose, per-vertex split beside the details file.
+fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &PipelineOptions) -> Result<()> {
+    let Some((a, b)) = pair.split_once(',') else {
+        bail!("--explain {pair:?}: give two deformation names separated by a comma");
+    };
+    let e = qcshape::explain::explain(prepared, opts, a.trim(), b.trim())?;
+    let stem = qcshape::explain::stem_beside(details, &e.a, &e.b);
+    let base = &prepared.transferred[0][0];
+    let files = e.write(
+        &stem,
+        base,
+        prepared.topology.faces(),
+        &opts.metric.build().name(),
+    )?;
+    eprintln!(
+        "explained {} vs {} (similarity {:.6}): {}",
+        e.a,
+        e.b,
+        e.contributions.distance,
+        files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     Ok(())
 }

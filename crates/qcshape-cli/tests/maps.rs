@@ -97,9 +97,19 @@ fn localize_finds_the_bumped_cap() {
     let dir = tempfile::tempdir().unwrap();
     let manifest = labelled_set(dir.path());
     let out_dir = dir.path().join("maps");
+    // The cap as a --region mask.
+    let sphere = qcshape::synth::icosphere(2);
+    let mut region = String::from("vertex,region\n");
+    for (v, p) in sphere.positions.iter().enumerate() {
+        region.push_str(&format!("{v},{}\n", u8::from(p[2] > 0.5)));
+    }
+    let region_file = dir.path().join("cap.csv");
+    std::fs::write(&region_file, region).unwrap();
     let out = qcshape()
         .args([
             "localize",
+            "--region",
+            region_file.to_str().unwrap(),
             manifest.to_str().unwrap(),
             "--steps",
             "3",
@@ -153,6 +163,26 @@ fn localize_finds_the_bumped_cap() {
         assert!(m.point_array(name).is_some(), "{name}");
     }
     assert!(out_dir.join("contrast_plain_vs_bump.ply").exists());
+    let png = std::fs::read(out_dir.join("contrast_plain_vs_bump.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    // The region summary: the cap holds most of the positive mass, a small share of the area.
+    let summary = std::fs::read_to_string(out_dir.join("region_summary.csv")).unwrap();
+    let mut lines = summary.lines();
+    assert_eq!(
+        lines.next(),
+        Some("a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant")
+    );
+    let f: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!((f[0], f[1], f[3]), ("plain", "bump", "162"));
+    assert_eq!(f[2].parse::<usize>().unwrap(), n_cap);
+    let (area, mass, ratio): (f64, f64, f64) = (
+        f[4].parse().unwrap(),
+        f[5].parse().unwrap(),
+        f[6].parse().unwrap(),
+    );
+    assert!(area > 0.1 && area < 0.4, "{area}");
+    assert!((mass - score_cap / score_all).abs() < 1e-4, "{mass}");
+    assert!((ratio - mass / area).abs() < 1e-3 * ratio);
 }
 
 #[test]

@@ -303,3 +303,63 @@ pub fn similarity_matrix<'py>(
     let n = r.matrix.len();
     matrix_out(py, r.matrix.values().to_vec(), n, n)
 }
+
+/// pair_contributions(dataset, a, b, **options) -> ndarray (nV,): the per-vertex split of the
+/// similarity of deformations `a` and `b` (index or name) of a Dataset, computed with the same
+/// preparation (interpolation, smoothing, alignment, transfer to the base's first pose) and
+/// solver as ``similarity_matrix`` with the same options: entry `v` is vertex v's share of
+/// sum_k dis(M_k, N_k) (faces' and edges' terms shared equally among their vertices, each
+/// segment's length in proportion to its energy split; docs/maps.md), so the array sums to the
+/// matrix entry (a, b). Normalized length units. Options: those of ``similarity_matrix``.
+#[pyfunction]
+#[pyo3(signature = (dataset, a, b, **options))]
+#[pyo3(
+    text_signature = "(dataset, a, b, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
+l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, insert=0, levels=None, \
+transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
+)]
+pub fn pair_contributions<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, PyAny>,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let ds = dataset
+        .cast::<PyDataset>()
+        .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
+    let kw = PipelineKw::from_kwargs(options)?;
+    let defs = ds.get().defs.clone();
+    let names: Vec<String> = defs.iter().map(|d| d.name.clone()).collect();
+    if names.len() < 2 {
+        return Err(PyValueError::new_err(
+            "dataset: a pair needs at least two deformations",
+        ));
+    }
+    let name_of = |x: &Bound<'py, PyAny>, which: &str| -> PyResult<String> {
+        if let Ok(i) = x.extract::<usize>() {
+            names.get(i).cloned().ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "{which}: index {i} out of range for {} deformations",
+                    names.len()
+                ))
+            })
+        } else if let Ok(s) = x.extract::<String>() {
+            Ok(s)
+        } else {
+            Err(PyValueError::new_err(format!(
+                "{which}: expected a deformation index or name"
+            )))
+        }
+    };
+    let (na, nb) = (name_of(a, "a")?, name_of(b, "b")?);
+    let opts = kw.options(&names)?;
+    let total = detached(py, kw.threads, |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        qcshape::explain::explain(&prepared, &opts, &na, &nb)
+            .map(|e| e.contributions.total)
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    })?;
+    Ok(numpy::PyArray1::from_vec(py, total).into_any())
+}

@@ -141,3 +141,19 @@ def test_dataset_arguments_are_checked(synthetic):
         qs.similarity_matrix("syn/manifest.csv")
     with pytest.raises(OSError, match="nothing.csv"):
         qs.Dataset.from_manifest("/nonexistent/nothing.csv")
+
+
+def test_pair_contributions_sum_to_the_matrix_entry(synthetic, fast_matrix):
+    c = qs.pair_contributions(synthetic, 0, 2, progress=False, **FAST)
+    assert c.shape == (synthetic.n_vertices,)
+    assert c.dtype == np.float64
+    assert np.all(c >= 0.0)
+    assert abs(c.sum() - fast_matrix[0, 2]) <= 1e-6 * fast_matrix[0, 2]
+    # By name, in either order: the same split.
+    names = synthetic.names
+    by_name = qs.pair_contributions(synthetic, names[2], names[0], progress=False, **FAST)
+    np.testing.assert_allclose(by_name, c, rtol=1e-3, atol=1e-6 * c.max())
+    with pytest.raises(ValueError, match="out of range"):
+        qs.pair_contributions(synthetic, 0, 99, progress=False, **FAST)
+    with pytest.raises(ValueError, match="no deformation named"):
+        qs.pair_contributions(synthetic, 0, "nobody", progress=False, **FAST)

@@ -269,6 +269,94 @@ pub fn contrasts(
     Ok(out)
 }
 
+/// How much of a contrast's positive mass lies in a region, against the region's share of the
+/// area (the LV phantom's acceptance: `positive_mass_share >= 2 area_share`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RegionShare {
+    /// Vertices in the region.
+    pub vertices: usize,
+    /// The region's share of the mesh area (vertex areas, a third of each face's area per
+    /// corner).
+    pub area_share: f64,
+    /// The region's share of `sum_v max(score_v, 0)` (0 when nothing is positive).
+    pub positive_mass_share: f64,
+    /// `positive_mass_share / area_share` (0 when the region has no area).
+    pub ratio: f64,
+    /// Significant vertices in the region.
+    pub significant_in_region: usize,
+    /// Significant vertices in all.
+    pub significant: usize,
+}
+
+/// [`RegionShare`] of `score` (#V) and `significant` (#V) on the mesh `topology` /
+/// `positions` (#V x 3) for the vertex mask `region` (#V).
+pub fn region_share(
+    topology: &crate::mesh::Topology,
+    positions: &[[f64; 3]],
+    score: &[f64],
+    significant: &[bool],
+    region: &[bool],
+) -> RegionShare {
+    let areas = crate::mesh::geometry::vertex_areas(topology, positions);
+    let total: f64 = areas.iter().sum();
+    let inside: f64 = areas.iter().zip(region).filter(|(_, &r)| r).map(|(a, _)| a).sum();
+    let area_share = if total > 0.0 { inside / total } else { 0.0 };
+    let positive: Vec<f64> = score.iter().map(|s| s.max(0.0)).collect();
+    let positive_mass_share = crate::contribution::mass_fraction(&positive, region);
+    RegionShare {
+        vertices: region.iter().filter(|&&r| r).count(),
+        area_share,
+        positive_mass_share,
+        ratio: if area_share > 0.0 {
+            positive_mass_share / area_share
+        } else {
+            0.0
+        },
+        significant_in_region: significant.iter().zip(region).filter(|(&s, &r)| s && r).count(),
+        significant: significant.iter().filter(|&&s| s).count(),
+    }
+}
+
+/// Reads a vertex mask for `n_vertices` vertices from a CSV file with a header naming a
+/// `vertex` column and a `region` column (`1`/`true` inside, `0`/`false` outside; e.g. the LV
+/// phantom's `abnormal_region.csv`). Vertices not listed are outside.
+pub fn read_vertex_mask(path: &std::path::Path, n_vertices: usize) -> Result<Vec<bool>, LocalizeError> {
+    let bad = |m: String| LocalizeError::Input(format!("{}: {m}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let mut lines = text.lines().enumerate();
+    let header: Vec<String> = lines
+        .next()
+        .map(|(_, h)| h.split(',').map(|c| c.trim().to_ascii_lowercase()).collect())
+        .unwrap_or_default();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|c| c == name)
+            .ok_or_else(|| bad(format!("no {name:?} column in the header")))
+    };
+    let (cv, cr) = (col("vertex")?, col("region")?);
+    let mut mask = vec![false; n_vertices];
+    for (k, line) in lines.filter(|(_, l)| !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let v: usize = f
+            .get(cv)
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| bad(format!("line {}: bad vertex index", k + 1)))?;
+        if v >= n_vertices {
+            return Err(bad(format!(
+                "line {}: vertex {v} beyond the {n_vertices} vertices of the base mesh",
+                k + 1
+            )));
+        }
+        mask[v] = match f.get(cr).map(|s| s.to_ascii_lowercase()).as_deref() {
+            Some("1" | "true") => true,
+            Some("0" | "false") => false,
+            _ => return Err(bad(format!("line {}: region must be 0/1 or true/false", k + 1))),
+        };
+    }
+    Ok(mask)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,5 +428,30 @@ mod tests {
         assert!(c.significant[3..].iter().all(|s| !s));
         // Deterministic.
         assert_eq!(contrasts(&pm, &labels, &opts).unwrap()[0], *c);
+    }
+
+    #[test]
+    fn region_share_compares_mass_and_area() {
+        let s = crate::synth::icosphere(2);
+        let cap: Vec<bool> = s.positions.iter().map(|p| p[2] > 0.5).collect();
+        // Positive score only on the cap, negative elsewhere (ignored).
+        let score: Vec<f64> = cap.iter().map(|&c| if c { 1.0 } else { -0.5 }).collect();
+        let sig = cap.clone();
+        let r = region_share(&s.topology, &s.positions, &score, &sig, &cap);
+        assert_eq!(r.positive_mass_share, 1.0);
+        assert!(r.area_share > 0.15 && r.area_share < 0.35, "{}", r.area_share);
+        assert!((r.ratio - 1.0 / r.area_share).abs() < 1e-12);
+        assert_eq!(r.significant_in_region, r.vertices);
+        assert_eq!(r.significant, r.vertices);
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("m.csv");
+        std::fs::write(&f, "vertex,weight,region\n0,0.9,1\n2,0.1,0\n3,1,true\n").unwrap();
+        assert_eq!(read_vertex_mask(&f, 4).unwrap(), vec![true, false, false, true]);
+        assert!(read_vertex_mask(&f, 3).is_err());
+        std::fs::write(&f, "vertex,mask\n0,1\n").unwrap();
+        assert!(read_vertex_mask(&f, 3)
+            .unwrap_err()
+            .to_string()
+            .contains("region"));
     }
 }

@@ -15,6 +15,7 @@ use qcshape::lv::cohort::{
     self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
 use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
+use qcshape::lv::region::{write_abnormal, AbnormalSector, ABNORMAL_NAME};
 
 /// Arguments of `qcshape lv`.
 #[derive(Debug, clap::Args)]
@@ -147,10 +148,12 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
     let names = roster(a.controls, a.hcm, a.seed);
     let bar = progress(names.len());
     let mut summary = format!("{SUMMARY_HEADER}\n");
+    let mut sectors = Vec::with_capacity(names.len());
     for (i, (name, group)) in names.iter().enumerate() {
         let t0 = Instant::now();
         let s = subject(name, *group, i as u64, &opts);
         write_subject(&a.out, &s, a.four_d)?;
+        sectors.push(AbnormalSector::of(&s));
         summary.push_str(&s.summary_row(t0.elapsed().as_secs_f64()));
         summary.push('\n');
         bar.inc(1);
@@ -162,6 +165,7 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
         .collect();
     write_labels(&a.out.join(cohort::LABELS_NAME), &labels)?;
     io::write_atomically(&a.out.join("phantom.csv"), |w| w.write_all(summary.as_bytes()))?;
+    write_abnormal(&a.out.join(ABNORMAL_NAME), &sectors)?;
     println!(
         "wrote {} subjects ({} control, {} hcm{}), {} frames of {}^3 voxels, to {}",
         names.len(),

@@ -160,6 +160,32 @@ def similarity_matrix(
     """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
     approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
 
+def pair_contributions(
+    dataset: Dataset,
+    a: Union[int, str],
+    b: Union[int, str],
+    *,
+    metric: Optional[str] = None,
+    form: Optional[str] = None,
+    weights: Optional[str] = None,
+    lam: Optional[float] = None,
+    l2_areas: Optional[str] = None,
+    steps: Optional[int] = None,
+    solver: Optional[str] = None,
+    tolerance: Optional[float] = None,
+    energy_tolerance: Optional[float] = None,
+    insert: Optional[int] = None,
+    levels: Optional[int] = None,
+    transport: Optional[str] = None,
+    align: Optional[str] = None,
+    smooth: Optional[int] = None,
+    base: Optional[Union[int, str]] = None,
+    threads: Optional[int] = None,
+    progress: Optional[bool] = None,
+) -> _F64:
+    """(nV,) per-vertex split of similarity(a, b) (index or name); sums to the matrix entry
+    of `similarity_matrix` with the same options (normalized length units)."""
+
 class KMedoids:
     def __init__(
         self,

@@ -22,6 +22,25 @@ pub const BACKGROUND_HU: f64 = -750.0;
 pub const MYOCARDIUM_HU: f64 = 60.0;
 /// Contrast-filled blood (HU).
 pub const BLOOD_HU: f64 = 400.0;
+/// Half-width (degrees) of the cos² tapers at the free-wall sector's edges.
+pub const SECTOR_TAPER_DEG: f64 = 15.0;
+
+/// Weight at angle `theta` (degrees) of a sector of `width` degrees centred at `centre`: 1
+/// closer than `width / 2 - taper` to the centre, 0 farther than `width / 2 + taper`, a cos²
+/// ramp between (angles wrap at 360°).
+pub fn sector_weight(centre: f64, width: f64, taper: f64, theta: f64) -> f64 {
+    let d = ((theta - centre + 540.0).rem_euclid(360.0) - 180.0).abs();
+    let half = width / 2.0;
+    if d <= half - taper {
+        1.0
+    } else if d >= half + taper {
+        0.0
+    } else {
+        let x = (d - (half - taper)) / (2.0 * taper);
+        (std::f64::consts::FRAC_PI_2 * x).cos().powi(2)
+    }
+}
+
 /// Thickness of the valve-plane tissue closing the cavity at the base (mm).
 const CAP_MM: f64 = 5.0;
 
@@ -136,19 +155,14 @@ impl LvModel {
     }
 
     /// Weight of the free-wall sector at material angle `theta` (degrees): 1 inside, cos²
-    /// tapers over 15° at the edges, 0 outside.
+    /// tapers over 15° at the edges, 0 outside ([`sector_weight`]).
     pub fn sector_weight(&self, theta: f64) -> f64 {
-        let d = ((theta - self.free_wall_centre_deg + 540.0).rem_euclid(360.0) - 180.0).abs();
-        let half = self.free_wall_width_deg / 2.0;
-        let taper = 15.0;
-        if d <= half - taper {
-            1.0
-        } else if d >= half + taper {
-            0.0
-        } else {
-            let x = (d - (half - taper)) / (2.0 * taper);
-            (std::f64::consts::FRAC_PI_2 * x).cos().powi(2)
-        }
+        sector_weight(
+            self.free_wall_centre_deg,
+            self.free_wall_width_deg,
+            SECTOR_TAPER_DEG,
+            theta,
+        )
     }
 
     /// End-diastolic wall thickness at material angle `theta` and height `h`.

@@ -8,6 +8,7 @@
 //! 4. [`surface`] + [`meshing`]: the cavity surface of frame 0 at a threshold (step 2),
 //!    carried to every frame through the splines (step 3, [`cohort::Registration::carry`]).
 //! 5. [`freewall`]: the free-wall faces as an open submesh (section 4.3).
+//! 6. [`region`]: the phantom's abnormal region (known by construction) as a per-vertex weight.
 //!
 //! [`cohort`] holds the folder layout and the per-subject steps.
 //!
@@ -26,6 +27,7 @@ pub mod landmarks;
 pub mod meshing;
 pub mod nifti;
 pub mod phantom;
+pub mod region;
 pub mod study;
 pub mod study_report;
 pub mod surface;

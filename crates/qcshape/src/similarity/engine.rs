@@ -224,8 +224,11 @@ where
             .par_iter()
             .map(|&(i, j)| {
                 let t0 = Instant::now();
-                let per_pose: Vec<f64> =
-                    y[i].iter().zip(&y[j]).map(|(a, b)| super::tangent::distance(a, b)).collect();
+                let per_pose: Vec<f64> = y[i]
+                    .iter()
+                    .zip(&y[j])
+                    .map(|(a, b)| super::tangent::distance(a, b))
+                    .collect();
                 let pair = PairDistance {
                     i,
                     j,

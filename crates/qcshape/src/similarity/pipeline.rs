@@ -19,8 +19,8 @@ use crate::transport::{
     align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
 };
 
-use crate::defaults;
 use super::engine::{compute_pairs, Approx, PairDistance, Pose, SimilarityError};
+use crate::defaults;
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]

@@ -12,8 +12,8 @@
 use rayon::prelude::*;
 
 use super::engine::{Pose, SimilarityError};
-use crate::metric::{At, Jacobian, Metric, Segment};
 use crate::mesh::Topology;
+use crate::metric::{At, Jacobian, Metric, Segment};
 
 /// Refuses metrics the tangent approximation does not apply to (see the module docs).
 pub fn check_metric(metric: &dyn Metric) -> Result<(), SimilarityError> {
@@ -89,7 +89,11 @@ pub fn deformation_features(
 
 /// `|y - z|`, summed in order.
 pub fn distance(y: &[f64], z: &[f64]) -> f64 {
-    y.iter().zip(z).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt()
+    y.iter()
+        .zip(z)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt()
 }
 
 #[cfg(test)]
@@ -101,8 +105,14 @@ mod tests {
     fn features_give_the_metric_norm_at_the_base_and_quasi_conformal_is_refused() {
         let s = crate::synth::icosphere(1);
         let (topo, v) = (s.topology.clone(), s.positions.clone());
-        let p: Vec<[f64; 3]> = v.iter().map(|x| [x[0] * 1.01, x[1] + 0.01 * x[2], x[2]]).collect();
-        let q: Vec<[f64; 3]> = v.iter().map(|x| [x[0], x[1] * 0.99, x[2] + 0.02 * x[0]]).collect();
+        let p: Vec<[f64; 3]> = v
+            .iter()
+            .map(|x| [x[0] * 1.01, x[1] + 0.01 * x[2], x[2]])
+            .collect();
+        let q: Vec<[f64; 3]> = v
+            .iter()
+            .map(|x| [x[0], x[1] * 0.99, x[2] + 0.02 * x[0]])
+            .collect();
         for kind in [MetricKind::L2, MetricKind::Isometric, MetricKind::Conformal] {
             let m = MetricSpec::new(kind).build();
             let y = features(m.as_ref(), &topo, &v, &[&p, &q, &v]).unwrap();

@@ -9,6 +9,7 @@ use qcshape::dataset::{load_sequence, Dataset};
 use qcshape::lv::analysis::Axis;
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
 use qcshape::lv::cycle_map::cycle_map;
+use qcshape::lv::region::{cohort_region, write_region, REGION_NAME};
 use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::lv::study_report::{run_report, RunSummary};
 use qcshape::similarity::PipelineOptions;
@@ -55,6 +56,17 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
             let t0 = Instant::now();
             let c = mesh_cohort(&a.dir, a.landmarks, &mesh, &progress)?;
             write_meshes(&a.out.join("meshes"), &c.defs)?;
+            // A phantom cohort knows its abnormal region: write it on the template.
+            if let Some(w) = cohort_region(&a.dir, &c.defs[0].name, &c.defs[0].poses[0])? {
+                let file = a.out.join("meshes").join(REGION_NAME);
+                write_region(&file, &w)?;
+                eprintln!(
+                    "abnormal region of the phantom: {} of {} vertices -> {}",
+                    w.iter().filter(|&&x| x >= 0.5).count(),
+                    w.len(),
+                    file.display()
+                );
+            }
             eprintln!(
                 "meshed {} subjects ({} vertices each, {} of {} projected on their own surface) in {:.1} s",
                 c.defs.len(),
