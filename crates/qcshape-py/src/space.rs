@@ -404,10 +404,10 @@ impl PyShapeSpace {
         sequence_out(py, &r.poses)
     }
 
-    /// transfer(poses, base, method="parallel") -> ndarray (K + 1, nV, 3): deformation transfer
+    /// transfer(poses, base, method="euclidean") -> ndarray (K + 1, nV, 3): deformation transfer
     /// (section 2.2.2) of the deformation poses = M_0 .. M_K (K + 1, nV, 3) to the new base N_0
-    /// (nV, 3), returning N_0 .. N_K; method "parallel" (the paper's), "schild" or "euclidean"
-    /// (N_k = N_0 + M_k - M_0).
+    /// (nV, 3), returning N_0 .. N_K; method "euclidean" (N_k = N_0 + M_k - M_0, the default of
+    /// every command, `qcshape::defaults::TRANSPORT`), "parallel" (the paper's) or "schild".
     #[pyo3(signature = (poses, base, method=None))]
     fn transfer<'py>(
         &self,
@@ -418,7 +418,7 @@ impl PyShapeSpace {
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = sequence(poses, "poses", Some(self.nv()), 1)?;
         let b = points(base, "base", Some(self.nv()))?;
-        let m = transport(method, Transport::default())?;
+        let m = transport(method, qcshape::defaults::TRANSPORT)?;
         let r = detached(py, None, |_| {
             self.space.transfer(&p, &b, m).map_err(errors::space)
         })?;

@@ -61,6 +61,8 @@ def test_transfer_to_its_own_base_is_itself_and_transport_keeps_shapes(pair):
     for method in ["parallel", "euclidean"]:
         np.testing.assert_allclose(space.transfer(poses, V, method=method), poses, atol=1e-9)
     moved = space.transfer(poses, 1.1 * V)
+    # The default is the CLI's (Euclidean transfer).
+    np.testing.assert_array_equal(moved, space.transfer(poses, 1.1 * V, method="euclidean"))
     assert moved.shape == poses.shape
     np.testing.assert_array_equal(moved[0], 1.1 * V)
     g = space.geodesic(V, B)
