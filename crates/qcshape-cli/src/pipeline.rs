@@ -101,17 +101,7 @@ pub(crate) fn journaled_matrix(
         );
     }
     let done: HashSet<(usize, usize)> = done_pairs.iter().map(|p| (p.i, p.j)).collect();
-    let pb = bar(n * (n - 1) / 2, "pairs");
-    pb.set_position(done.len() as u64);
-    let new_pairs = similarities(prepared, opts, &done, None, |p| {
-        journal.record(p)?;
-        pb.inc(1);
-        Ok(())
-    })?;
-    pb.finish_and_clear();
-    let mut pairs = done_pairs;
-    pairs.extend(new_pairs);
-    pairs.sort_by_key(|p| (p.i, p.j));
+    let pairs = journaled_pairs(prepared, opts, &journal, done_pairs, done, n * (n - 1) / 2)?;
     let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
     Ok((matrix, pairs, journal))
 }
@@ -138,15 +128,28 @@ pub(crate) fn sharded_pairs(
     }
     let mut skip = shard.others(n);
     skip.extend(done_pairs.iter().map(|p| (p.i, p.j)));
+    journaled_pairs(prepared, opts, &journal, done_pairs, skip, total)
+}
+
+/// The pairs not in `skip` computed with a progress bar over `total` pairs, each recorded in
+/// `journal` as it finishes, joined with the `done` pairs of an earlier run, in row order.
+fn journaled_pairs(
+    prepared: &Prepared,
+    opts: &PipelineOptions,
+    journal: &Journal,
+    done: Vec<PairDistance>,
+    skip: HashSet<(usize, usize)>,
+    total: usize,
+) -> Result<Vec<PairDistance>> {
     let pb = bar(total, "pairs");
-    pb.set_position(done_pairs.len() as u64);
+    pb.set_position(done.len() as u64);
     let new_pairs = similarities(prepared, opts, &skip, None, |p| {
         journal.record(p)?;
         pb.inc(1);
         Ok(())
     })?;
     pb.finish_and_clear();
-    let mut pairs = done_pairs;
+    let mut pairs = done;
     pairs.extend(new_pairs);
     pairs.sort_by_key(|p| (p.i, p.j));
     Ok(pairs)

@@ -10,7 +10,8 @@ pub mod scores;
 
 pub use matching::{hungarian_match, matched_confusion, ConfusionMatrix, Matching};
 pub use scores::{
-    adjusted_rand_index, loo_nearest_neighbour_accuracy, one_vs_rest, tau, BinaryCounts, OneVsRest,
+    adjusted_rand_index, loo_nearest_neighbour_accuracy, nearest_neighbour, one_vs_rest, tau, BinaryCounts,
+    OneVsRest,
 };
 
 use thiserror::Error;

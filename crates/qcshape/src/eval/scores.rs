@@ -101,6 +101,19 @@ pub fn one_vs_rest(cm: &ConfusionMatrix) -> Result<OneVsRest, EvalError> {
     })
 }
 
+/// The nearest other item of item `i` (smallest `d_ij`, `j != i`; ties to the lowest index).
+/// Needs n >= 2.
+pub fn nearest_neighbour(d: &DistanceMatrix, i: usize) -> usize {
+    let row = d.row(i);
+    (0..d.len())
+        .filter(|&j| j != i)
+        .fold(None::<usize>, |b, j| match b {
+            Some(b) if row[b] <= row[j] => Some(b),
+            _ => Some(j),
+        })
+        .expect("n >= 2")
+}
+
 /// Leave-one-out 1-nearest-neighbour accuracy: the share of items whose nearest other item
 /// (smallest `d_ij`, `j != i`; ties to the lowest index) has the same class. Needs n >= 2.
 pub fn loo_nearest_neighbour_accuracy(d: &DistanceMatrix, classes: &[usize]) -> Result<f64, EvalError> {
@@ -116,17 +129,7 @@ pub fn loo_nearest_neighbour_accuracy(d: &DistanceMatrix, classes: &[usize]) -> 
         return Err(EvalError::TooFew("leave-one-out needs at least two items".into()));
     }
     let hits = (0..n)
-        .filter(|&i| {
-            let row = d.row(i);
-            let nn = (0..n)
-                .filter(|&j| j != i)
-                .fold(None::<usize>, |b, j| match b {
-                    Some(b) if row[b] <= row[j] => Some(b),
-                    _ => Some(j),
-                })
-                .expect("n >= 2");
-            classes[nn] == classes[i]
-        })
+        .filter(|&i| classes[nearest_neighbour(d, i)] == classes[i])
         .count();
     Ok(hits as f64 / n as f64)
 }

@@ -12,7 +12,7 @@ use thiserror::Error;
 
 use crate::cluster::{kernel_kmeans, ClusterError, ClusterOptions};
 use crate::dataset::Deformation;
-use crate::eval::{adjusted_rand_index, EvalError};
+use crate::eval::{adjusted_rand_index, nearest_neighbour, EvalError};
 use crate::similarity::{
     assemble, prepare, similarities, Approx, DistanceMatrix, MatrixError, PipelineError, PipelineOptions,
     Prepared,
@@ -115,19 +115,9 @@ pub fn agreement(
         .map(|(e, a)| (a - e).abs() / e)
         .collect();
     rel.sort_by(f64::total_cmp);
-    let nn = |d: &DistanceMatrix, i: usize| {
-        let row = d.row(i);
-        (0..n)
-            .filter(|&j| j != i)
-            .fold(None::<usize>, |b, j| match b {
-                Some(b) if row[b] <= row[j] => Some(b),
-                _ => Some(j),
-            })
-            .expect("n >= 2")
-    };
     let same = (0..n)
         .filter(|&i| {
-            let (p, q) = (nn(exact, i), nn(approx, i));
+            let (p, q) = (nearest_neighbour(exact, i), nearest_neighbour(approx, i));
             match classes {
                 Some(c) => c[p] == c[q],
                 None => p == q,

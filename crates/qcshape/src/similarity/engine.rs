@@ -217,47 +217,41 @@ where
             "pair ({i}, {j}) is not a pair i < j of the {n} deformations"
         )));
     }
-    if approx == Approx::Tangent {
-        let pe = solver.path_energy();
-        let y = super::tangent::deformation_features(pe.metric, &pe.topo, deformations)?;
-        return todo
-            .par_iter()
-            .map(|&(i, j)| {
-                let t0 = Instant::now();
-                let per_pose: Vec<f64> = y[i]
-                    .iter()
-                    .zip(&y[j])
-                    .map(|(a, b)| super::tangent::distance(a, b))
-                    .collect();
-                let pair = PairDistance {
-                    i,
-                    j,
-                    distance: per_pose.iter().sum(),
-                    per_pose,
-                    converged: true,
-                    iterations: 0,
-                    seconds: t0.elapsed().as_secs_f64(),
-                };
-                on_pair(&pair)?;
-                Ok(pair)
-            })
-            .collect();
-    }
+    // The tangent mode measures feature vectors, computed once for every pose.
+    let features = match approx {
+        Approx::Tangent => {
+            let pe = solver.path_energy();
+            Some(super::tangent::deformation_features(
+                pe.metric,
+                &pe.topo,
+                deformations,
+            )?)
+        }
+        _ => None,
+    };
     todo.par_iter()
         .map(|&(i, j)| {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                 return Err(SimilarityError::Cancelled);
             }
             let t0 = Instant::now();
-            let (per_pose, converged, iterations) =
-                pose_distances(solver, &deformations[i], &deformations[j], approx).map_err(
+            let (per_pose, converged, iterations) = match &features {
+                Some(y) => {
+                    let d = y[i]
+                        .iter()
+                        .zip(&y[j])
+                        .map(|(a, b)| super::tangent::distance(a, b));
+                    (d.collect(), true, 0)
+                }
+                None => pose_distances(solver, &deformations[i], &deformations[j], approx).map_err(
                     |(pose, error)| SimilarityError::Geodesic {
                         a: names[i].clone(),
                         b: names[j].clone(),
                         pose,
                         error,
                     },
-                )?;
+                )?,
+            };
             let pair = PairDistance {
                 i,
                 j,
