@@ -6,7 +6,10 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::io::{self, Field};
-use qcshape::localize::{contrasts, pair_maps, read_vertex_mask, region_share, LocalizeOptions};
+use qcshape::localize::{
+    contrasts, motion_contrasts, motion_maps, pair_maps, read_vertex_mask, region_share, LocalizeOptions,
+    MotionMeasure, MotionScale,
+};
 use qcshape::path::GeodesicSolver;
 use qcshape::render::{render_png, RenderOptions};
 use qcshape::similarity::{prepare, PipelineOptions};
@@ -24,14 +27,25 @@ use crate::args::{in_pool, MetricArgs, SolverArgs};
 /// units), its p-value comes from --permutations random relabellings (seeded), and vertices
 /// passing the Benjamini-Hochberg procedure at --alpha are significant.
 ///
-/// With --region FILE (a vertex mask), DIR/region_summary.csv gives per contrast the region's
-/// share of the area and of the positive score mass.
+/// The similarity split is unsigned: it shows where two groups move differently, not which
+/// moves more. So every deformation also gets its own motion map (--motion normal: how far
+/// each vertex moves along the surface normal over the poses, times its area; --motion
+/// metric: the metric's per-vertex length of each step; --motion-scale share divides by the
+/// deformation's total) and, for every pair of labels A, B, DIR/motion_<A>_minus_<B>.* holds
+/// the signed difference of the group means (positive where A moves more) with two-sided
+/// permutation p-values and the same FDR procedure.
+///
+/// With --region FILE (a vertex mask), DIR/region_summary.csv gives per map the region's
+/// share of the area and of the positive mass (for a motion map, one row per direction: the
+/// row `motion,A,B` is where A moves more).
 ///
 /// Writes DIR/contrast_<A>_vs_<B>.csv (vertex,score,p_value,significant), and .vtk and .ply
 /// files of the same name on the common base mesh with the point data score, p_value,
 /// significant (0/1), between and within (the PLY's quality is the score), and a PNG picture
 /// of the score on the base mesh (six views, non-significant vertices grey when any vertex
-/// is significant, the --region outlined).
+/// is significant, the --region outlined); DIR/motion_<A>_minus_<B>.csv
+/// (vertex,difference,p_value,significant) with .vtk, .ply (difference, p_value,
+/// significant, mean_a, mean_b) and .png alike.
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Per-vertex maps of where labelled groups of deformations differ",
@@ -71,6 +85,15 @@ pub struct Args {
     /// pictures.
     #[arg(long)]
     region: Option<PathBuf>,
+    /// How the signed motion maps measure each deformation's motion per vertex: `normal`
+    /// (motion along the surface normal, times the vertex area; tangential sliding does not
+    /// count) or `metric` (the metric's per-vertex length split of each step).
+    #[arg(long, default_value = "normal", value_parser = ["normal", "metric"])]
+    motion: String,
+    /// Divide each deformation's motion map by its total (`share`): where a deformation moves,
+    /// whatever its overall amount of motion.
+    #[arg(long, default_value = "absolute", value_parser = ["absolute", "share"])]
+    motion_scale: String,
 }
 
 /// A file name part for a label: letters, digits, `-`, `_` kept, the rest `_`.
@@ -130,39 +153,47 @@ pub fn run(args: &Args) -> Result<()> {
         },
         metric.name()
     );
-    let (prepared, maps, result) = in_pool(args.threads, || {
+    let (prepared, maps, result, motion) = in_pool(args.threads, || {
         let prepared = prepare(&defs, &opts, &|_, _| {})?;
         let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-        let maps = pair_maps(&solver, &prepared.scaled())?;
+        let scaled = prepared.scaled();
+        let maps = pair_maps(&solver, &scaled)?;
         let result = contrasts(&maps, &labels, &lopts)?;
-        Ok((prepared, maps, result))
+        let measure = if args.motion == "metric" {
+            MotionMeasure::Metric
+        } else {
+            MotionMeasure::Normal
+        };
+        let scale = if args.motion_scale == "share" {
+            MotionScale::Share
+        } else {
+            MotionScale::Absolute
+        };
+        let m = motion_maps(measure, scale, metric.as_ref(), &prepared.topology, &scaled)?;
+        let motion = motion_contrasts(&m, &labels, &lopts)?;
+        Ok((prepared, maps, result, motion))
     })?;
     if !maps.converged {
         eprintln!("warning: not every geodesic converged");
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let base = &prepared.transferred[0][0];
-    let faces = prepared.topology.faces();
     let region = match &args.region {
         Some(p) => Some(read_vertex_mask(p, base.len())?),
         None => None,
     };
+    let out = Output {
+        dir: &args.out,
+        base,
+        topology: &prepared.topology,
+        region: region.as_ref(),
+        alpha: args.alpha,
+    };
     let mut summary = String::from(
-        "a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant\n",
+        "map,a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant\n",
     );
     for c in &result {
         let stem = format!("contrast_{}_vs_{}", file_part(&c.a), file_part(&c.b));
-        let mut csv = String::from("vertex,score,p_value,significant\n");
-        for v in 0..c.score.len() {
-            writeln!(
-                csv,
-                "{v},{:.12e},{:.6},{}",
-                c.score[v], c.p_value[v], c.significant[v]
-            )?;
-        }
-        io::write_atomically(&args.out.join(format!("{stem}.csv")), |w| {
-            w.write_all(csv.as_bytes())
-        })?;
         let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
         let fields = [
             Field::scalar("score", &c.score),
@@ -171,76 +202,41 @@ pub fn run(args: &Args) -> Result<()> {
             Field::scalar("between", &c.between),
             Field::scalar("within", &c.within),
         ];
-        for ext in ["vtk", "ply"] {
-            io::write_mesh_fields(&args.out.join(format!("{stem}.{ext}")), base, faces, &fields)?;
-        }
-        let n_sig = c.significant.iter().filter(|&&s| s).count();
-        let picture = RenderOptions {
-            title: format!(
-                "{} vs {}: {}; {n_sig} of {} vertices significant (FDR {})",
-                c.a,
-                c.b,
-                metric.name(),
-                c.score.len(),
-                args.alpha
-            ),
-            label: format!(
-                "score = mean between - mean within similarity split{}{}",
-                if n_sig > 0 { "; grey: not significant" } else { "" },
-                if region.is_some() {
-                    "; black line: --region"
-                } else {
-                    ""
-                }
-            ),
-            grey: (n_sig > 0).then(|| c.significant.iter().map(|&s| !s).collect()),
-            outline: region.clone(),
-            ..Default::default()
-        };
-        render_png(
-            &args.out.join(format!("{stem}.png")),
-            base,
-            faces,
-            &c.score,
-            &picture,
+        out.write_map(
+            &stem,
+            ("score", &c.score, &c.p_value, &c.significant),
+            &fields,
+            &format!("{} vs {}: {}", c.a, c.b, metric.name()),
+            "score = mean between - mean within similarity split",
         )?;
-        if let Some(r) = &region {
-            let share = region_share(&prepared.topology, base, &c.score, &c.significant, r);
-            writeln!(
-                summary,
-                "{},{},{},{},{:.6},{:.6},{:.4},{},{}",
-                c.a,
-                c.b,
-                share.vertices,
-                c.score.len(),
-                share.area_share,
-                share.positive_mass_share,
-                share.ratio,
-                share.significant_in_region,
-                share.significant
-            )?;
-            println!(
-                "{} vs {}: region of {} vertices: {:.1} % of the area, {:.1} % of the positive score mass (ratio {:.2}); {} of {} significant vertices in it",
-                c.a,
-                c.b,
-                share.vertices,
-                100.0 * share.area_share,
-                100.0 * share.positive_mass_share,
-                share.ratio,
-                share.significant_in_region,
-                share.significant
-            );
-        }
-        println!(
-            "{} vs {}: {} of {} vertices significant (FDR {}), max score {:.4e}, min p {:.4}",
-            c.a,
-            c.b,
-            c.significant.iter().filter(|&&s| s).count(),
-            c.score.len(),
-            args.alpha,
-            c.score.iter().copied().fold(f64::MIN, f64::max),
-            c.p_value.iter().copied().fold(1.0, f64::min)
-        );
+        out.summarize(&mut summary, "contrast", &c.a, &c.b, &c.score, &c.significant)?;
+    }
+    let motion_name = match (args.motion.as_str(), args.motion_scale.as_str()) {
+        ("metric", "share") => format!("{} length, shares", metric.name()),
+        ("metric", _) => format!("{} length", metric.name()),
+        (_, "share") => "normal excursion, shares".to_string(),
+        _ => "normal excursion".to_string(),
+    };
+    for c in &motion {
+        let stem = format!("motion_{}_minus_{}", file_part(&c.a), file_part(&c.b));
+        let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
+        let fields = [
+            Field::scalar("difference", &c.difference),
+            Field::scalar("p_value", &c.p_value),
+            Field::scalar("significant", &sig),
+            Field::scalar("mean_a", &c.mean_a),
+            Field::scalar("mean_b", &c.mean_b),
+        ];
+        out.write_map(
+            &stem,
+            ("difference", &c.difference, &c.p_value, &c.significant),
+            &fields,
+            &format!("motion {} minus {}: {motion_name}", c.a, c.b),
+            &format!("red: {} moves more, blue: {} moves more", c.a, c.b),
+        )?;
+        out.summarize(&mut summary, "motion", &c.a, &c.b, &c.difference, &c.significant)?;
+        let flipped: Vec<f64> = c.difference.iter().map(|d| -d).collect();
+        out.summarize(&mut summary, "motion", &c.b, &c.a, &flipped, &c.significant)?;
     }
     if region.is_some() {
         io::write_atomically(&args.out.join("region_summary.csv"), |w| {
@@ -248,4 +244,110 @@ pub fn run(args: &Args) -> Result<()> {
         })?;
     }
     Ok(())
+}
+
+/// Where and how the maps are written.
+struct Output<'a> {
+    dir: &'a std::path::Path,
+    base: &'a [[f64; 3]],
+    topology: &'a qcshape::mesh::Topology,
+    region: Option<&'a Vec<bool>>,
+    alpha: f64,
+}
+
+impl Output<'_> {
+    /// Writes `STEM.csv` (`vertex,NAME,p_value,significant`), `STEM.vtk`, `STEM.ply` (the
+    /// fields) and `STEM.png` (the map, non-significant vertices grey when any is
+    /// significant, the region outlined).
+    fn write_map(
+        &self,
+        stem: &str,
+        (name, values, p_value, significant): (&str, &[f64], &[f64], &[bool]),
+        fields: &[Field],
+        title: &str,
+        label: &str,
+    ) -> Result<()> {
+        let mut csv = format!("vertex,{name},p_value,significant\n");
+        for v in 0..values.len() {
+            writeln!(csv, "{v},{:.12e},{:.6},{}", values[v], p_value[v], significant[v])?;
+        }
+        io::write_atomically(&self.dir.join(format!("{stem}.csv")), |w| {
+            w.write_all(csv.as_bytes())
+        })?;
+        let faces = self.topology.faces();
+        for ext in ["vtk", "ply"] {
+            io::write_mesh_fields(&self.dir.join(format!("{stem}.{ext}")), self.base, faces, fields)?;
+        }
+        let n_sig = significant.iter().filter(|&&s| s).count();
+        let picture = RenderOptions {
+            title: format!(
+                "{title}; {n_sig} of {} vertices significant (FDR {})",
+                values.len(),
+                self.alpha
+            ),
+            label: format!(
+                "{label}{}{}",
+                if n_sig > 0 { "; grey: not significant" } else { "" },
+                if self.region.is_some() {
+                    "; black line: --region"
+                } else {
+                    ""
+                }
+            ),
+            grey: (n_sig > 0).then(|| significant.iter().map(|&s| !s).collect()),
+            outline: self.region.cloned(),
+            ..Default::default()
+        };
+        render_png(
+            &self.dir.join(format!("{stem}.png")),
+            self.base,
+            faces,
+            values,
+            &picture,
+        )?;
+        println!(
+            "{title}: {n_sig} of {} vertices significant (FDR {}), max {:.4e}, min p {:.4}",
+            values.len(),
+            self.alpha,
+            values.iter().copied().fold(f64::MIN, f64::max),
+            p_value.iter().copied().fold(1.0, f64::min)
+        );
+        Ok(())
+    }
+
+    /// Appends the region summary row of `values` (its positive part) to `summary` and
+    /// prints it, when there is a region.
+    fn summarize(
+        &self,
+        summary: &mut String,
+        map: &str,
+        a: &str,
+        b: &str,
+        values: &[f64],
+        significant: &[bool],
+    ) -> Result<()> {
+        let Some(r) = self.region else { return Ok(()) };
+        let share = region_share(self.topology, self.base, values, significant, r);
+        writeln!(
+            summary,
+            "{map},{a},{b},{},{},{:.6},{:.6},{:.4},{},{}",
+            share.vertices,
+            values.len(),
+            share.area_share,
+            share.positive_mass_share,
+            share.ratio,
+            share.significant_in_region,
+            share.significant
+        )?;
+        println!(
+            "{map} {a} over {b}: region of {} vertices: {:.1} % of the area, {:.1} % of the positive mass (ratio {:.2}); {} of {} significant vertices in it",
+            share.vertices,
+            100.0 * share.area_share,
+            100.0 * share.positive_mass_share,
+            share.ratio,
+            share.significant_in_region,
+            share.significant
+        );
+        Ok(())
+    }
 }

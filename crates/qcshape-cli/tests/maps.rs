@@ -170,19 +170,56 @@ fn localize_finds_the_bumped_cap() {
     let mut lines = summary.lines();
     assert_eq!(
         lines.next(),
-        Some("a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant")
+        Some("map,a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant")
     );
-    let f: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!((f[0], f[1], f[3]), ("plain", "bump", "162"));
-    assert_eq!(f[2].parse::<usize>().unwrap(), n_cap);
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    assert_eq!(rows.len(), 3, "{summary}");
+    let f = &rows[0];
+    assert_eq!(
+        (f[0].as_str(), f[1].as_str(), f[2].as_str(), f[4].as_str()),
+        ("contrast", "plain", "bump", "162")
+    );
+    assert_eq!(f[3].parse::<usize>().unwrap(), n_cap);
     let (area, mass, ratio): (f64, f64, f64) = (
-        f[4].parse().unwrap(),
         f[5].parse().unwrap(),
         f[6].parse().unwrap(),
+        f[7].parse().unwrap(),
     );
     assert!(area > 0.1 && area < 0.4, "{area}");
     assert!((mass - score_cap / score_all).abs() < 1e-4, "{mass}");
     assert!((ratio - mass / area).abs() < 1e-3 * ratio);
+    // The signed motion map: the bump group moves more, on the cap (the bump grows along the
+    // normal); where the plain group moves more there is little mass, and not on the cap.
+    let (plain_more, bump_more) = (&rows[1], &rows[2]);
+    assert_eq!(
+        (
+            plain_more[0].as_str(),
+            plain_more[1].as_str(),
+            plain_more[2].as_str()
+        ),
+        ("motion", "plain", "bump")
+    );
+    assert_eq!((bump_more[1].as_str(), bump_more[2].as_str()), ("bump", "plain"));
+    let bump_mass: f64 = bump_more[6].parse().unwrap();
+    assert!(bump_mass > 0.9, "{summary}");
+    let csv = std::fs::read_to_string(out_dir.join("motion_plain_minus_bump.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("vertex,difference,p_value,significant"));
+    let (mut neg_cap, mut pos_cap) = (0, 0);
+    for (v, line) in lines.enumerate() {
+        let d: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+        if s.positions[v][2] > 0.6 {
+            neg_cap += usize::from(d < 0.0);
+            pos_cap += usize::from(d > 0.0);
+        }
+    }
+    assert!(neg_cap > 0 && pos_cap == 0, "{neg_cap} {pos_cap}");
+    let m = qcshape::io::read_mesh(&out_dir.join("motion_plain_minus_bump.vtk")).unwrap();
+    for name in ["difference", "p_value", "significant", "mean_a", "mean_b"] {
+        assert!(m.point_array(name).is_some(), "{name}");
+    }
+    let png = std::fs::read(out_dir.join("motion_plain_minus_bump.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
 }
 
 #[test]

@@ -363,3 +363,69 @@ pub fn pair_contributions<'py>(
     })?;
     Ok(numpy::PyArray1::from_vec(py, total).into_any())
 }
+
+/// motion_maps(dataset, *, measure='normal', scale='absolute', **options) -> ndarray (n, nV):
+/// every deformation's own amount of motion per vertex, after the same preparation as
+/// ``similarity_matrix`` with the same options (smoothing, alignment, interpolation, transfer
+/// to the base's first pose; coordinates scaled by the common factor). ``measure='normal'``:
+/// the motion along the surface normal summed over the steps, times the vertex area on the
+/// base (length^3, normalized); ``'metric'``: the metric's per-vertex length split of every
+/// step (normalized length). ``scale='share'`` divides each row by its sum. Row i minus row j,
+/// or a group mean minus another, is the signed map of ``qcshape localize`` (docs/maps.md).
+#[pyfunction]
+#[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
+#[pyo3(
+    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='quasi-conformal', form=None, \
+weights=None, lam=None, l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, \
+insert=0, levels=None, transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
+)]
+pub fn motion_maps<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, PyAny>,
+    measure: &str,
+    scale: &str,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use qcshape::localize::{MotionMeasure, MotionScale};
+    let ds = dataset
+        .cast::<PyDataset>()
+        .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
+    let measure = match measure {
+        "normal" => MotionMeasure::Normal,
+        "metric" => MotionMeasure::Metric,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "measure: expected 'normal' or 'metric', got {other:?}"
+            )))
+        }
+    };
+    let scale = match scale {
+        "absolute" => MotionScale::Absolute,
+        "share" => MotionScale::Share,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "scale: expected 'absolute' or 'share', got {other:?}"
+            )))
+        }
+    };
+    let kw = PipelineKw::from_kwargs(options)?;
+    let defs = ds.get().defs.clone();
+    let names: Vec<String> = defs.iter().map(|d| d.name.clone()).collect();
+    let opts = kw.options(&names)?;
+    let (rows, nv, values) = detached(py, kw.threads, |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let metric = opts.metric.build();
+        let m = qcshape::localize::motion_maps(
+            measure,
+            scale,
+            metric.as_ref(),
+            &prepared.topology,
+            &prepared.scaled(),
+        )
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let nv = prepared.topology.n_vertices();
+        Ok((m.len(), nv, m.concat()))
+    })?;
+    matrix_out(py, values, rows, nv)
+}

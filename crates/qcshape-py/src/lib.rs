@@ -29,6 +29,7 @@ fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(distributed::prepare_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::pair_distances, m)?)?;
     m.add_function(wrap_pyfunction!(data::pair_contributions, m)?)?;
+    m.add_function(wrap_pyfunction!(data::motion_maps, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::mds, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::scores, m)?)?;
     Ok(())

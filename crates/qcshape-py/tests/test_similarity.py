@@ -157,3 +157,20 @@ def test_pair_contributions_sum_to_the_matrix_entry(synthetic, fast_matrix):
         qs.pair_contributions(synthetic, 0, 99, progress=False, **FAST)
     with pytest.raises(ValueError, match="no deformation named"):
         qs.pair_contributions(synthetic, 0, "nobody", progress=False, **FAST)
+
+
+def test_motion_maps_are_signed_by_group_difference(synthetic):
+    m = qs.motion_maps(synthetic, progress=False, **FAST)
+    assert m.shape == (len(synthetic), synthetic.n_vertices)
+    assert m.dtype == np.float64
+    assert np.all(m >= 0.0) and np.all(np.isfinite(m))
+    assert m.sum(axis=1).min() > 0.0
+    share = qs.motion_maps(synthetic, scale="share", progress=False, **FAST)
+    np.testing.assert_allclose(share.sum(axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(share, m / m.sum(axis=1, keepdims=True), rtol=1e-12)
+    metric = qs.motion_maps(synthetic, measure="metric", progress=False, **dict(FAST, metric="l2"))
+    assert metric.shape == m.shape and np.all(metric >= 0.0)
+    with pytest.raises(ValueError, match="^measure"):
+        qs.motion_maps(synthetic, measure="radial", progress=False)
+    with pytest.raises(ValueError, match="^scale"):
+        qs.motion_maps(synthetic, scale="relative", progress=False)

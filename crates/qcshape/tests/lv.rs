@@ -673,6 +673,7 @@ fn cohort_study_structs_are_consistent_and_rigid_alignment_removes_a_subjects_po
         smooth: 10,
         vertices: 120,
         free_wall: true,
+        sector: Default::default(),
     };
     let c = mesh_cohort(&dir, 16, &mesh, &progress).unwrap();
     assert_eq!(c.defs.len(), 4);

@@ -39,8 +39,10 @@ pub(crate) struct Args {
     /// Thin-plate-spline regularization when fitting here.
     #[arg(long, default_value_t = 0.0)]
     lambda: f64,
-    /// Region written: the whole closed surface or the free-wall submesh.
-    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "whole"])]
+    /// Region written: the free-wall submesh (the sector below), the wall (every angle from the
+    /// apex to height 0.9, no valve-plane cap; the sector options are ignored) or the whole
+    /// closed surface.
+    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "wall", "whole"])]
     region: String,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
     #[arg(long, default_value_t = 180.0)]
@@ -66,17 +68,21 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         target_vertices: (a.vertices > 0).then_some(a.vertices),
         relax_iterations: a.relax,
     };
-    let sector = SectorOptions {
-        centre_deg: a.sector_centre,
-        width_deg: a.sector_width,
-        heights: (a.heights[0], a.heights[1]),
+    let sector = if a.region == "wall" {
+        SectorOptions::wall()
+    } else {
+        SectorOptions {
+            centre_deg: a.sector_centre,
+            width_deg: a.sector_width,
+            heights: (a.heights[0], a.heights[1]),
+        }
     };
     let mopts = SubjectMeshOptions {
         surface: opts,
         sector,
         landmarks: a.landmarks,
         lambda: a.lambda,
-        free_wall: a.region == "free-wall",
+        free_wall: a.region != "whole",
     };
     let mut rows = Vec::new();
     let bar = progress(subs.len());

@@ -32,7 +32,7 @@ meshed on one connectivity, or a folder of one subject's mesh files (then only t
 (--landmarks); the first subject's frame-0 cavity surface (decimated to --vertices) is the template, \
 carried to every other subject's frame 0 by the landmark spline between the subjects and projected on \
 that subject's own surface, then to every frame through the subject's splines (one connectivity for \
-the cohort); --region keeps the free wall or the whole surface. The cycle is closed (frame 0 is \
+the cohort); --region keeps the free wall, the wall without the valve plane or the whole surface. The cycle is closed (frame 0 is \
 appended, so the gap last -> first is interpolated too: F (1 + --insert) poses, 8 x 4 = 32 as in the \
 paper); interpolation, parallel transport to the first subject's frame 0, similarity (eq. 13), \
 a 2-cluster split (--cluster); sensitivity (hcm) and specificity (controls) after Hungarian matching, beside two \
@@ -51,8 +51,10 @@ pub struct RunArgs {
     pub(crate) landmarks: usize,
     #[command(flatten)]
     pub(crate) common: CycleCommon,
-    /// Region analysed: the free wall (paper) or the whole cavity surface.
-    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "whole"])]
+    /// Region analysed: the free wall (paper; a 180-degree sector, heights 0.15-0.9), the wall
+    /// (every angle from the apex to height 0.9: no valve-plane cap) or the whole closed cavity
+    /// surface.
+    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "wall", "whole"])]
     pub(crate) region: String,
     /// Landmark counts of Table 5 (the whole pipeline once per count).
     #[arg(long, value_delimiter = ',', default_value = "8,16,24,32")]

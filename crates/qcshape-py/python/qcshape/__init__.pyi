@@ -160,6 +160,33 @@ def similarity_matrix(
     """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
     approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
 
+def motion_maps(
+    dataset: Dataset,
+    *,
+    measure: str = "normal",
+    scale: str = "absolute",
+    metric: Optional[str] = None,
+    form: Optional[str] = None,
+    weights: Optional[str] = None,
+    lam: Optional[float] = None,
+    l2_areas: Optional[str] = None,
+    steps: Optional[int] = None,
+    solver: Optional[str] = None,
+    tolerance: Optional[float] = None,
+    energy_tolerance: Optional[float] = None,
+    insert: Optional[int] = None,
+    levels: Optional[int] = None,
+    transport: Optional[str] = None,
+    align: Optional[str] = None,
+    smooth: Optional[int] = None,
+    base: Optional[Union[int, str]] = None,
+    threads: Optional[int] = None,
+    progress: Optional[bool] = None,
+) -> _F64:
+    """(n, nV) per-vertex motion of every deformation after the similarity preparation.
+    measure: "normal" (normal excursion times vertex area) or "metric" (per-vertex metric length);
+    scale: "absolute" or "share" (each row divided by its sum)."""
+
 def pair_contributions(
     dataset: Dataset,
     a: Union[int, str],

@@ -28,8 +28,11 @@ pub struct MeshSettings {
     pub smooth: usize,
     /// Vertex target of the template's whole surface (0: no decimation).
     pub vertices: usize,
-    /// Keep the free wall only.
+    /// Keep the submesh of `sector` only (the free wall, or the wall without the valve plane).
     pub free_wall: bool,
+    /// The sector kept with `free_wall` ([`SectorOptions::default`]: the paper's free wall;
+    /// [`SectorOptions::wall`]: the whole wall).
+    pub sector: SectorOptions,
 }
 
 /// The meshed cohort.
@@ -120,15 +123,11 @@ pub fn mesh_cohort(
             path: subs[0].path.clone(),
             error,
         })?;
-        let sub = free_wall(
-            &whole_topo,
-            &template.shape.positions,
-            &axis,
-            &SectorOptions::default(),
-        )
-        .map_err(|error| LvError::FreeWall {
-            path: subs[0].path.clone(),
-            error,
+        let sub = free_wall(&whole_topo, &template.shape.positions, &axis, &s.sector).map_err(|error| {
+            LvError::FreeWall {
+                path: subs[0].path.clone(),
+                error,
+            }
         })?;
         (sub.topology.clone(), Some(sub.vertices.clone()))
     } else {

@@ -119,6 +119,19 @@ impl Default for SectorOptions {
     }
 }
 
+impl SectorOptions {
+    /// The whole myocardial wall: every angle, from the apex up to the normalized height 0.9,
+    /// so without the valve-plane cap that closes the cavity surface (not myocardium). A disk
+    /// like the free wall.
+    pub fn wall() -> Self {
+        SectorOptions {
+            centre_deg: 180.0,
+            width_deg: 360.0,
+            heights: (-1.0, 0.9),
+        }
+    }
+}
+
 /// An open submesh: selected faces renumbered onto their vertices.
 #[derive(Debug, Clone)]
 pub struct Submesh {

@@ -25,6 +25,7 @@ pub mod cycle_map;
 pub mod freewall;
 pub mod landmarks;
 pub mod meshing;
+pub mod motion_report;
 pub mod nifti;
 pub mod phantom;
 pub mod region;

@@ -81,6 +81,12 @@ pub enum StudyError {
     /// A figure cannot be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// The motion map (localize) failed.
+    #[error(transparent)]
+    Localize(#[from] crate::localize::LocalizeError),
+    /// A picture could not be rendered.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     /// A file cannot be written.
     #[error(transparent)]
     Io(#[from] IoError),

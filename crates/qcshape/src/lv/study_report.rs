@@ -59,6 +59,9 @@ pub struct RunSummary {
     pub split: String,
     /// How the deformations were aligned before transfer (a sentence).
     pub align: String,
+    /// The phantom's abnormal region on the base mesh (#V), when the cohort knows it
+    /// ([`super::region::cohort_region`] weights >= 0.5).
+    pub abnormal: Option<Vec<bool>>,
 }
 
 fn pct(x: f64) -> String {
@@ -318,6 +321,14 @@ pub fn run_report(
             " (closing pair last -> frame 0 included)"
         }
     )?;
+    md.push_str(&super::motion_report::motion_section(
+        out,
+        main,
+        &labels,
+        &main.scores.positive,
+        s.abnormal.as_deref(),
+        s.seed,
+    )?);
     if !methods.is_empty() {
         methods_section(&mut md, methods)?;
         write(&out.join("clustering.csv"), &methods_csv(methods)?)?;
@@ -417,7 +428,7 @@ pub fn run_report(
     writeln!(
         md,
         "\nFiles: `similarity.csv` (eq. 13 matrix), `similarity.svg|png` (heat map by class), \
-         `subjects_mds.svg|png`, `table4.csv`, \
+         `subjects_mds.svg|png`, `motion_map.*`, `table4.csv`, \
          `table5.csv`, `subjects.csv`, `fig9_*`, `meshes/` (when meshed here)."
     )?;
     Ok(md)

@@ -9,6 +9,7 @@ use qcshape::dataset::{load_sequence, Dataset};
 use qcshape::lv::analysis::Axis;
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
 use qcshape::lv::cycle_map::cycle_map;
+use qcshape::lv::freewall::SectorOptions;
 use qcshape::lv::region::{cohort_region, write_region, REGION_NAME};
 use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::lv::study_report::{run_report, RunSummary};
@@ -17,6 +18,16 @@ use qcshape::transport::{Alignment, Transport};
 
 use super::progress::Bars;
 use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
+
+/// The sector kept for `--region` (`free-wall`: the paper's free wall; `wall`: every angle
+/// below the valve plane; `whole` keeps no sector).
+fn sector_of(region: &str) -> SectorOptions {
+    if region == "wall" {
+        SectorOptions::wall()
+    } else {
+        SectorOptions::default()
+    }
+}
 
 /// Runs `lv run` inside the worker pool.
 pub(super) fn run(a: &RunArgs) -> Result<()> {
@@ -46,11 +57,13 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         threshold: a.threshold,
         smooth: a.smooth,
         vertices: a.common.vertices,
-        free_wall: a.region == "free-wall",
+        free_wall: a.region != "whole",
+        sector: sector_of(&a.region),
     };
     let bars = Bars::default();
     let progress = |t: Tick<'_>| bars.tick(t);
     // The deformations, their long axes and per-subject meshing seconds.
+    let mut abnormal = None;
     let (defs, axes, mesh_seconds, input_note, from_images) =
         if is_cohort(&a.dir) {
             let t0 = Instant::now();
@@ -60,6 +73,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
             if let Some(w) = cohort_region(&a.dir, &c.defs[0].name, &c.defs[0].poses[0])? {
                 let file = a.out.join("meshes").join(REGION_NAME);
                 write_region(&file, &w)?;
+                abnormal = Some(w.iter().map(|&x| x >= 0.5).collect::<Vec<bool>>());
                 eprintln!(
                     "abnormal region of the phantom: {} of {} vertices -> {}",
                     w.iter().filter(|&&x| x >= 0.5).count(),
@@ -211,6 +225,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
                     m.label()
                 ),
                 },
+                abnormal: abnormal.clone(),
             };
             let mut md = run_report(
                 &a.out, &summary, &settings, &defs, &main, &base.rows, sweep, &map, &methods,

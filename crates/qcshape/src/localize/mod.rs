@@ -23,6 +23,9 @@ use crate::contribution::{pair_contributions, ContributionError};
 use crate::path::GeodesicSolver;
 use crate::similarity::{all_pairs, Pose};
 
+mod motion;
+pub use motion::{motion_contrasts, motion_maps, MotionContrast, MotionMeasure, MotionScale};
+
 /// Options of [`contrasts`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LocalizeOptions {
@@ -58,6 +61,14 @@ pub enum LocalizeError {
         i: usize,
         /// Second deformation.
         j: usize,
+        /// The error.
+        error: ContributionError,
+    },
+    /// A deformation's motion split failed.
+    #[error("deformation {deformation}: {error}")]
+    Motion {
+        /// The deformation.
+        deformation: usize,
         /// The error.
         error: ContributionError,
     },
@@ -177,18 +188,31 @@ pub fn benjamini_hochberg(p: &[f64], alpha: f64) -> Vec<bool> {
     out
 }
 
-/// The contrast of every pair of distinct labels (in order of first appearance) of the
-/// deformations behind `maps` (`labels`: one per deformation).
-pub fn contrasts(
-    maps: &PairMaps,
-    labels: &[String],
+/// The deformations of one pair of labels, as [`label_pairs`] gives them.
+pub(crate) struct LabelPair<'a> {
+    /// First label.
+    pub a: &'a String,
+    /// Second label.
+    pub b: &'a String,
+    /// Indices of the deformations labelled `a` or `b`, in input order.
+    pub members: Vec<usize>,
+    /// `in_a[k]`: member `k` is labelled `a`.
+    pub in_a: Vec<bool>,
+    /// The permutation stream of this pair of labels.
+    pub stream: u64,
+}
+
+/// Every pair of distinct labels (in order of first appearance) of `n` deformations, after
+/// checking `labels` (one per deformation, at least two distinct) and `opts.alpha`.
+pub(crate) fn label_pairs<'a>(
+    labels: &'a [String],
+    n: usize,
     opts: &LocalizeOptions,
-) -> Result<Vec<Contrast>, LocalizeError> {
-    if labels.len() != maps.n {
+) -> Result<Vec<LabelPair<'a>>, LocalizeError> {
+    if labels.len() != n {
         return Err(LocalizeError::Input(format!(
-            "{} labels for {} deformations",
-            labels.len(),
-            maps.n
+            "{} labels for {n} deformations",
+            labels.len()
         )));
     }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
@@ -213,60 +237,102 @@ pub fn contrasts(
     for x in 0..names.len() {
         for y in x + 1..names.len() {
             let (a, b) = (names[x], names[y]);
-            let members: Vec<usize> = (0..maps.n)
-                .filter(|&k| labels[k] == *a || labels[k] == *b)
-                .collect();
-            let in_a: Vec<bool> = members.iter().map(|&k| labels[k] == *a).collect();
-            let na = in_a.iter().filter(|&&t| t).count();
-            if na < 2 && members.len() - na < 2 {
-                return Err(LocalizeError::Input(format!(
-                    "labels {a:?} and {b:?} have one deformation each: there is no within-group pair"
-                )));
-            }
-            let (between, within) = means(maps, &members, &in_a);
-            let score: Vec<f64> = between.iter().zip(&within).map(|(b, w)| b - w).collect();
-            // Permutations in parallel, each with its own stream (seed, contrast, index), so
-            // the result does not depend on the thread count.
-            let stream = (x * names.len() + y) as u64;
-            let exceed: Vec<u32> = (0..opts.permutations)
-                .into_par_iter()
-                .map(|p| {
-                    let mut rng = ChaCha8Rng::seed_from_u64(
-                        opts.seed ^ (stream << 40) ^ (p as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-                    );
-                    let mut perm = in_a.clone();
-                    perm.shuffle(&mut rng);
-                    let (bt, wt) = means(maps, &members, &perm);
-                    bt.iter()
-                        .zip(&wt)
-                        .zip(&score)
-                        .map(|((b, w), s)| u32::from(b - w >= s - 1e-12 * s.abs()))
-                        .collect::<Vec<u32>>()
-                })
-                .reduce(
-                    || vec![0; maps.n_vertices],
-                    |mut acc, v| {
-                        acc.iter_mut().zip(&v).for_each(|(a, b)| *a += b);
-                        acc
-                    },
-                );
-            let p_value: Vec<f64> = exceed
-                .iter()
-                .map(|&e| (1.0 + e as f64) / (1.0 + opts.permutations as f64))
-                .collect();
-            let significant = benjamini_hochberg(&p_value, opts.alpha);
-            out.push(Contrast {
-                a: a.clone(),
-                b: b.clone(),
-                between,
-                within,
-                score,
-                p_value,
-                significant,
+            let members: Vec<usize> = (0..n).filter(|&k| labels[k] == *a || labels[k] == *b).collect();
+            let in_a = members.iter().map(|&k| labels[k] == *a).collect();
+            out.push(LabelPair {
+                a,
+                b,
+                members,
+                in_a,
+                stream: (x * names.len() + y) as u64,
             });
         }
     }
     Ok(out)
+}
+
+/// The contrast of every pair of distinct labels (in order of first appearance) of the
+/// deformations behind `maps` (`labels`: one per deformation).
+pub fn contrasts(
+    maps: &PairMaps,
+    labels: &[String],
+    opts: &LocalizeOptions,
+) -> Result<Vec<Contrast>, LocalizeError> {
+    let mut out = Vec::new();
+    for lp in label_pairs(labels, maps.n, opts)? {
+        let (a, b) = (lp.a, lp.b);
+        let na = lp.in_a.iter().filter(|&&t| t).count();
+        if na < 2 && lp.members.len() - na < 2 {
+            return Err(LocalizeError::Input(format!(
+                "labels {a:?} and {b:?} have one deformation each: there is no within-group pair"
+            )));
+        }
+        let (between, within) = means(maps, &lp.members, &lp.in_a);
+        let score: Vec<f64> = between.iter().zip(&within).map(|(b, w)| b - w).collect();
+        let p_value = permutation_p_values(
+            &lp.in_a,
+            opts,
+            lp.stream,
+            &score,
+            |s, o| s >= o,
+            |perm| {
+                let (bt, wt) = means(maps, &lp.members, perm);
+                bt.iter().zip(&wt).map(|(b, w)| b - w).collect()
+            },
+        );
+        let significant = benjamini_hochberg(&p_value, opts.alpha);
+        out.push(Contrast {
+            a: a.clone(),
+            b: b.clone(),
+            between,
+            within,
+            score,
+            p_value,
+            significant,
+        });
+    }
+    Ok(out)
+}
+
+/// One p-value per vertex from `opts.permutations` random relabellings of `in_a` (group sizes
+/// kept): `p_v = (1 + #{perm: exceeds(stat(perm)_v, observed_v)}) / (1 + P)`, where `exceeds`
+/// gets a relative tolerance of 1e-12 on the observed value (so the identity relabelling
+/// counts). Permutation `p` of contrast `stream` draws from its own ChaCha8 stream seeded by
+/// (`opts.seed`, `stream`, `p`) and the counts are summed, so the result does not depend on
+/// the thread count.
+pub(crate) fn permutation_p_values(
+    in_a: &[bool],
+    opts: &LocalizeOptions,
+    stream: u64,
+    observed: &[f64],
+    exceeds: impl Fn(f64, f64) -> bool + Sync,
+    stat: impl Fn(&[bool]) -> Vec<f64> + Sync,
+) -> Vec<f64> {
+    let exceed: Vec<u32> = (0..opts.permutations)
+        .into_par_iter()
+        .map(|p| {
+            let mut rng = ChaCha8Rng::seed_from_u64(
+                opts.seed ^ (stream << 40) ^ (p as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+            );
+            let mut perm = in_a.to_vec();
+            perm.shuffle(&mut rng);
+            stat(&perm)
+                .iter()
+                .zip(observed)
+                .map(|(s, o)| u32::from(exceeds(*s, o - 1e-12 * o.abs())))
+                .collect::<Vec<u32>>()
+        })
+        .reduce(
+            || vec![0; observed.len()],
+            |mut acc, v| {
+                acc.iter_mut().zip(&v).for_each(|(a, b)| *a += b);
+                acc
+            },
+        );
+    exceed
+        .iter()
+        .map(|&e| (1.0 + e as f64) / (1.0 + opts.permutations as f64))
+        .collect()
 }
 
 /// How much of a contrast's positive mass lies in a region, against the region's share of the
