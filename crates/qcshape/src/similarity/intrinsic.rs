@@ -6,7 +6,9 @@ use thiserror::Error;
 
 use crate::path::{GeodesicError, GeodesicSolver};
 
-use super::engine::{pose_distances, Approx, Pose};
+#[cfg(doc)]
+use super::engine::pose_distances;
+use super::engine::Pose;
 use super::karcher::{karcher_mean, KarcherOptions};
 
 /// Options of [`intrinsic_kmeans`].
@@ -60,7 +62,9 @@ pub struct IntrinsicClustering {
 ///
 /// Each round computes, for every cluster and pose, the Karcher mean of the members' poses
 /// (started from the previous mean; parallel over cluster x pose), then the similarity (eq. 13)
-/// of every deformation to every mean (parallel), and reassigns each deformation to its closest
+/// of every deformation to the means (parallel over deformations; a mean is abandoned as soon
+/// as its partial sum over poses exceeds the closest mean's full similarity, which leaves the
+/// assignment and the objective unchanged), and reassigns each deformation to its closest
 /// mean. A cluster that loses all its members takes the deformation farthest from its own
 /// mean. Stops when the assignment no longer changes.
 pub fn intrinsic_kmeans(
@@ -107,17 +111,13 @@ pub fn intrinsic_kmeans(
             *m = Some((0..poses).map(|_| it.next().expect("k x poses means")).collect());
         }
         let centres: Vec<&Vec<Pose>> = means.iter().map(|m| m.as_ref().expect("set above")).collect();
-        // Assignment: squared similarity of every deformation to every mean.
-        let pairs: Vec<(usize, usize)> = (0..n).flat_map(|i| (0..k).map(move |c| (i, c))).collect();
-        let costs: Vec<f64> = pairs
-            .par_iter()
-            .map(|&(i, c)| {
-                let (d, _, _) = pose_distances(solver, &deformations[i], centres[c], Approx::Exact)
-                    .map_err(|(_, e)| e)?;
-                let s: f64 = d.iter().sum();
-                Ok(s * s)
-            })
-            .collect::<Result<_, GeodesicError>>()?;
+        // Assignment: squared similarity of every deformation to every mean it may be closest
+        // to (infinite where the mean is provably farther than the best one).
+        let mut costs: Vec<f64> = (0..n)
+            .into_par_iter()
+            .map(|i| assignment_costs(solver, &deformations[i], &centres, assign[i]))
+            .collect::<Result<Vec<_>, GeodesicError>>()?
+            .concat();
         iterations += 1;
         let mut new: Vec<usize> = (0..n)
             .map(|i| {
@@ -142,6 +142,12 @@ pub fn intrinsic_kmeans(
                 .max_by(|&a, &b| costs[a * k + new[a]].total_cmp(&costs[b * k + new[b]]))
             {
                 new[i] = c;
+                if costs[i * k + c].is_infinite() {
+                    // An abandoned mean: its objective term is measured in full.
+                    let s =
+                        squared_similarity(solver, &deformations[i], centres[c], None)?.expect("no bound");
+                    costs[i * k + c] = s;
+                }
             }
         }
         objective = (0..n).map(|i| costs[i * k + new[i]]).sum();
@@ -161,6 +167,62 @@ pub fn intrinsic_kmeans(
         iterations,
         converged,
     })
+}
+
+/// Relative margin by which a partial similarity must exceed the best full one to rule a mean
+/// out: partial and full sums are added in different orders, so they may differ by rounding.
+const PRUNE_MARGIN: f64 = 1e-9;
+
+/// The squared similarity `(sum_p dis(x_p, mu_p))^2` (eq. 13) of deformation `x` to each of
+/// the `means` (k values), or infinity for a mean that cannot be the closest: the mean `first`
+/// (the current cluster) is measured first, then the others pose by pose from the last pose
+/// (the farthest from the common base, with the largest distances), and a mean is abandoned as
+/// soon as its partial sum exceeds the smallest full sum found so far. The distances are
+/// non-negative, so an abandoned mean's full similarity is larger: the closest mean (with the
+/// same tie-break, the lowest index among equal costs after `first`) and its cost are exactly
+/// those of measuring every mean in full, at a fraction of the geodesics. Full sums are added
+/// in pose order, as [`pose_distances`] does.
+fn assignment_costs(
+    solver: &GeodesicSolver,
+    x: &[Pose],
+    means: &[&Vec<Pose>],
+    first: usize,
+) -> Result<Vec<f64>, GeodesicError> {
+    let mut costs = vec![f64::INFINITY; means.len()];
+    let mut best = f64::INFINITY;
+    let order = std::iter::once(first).chain((0..means.len()).filter(|&c| c != first));
+    for c in order {
+        if let Some(cost) = squared_similarity(solver, x, means[c], Some(best))? {
+            best = best.min(cost.sqrt());
+            costs[c] = cost;
+        }
+    }
+    Ok(costs)
+}
+
+/// `(sum_p dis(x_p, mu_p))^2` of deformation `x` to mean `mu` (pose lists of equal length),
+/// the poses measured from the last to the first and summed in pose order; `None` as soon as
+/// the partial sum exceeds `bound` (a similarity, not squared) by [`PRUNE_MARGIN`].
+fn squared_similarity(
+    solver: &GeodesicSolver,
+    x: &[Pose],
+    mu: &[Pose],
+    bound: Option<f64>,
+) -> Result<Option<f64>, GeodesicError> {
+    let limit = bound.map_or(f64::INFINITY, |b| b * (1.0 + PRUNE_MARGIN));
+    let mut d = vec![0.0; x.len()];
+    let mut partial = 0.0;
+    for p in (0..x.len()).rev() {
+        if x[p] != mu[p] {
+            d[p] = solver.solve(&x[p], &mu[p])?.length;
+        }
+        partial += d[p];
+        if partial > limit {
+            return Ok(None);
+        }
+    }
+    let s: f64 = d.iter().sum();
+    Ok(Some(s * s))
 }
 
 #[cfg(test)]
@@ -222,5 +284,26 @@ mod tests {
         }
         assert!(r.objective.is_finite() && r.objective > 0.0);
         assert!(intrinsic_kmeans(&solver, &defs, &[0, 1], 2, &IntrinsicOptions::default()).is_err());
+
+        // The pruned assignment costs pick the mean and the cost of the full ones, whichever
+        // mean is measured first.
+        let means: Vec<&Vec<Pose>> = defs.iter().collect();
+        for (i, x) in defs.iter().enumerate() {
+            let full: Vec<f64> = means
+                .iter()
+                .map(|m| squared_similarity(&solver, x, m, None).unwrap().unwrap())
+                .collect();
+            for first in [0, 3, 5] {
+                let pruned = assignment_costs(&solver, x, &means, first).unwrap();
+                assert_eq!(pruned[i], 0.0);
+                assert_eq!(pruned[first], full[first]);
+                for (c, (p, f)) in pruned.iter().zip(&full).enumerate() {
+                    assert!(
+                        *p == *f || (p.is_infinite() && *f > 0.0),
+                        "{i} {first} {c}: {p} vs {f}"
+                    );
+                }
+            }
+        }
     }
 }
