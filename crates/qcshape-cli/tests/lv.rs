@@ -82,6 +82,35 @@ fn phantom_register_mesh_gives_a_loadable_labelled_manifest() {
     }
     assert_eq!(n_hcm, 2);
 
+    // The wall: every angle below the valve plane, a disk with more vertices than the free wall.
+    let wall = tmp.path().join("wall");
+    ok(&qcshape(&[
+        "lv",
+        "mesh",
+        s(&cohort),
+        "--out",
+        s(&wall),
+        "--vertices",
+        "400",
+        "--region",
+        "wall",
+    ]));
+    let walls = Dataset::load(&wall).unwrap();
+    for (d, f) in walls.deformations.iter().zip(&ds.deformations) {
+        assert_eq!(
+            d.topology.boundary_loops().len(),
+            1,
+            "{}: the wall is open at the base",
+            d.name
+        );
+        assert_eq!(d.topology.euler_characteristic(), 1, "{}", d.name);
+        assert!(
+            d.topology.n_vertices() > f.topology.n_vertices() * 3 / 2,
+            "{}",
+            d.name
+        );
+    }
+
     let whole = tmp.path().join("whole");
     ok(&qcshape(&[
         "lv",

@@ -99,7 +99,12 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
     // The final report (written after each step, partial until the last) embeds its figures.
     assert!(!report.contains("Partial report"), "{report}");
-    for png in ["subjects_mds.png", "similarity.png", "fig9_mds.png"] {
+    for png in [
+        "subjects_mds.png",
+        "similarity.png",
+        "fig9_mds.png",
+        "motion_map.png",
+    ] {
         assert!(
             report.contains(&format!("]({png})")) && res.join(png).is_file(),
             "{png}"
@@ -110,6 +115,21 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
         "{report}"
     );
     assert!(report.contains("| Our method | 88.8 | 85.7 |"), "{report}");
+    // The signed motion map, with the phantom's abnormal region (known to the cohort).
+    assert!(
+        report.contains("## Where the groups move differently"),
+        "{report}"
+    );
+    assert!(report.contains("The phantom's abnormal region ("), "{report}");
+    let motion = rows(&res.join("motion_map.csv"));
+    let nv = Dataset::load(&res.join("meshes/manifest.csv"))
+        .unwrap()
+        .deformations[0]
+        .topology
+        .n_vertices();
+    assert_eq!(motion.len(), nv);
+    assert!(motion.iter().all(|r| r[1].parse::<f64>().unwrap().is_finite()));
+    assert!(res.join("motion_map.vtk").is_file());
     let t4 = rows(&res.join("table4.csv"));
     assert_eq!(t4.len(), 3);
     for r in &t4 {
