@@ -7,11 +7,11 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::io::{self, Field};
 use qcshape::localize::{
-    contrasts, motion_contrasts, motion_maps, pair_maps, read_vertex_mask, region_share, LocalizeOptions,
-    MotionMeasure, MotionScale,
+    contrasts, motion_contrasts, motion_maps, pair_maps, read_vertex_mask, region_share, write_map,
+    LocalizeOptions, MotionMeasure, MotionScale, VertexMap,
 };
 use qcshape::path::GeodesicSolver;
-use qcshape::render::{render_png, RenderOptions};
+use qcshape::render::RenderOptions;
 use qcshape::similarity::{prepare, PipelineOptions};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
@@ -194,18 +194,18 @@ pub fn run(args: &Args) -> Result<()> {
     );
     for c in &result {
         let stem = format!("contrast_{}_vs_{}", file_part(&c.a), file_part(&c.b));
-        let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
-        let fields = [
-            Field::scalar("score", &c.score),
-            Field::scalar("p_value", &c.p_value),
-            Field::scalar("significant", &sig),
-            Field::scalar("between", &c.between),
-            Field::scalar("within", &c.within),
-        ];
         out.write_map(
             &stem,
-            ("score", &c.score, &c.p_value, &c.significant),
-            &fields,
+            VertexMap {
+                name: "score",
+                values: &c.score,
+                p_value: &c.p_value,
+                significant: &c.significant,
+            },
+            &[
+                Field::scalar("between", &c.between),
+                Field::scalar("within", &c.within),
+            ],
             &format!("{} vs {}: {}", c.a, c.b, metric.name()),
             "score = mean between - mean within similarity split",
         )?;
@@ -219,18 +219,18 @@ pub fn run(args: &Args) -> Result<()> {
     };
     for c in &motion {
         let stem = format!("motion_{}_minus_{}", file_part(&c.a), file_part(&c.b));
-        let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
-        let fields = [
-            Field::scalar("difference", &c.difference),
-            Field::scalar("p_value", &c.p_value),
-            Field::scalar("significant", &sig),
-            Field::scalar("mean_a", &c.mean_a),
-            Field::scalar("mean_b", &c.mean_b),
-        ];
         out.write_map(
             &stem,
-            ("difference", &c.difference, &c.p_value, &c.significant),
-            &fields,
+            VertexMap {
+                name: "difference",
+                values: &c.difference,
+                p_value: &c.p_value,
+                significant: &c.significant,
+            },
+            &[
+                Field::scalar("mean_a", &c.mean_a),
+                Field::scalar("mean_b", &c.mean_b),
+            ],
             &format!("motion {} minus {}: {motion_name}", c.a, c.b),
             &format!("red: {} moves more, blue: {} moves more", c.a, c.b),
         )?;
@@ -259,30 +259,12 @@ impl Output<'_> {
     /// Writes `STEM.csv` (`vertex,NAME,p_value,significant`), `STEM.vtk`, `STEM.ply` (the
     /// fields) and `STEM.png` (the map, non-significant vertices grey when any is
     /// significant, the region outlined).
-    fn write_map(
-        &self,
-        stem: &str,
-        (name, values, p_value, significant): (&str, &[f64], &[f64], &[bool]),
-        fields: &[Field],
-        title: &str,
-        label: &str,
-    ) -> Result<()> {
-        let mut csv = format!("vertex,{name},p_value,significant\n");
-        for v in 0..values.len() {
-            writeln!(csv, "{v},{:.12e},{:.6},{}", values[v], p_value[v], significant[v])?;
-        }
-        io::write_atomically(&self.dir.join(format!("{stem}.csv")), |w| {
-            w.write_all(csv.as_bytes())
-        })?;
-        let faces = self.topology.faces();
-        for ext in ["vtk", "ply"] {
-            io::write_mesh_fields(&self.dir.join(format!("{stem}.{ext}")), self.base, faces, fields)?;
-        }
-        let n_sig = significant.iter().filter(|&&s| s).count();
+    fn write_map(&self, stem: &str, map: VertexMap, extra: &[Field], title: &str, label: &str) -> Result<()> {
+        let n_sig = map.n_significant();
         let picture = RenderOptions {
             title: format!(
                 "{title}; {n_sig} of {} vertices significant (FDR {})",
-                values.len(),
+                map.values.len(),
                 self.alpha
             ),
             label: format!(
@@ -294,23 +276,25 @@ impl Output<'_> {
                     ""
                 }
             ),
-            grey: (n_sig > 0).then(|| significant.iter().map(|&s| !s).collect()),
             outline: self.region.cloned(),
             ..Default::default()
         };
-        render_png(
-            &self.dir.join(format!("{stem}.png")),
+        write_map(
+            self.dir,
+            stem,
             self.base,
-            faces,
-            values,
-            &picture,
+            self.topology.faces(),
+            &map,
+            extra,
+            &["vtk", "ply"],
+            picture,
         )?;
         println!(
             "{title}: {n_sig} of {} vertices significant (FDR {}), max {:.4e}, min p {:.4}",
-            values.len(),
+            map.values.len(),
             self.alpha,
-            values.iter().copied().fold(f64::MIN, f64::max),
-            p_value.iter().copied().fold(1.0, f64::min)
+            map.values.iter().copied().fold(f64::MIN, f64::max),
+            map.p_value.iter().copied().fold(1.0, f64::min)
         );
         Ok(())
     }

@@ -23,7 +23,9 @@ use crate::contribution::{pair_contributions, ContributionError};
 use crate::path::GeodesicSolver;
 use crate::similarity::{all_pairs, Pose};
 
+mod files;
 mod motion;
+pub use files::{write_map, MapFileError, VertexMap};
 pub use motion::{motion_contrasts, motion_maps, MotionContrast, MotionMeasure, MotionScale};
 
 /// Options of [`contrasts`].

@@ -1,5 +1,5 @@
 //! The LV report's map of where the two groups move differently: the signed normal-motion
-//! contrast of [`crate::localize::motion`] on the transferred cycles, rendered on the base
+//! contrast of [`crate::localize::motion_contrasts`] on the transferred cycles, rendered on the base
 //! mesh, with the phantom's abnormal region outlined and its share of the map when known
 //! (docs/maps.md, "Signed motion maps").
 
@@ -7,11 +7,12 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::study::{Analysis, StudyError};
-use crate::io::{write_atomically, write_mesh_fields, Field};
+use crate::io::Field;
 use crate::localize::{
-    motion_contrasts, motion_maps, region_share, LocalizeOptions, MotionMeasure, MotionScale,
+    motion_contrasts, motion_maps, region_share, write_map, LocalizeOptions, MotionMeasure, MotionScale,
+    VertexMap,
 };
-use crate::render::{render_png, RenderOptions};
+use crate::render::RenderOptions;
 
 /// Writes `OUT/motion_map.csv` (`vertex,difference,p_value,significant`), `motion_map.vtk`
 /// (the same as point data plus both group means) and `motion_map.png`, and returns the
@@ -58,25 +59,13 @@ pub fn motion_section(
     let d: Vec<f64> = c.difference.iter().map(|x| sign * x).collect();
     let base = &p.transferred[0][0];
     let faces = p.topology.faces();
-    let mut csv = String::from("vertex,difference,p_value,significant\n");
-    for (v, ((x, p), s)) in d.iter().zip(&c.p_value).zip(&c.significant).enumerate() {
-        writeln!(csv, "{v},{x:.12e},{p:.6},{s}")?;
-    }
-    write_atomically(&out.join("motion_map.csv"), |w| w.write_all(csv.as_bytes()))?;
-    let sig: Vec<f64> = c.significant.iter().map(|&s| f64::from(u8::from(s))).collect();
-    write_mesh_fields(
-        &out.join("motion_map.vtk"),
-        base,
-        faces,
-        &[
-            Field::scalar("difference", &d),
-            Field::scalar("p_value", &c.p_value),
-            Field::scalar("significant", &sig),
-            Field::scalar(&format!("mean_{neg}"), mean_neg),
-            Field::scalar(&format!("mean_{pos}"), mean_pos),
-        ],
-    )?;
-    let n_sig = c.significant.iter().filter(|&&s| s).count();
+    let map = VertexMap {
+        name: "difference",
+        values: &d,
+        p_value: &c.p_value,
+        significant: &c.significant,
+    };
+    let n_sig = map.n_significant();
     let picture = RenderOptions {
         title: format!(
             "Normal wall motion, {neg} minus {pos}; {n_sig} of {} vertices significant (FDR 0.05)",
@@ -91,11 +80,22 @@ pub fn motion_section(
                 ""
             }
         ),
-        grey: (n_sig > 0).then(|| c.significant.iter().map(|&s| !s).collect()),
         outline: region.map(<[bool]>::to_vec),
         ..Default::default()
     };
-    render_png(&out.join("motion_map.png"), base, faces, &d, &picture)?;
+    write_map(
+        out,
+        "motion_map",
+        base,
+        faces,
+        &map,
+        &[
+            Field::scalar(&format!("mean_{neg}"), mean_neg),
+            Field::scalar(&format!("mean_{pos}"), mean_pos),
+        ],
+        &["vtk"],
+        picture,
+    )?;
 
     let mut md = String::from("## Where the groups move differently\n\n");
     writeln!(

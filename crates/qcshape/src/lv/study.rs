@@ -84,9 +84,9 @@ pub enum StudyError {
     /// The motion map (localize) failed.
     #[error(transparent)]
     Localize(#[from] crate::localize::LocalizeError),
-    /// A picture could not be rendered.
+    /// A map's files could not be written.
     #[error(transparent)]
-    Render(#[from] crate::render::RenderError),
+    MapFile(#[from] crate::localize::MapFileError),
     /// A file cannot be written.
     #[error(transparent)]
     Io(#[from] IoError),
