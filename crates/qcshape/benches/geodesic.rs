@@ -156,6 +156,7 @@ fn main() {
                     preconditioner_refresh: refresh,
                     lbfgs_memory: memory,
                     vertex_block_weight: omega,
+                    ..Default::default()
                 });
                 let reached = g.energy <= target;
                 (t, g.iterations, reached)

@@ -164,6 +164,20 @@ impl<'m> PathEnergy<'m> {
 
     /// The energy and its exact gradient `2 J^T r` (written to `grad`, length [`Self::n_vars`]).
     pub fn energy_gradient(&self, x: &[f64], ends: &Ends, grad: &mut [f64]) -> f64 {
+        self.energy_gradient_segments(x, ends, grad, None)
+    }
+
+    /// [`Self::energy_gradient`], also writing each segment's energy
+    /// `G_{P_i}(X_i) + G_{P_{i+1}}(X_i)` into `segments` (length `N`) when given: with the
+    /// auxiliary unknowns at their optimum these are the squared segment lengths times 2, so a
+    /// solver's last evaluation gives the path's length without another pass.
+    pub(crate) fn energy_gradient_segments(
+        &self,
+        x: &[f64],
+        ends: &Ends,
+        grad: &mut [f64],
+        mut segments: Option<&mut [f64]>,
+    ) -> f64 {
         let nv3 = 3 * self.n_vertices();
         let n_aux = self.metric.n_aux();
         let parts: Vec<SegmentGradient> = (0..self.steps)
@@ -199,6 +213,9 @@ impl<'m> PathEnergy<'m> {
         let mut e = 0.0;
         for (s, (es, ga, gb, gaux)) in parts.into_iter().enumerate() {
             e += es;
+            if let Some(out) = segments.as_deref_mut() {
+                out[s] = es;
+            }
             if s >= 1 {
                 for (g, v) in grad[(s - 1) * nv3..s * nv3].iter_mut().zip(ga.as_flattened()) {
                     *g += v;

@@ -277,7 +277,9 @@ impl PoseSum {
 
     /// Directly from the metric's residual Jacobians at path `x`, without the segments'
     /// blocks (no off-diagonal blocks, gradients or per-segment storage): what the
-    /// preconditioned solver needs at a refit.
+    /// preconditioned solver needs at a refit. Only the slots of the upper triangle (row
+    /// vertex <= column vertex, what [`SpatialLayout::factorize`] reads) are summed; the
+    /// others stay zero.
     pub fn assemble(layout: &SpatialLayout, pe: &PathEnergy, x: &[f64], ends: &Ends) -> Self {
         let st = &layout.st;
         let n_slots = st.pairs.n_slots();
@@ -313,7 +315,12 @@ impl PoseSum {
                         }
                         // A fixed end (segment 0's start, the last segment's end) has no
                         // block: its zeroed Jacobian is skipped rather than multiplied out.
+                        // Only the upper triangle (row vertex <= column vertex) is factorized,
+                        // so the lower blocks are not formed.
                         for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
+                            if (pat.vertices[first + ll] as usize) < v {
+                                continue;
+                            }
                             let blk = &mut acc[slot as usize];
                             if need_a {
                                 outer_add(blk, dak, jac.da[first + ll]);
@@ -502,9 +509,22 @@ mod tests {
                 let got = PoseSum::assemble(&layout, &pe, &x, &ends);
                 let scale = want.sum.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
                 assert!(scale > 0.0);
-                for (w, g) in want.sum.iter().flatten().zip(got.sum.iter().flatten()) {
-                    assert!((w - g).abs() <= 1e-12 * scale, "{}: {w} vs {g}", m.name());
+                // The direct assembly forms the upper triangle only (slot of row u in column v).
+                let pairs = &layout.structure().pairs;
+                let mut upper = 0;
+                for v in 0..pe.n_vertices() {
+                    for slot in pairs.off[v]..pairs.off[v + 1] {
+                        if pairs.rows[slot] > v {
+                            assert!(got.sum[slot].iter().all(|&g| g == 0.0));
+                            continue;
+                        }
+                        upper += 1;
+                        for (w, g) in want.sum[slot].iter().zip(&got.sum[slot]) {
+                            assert!((w - g).abs() <= 1e-12 * scale, "{}: {w} vs {g}", m.name());
+                        }
+                    }
                 }
+                assert!(upper > pe.n_vertices());
                 assert_eq!(want.parts, got.parts);
                 for (w, g) in want.traces.iter().zip(&got.traces) {
                     assert!(
@@ -582,7 +602,8 @@ mod tests {
             let n = 3 * st.nv;
             let mut rng = ChaCha8Rng::seed_from_u64(9);
             let v: Vec<f64> = (0..n * mm).map(|_| rng.random::<f64>() - 0.5).collect();
-            // A v per pose, then the time stencil of T_c.
+            // A v per pose (A symmetric, its upper blocks assembled), then the time stencil
+            // of T_c.
             let av: Vec<Vec<f64>> = (0..mm)
                 .map(|j| {
                     let xj = &v[j * n..(j + 1) * n];
@@ -590,9 +611,15 @@ mod tests {
                     for col in 0..st.nv {
                         for idx in st.pairs.off[col]..st.pairs.off[col + 1] {
                             let row = st.pairs.rows[idx];
+                            if row > col {
+                                continue;
+                            }
                             for r in 0..3 {
                                 for cc in 0..3 {
                                     y[3 * row + r] += a[idx][3 * r + cc] * xj[3 * col + cc];
+                                    if row < col {
+                                        y[3 * col + cc] += a[idx][3 * r + cc] * xj[3 * row + r];
+                                    }
                                 }
                             }
                         }

@@ -32,6 +32,7 @@ pub(crate) fn minimize(
             x,
             iterations,
             stop: StopReason::GradientTolerance,
+            last: None,
         });
     }
     let limit = opts
@@ -101,5 +102,10 @@ pub(crate) fn minimize(
     if !energy.is_finite() {
         return Err(GeodesicError::NonFinite(format!("energy {energy}")));
     }
-    Ok(SolveOutput { x, iterations, stop })
+    Ok(SolveOutput {
+        x,
+        iterations,
+        stop,
+        last: None,
+    })
 }

@@ -176,6 +176,14 @@ pub struct GeodesicOptions {
     /// ventricle neutral; isometric runs to convergence can take up to 25 % longer, ending in
     /// other minima 1e-5 apart; README "Benchmark" and "How the defaults were chosen").
     pub vertex_block_weight: f64,
+    /// How long [`GeodesicSolver::solve_in`] keeps one preconditioner fit for the next
+    /// geodesics: refit once the solves after the fitting one have together taken more than
+    /// this many iterations beyond the fitting solve's count (0: refit as soon as a solve
+    /// with the fit needs more iterations than the one that fitted it). Default 10 (162-vertex benchmark,
+    /// 48 deformations x 9 poses, iterations per geodesic fresh / 0 / 4 / 10 / never refit:
+    /// quasi-conformal 4.7 / 5.0 / 5.3 / 5.4 / 6.5, conformal 13.0 / 13.2 / 13.8 / 14.3 / 18.6;
+    /// CPU time of the matrix lowest for 4-10; docs/speed.md).
+    pub preconditioner_reuse: usize,
 }
 
 impl GeodesicOptions {
@@ -198,6 +206,7 @@ impl Default for GeodesicOptions {
             lbfgs_memory: 10,
             preconditioner_refresh: 45,
             vertex_block_weight: 0.3,
+            preconditioner_reuse: 10,
         }
     }
 }
@@ -361,9 +370,21 @@ impl<'m> GeodesicSolver<'m> {
 
     /// Geodesic from `a` to `b` (each #V x 3, already scaled), started from the linear path.
     pub fn solve(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Geodesic, GeodesicError> {
+        self.solve_in(&mut SolveContext::default(), a, b)
+    }
+
+    /// [`Self::solve`] with the set-up of the previous solves through `ctx` (a preconditioner
+    /// fitted once for a sequence of related geodesics, such as the poses of one pair of
+    /// deformations, instead of once per geodesic; [`SolveContext`]).
+    pub fn solve_in<'s>(
+        &'s self,
+        ctx: &mut SolveContext<'s>,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+    ) -> Result<Geodesic, GeodesicError> {
         let ends = self.ends(a, b)?;
         let x0 = self.energy.linear_start(&ends);
-        self.solve_from(&ends, x0)
+        self.solve_from(&ends, x0, Some(ctx))
     }
 
     /// The length of the straight (linear) path from `a` to `b` with the solver's N segments,
@@ -402,7 +423,7 @@ impl<'m> GeodesicSolver<'m> {
             )));
         }
         let x0 = self.energy.pack(interior, &ends);
-        self.solve_from(&ends, x0)
+        self.solve_from(&ends, x0, None)
     }
 
     fn ends(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Ends, GeodesicError> {
@@ -431,20 +452,32 @@ impl<'m> GeodesicSolver<'m> {
         })
     }
 
-    fn solve_from(&self, ends: &Ends, x0: Vec<f64>) -> Result<Geodesic, GeodesicError> {
+    fn solve_from<'s>(
+        &'s self,
+        ends: &Ends,
+        x0: Vec<f64>,
+        ctx: Option<&mut SolveContext<'s>>,
+    ) -> Result<Geodesic, GeodesicError> {
         let t0 = Instant::now();
         let pe = &self.energy;
-        let initial_energy = pe.energy(&x0, ends);
-        if !initial_energy.is_finite() {
-            return Err(GeodesicError::NonFinite(format!(
-                "initial energy {initial_energy}"
-            )));
-        }
+        // The default solver evaluates the start itself (its first energy and gradient);
+        // the others, and a path without unknowns, are evaluated here.
+        let own_start = pe.n_vars() > 0 && self.options.solver == Solver::Preconditioned;
+        let checked_start = if own_start {
+            None
+        } else {
+            let e0 = pe.energy(&x0, ends);
+            if !e0.is_finite() {
+                return Err(GeodesicError::NonFinite(format!("initial energy {e0}")));
+            }
+            Some(e0)
+        };
         let out = if pe.n_vars() == 0 {
             SolveOutput {
                 x: x0,
                 iterations: 0,
                 stop: StopReason::NothingToOptimize,
+                last: None,
             }
         } else {
             match self.options.solver {
@@ -466,20 +499,67 @@ impl<'m> GeodesicSolver<'m> {
                         .spatial
                         .as_ref()
                         .expect("layout is built for the preconditioned solver");
-                    plbfgs::minimize(pe, Some(layout), ends, x0, &self.options)?
+                    match ctx {
+                        None => plbfgs::minimize(pe, Some(layout), ends, x0, &self.options, None)?,
+                        Some(c) => {
+                            let fitted = c.pre.is_none();
+                            let out = plbfgs::minimize(
+                                pe,
+                                Some(layout),
+                                ends,
+                                x0,
+                                &self.options,
+                                Some(&mut c.pre),
+                            )?;
+                            // Ski rental: keep the fit while the iterations it costs beyond
+                            // those of the solve that fitted it stay within the budget.
+                            if fitted {
+                                c.fits += 1;
+                                c.fit_iterations = out.iterations;
+                                c.extra_iterations = 0;
+                            } else {
+                                c.extra_iterations += out.iterations.saturating_sub(c.fit_iterations);
+                                if c.extra_iterations > self.options.preconditioner_reuse {
+                                    c.pre = None;
+                                }
+                            }
+                            out
+                        }
+                    }
                 }
-                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options)?,
+                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options, None)?,
             }
         };
-        let mut grad = vec![0.0; pe.n_vars()];
-        let energy = pe.energy_gradient(&out.x, ends, &mut grad);
+        let (energy, initial_energy, gradient_norm, segment_energies) = match out.last {
+            Some(last) => (
+                last.energy,
+                last.initial_energy,
+                last.gradient_norm,
+                last.segments,
+            ),
+            None => {
+                let mut grad = vec![0.0; pe.n_vars()];
+                let energy = pe.energy_gradient(&out.x, ends, &mut grad);
+                let segments = pe
+                    .segment_norms(&out.x, ends)
+                    .iter()
+                    .map(|(g0, g1)| g0 + g1)
+                    .collect();
+                let gnorm = grad.iter().map(|g| g * g).sum::<f64>().sqrt();
+                (energy, checked_start.unwrap_or(energy), gnorm, segments)
+            }
+        };
+        if !initial_energy.is_finite() {
+            return Err(GeodesicError::NonFinite(format!(
+                "initial energy {initial_energy}"
+            )));
+        }
         if !energy.is_finite() {
             return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
         }
-        let norms = pe.segment_norms(&out.x, ends);
-        let segment_lengths: Vec<f64> = norms
+        let segment_lengths: Vec<f64> = segment_energies
             .iter()
-            .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
+            .map(|e| (e / 2.0).max(0.0).sqrt())
             .collect();
         let poses = (0..=pe.steps())
             .map(|i| pe.pose(&out.x, ends, i).to_vec())
@@ -493,7 +573,7 @@ impl<'m> GeodesicSolver<'m> {
             iterations: out.iterations,
             converged: out.stop.is_converged(),
             stop: out.stop,
-            gradient_norm: grad.iter().map(|g| g * g).sum::<f64>().sqrt(),
+            gradient_norm,
             scale: 1.0,
             seconds: t0.elapsed().as_secs_f64(),
         })
@@ -558,6 +638,46 @@ pub(crate) struct SolveOutput {
     pub x: Vec<f64>,
     pub iterations: usize,
     pub stop: StopReason,
+    /// The minimizer's evaluations at the start and at `x` (aux unknowns at their optimum),
+    /// when it kept them; otherwise [`GeodesicSolver`] evaluates again.
+    pub last: Option<LastEvaluation>,
+}
+
+/// A minimizer's own evaluations, reused for the reported [`Geodesic`] (no further pass).
+pub(crate) struct LastEvaluation {
+    /// Path energy at the solution.
+    pub energy: f64,
+    /// Path energy at the start.
+    pub initial_energy: f64,
+    /// Norm of the pose gradient at the solution (the auxiliary part vanishes at the optimum).
+    pub gradient_norm: f64,
+    /// Each segment's energy `G_{P_i}(X_i) + G_{P_{i+1}}(X_i)` at the solution.
+    pub segments: Vec<f64>,
+}
+
+/// Set-up carried from one solve to the next by [`GeodesicSolver::solve_in`]: the default
+/// solver's preconditioner (the Kronecker model and vertex blocks with its Cholesky factor),
+/// fitted at the first path solved through the context and refitted as the solver's
+/// [`GeodesicOptions::preconditioner_refresh`] says. A preconditioner changes the iterates,
+/// not the minimum: results agree with fresh solves to solver tolerance, and depend only on
+/// the order of the solves through one context (never on threads). Other solvers ignore it.
+#[derive(Default)]
+pub struct SolveContext<'s> {
+    pre: Option<plbfgs::Preconditioner<'s>>,
+    /// Iterations of the solve that fitted `pre`.
+    fit_iterations: usize,
+    /// Iterations beyond `fit_iterations` spent by later solves with `pre`.
+    extra_iterations: usize,
+    /// Preconditioner fits made at the start of a solve through this context.
+    fits: usize,
+}
+
+impl SolveContext<'_> {
+    /// How many solves through this context fitted a new preconditioner (the others reused
+    /// the previous fit).
+    pub fn fits(&self) -> usize {
+        self.fits
+    }
 }
 
 /// How shapes are scaled before solving (METHOD.md: one common factor for all shapes compared).
@@ -673,6 +793,83 @@ mod tests {
                 "{i}: {fd} vs {}",
                 g[i]
             );
+        }
+    }
+
+    /// The default solver reports its own last evaluation (no second pass): energy, initial
+    /// energy and segment lengths agree with evaluating the returned path afresh.
+    #[test]
+    fn reported_energy_and_lengths_match_a_fresh_evaluation() {
+        let a = icosphere(1);
+        let b = bent(&a);
+        let m = Regularized::new(Box::new(Isometric), 0.1);
+        let solver = GeodesicSolver::new(&m, a.topology.clone(), GeodesicOptions::default()).unwrap();
+        let g = solver.solve(&a.positions, &b.positions).unwrap();
+        assert!(g.iterations > 0);
+        let ends = solver.ends(&a.positions, &b.positions).unwrap();
+        let pe = solver.path_energy();
+        let x = pe.pack(&g.poses[1..g.poses.len() - 1], &ends);
+        let mut grad = vec![0.0; pe.n_vars()];
+        let e = pe.energy_gradient(&x, &ends, &mut grad);
+        assert!((g.energy - e).abs() <= 1e-12 * e, "{} vs {e}", g.energy);
+        let e0 = pe.energy(&pe.linear_start(&ends), &ends);
+        assert!((g.initial_energy - e0).abs() <= 1e-12 * e0);
+        let gn = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(
+            (g.gradient_norm - gn).abs() <= 1e-9 * (1.0 + gn),
+            "{} vs {gn}",
+            g.gradient_norm
+        );
+        for (l, (g0, g1)) in g.segment_lengths.iter().zip(pe.segment_norms(&x, &ends)) {
+            let want = ((g0 + g1) / 2.0).sqrt();
+            assert!((l - want).abs() <= 1e-12 * want, "{l} vs {want}");
+        }
+    }
+
+    /// Solves through one [`SolveContext`] (one preconditioner fit for several geodesics)
+    /// reach the same distances as fresh solves to solver tolerance, and repeat bit for bit.
+    #[test]
+    fn shared_preconditioner_gives_the_same_distances() {
+        let a = icosphere(2);
+        let m = Regularized::new(Box::new(Isometric), 0.1);
+        let solver = GeodesicSolver::new(&m, a.topology.clone(), GeodesicOptions::default()).unwrap();
+        // A sequence of growing deformations of one shape, like the poses of a pair.
+        let ends: Vec<(Vec<[f64; 3]>, Vec<[f64; 3]>)> = (1..=5)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                let p = |s: f64| -> Vec<[f64; 3]> {
+                    a.positions
+                        .iter()
+                        .map(|v| {
+                            [
+                                v[0] * (1.0 + s * v[2]),
+                                v[1] + s * v[0] * v[0],
+                                v[2] * (1.0 + 0.5 * s),
+                            ]
+                        })
+                        .collect()
+                };
+                (p(t), p(1.5 * t))
+            })
+            .collect();
+        let shared = |()| {
+            let mut ctx = SolveContext::default();
+            ends.iter()
+                .map(|(x, y)| solver.solve_in(&mut ctx, x, y).unwrap())
+                .collect::<Vec<_>>()
+        };
+        let (first, again) = (shared(()), shared(()));
+        let mut ctx = SolveContext::default();
+        for (x, y) in &ends {
+            solver.solve_in(&mut ctx, x, y).unwrap();
+        }
+        assert!((1..ends.len()).contains(&ctx.fits()), "{} fits", ctx.fits());
+        for ((s, r), (x, y)) in first.iter().zip(&again).zip(&ends) {
+            assert_eq!(s.length.to_bits(), r.length.to_bits());
+            assert!(s.converged, "{:?}", s.stop);
+            let fresh = solver.solve(x, y).unwrap();
+            let rel = (s.length - fresh.length).abs() / fresh.length;
+            assert!(rel < 1e-6, "{} vs {} ({rel:e})", s.length, fresh.length);
         }
     }
 

@@ -22,12 +22,12 @@ use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy};
 use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
 use super::vertex_blocks::VertexBlocks;
-use super::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use super::{dot, norm, GeodesicError, GeodesicOptions, LastEvaluation, SolveOutput, StopReason};
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1} + omega (2 D)^{-1}` (the energy's
 /// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the
 /// identity: plain L-BFGS).
-struct Preconditioner<'l> {
+pub(crate) struct Preconditioner<'l> {
     kron: Option<(&'l SpatialLayout, KroneckerModel)>,
     /// The vertex-block term `omega (2 D)^{-1}` added to the Kronecker part (none when
     /// `omega = 0` or without a layout).
@@ -74,6 +74,7 @@ impl<'l> Preconditioner<'l> {
 
 /// Energy and pose gradient (into `out`) with the auxiliary unknowns at their optimum
 /// (variable projection).
+/// Each segment's energy goes to `segments` (length `N`).
 fn eval(
     pe: &PathEnergy,
     ends: &Ends,
@@ -81,32 +82,46 @@ fn eval(
     full: &mut [f64],
     grad: &mut [f64],
     out: &mut [f64],
+    segments: &mut [f64],
 ) -> f64 {
     let np = pe.n_pose_vars();
     full[..np].copy_from_slice(xp);
     pe.reset_aux(full, ends);
-    let e = pe.energy_gradient(full, ends, grad);
+    let e = pe.energy_gradient_segments(full, ends, grad, Some(segments));
     out.copy_from_slice(&grad[..np]);
     e
 }
 
 /// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
 /// (`H0 = gamma I`, the first step of unit length).
-pub(crate) fn minimize(
+///
+/// With `shared`, the preconditioner in it (if any) is used instead of fitting one at `x0`,
+/// and the one in use at the end (the last refit) is left in it for the next solve: the
+/// geodesics of one pair of deformations (consecutive poses) share one fit.
+pub(crate) fn minimize<'l>(
     pe: &PathEnergy,
-    layout: Option<&SpatialLayout>,
+    layout: Option<&'l SpatialLayout>,
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
+    mut shared: Option<&mut Option<Preconditioner<'l>>>,
 ) -> Result<SolveOutput, GeodesicError> {
     let np = pe.n_pose_vars();
     let mut full = x0.clone();
     let mut gfull = vec![0.0; pe.n_vars()];
     let mut x = x0[..np].to_vec();
     let mut g = vec![0.0; np];
-    let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g);
+    let (mut seg, mut seg_new) = (vec![0.0; pe.steps()], vec![0.0; pe.steps()]);
+    let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g, &mut seg);
+    if !e.is_finite() {
+        return Err(GeodesicError::NonFinite(format!("initial energy {e}")));
+    }
+    let initial_energy = e;
     let g0 = norm(&g);
-    let mut pre = Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?;
+    let mut pre = match shared.as_deref_mut().and_then(Option::take) {
+        Some(p) => p,
+        None => Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?,
+    };
     let refresh = opts.preconditioner_refresh;
     // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
     // step of unit length (normalized coordinates: about one edge).
@@ -138,10 +153,19 @@ pub(crate) fn minimize(
     });
     let mut stop = StopReason::MaxIterations;
     if np == 0 || super::at_roundoff(g0, e) {
+        if let Some(slot) = shared {
+            *slot = Some(pre);
+        }
         return Ok(SolveOutput {
             x: full,
             iterations,
             stop: StopReason::GradientTolerance,
+            last: Some(LastEvaluation {
+                energy: e,
+                initial_energy,
+                gradient_norm: g0,
+                segments: seg,
+            }),
         });
     }
     while iterations < max_iterations {
@@ -175,7 +199,7 @@ pub(crate) fn minimize(
             for ((xi, a), b) in xn.iter_mut().zip(&x).zip(&d) {
                 *xi = a + t * b;
             }
-            let en = eval(pe, ends, &xn, &mut full, &mut gfull, &mut gn);
+            let en = eval(pe, ends, &xn, &mut full, &mut gfull, &mut gn, &mut seg_new);
             if en.is_finite() && en <= e + 1e-4 * t * slope {
                 break Some(en);
             }
@@ -224,18 +248,29 @@ pub(crate) fn minimize(
         std::mem::swap(&mut x, &mut xn);
         std::mem::swap(&mut g, &mut gn);
         std::mem::swap(&mut mg, &mut mg_new);
+        std::mem::swap(&mut seg, &mut seg_new);
         e = en;
         if decrease <= opts.energy_tolerance * e.abs() {
             stop = StopReason::EnergyTolerance;
             break;
         }
     }
-    let stop = opts.final_stop(stop, norm(&g), g0);
+    let gnorm = norm(&g);
+    let stop = opts.final_stop(stop, gnorm, g0);
     full[..np].copy_from_slice(&x);
     pe.reset_aux(&mut full, ends);
+    if let Some(slot) = shared {
+        *slot = Some(pre);
+    }
     Ok(SolveOutput {
         x: full,
         iterations,
         stop,
+        last: Some(LastEvaluation {
+            energy: e,
+            initial_energy,
+            gradient_norm: gnorm,
+            segments: seg,
+        }),
     })
 }

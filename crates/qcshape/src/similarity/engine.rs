@@ -8,7 +8,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::path::{GeodesicError, GeodesicSolver};
+use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
 
 /// One pose of a deformation: #V x 3 positions.
 pub type Pose = Vec<[f64; 3]>;
@@ -144,6 +144,8 @@ pub fn pose_distances(
     let mut out = Vec::with_capacity(m.len());
     let mut converged = true;
     let mut iterations = 0;
+    // One preconditioner fit for the pair's poses (consecutive poses are close).
+    let mut ctx = SolveContext::default();
     for (k, (a, b)) in m.iter().zip(n).enumerate() {
         if a == b {
             out.push(0.0);
@@ -154,7 +156,7 @@ pub fn pose_distances(
             out.push(solver.straight_length(a, b).map_err(|e| (k, e))?);
             continue;
         }
-        let g = solver.solve(a, b).map_err(|e| (k, e))?;
+        let g = solver.solve_in(&mut ctx, a, b).map_err(|e| (k, e))?;
         converged &= g.converged;
         iterations += g.iterations;
         out.push(g.length);

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::path::{GeodesicError, GeodesicSolver};
+use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
 
 #[cfg(doc)]
 use super::engine::pose_distances;
@@ -212,9 +212,11 @@ fn squared_similarity(
     let limit = bound.map_or(f64::INFINITY, |b| b * (1.0 + PRUNE_MARGIN));
     let mut d = vec![0.0; x.len()];
     let mut partial = 0.0;
+    // The poses of one deformation share a preconditioner fit ([`SolveContext`]).
+    let mut ctx = SolveContext::default();
     for p in (0..x.len()).rev() {
         if x[p] != mu[p] {
-            d[p] = solver.solve(&x[p], &mu[p])?.length;
+            d[p] = solver.solve_in(&mut ctx, &x[p], &mu[p])?.length;
         }
         partial += d[p];
         if partial > limit {

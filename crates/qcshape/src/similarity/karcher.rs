@@ -1,7 +1,7 @@
 //! Intrinsic (Karcher) means of poses in shape space, with the discrete log map (METHOD.md,
 //! "k-means (eq. 14) with intrinsic means").
 
-use crate::path::{GeodesicError, GeodesicSolver};
+use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
 
 use super::engine::Pose;
 
@@ -50,10 +50,21 @@ pub fn log_map(
     mu: &[[f64; 3]],
     p: &[[f64; 3]],
 ) -> Result<(Pose, f64), GeodesicError> {
+    log_map_in(solver, &mut SolveContext::default(), mu, p)
+}
+
+/// [`log_map`] through a solve context (the poses of one Karcher iteration share the
+/// preconditioner fit; [`SolveContext`]).
+fn log_map_in<'s>(
+    solver: &'s GeodesicSolver,
+    ctx: &mut SolveContext<'s>,
+    mu: &[[f64; 3]],
+    p: &[[f64; 3]],
+) -> Result<(Pose, f64), GeodesicError> {
     if mu == p {
         return Ok((vec![[0.0; 3]; mu.len()], 0.0));
     }
-    let g = solver.solve(mu, p)?;
+    let g = solver.solve_in(ctx, mu, p)?;
     let n = (g.poses.len() - 1) as f64;
     let p1 = &g.poses[1];
     let log = p1
@@ -92,8 +103,9 @@ pub fn karcher_mean(
     loop {
         let mut mean_log = vec![[0.0; 3]; mu.len()];
         let (mut norm_sum, mut variance) = (0.0, 0.0);
+        let mut ctx = SolveContext::default();
         for p in poses {
-            let (log, d) = log_map(solver, &mu, p)?;
+            let (log, d) = log_map_in(solver, &mut ctx, &mu, p)?;
             norm_sum += field_norm(&log);
             variance += d * d;
             for (m, l) in mean_log.iter_mut().zip(&log) {

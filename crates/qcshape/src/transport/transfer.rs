@@ -23,7 +23,7 @@ use super::schild::{schild_ladder, RungDiagnostics, SchildOptions};
 use super::{difference, TransportError, TransportMetric};
 use crate::mesh::{Shape, Topology};
 use crate::metric::{Metric, MetricSpec};
-use crate::path::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization};
+use crate::path::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization, SolveContext};
 
 /// How a deformation segment is carried to the new base.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -301,6 +301,8 @@ impl Transfer<'_> {
                 poses.push(n);
             }
         }
+        // The geodesics M_k -> N_k of consecutive poses share a preconditioner fit.
+        let mut ctx = SolveContext::default();
         for k in 0..deformation.len() - 1 {
             let ts = Instant::now();
             let (mk, mk1) = (scale(&deformation[k]), scale(&deformation[k + 1]));
@@ -315,7 +317,7 @@ impl Transfer<'_> {
                     (difference(&nk, &nk1), frozen)
                 }
                 Transport::Parallel | Transport::Schild => {
-                    let g = self.geodesics.solve(&mk, &nk)?;
+                    let g = self.geodesics.solve_in(&mut ctx, &mk, &nk)?;
                     report.geodesic_length = g.length;
                     report.geodesic_iterations = g.iterations;
                     report.geodesic_converged = g.converged;

@@ -48,6 +48,7 @@ pub(crate) fn minimize(
             x: x0,
             iterations: 0,
             stop: StopReason::GradientTolerance,
+            last: None,
         });
     }
     let err = |e: argmin::core::Error| GeodesicError::Optimizer(e.to_string());
@@ -91,5 +92,10 @@ pub(crate) fn minimize(
         .get_best_param()
         .cloned()
         .ok_or_else(|| GeodesicError::Optimizer("no parameter returned".into()))?;
-    Ok(SolveOutput { x, iterations, stop })
+    Ok(SolveOutput {
+        x,
+        iterations,
+        stop,
+        last: None,
+    })
 }

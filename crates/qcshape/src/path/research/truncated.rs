@@ -327,6 +327,7 @@ pub(crate) fn minimize(
             x,
             iterations: 0,
             stop: StopReason::GradientTolerance,
+            last: None,
         });
     }
     let (blocks, mut energy, g_full) = layout.structure().assemble_with(pe, &x, ends, newton);
@@ -341,6 +342,7 @@ pub(crate) fn minimize(
             x,
             iterations,
             stop: StopReason::GradientTolerance,
+            last: None,
         });
     }
     let limit = opts.max_iterations.unwrap_or(100);
@@ -393,7 +395,12 @@ pub(crate) fn minimize(
     if !energy.is_finite() {
         return Err(GeodesicError::NonFinite(format!("energy {energy}")));
     }
-    Ok(SolveOutput { x, iterations, stop })
+    Ok(SolveOutput {
+        x,
+        iterations,
+        stop,
+        last: None,
+    })
 }
 
 #[cfg(test)]
