@@ -834,7 +834,7 @@ mod tests {
         let m = Regularized::new(Box::new(Isometric), 0.1);
         let solver = GeodesicSolver::new(&m, a.topology.clone(), GeodesicOptions::default()).unwrap();
         // A sequence of growing deformations of one shape, like the poses of a pair.
-        let ends: Vec<(Vec<[f64; 3]>, Vec<[f64; 3]>)> = (1..=5)
+        let ends: Vec<(crate::similarity::Pose, crate::similarity::Pose)> = (1..=5)
             .map(|k| {
                 let t = 0.1 * k as f64;
                 let p = |s: f64| -> Vec<[f64; 3]> {
