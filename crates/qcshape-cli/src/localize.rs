@@ -160,7 +160,7 @@ pub fn run(args: &Args) -> Result<()> {
         let maps = pair_maps(&solver, &scaled)?;
         let result = contrasts(&maps, &labels, &lopts)?;
         let measure = if args.motion == "metric" {
-            MotionMeasure::Metric
+            MotionMeasure::Metric(metric.as_ref())
         } else {
             MotionMeasure::Normal
         };
@@ -169,7 +169,7 @@ pub fn run(args: &Args) -> Result<()> {
         } else {
             MotionScale::Absolute
         };
-        let m = motion_maps(measure, scale, metric.as_ref(), &prepared.topology, &scaled)?;
+        let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
         let motion = motion_contrasts(&m, &labels, &lopts)?;
         Ok((prepared, maps, result, motion))
     })?;

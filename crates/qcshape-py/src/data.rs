@@ -390,9 +390,9 @@ pub fn motion_maps<'py>(
     let ds = dataset
         .cast::<PyDataset>()
         .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
-    let measure = match measure {
-        "normal" => MotionMeasure::Normal,
-        "metric" => MotionMeasure::Metric,
+    let by_metric = match measure {
+        "normal" => false,
+        "metric" => true,
         other => {
             return Err(PyValueError::new_err(format!(
                 "measure: expected 'normal' or 'metric', got {other:?}"
@@ -416,14 +416,13 @@ pub fn motion_maps<'py>(
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = opts.metric.build();
-        let m = qcshape::localize::motion_maps(
-            measure,
-            scale,
-            metric.as_ref(),
-            &prepared.topology,
-            &prepared.scaled(),
-        )
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let measure = if by_metric {
+            MotionMeasure::Metric(metric.as_ref())
+        } else {
+            MotionMeasure::Normal
+        };
+        let m = qcshape::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let nv = prepared.topology.n_vertices();
         Ok((m.len(), nv, m.concat()))
     })?;

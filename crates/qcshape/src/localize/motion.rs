@@ -24,8 +24,8 @@ use crate::metric::Metric;
 use crate::similarity::Pose;
 
 /// How a deformation's motion at a vertex is measured (module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum MotionMeasure {
+#[derive(Clone, Copy, Default)]
+pub enum MotionMeasure<'m> {
     /// Normal excursion `m_v = A_v sum_k |n_v(P_k) . (P_{k+1,v} - P_{k,v})|`: the motion
     /// along the surface normal (into or out of the shape; for a ventricle, the radial wall
     /// motion), times the vertex's area `A_v` on `P_0` (the common base, so the same weight
@@ -36,7 +36,26 @@ pub enum MotionMeasure {
     /// The metric's per-vertex length split of every step `P_k -> P_{k+1}`
     /// ([`crate::contribution::path_contributions`] on the two poses; quasi-conformal weights
     /// from the step's poses), summed over the steps (normalized length units).
-    Metric,
+    Metric(&'m dyn Metric),
+}
+
+impl MotionMeasure<'_> {
+    /// `"normal"` or `"metric"` (the command line's and Python's names).
+    pub fn label(&self) -> &'static str {
+        match self {
+            MotionMeasure::Normal => "normal",
+            MotionMeasure::Metric(_) => "metric",
+        }
+    }
+}
+
+impl std::fmt::Debug for MotionMeasure<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MotionMeasure::Normal => f.write_str("Normal"),
+            MotionMeasure::Metric(m) => write!(f, "Metric({})", m.name()),
+        }
+    }
 }
 
 /// Whether motion maps are used as they are or as each deformation's shares.
@@ -52,13 +71,12 @@ pub enum MotionScale {
 }
 
 /// Per-vertex motion `m_v` (module docs) of every deformation (each #poses x #V x 3, at least
-/// 2 poses, already scaled by the common factor) on `topology`, measured by `measure`
-/// (`metric` is used by [`MotionMeasure::Metric`]) and scaled by `scale`:
-/// #deformations x #V. Deformations in parallel, each computed alone (deterministic).
+/// 2 poses, already scaled by the common factor) on `topology`, measured by `measure` and
+/// scaled by `scale`: #deformations x #V. Deformations in parallel, each computed alone
+/// (deterministic).
 pub fn motion_maps(
     measure: MotionMeasure,
     scale: MotionScale,
-    metric: &dyn Metric,
     topology: &Topology,
     deformations: &[Vec<Pose>],
 ) -> Result<Vec<Vec<f64>>, LocalizeError> {
@@ -90,7 +108,7 @@ pub fn motion_maps(
                         }
                     }
                 }
-                MotionMeasure::Metric => {
+                MotionMeasure::Metric(metric) => {
                     for step in poses.windows(2) {
                         let c = path_contributions(metric, topology, step, 1.0).map_err(fail)?;
                         m.iter_mut().zip(&c.length).for_each(|(t, x)| *t += x);
@@ -219,24 +237,22 @@ mod tests {
             defs.push(deformation(if k < 5 { 0.4 } else { 0.1 }, jitter));
             labels.push(if k < 5 { "a" } else { "b" }.to_string());
         }
+        // (by the metric?, scale, metric kind; the normal excursion uses no metric).
         let variants = [
-            (MotionMeasure::Normal, MotionScale::Absolute, MetricKind::L2),
-            (MotionMeasure::Normal, MotionScale::Share, MetricKind::L2),
-            (MotionMeasure::Metric, MotionScale::Absolute, MetricKind::L2),
-            (
-                MotionMeasure::Metric,
-                MotionScale::Absolute,
-                MetricKind::QuasiConformal,
-            ),
-            (
-                MotionMeasure::Metric,
-                MotionScale::Share,
-                MetricKind::QuasiConformal,
-            ),
+            (false, MotionScale::Absolute, MetricKind::L2),
+            (false, MotionScale::Share, MetricKind::L2),
+            (true, MotionScale::Absolute, MetricKind::L2),
+            (true, MotionScale::Absolute, MetricKind::QuasiConformal),
+            (true, MotionScale::Share, MetricKind::QuasiConformal),
         ];
-        for (measure, scale, kind) in variants {
+        for (by_metric, scale, kind) in variants {
             let metric = MetricSpec::new(kind).build();
-            let motion = motion_maps(measure, scale, metric.as_ref(), &s.topology, &defs).unwrap();
+            let measure = if by_metric {
+                MotionMeasure::Metric(metric.as_ref())
+            } else {
+                MotionMeasure::Normal
+            };
+            let motion = motion_maps(measure, scale, &s.topology, &defs).unwrap();
             let opts = LocalizeOptions {
                 permutations: 199,
                 seed: 3,
@@ -268,20 +284,12 @@ mod tests {
         let s = crate::synth::icosphere(1);
         let metric = MetricSpec::new(MetricKind::L2).build();
         let one = [vec![s.positions.clone()]];
-        for measure in [MotionMeasure::Normal, MotionMeasure::Metric] {
-            let e =
-                motion_maps(measure, MotionScale::Absolute, metric.as_ref(), &s.topology, &one).unwrap_err();
+        for measure in [MotionMeasure::Normal, MotionMeasure::Metric(metric.as_ref())] {
+            let e = motion_maps(measure, MotionScale::Absolute, &s.topology, &one).unwrap_err();
             assert!(e.to_string().contains("at least 2 poses"), "{e}");
         }
         let short = [vec![s.positions.clone(), s.positions[1..].to_vec()]];
-        let e = motion_maps(
-            MotionMeasure::Normal,
-            MotionScale::Absolute,
-            metric.as_ref(),
-            &s.topology,
-            &short,
-        )
-        .unwrap_err();
+        let e = motion_maps(MotionMeasure::Normal, MotionScale::Absolute, &s.topology, &short).unwrap_err();
         assert!(e.to_string().contains("vertices"), "{e}");
     }
 }

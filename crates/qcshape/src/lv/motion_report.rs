@@ -35,12 +35,9 @@ pub fn motion_section(
         seed,
         ..Default::default()
     };
-    // Only the measure's choice of metric matters for `Metric`; the normal excursion ignores it.
-    let metric = crate::metric::MetricSpec::new(crate::metric::MetricKind::L2).build();
     let m = motion_maps(
         MotionMeasure::Normal,
         MotionScale::Absolute,
-        metric.as_ref(),
         &p.topology,
         &p.scaled(),
     )?;
