@@ -42,8 +42,8 @@ pub(crate) struct Args {
     /// Region written: the free-wall submesh (the sector below), the wall (every angle from the
     /// apex to height 0.9, no valve-plane cap; the sector options are ignored) or the whole
     /// closed surface.
-    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "wall", "whole"])]
-    region: String,
+    #[arg(long, value_enum, default_value = "free-wall")]
+    region: super::Region,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
     #[arg(long, default_value_t = 180.0)]
     sector_centre: f64,
@@ -68,21 +68,17 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         target_vertices: (a.vertices > 0).then_some(a.vertices),
         relax_iterations: a.relax,
     };
-    let sector = if a.region == "wall" {
-        SectorOptions::wall()
-    } else {
-        SectorOptions {
-            centre_deg: a.sector_centre,
-            width_deg: a.sector_width,
-            heights: (a.heights[0], a.heights[1]),
-        }
-    };
+    let sector = a.region.sector(SectorOptions {
+        centre_deg: a.sector_centre,
+        width_deg: a.sector_width,
+        heights: (a.heights[0], a.heights[1]),
+    });
     let mopts = SubjectMeshOptions {
         surface: opts,
         sector,
         landmarks: a.landmarks,
         lambda: a.lambda,
-        free_wall: a.region != "whole",
+        free_wall: a.region.cuts(),
     };
     let mut rows = Vec::new();
     let bar = progress(subs.len());
@@ -110,7 +106,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
                 m.raw_vertices,
                 m.surface_vertices,
                 poses[0].len(),
-                a.region,
+                a.region.name(),
                 poses.len(),
                 m.landmarks,
                 if m.saved_maps { " (saved maps)" } else { "" },

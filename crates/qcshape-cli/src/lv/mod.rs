@@ -14,6 +14,7 @@ use qcshape::io;
 use qcshape::lv::cohort::{
     self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
+use qcshape::lv::freewall::SectorOptions;
 use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
 use qcshape::lv::region::{write_abnormal, AbnormalSector, ABNORMAL_NAME};
 
@@ -107,6 +108,42 @@ pub fn run(args: &Args) -> Result<()> {
 }
 
 /// A plain progress bar of `n` subjects.
+/// The part of each subject's surface that `lv mesh` writes and `lv run` analyses (`--region`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Region {
+    /// The free-wall sector (the paper's; `lv mesh` takes its sector options).
+    FreeWall,
+    /// Every angle from the apex to height 0.9, without the valve-plane cap (a disk).
+    Wall,
+    /// The whole closed cavity surface.
+    Whole,
+}
+
+impl Region {
+    /// The sector cut out: [`SectorOptions::wall`] for the wall, `free_wall` otherwise
+    /// (unused for the whole surface).
+    pub(crate) fn sector(self, free_wall: SectorOptions) -> SectorOptions {
+        match self {
+            Region::Wall => SectorOptions::wall(),
+            Region::FreeWall | Region::Whole => free_wall,
+        }
+    }
+
+    /// Whether a sector is cut out of the closed surface (all but the whole surface).
+    pub(crate) fn cuts(self) -> bool {
+        self != Region::Whole
+    }
+
+    /// The command-line name.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Region::FreeWall => "free-wall",
+            Region::Wall => "wall",
+            Region::Whole => "whole",
+        }
+    }
+}
+
 pub(crate) fn progress(n: usize) -> ProgressBar {
     let pb = crate::progress::new_bar(n);
     crate::progress::start(&pb);

@@ -54,8 +54,8 @@ pub struct RunArgs {
     /// Region analysed: the free wall (paper; a 180-degree sector, heights 0.15-0.9), the wall
     /// (every angle from the apex to height 0.9: no valve-plane cap) or the whole closed cavity
     /// surface.
-    #[arg(long, default_value = "free-wall", value_parser = ["free-wall", "wall", "whole"])]
-    pub(crate) region: String,
+    #[arg(long, value_enum, default_value = "free-wall")]
+    pub(crate) region: super::Region,
     /// Landmark counts of Table 5 (the whole pipeline once per count).
     #[arg(long, value_delimiter = ',', default_value = "8,16,24,32")]
     pub(crate) landmark_sweep: Vec<usize>,

@@ -19,16 +19,6 @@ use qcshape::transport::{Alignment, Transport};
 use super::progress::Bars;
 use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
 
-/// The sector kept for `--region` (`free-wall`: the paper's free wall; `wall`: every angle
-/// below the valve plane; `whole` keeps no sector).
-fn sector_of(region: &str) -> SectorOptions {
-    if region == "wall" {
-        SectorOptions::wall()
-    } else {
-        SectorOptions::default()
-    }
-}
-
 /// Runs `lv run` inside the worker pool.
 pub(super) fn run(a: &RunArgs) -> Result<()> {
     let t_all = Instant::now();
@@ -57,8 +47,8 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         threshold: a.threshold,
         smooth: a.smooth,
         vertices: a.common.vertices,
-        free_wall: a.region != "whole",
-        sector: sector_of(&a.region),
+        free_wall: a.region.cuts(),
+        sector: a.region.sector(SectorOptions::default()),
     };
     let bars = Bars::default();
     let progress = |t: Tick<'_>| bars.tick(t);
@@ -208,7 +198,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
                 input_note: input_note.clone(),
                 landmarks: a.landmarks,
                 from_images,
-                region: a.region.clone(),
+                region: a.region.name().to_string(),
                 frames,
                 restarts: a.restarts,
                 seed: a.seed,
