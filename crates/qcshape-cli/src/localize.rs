@@ -323,15 +323,7 @@ impl Output<'_> {
             share.significant_in_region,
             share.significant
         )?;
-        println!(
-            "{map} {a} over {b}: region of {} vertices: {:.1} % of the area, {:.1} % of the positive mass (ratio {:.2}); {} of {} significant vertices in it",
-            share.vertices,
-            100.0 * share.area_share,
-            100.0 * share.positive_mass_share,
-            share.ratio,
-            share.significant_in_region,
-            share.significant
-        );
+        println!("{map} {a} over {b}: {share}");
         Ok(())
     }
 }

@@ -120,7 +120,10 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
         report.contains("## Where the groups move differently"),
         "{report}"
     );
-    assert!(report.contains("The phantom's abnormal region ("), "{report}");
+    assert!(
+        report.contains("The phantom's abnormal region (black line), region of "),
+        "{report}"
+    );
     let motion = rows(&res.join("motion_map.csv"));
     let nv = Dataset::load(&res.join("meshes/manifest.csv"))
         .unwrap()

@@ -356,6 +356,23 @@ pub struct RegionShare {
     pub significant: usize,
 }
 
+impl std::fmt::Display for RegionShare {
+    /// One sentence part for terminals and reports: "region of N vertices: A % of the area, M %
+    /// of the positive mass (ratio R); S of T significant vertices in it".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "region of {} vertices: {:.1} % of the area, {:.1} % of the positive mass (ratio {:.2}); {} of {} significant vertices in it",
+            self.vertices,
+            100.0 * self.area_share,
+            100.0 * self.positive_mass_share,
+            self.ratio,
+            self.significant_in_region,
+            self.significant
+        )
+    }
+}
+
 /// [`RegionShare`] of `score` (#V) and `significant` (#V) on the mesh `topology` /
 /// `positions` (#V x 3) for the vertex mask `region` (#V).
 pub fn region_share(

@@ -109,17 +109,8 @@ pub fn motion_section(
     )?;
     if let Some(r) = region {
         let share = region_share(&p.topology, base, &d, &c.significant, r);
-        writeln!(
-            md,
-            "The phantom's abnormal region ({} vertices, black line) covers {:.1} % of the area and \
-             holds {:.1} % of the red mass (ratio {:.2}); {} of the {} significant vertices lie in it.\n",
-            share.vertices,
-            100.0 * share.area_share,
-            100.0 * share.positive_mass_share,
-            share.ratio,
-            share.significant_in_region,
-            share.significant
-        )?;
+        // The positive mass is the red part of the map.
+        writeln!(md, "The phantom's abnormal region (black line), {share}.\n")?;
     }
     writeln!(
         md,
