@@ -4,6 +4,8 @@ nV vertices, nF faces, K + 1 poses, n items."""
 from os import PathLike
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
+from typing_extensions import TypedDict, Unpack
+
 import numpy as np
 import numpy.typing as npt
 
@@ -16,6 +18,28 @@ _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
 
 __version__: str
+
+class PipelineOptions(TypedDict, total=False):
+    """The keyword options of the data-set functions (`similarity_matrix`, `motion_maps`,
+    `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
+
+    metric: Optional[str]
+    form: Optional[str]
+    weights: Optional[str]
+    lam: Optional[float]
+    l2_areas: Optional[str]
+    steps: Optional[int]
+    solver: Optional[str]
+    tolerance: Optional[float]
+    energy_tolerance: Optional[float]
+    insert: Optional[int]
+    levels: Optional[int]
+    transport: Optional[str]
+    align: Optional[str]
+    smooth: Optional[int]
+    base: Optional[Union[int, str]]
+    threads: Optional[int]
+    progress: Optional[bool]
 
 def read_mesh(path: _Path) -> Tuple[_F64, _I64]:
     """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk file."""
@@ -138,24 +162,8 @@ class Dataset:
 def similarity_matrix(
     dataset: Dataset,
     *,
-    metric: Optional[str] = None,
-    form: Optional[str] = None,
-    weights: Optional[str] = None,
-    lam: Optional[float] = None,
-    l2_areas: Optional[str] = None,
-    steps: Optional[int] = None,
-    solver: Optional[str] = None,
-    tolerance: Optional[float] = None,
-    energy_tolerance: Optional[float] = None,
-    insert: Optional[int] = None,
-    levels: Optional[int] = None,
-    transport: Optional[str] = None,
-    align: Optional[str] = None,
-    smooth: Optional[int] = None,
-    base: Optional[Union[int, str]] = None,
     approx: Optional[str] = None,
-    threads: Optional[int] = None,
-    progress: Optional[bool] = None,
+    **options: Unpack[PipelineOptions],
 ) -> _F64:
     """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
     approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
@@ -165,23 +173,7 @@ def motion_maps(
     *,
     measure: str = "normal",
     scale: str = "absolute",
-    metric: Optional[str] = None,
-    form: Optional[str] = None,
-    weights: Optional[str] = None,
-    lam: Optional[float] = None,
-    l2_areas: Optional[str] = None,
-    steps: Optional[int] = None,
-    solver: Optional[str] = None,
-    tolerance: Optional[float] = None,
-    energy_tolerance: Optional[float] = None,
-    insert: Optional[int] = None,
-    levels: Optional[int] = None,
-    transport: Optional[str] = None,
-    align: Optional[str] = None,
-    smooth: Optional[int] = None,
-    base: Optional[Union[int, str]] = None,
-    threads: Optional[int] = None,
-    progress: Optional[bool] = None,
+    **options: Unpack[PipelineOptions],
 ) -> _F64:
     """(n, nV) per-vertex motion of every deformation after the similarity preparation.
     measure: "normal" (normal excursion times vertex area) or "metric" (per-vertex metric length);
@@ -191,24 +183,7 @@ def pair_contributions(
     dataset: Dataset,
     a: Union[int, str],
     b: Union[int, str],
-    *,
-    metric: Optional[str] = None,
-    form: Optional[str] = None,
-    weights: Optional[str] = None,
-    lam: Optional[float] = None,
-    l2_areas: Optional[str] = None,
-    steps: Optional[int] = None,
-    solver: Optional[str] = None,
-    tolerance: Optional[float] = None,
-    energy_tolerance: Optional[float] = None,
-    insert: Optional[int] = None,
-    levels: Optional[int] = None,
-    transport: Optional[str] = None,
-    align: Optional[str] = None,
-    smooth: Optional[int] = None,
-    base: Optional[Union[int, str]] = None,
-    threads: Optional[int] = None,
-    progress: Optional[bool] = None,
+    **options: Unpack[PipelineOptions],
 ) -> _F64:
     """(nV,) per-vertex split of similarity(a, b) (index or name); sums to the matrix entry
     of `similarity_matrix` with the same options (normalized length units)."""
