@@ -342,7 +342,8 @@ impl PyShapeSpace {
     ) -> PyResult<Bound<'py, PyAny>> {
         let c = sequence(curve, "curve", Some(self.nv()), 1)?;
         let x = points(v, "v", Some(self.nv()))?;
-        let m = transport(method, Transport::default())?;
+        // Carrying a vector along a curve: parallel transport unless told otherwise.
+        let m = transport(method, Transport::Parallel)?;
         let out = detached(py, None, |_| {
             self.space.transport(&c, &x, m).map_err(errors::space)
         })?;

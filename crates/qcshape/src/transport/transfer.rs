@@ -25,12 +25,13 @@ use crate::mesh::{Shape, Topology};
 use crate::metric::{Metric, MetricSpec};
 use crate::path::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization, SolveContext};
 
-/// How a deformation segment is carried to the new base.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+/// How a deformation segment is carried to the new base. No `Default`: the pipeline's default
+/// is [`crate::defaults::TRANSPORT`] (translation), while carrying one vector along a curve
+/// means parallel transport; callers say which they want.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Transport {
     /// The paper's discrete parallel transport along the geodesic ([`parallel_transport`]).
-    #[default]
     Parallel,
     /// Schild's ladder along the geodesic ([`schild_ladder`]).
     Schild,
