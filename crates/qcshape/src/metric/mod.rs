@@ -229,6 +229,26 @@ pub trait Metric: Send + Sync + Debug {
         None
     }
 
+    /// What [`Metric::frozen_weights`] computes from one end pose alone (#V x 3 -> #V values:
+    /// the quasi-conformal angle defects), so that a caller comparing many pairs of the same
+    /// poses computes it once per pose; `None` (the default) when there is nothing worth
+    /// keeping.
+    fn pose_summary(&self, _topo: &Topology, _pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// [`Metric::frozen_weights`] of `start`, `end` given their [`Metric::pose_summary`]
+    /// values (bit for bit the same weights). The default ignores the summaries.
+    fn frozen_weights_from(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        _summaries: [&[f64]; 2],
+    ) -> Option<Vec<f64>> {
+        self.frozen_weights(topo, start, end)
+    }
+
     /// Evaluates the residuals `r` (length `pattern.n_residuals()`) of `G_M(b - a)` with `M` the
     /// end chosen by `seg.at`, and, if `jac` is given, their Jacobian in pattern order. Every
     /// Jacobian value of the metric's entries is written (the caller need not zero them).

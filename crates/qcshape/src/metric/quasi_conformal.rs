@@ -104,6 +104,31 @@ impl Metric for QuasiConformal {
         Some(curvature_change(topo, start, end))
     }
 
+    /// The angle defects `K(pose)` (#V) with [`QcWeights::Endpoints`].
+    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+        (self.weights == QcWeights::Endpoints && pose.len() == topo.n_vertices())
+            .then(|| angle_defect(topo, pose))
+    }
+
+    fn frozen_weights_from(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        [ks, ke]: [&[f64]; 2],
+    ) -> Option<Vec<f64>> {
+        let nv = topo.n_vertices();
+        if ks.len() != nv || ke.len() != nv {
+            return self.frozen_weights(topo, start, end);
+        }
+        // The arithmetic of `curvature_change`: K(end) - K(start).
+        let mut k = ke.to_vec();
+        for (x, s) in k.iter_mut().zip(ks) {
+            *x -= s;
+        }
+        (self.weights == QcWeights::Endpoints).then_some(k)
+    }
+
     /// With [`QcWeights::Endpoints`] the weights are `seg.frozen`; if it is absent (or not of
     /// length #V) the weights fall back to `K(b) - K(a)` of this segment, held constant (their
     /// derivatives are not in the Jacobian, which then is that of the frozen-weight form).

@@ -46,6 +46,26 @@ impl Regularized {
             &L2
         }
     }
+
+    /// The inner metric's frozen weights followed by the L2 part's.
+    fn join_frozen(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        inner: Option<Vec<f64>>,
+    ) -> Option<Vec<f64>> {
+        let l2 = self.l2().frozen_weights(topo, start, end);
+        match (inner, l2) {
+            (None, None) => None,
+            (Some(i), None) => Some(i),
+            (None, Some(l)) => Some(l),
+            (Some(mut i), Some(l)) => {
+                i.extend_from_slice(&l);
+                Some(i)
+            }
+        }
+    }
 }
 
 impl Metric for Regularized {
@@ -86,16 +106,23 @@ impl Metric for Regularized {
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
         let inner = self.inner.frozen_weights(topo, start, end);
-        let l2 = self.l2().frozen_weights(topo, start, end);
-        match (inner, l2) {
-            (None, None) => None,
-            (Some(i), None) => Some(i),
-            (None, Some(l)) => Some(l),
-            (Some(mut i), Some(l)) => {
-                i.extend_from_slice(&l);
-                Some(i)
-            }
-        }
+        self.join_frozen(topo, start, end, inner)
+    }
+
+    /// The inner metric's summary (the L2 weights, vertex areas, are cheap per pair).
+    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+        self.inner.pose_summary(topo, pose)
+    }
+
+    fn frozen_weights_from(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        summaries: [&[f64]; 2],
+    ) -> Option<Vec<f64>> {
+        let inner = self.inner.frozen_weights_from(topo, start, end, summaries);
+        self.join_frozen(topo, start, end, inner)
     }
 
     fn residuals(

@@ -393,7 +393,18 @@ impl<'m> GeodesicSolver<'m> {
     /// #V x 3, already scaled; normalized length units), at the cost of 2N metric evaluations
     /// instead of a solve. Used by the `straight` approximation of similarity matrices.
     pub fn straight_length(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<f64, GeodesicError> {
-        let ends = self.ends(a, b)?;
+        self.straight_length_with(a, b, None)
+    }
+
+    /// [`Self::straight_length`] with the metric's [`Metric::pose_summary`] of `a` and `b`
+    /// computed beforehand (once per pose for a whole matrix): the same length, bit for bit.
+    pub fn straight_length_with(
+        &self,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Result<f64, GeodesicError> {
+        let ends = self.ends_with(a, b, summaries)?;
         let x0 = self.energy.linear_start(&ends);
         let length: f64 = self
             .energy
@@ -427,6 +438,15 @@ impl<'m> GeodesicSolver<'m> {
     }
 
     fn ends(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Ends, GeodesicError> {
+        self.ends_with(a, b, None)
+    }
+
+    fn ends_with(
+        &self,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Result<Ends, GeodesicError> {
         let nv = self.energy.n_vertices();
         for p in [a, b] {
             if p.len() != nv {
@@ -444,7 +464,11 @@ impl<'m> GeodesicSolver<'m> {
                 return Err(MeshError::NonFinite { vertex, value: *v }.into());
             }
         }
-        let frozen = self.energy.metric.frozen_weights(&self.energy.topo, a, b);
+        let (metric, topo) = (self.energy.metric, &self.energy.topo);
+        let frozen = match summaries {
+            Some(s) => metric.frozen_weights_from(topo, a, b, s),
+            None => metric.frozen_weights(topo, a, b),
+        };
         Ok(Ends {
             start: a.to_vec(),
             end: b.to_vec(),

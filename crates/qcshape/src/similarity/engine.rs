@@ -141,6 +141,21 @@ pub fn pose_distances(
     n: &[Pose],
     approx: Approx,
 ) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
+    pose_distances_with(solver, m, n, approx, None)
+}
+
+/// Per pose of one deformation, the metric's [`crate::metric::Metric::pose_summary`].
+type PoseSummaries = Vec<Vec<f64>>;
+
+/// [`pose_distances`] with the poses' summaries computed beforehand (straight mode only; the
+/// same lengths, bit for bit).
+fn pose_distances_with(
+    solver: &GeodesicSolver,
+    m: &[Pose],
+    n: &[Pose],
+    approx: Approx,
+    summaries: Option<(&PoseSummaries, &PoseSummaries)>,
+) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
     let mut out = Vec::with_capacity(m.len());
     let mut converged = true;
     let mut iterations = 0;
@@ -153,7 +168,8 @@ pub fn pose_distances(
         }
         if approx != Approx::Exact {
             // Straight (the tangent mode never gets here: it has no per-pose solve).
-            out.push(solver.straight_length(a, b).map_err(|e| (k, e))?);
+            let s = summaries.map(|(sm, sn)| [sm[k].as_slice(), sn[k].as_slice()]);
+            out.push(solver.straight_length_with(a, b, s).map_err(|e| (k, e))?);
             continue;
         }
         let g = solver.solve_in(&mut ctx, a, b).map_err(|e| (k, e))?;
@@ -231,6 +247,31 @@ where
         }
         _ => None,
     };
+    // The straight mode's per-pose part of the frozen weights (the quasi-conformal angle
+    // defects), once per pose of every deformation in `todo` instead of once per pair:
+    // #deformations x #poses x #V values in memory.
+    let summaries: Vec<Option<PoseSummaries>> = if approx == Approx::Straight {
+        let pe = solver.path_energy();
+        let mut used = vec![false; n];
+        for &(i, j) in todo {
+            used[i] = true;
+            used[j] = true;
+        }
+        (0..n)
+            .into_par_iter()
+            .map(|d| {
+                if !used[d] {
+                    return None;
+                }
+                deformations[d]
+                    .iter()
+                    .map(|p| pe.metric.pose_summary(&pe.topo, p))
+                    .collect()
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     todo.par_iter()
         .map(|&(i, j)| {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -245,14 +286,19 @@ where
                         .map(|(a, b)| super::tangent::distance(a, b));
                     (d.collect(), true, 0)
                 }
-                None => pose_distances(solver, &deformations[i], &deformations[j], approx).map_err(
-                    |(pose, error)| SimilarityError::Geodesic {
-                        a: names[i].clone(),
-                        b: names[j].clone(),
-                        pose,
-                        error,
-                    },
-                )?,
+                None => {
+                    let s = match (summaries.get(i), summaries.get(j)) {
+                        (Some(Some(a)), Some(Some(b))) => Some((a, b)),
+                        _ => None,
+                    };
+                    pose_distances_with(solver, &deformations[i], &deformations[j], approx, s)
+                }
+                .map_err(|(pose, error)| SimilarityError::Geodesic {
+                    a: names[i].clone(),
+                    b: names[j].clone(),
+                    pose,
+                    error,
+                })?,
             };
             let pair = PairDistance {
                 i,
@@ -380,6 +426,66 @@ mod tests {
         assert_eq!(rest.len(), 1);
         assert_eq!((rest[0].i, rest[0].j), (1, 2));
         assert!((rest[0].distance - pairs[2].distance).abs() < 1e-12);
+    }
+
+    /// The straight mode's matrix, with the angle defects computed once per pose, equals the
+    /// per-pair straight lengths bit for bit, for every metric (the quasi-conformal ones have a
+    /// pose summary, the others none).
+    #[test]
+    fn straight_lengths_from_pose_summaries_are_bit_identical() {
+        use crate::metric::{MetricKind, MetricSpec};
+        let s = icosphere(2);
+        let bumpy = |amp: f64| -> Vec<[f64; 3]> {
+            s.positions
+                .iter()
+                .map(|p| p.map(|c| c * (1.0 + amp * p[0] * p[1] + 0.1 * amp * p[2])))
+                .collect()
+        };
+        let defs: Vec<Vec<Pose>> = [0.1, 0.2, 0.35]
+            .iter()
+            .map(|&amp| vec![s.positions.clone(), bumpy(amp), bumpy(1.5 * amp)])
+            .collect();
+        let names: Vec<String> = ["a", "b", "c"].iter().map(|n| n.to_string()).collect();
+        for kind in [MetricKind::QuasiConformal, MetricKind::Conformal, MetricKind::L2] {
+            let metric = MetricSpec::new(kind).build();
+            if kind == MetricKind::QuasiConformal {
+                assert!(metric.pose_summary(&s.topology, &s.positions).is_some());
+            }
+            let opts = GeodesicOptions {
+                steps: 2,
+                ..Default::default()
+            };
+            let solver = GeodesicSolver::new(metric.as_ref(), s.topology.clone(), opts).unwrap();
+            let pairs = compute_pairs(
+                &solver,
+                Approx::Straight,
+                &names,
+                &defs,
+                &HashSet::new(),
+                None,
+                |_| Ok(()),
+            )
+            .unwrap();
+            assert_eq!(pairs.len(), 3);
+            for p in &pairs {
+                for (k, d) in p.per_pose.iter().enumerate() {
+                    let (a, b) = (&defs[p.i][k], &defs[p.j][k]);
+                    let want = if a == b {
+                        0.0
+                    } else {
+                        solver.straight_length(a, b).unwrap()
+                    };
+                    assert_eq!(
+                        d.to_bits(),
+                        want.to_bits(),
+                        "{kind:?} ({}, {}) pose {k}",
+                        p.i,
+                        p.j
+                    );
+                }
+                assert!(p.distance > 0.0);
+            }
+        }
     }
 
     #[test]
