@@ -44,6 +44,16 @@ def test_dask_approx_and_bad_arguments(client, synthetic):
         qcshape.dask.similarity_matrix(synthetic, client=client, approx="fast")
 
 
+def test_repeated_calls_on_the_same_data_do_not_lose_it(client, synthetic):
+    # Content-hashed scatter keys let a call reuse the key of the previous call's data while
+    # the scheduler released it (the batches then waited for lost data); keys are unique now.
+    opts = dict(metric="l2", steps=2, approx="straight")
+    want = qs.similarity_matrix(synthetic, progress=False, **opts)
+    for _ in range(6):
+        d = qcshape.dask.similarity_matrix(synthetic, client=client, batch_size=200, progress=False, **opts)
+        assert np.array_equal(d, want)
+
+
 def _finished_batches(dask_scheduler):
     return sum(
         1 for k, ts in dask_scheduler.tasks.items() if str(k).startswith("qcshape-pairs") and ts.state == "memory"

@@ -97,7 +97,10 @@ def _run(distributed, client, ds, batch_size, retries, progress, options) -> np.
     n = len(names)
     iu, ju = np.triu_indices(n, 1)
     pairs = np.stack([iu, ju], axis=1).astype(np.int64)
-    poses_f, faces_f = client.scatter([poses, faces], broadcast=True)
+    # Unique keys (hash=False): with content-hashed keys, a second call on the same data reuses
+    # the key of the first call's data while the scheduler is still releasing it, and the
+    # batches then wait for data that is gone (seen as a hang or a FutureCancelledError).
+    poses_f, faces_f = client.scatter([poses, faces], broadcast=True, hash=False)
     token = uuid.uuid4().hex[:12]
     futures = [
         client.submit(
