@@ -39,16 +39,6 @@ pub enum MotionMeasure<'m> {
     Metric(&'m dyn Metric),
 }
 
-impl MotionMeasure<'_> {
-    /// `"normal"` or `"metric"` (the command line's and Python's names).
-    pub fn label(&self) -> &'static str {
-        match self {
-            MotionMeasure::Normal => "normal",
-            MotionMeasure::Metric(_) => "metric",
-        }
-    }
-}
-
 impl std::fmt::Debug for MotionMeasure<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

@@ -118,15 +118,10 @@ impl Metric for QuasiConformal {
         [ks, ke]: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
         let nv = topo.n_vertices();
-        if ks.len() != nv || ke.len() != nv {
+        if self.weights != QcWeights::Endpoints || ks.len() != nv || ke.len() != nv {
             return self.frozen_weights(topo, start, end);
         }
-        // The arithmetic of `curvature_change`: K(end) - K(start).
-        let mut k = ke.to_vec();
-        for (x, s) in k.iter_mut().zip(ks) {
-            *x -= s;
-        }
-        (self.weights == QcWeights::Endpoints).then_some(k)
+        Some(curvature_difference(ks, ke.to_vec()))
     }
 
     /// With [`QcWeights::Endpoints`] the weights are `seg.frozen`; if it is absent (or not of
@@ -211,12 +206,15 @@ impl Metric for QuasiConformal {
 
 /// `K(end) - K(start)` (#V).
 fn curvature_change(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Vec<f64> {
-    let ks = angle_defect(topo, start);
-    let mut k = angle_defect(topo, end);
-    for (x, s) in k.iter_mut().zip(&ks) {
+    curvature_difference(&angle_defect(topo, start), angle_defect(topo, end))
+}
+
+/// `K(end) - K(start)` from the two poses' angle defects (`ke` is overwritten).
+fn curvature_difference(ks: &[f64], mut ke: Vec<f64>) -> Vec<f64> {
+    for (x, s) in ke.iter_mut().zip(ks) {
         *x -= s;
     }
-    k
+    ke
 }
 
 /// Rows of the segment reading: per face, for the quadratic form one row per corner (the

@@ -480,7 +480,7 @@ impl<'m> GeodesicSolver<'m> {
         &'s self,
         ends: &Ends,
         x0: Vec<f64>,
-        ctx: Option<&mut SolveContext<'s>>,
+        mut ctx: Option<&mut SolveContext<'s>>,
     ) -> Result<Geodesic, GeodesicError> {
         let t0 = Instant::now();
         let pe = &self.energy;
@@ -523,33 +523,13 @@ impl<'m> GeodesicSolver<'m> {
                         .spatial
                         .as_ref()
                         .expect("layout is built for the preconditioned solver");
-                    match ctx {
-                        None => plbfgs::minimize(pe, Some(layout), ends, x0, &self.options, None)?,
-                        Some(c) => {
-                            let fitted = c.pre.is_none();
-                            let out = plbfgs::minimize(
-                                pe,
-                                Some(layout),
-                                ends,
-                                x0,
-                                &self.options,
-                                Some(&mut c.pre),
-                            )?;
-                            // Ski rental: keep the fit while the iterations it costs beyond
-                            // those of the solve that fitted it stay within the budget.
-                            if fitted {
-                                c.fits += 1;
-                                c.fit_iterations = out.iterations;
-                                c.extra_iterations = 0;
-                            } else {
-                                c.extra_iterations += out.iterations.saturating_sub(c.fit_iterations);
-                                if c.extra_iterations > self.options.preconditioner_reuse {
-                                    c.pre = None;
-                                }
-                            }
-                            out
-                        }
+                    let fitted = ctx.as_ref().is_some_and(|c| c.pre.is_none());
+                    let shared = ctx.as_mut().map(|c| &mut c.pre);
+                    let out = plbfgs::minimize(pe, Some(layout), ends, x0, &self.options, shared)?;
+                    if let Some(c) = ctx {
+                        c.record(fitted, out.iterations, self.options.preconditioner_reuse);
                     }
+                    out
                 }
                 Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options, None)?,
             }
@@ -573,11 +553,7 @@ impl<'m> GeodesicSolver<'m> {
                 (energy, checked_start.unwrap_or(energy), gnorm, segments)
             }
         };
-        if !initial_energy.is_finite() {
-            return Err(GeodesicError::NonFinite(format!(
-                "initial energy {initial_energy}"
-            )));
-        }
+        // (The initial energy was checked finite where it was evaluated.)
         if !energy.is_finite() {
             return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
         }
@@ -681,8 +657,10 @@ pub(crate) struct LastEvaluation {
 
 /// Set-up carried from one solve to the next by [`GeodesicSolver::solve_in`]: the default
 /// solver's preconditioner (the Kronecker model and vertex blocks with its Cholesky factor),
-/// fitted at the first path solved through the context and refitted as the solver's
-/// [`GeodesicOptions::preconditioner_refresh`] says. A preconditioner changes the iterates,
+/// fitted at the first path solved through the context, refitted within a solve every
+/// [`GeodesicOptions::preconditioner_refresh`] iterations, and fitted afresh once the solves
+/// after a fit have cost [`GeodesicOptions::preconditioner_reuse`] extra iterations. A
+/// preconditioner changes the iterates,
 /// not the minimum: results agree with fresh solves to solver tolerance, and depend only on
 /// the order of the solves through one context (never on threads). Other solvers ignore it.
 #[derive(Default)]
@@ -701,6 +679,22 @@ impl SolveContext<'_> {
     /// the previous fit).
     pub fn fits(&self) -> usize {
         self.fits
+    }
+
+    /// Books a solve of `iterations` that `fitted` the preconditioner or reused it (ski
+    /// rental): the fit is dropped, so the next solve fits afresh, once the reusing solves
+    /// have together needed more than `budget` iterations beyond the fitting one's.
+    fn record(&mut self, fitted: bool, iterations: usize, budget: usize) {
+        if fitted {
+            self.fits += 1;
+            self.fit_iterations = iterations;
+            self.extra_iterations = 0;
+        } else {
+            self.extra_iterations += iterations.saturating_sub(self.fit_iterations);
+            if self.extra_iterations > budget {
+                self.pre = None;
+            }
+        }
     }
 }
 
