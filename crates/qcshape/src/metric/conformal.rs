@@ -2,8 +2,8 @@
 //! the quasi-conformal metric (eq. 10).
 
 use super::{
-    geometry_and_displacement, segment_gradient_per_term, split_segment, GradientSink, JacobianMut, Metric,
-    Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
+    geometry_and_displacement, segment_gradient_per_term, split_segment, squared_norm_from_residuals,
+    GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
 };
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
@@ -475,6 +475,46 @@ pub(crate) fn quadratic_segment_gradient(
     sink.weight * value
 }
 
+/// The value-only sibling of [`quadratic_segment_gradient`]: `[sum_k (w_k T_k)^2]` of the start
+/// term (geometry `a`, weights `weights[0]`) and of the end term (geometry `b`, `weights[1]`)
+/// for the displacement `b - a`, in one pass over the faces with the same edge quantities,
+/// storing nothing (the straight-path lengths of the cohort mode). Units: length^8.
+pub(crate) fn quadratic_segment_values(
+    topo: &Topology,
+    a: &[[f64; 3]],
+    b: &[[f64; 3]],
+    weights: [Option<&[f64]>; 2],
+) -> [f64; 2] {
+    let mut value = [0.0; 2];
+    for f in topo.faces() {
+        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
+        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
+        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
+        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
+        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
+        let la = [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])];
+        let lb = [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])];
+        let qa = [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])];
+        let qb = [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])];
+        value[0] += edge_value(&la, &qa, &face_weights(weights[0], &v));
+        value[1] += edge_value(&lb, &qb, &face_weights(weights[1], &v));
+    }
+    value
+}
+
+/// `sum_k (w_k T_k)^2` of one face from its edge quantities (the value part of
+/// [`edge_derivatives`]).
+#[inline(always)]
+fn edge_value(l: &[f64; 3], p: &[f64; 3], w: &[f64; 3]) -> f64 {
+    let mut value = 0.0;
+    for k in 0..3 {
+        let (ea, eb) = (k, NEXT[k][2]);
+        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
+        value += wt * wt;
+    }
+    value
+}
+
 /// The conformal metric (eqs. 7-9): for every triangle `(p, q, r)` of `M`,
 /// `T_p(X) = <p-q, X_p-X_q> |p-r|^2 - <p-r, X_p-X_r> |p-q|^2` (eq. 7) and `T_q`, `T_r` by the
 /// cyclic permutation `p -> q -> r -> p`; the triangle contributes
@@ -547,6 +587,13 @@ impl Metric for Conformal {
                 quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [None, None], sink)
             }
             ConformalForm::Paper => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
+        }
+    }
+
+    fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        match self.form {
+            ConformalForm::Quadratic => quadratic_segment_values(topo, segs[0].a, segs[0].b, [None, None]),
+            ConformalForm::Paper => segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg)),
         }
     }
 

@@ -24,6 +24,47 @@ pub(crate) fn check_metric(metric: &dyn Metric, seed: u64) {
         for at in [At::Start, At::End] {
             check_on(metric, base, at, seed.wrapping_mul(31).wrapping_add(mi as u64));
         }
+        check_values(metric, base, seed.wrapping_mul(37).wrapping_add(mi as u64));
+    }
+}
+
+/// The value-only paths against the residuals: [`Metric::segment_squared_norms`] equals
+/// `|r|^2` of each term (to rounding: the fused passes sum in another order), and the frozen
+/// weights from [`Metric::pose_summary`] values are bit for bit [`Metric::frozen_weights`].
+fn check_values(metric: &dyn Metric, base: &Shape, seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let topo = &base.topology;
+    let a = jitter(&mut rng, &base.positions, 0.1);
+    let b: Vec<[f64; 3]> = jitter(&mut rng, &a, 0.3);
+    let pat = metric.pattern(topo);
+    let frozen = metric.frozen_weights(topo, &a, &b);
+    if let (Some(sa), Some(sb)) = (metric.pose_summary(topo, &a), metric.pose_summary(topo, &b)) {
+        assert_eq!(
+            metric.frozen_weights_from(topo, &a, &b, [&sa, &sb]),
+            frozen,
+            "{}: frozen weights from the pose summaries",
+            metric.name()
+        );
+    }
+    let aux = vec![0.0; metric.n_aux()];
+    let seg = |at| Segment {
+        a: &a,
+        b: &b,
+        at,
+        aux: &aux,
+        frozen: frozen.as_deref(),
+    };
+    let (s0, s1) = (seg(At::Start), seg(At::End));
+    let fused = metric.segment_squared_norms(topo, pat.as_ref(), [&s0, &s1]);
+    for (g, s) in fused.into_iter().zip([&s0, &s1]) {
+        let slow = super::squared_norm_from_residuals(metric, topo, pat.as_ref(), s);
+        assert!(slow > 0.0, "{}: a zero norm checks nothing", metric.name());
+        assert!(
+            (g - slow).abs() <= 1e-12 * slow,
+            "{} ({:?}): segment_squared_norms {g:e} vs residuals {slow:e}",
+            metric.name(),
+            s.at
+        );
     }
 }
 

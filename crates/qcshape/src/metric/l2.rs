@@ -140,6 +140,25 @@ impl Metric for FrozenL2 {
         Some(Self::weights(topo, start, end))
     }
 
+    /// The vertex areas of `pose` (#V, length^2), half of [`FrozenL2::weights`].
+    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+        (pose.len() == topo.n_vertices()).then(|| crate::mesh::geometry::vertex_areas(topo, pose))
+    }
+
+    fn frozen_weights_from(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        [a, b]: [&[f64]; 2],
+    ) -> Option<Vec<f64>> {
+        let nv = topo.n_vertices();
+        if a.len() != nv || b.len() != nv {
+            return self.frozen_weights(topo, start, end);
+        }
+        Some(a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect())
+    }
+
     /// Uses `seg.frozen` (#V); without it, the segment's own end poses supply the weights.
     fn residuals(
         &self,
@@ -191,6 +210,20 @@ impl Metric for FrozenL2 {
             }
         }
         sink.weight * value
+    }
+
+    /// `sum_v Abar_v |X_v|^2` for each term, without storing residuals.
+    fn segment_squared_norms(&self, topo: &Topology, _p: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        segs.map(|seg| {
+            let w = Self::segment_weights(topo, seg);
+            let mut value = 0.0;
+            for (v, wv) in w.iter().enumerate() {
+                let (p, q) = (seg.a[v], seg.b[v]);
+                let x = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                value += wv.max(0.0) * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+            }
+            value
+        })
     }
 
     /// With frozen weights the residuals are linear in the unknowns: no second-order part.

@@ -313,17 +313,39 @@ pub trait Metric: Send + Sync + Debug {
 
     /// The squared norm `G_M(X) = |r|^2` of the segment (with the optimal auxiliary unknowns).
     fn squared_norm(&self, topo: &Topology, pattern: &Pattern, seg: &Segment) -> f64 {
-        let aux;
-        let seg = if self.n_aux() > 0 {
-            aux = self.best_aux(topo, seg);
-            Segment { aux: &aux, ..*seg }
-        } else {
-            *seg
-        };
-        let mut r = vec![0.0; pattern.n_residuals()];
-        self.residuals(topo, pattern.as_ref(), &seg, &mut r, None);
-        r.iter().map(|x| x * x).sum()
+        squared_norm_from_residuals(self, topo, pattern.as_ref(), seg)
     }
+
+    /// Both terms of a segment's squared norm, `[G_a(b - a), G_b(b - a)]` (eq. 12's two terms
+    /// of one segment; `segs[0]` at `At::Start`, `segs[1]` at `At::End`, on the same poses,
+    /// each with its frozen weights), with the optimal auxiliary unknowns: the straight-path
+    /// length (eq. 13 on the linear path) needs nothing else. The default evaluates the
+    /// residuals of each term; metrics override it with one value-only pass that stores
+    /// neither residuals nor Jacobian (same values to rounding, test
+    /// `segment_squared_norms_match_the_residuals`).
+    fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg))
+    }
+}
+
+/// `|r|^2` of one segment term from [`Metric::residuals`] (with the optimal auxiliary
+/// unknowns): the default of [`Metric::squared_norm`] and [`Metric::segment_squared_norms`].
+pub fn squared_norm_from_residuals<M: Metric + ?Sized>(
+    metric: &M,
+    topo: &Topology,
+    pattern: PatternRef,
+    seg: &Segment,
+) -> f64 {
+    let aux;
+    let seg = if metric.n_aux() > 0 {
+        aux = metric.best_aux(topo, seg);
+        Segment { aux: &aux, ..*seg }
+    } else {
+        *seg
+    };
+    let mut r = vec![0.0; pattern.n_residuals()];
+    metric.residuals(topo, pattern, &seg, &mut r, None);
+    r.iter().map(|x| x * x).sum()
 }
 
 /// Chain rule from `(geometry g, displacement X)` derivatives to `(a, b)` derivatives for a

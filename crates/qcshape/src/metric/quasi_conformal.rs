@@ -3,13 +3,13 @@
 
 use super::conformal::{
     eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values,
-    quadratic_segment_gradient, sign0, FaceOut,
+    quadratic_segment_gradient, quadratic_segment_values, sign0, FaceOut,
 };
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
 use super::{
     geometry_and_displacement, gradient_from_jacobian, segment_gradient_per_term, split_segment,
-    ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
-    SegmentSink,
+    squared_norm_from_residuals, ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
+    Scratch, SecondOrderSink, Segment, SegmentSink,
 };
 use crate::mesh::geometry::{add, angle_defect, scale};
 use crate::mesh::Topology;
@@ -182,6 +182,18 @@ impl Metric for QuasiConformal {
                 quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [Some(w0), Some(w1)], sink)
             }
             _ => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
+        }
+    }
+
+    fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        let nv = topo.n_vertices();
+        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
+            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
+                if w0.len() == nv && w1.len() == nv =>
+            {
+                quadratic_segment_values(topo, segs[0].a, segs[0].b, [Some(w0), Some(w1)])
+            }
+            _ => segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg)),
         }
     }
 

@@ -55,15 +55,19 @@ impl Regularized {
         end: &[[f64; 3]],
         inner: Option<Vec<f64>>,
     ) -> Option<Vec<f64>> {
-        let l2 = self.l2().frozen_weights(topo, start, end);
-        match (inner, l2) {
-            (None, None) => None,
-            (Some(i), None) => Some(i),
-            (None, Some(l)) => Some(l),
-            (Some(mut i), Some(l)) => {
-                i.extend_from_slice(&l);
-                Some(i)
-            }
+        join(inner, self.l2().frozen_weights(topo, start, end))
+    }
+}
+
+/// The inner metric's values followed by the L2 part's (frozen weights or pose summaries).
+fn join(inner: Option<Vec<f64>>, l2: Option<Vec<f64>>) -> Option<Vec<f64>> {
+    match (inner, l2) {
+        (None, None) => None,
+        (Some(i), None) => Some(i),
+        (None, Some(l)) => Some(l),
+        (Some(mut i), Some(l)) => {
+            i.extend_from_slice(&l);
+            Some(i)
         }
     }
 }
@@ -109,9 +113,13 @@ impl Metric for Regularized {
         self.join_frozen(topo, start, end, inner)
     }
 
-    /// The inner metric's summary (the L2 weights, vertex areas, are cheap per pair).
+    /// The inner metric's summary followed by the L2 part's (the vertex areas, #V, when the
+    /// areas are frozen), split again by [`Metric::frozen_weights_from`].
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        self.inner.pose_summary(topo, pose)
+        join(
+            self.inner.pose_summary(topo, pose),
+            self.l2().pose_summary(topo, pose),
+        )
     }
 
     fn frozen_weights_from(
@@ -119,10 +127,22 @@ impl Metric for Regularized {
         topo: &Topology,
         start: &[[f64; 3]],
         end: &[[f64; 3]],
-        summaries: [&[f64]; 2],
+        [sa, sb]: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
-        let inner = self.inner.frozen_weights_from(topo, start, end, summaries);
-        self.join_frozen(topo, start, end, inner)
+        // The same split as the frozen weights: the L2 part is the last #V values.
+        let ((ia, la), (ib, lb)) = (
+            self.split_frozen(topo, Some(sa)),
+            self.split_frozen(topo, Some(sb)),
+        );
+        let inner = match (ia, ib) {
+            (Some(a), Some(b)) => self.inner.frozen_weights_from(topo, start, end, [a, b]),
+            _ => self.inner.frozen_weights(topo, start, end),
+        };
+        let l2 = match (la, lb) {
+            (Some(a), Some(b)) => self.l2().frozen_weights_from(topo, start, end, [a, b]),
+            _ => self.l2().frozen_weights(topo, start, end),
+        };
+        join(inner, l2)
     }
 
     fn residuals(
@@ -227,6 +247,21 @@ impl Metric for Regularized {
             .l2()
             .segment_gradient(topo, parts.l2(), [&s0_l2, &s1_l2], scratch, &mut no_aux);
         v_in + v_l2
+    }
+
+    /// The inner metric's values plus `lambda` times the L2 part's, each by its own
+    /// (value-only where available) pass.
+    fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        let parts = self.patterns(topo, pattern);
+        let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
+        let v_in = self
+            .inner
+            .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
+        let v_l2 = self
+            .l2()
+            .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
+        let lambda = self.lambda.max(0.0);
+        [v_in[0] + lambda * v_l2[0], v_in[1] + lambda * v_l2[1]]
     }
 
     /// The inner metric's part (its residuals are the first rows); the frozen L2 part adds

@@ -153,11 +153,14 @@ impl<'m> PathEnergy<'m> {
         (0..self.steps)
             .into_par_iter()
             .map(|s| {
-                let g = |at| {
-                    let seg = self.segment(x, ends, s, at);
-                    self.metric.squared_norm(&self.topo, &self.pattern, &seg)
-                };
-                (g(At::Start), g(At::End))
+                let (s0, s1) = (
+                    self.segment(x, ends, s, At::Start),
+                    self.segment(x, ends, s, At::End),
+                );
+                let [g0, g1] =
+                    self.metric
+                        .segment_squared_norms(&self.topo, self.pattern.as_ref(), [&s0, &s1]);
+                (g0, g1)
             })
             .collect()
     }
