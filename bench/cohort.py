@@ -132,7 +132,7 @@ def main() -> None:
     p.add_argument("--frames", type=int, default=8)
     p.add_argument("--threads", default="1,2")
     p.add_argument("--dask", action="store_true", help="also a LocalCluster with 2 workers (straight mode)")
-    p.add_argument("--batch", type=int, default=256)
+    p.add_argument("--batch", type=int, default=None, help="Dask pairs per task (default: qcshape.dask's choice)")
     p.add_argument(
         "--straight-steps", type=int, default=1, help="segments of the straight paths (exact: the default 8)"
     )
@@ -161,7 +161,7 @@ def main() -> None:
         cmd = [sys.executable, __file__, "--child", "--n", str(n), "--approx", approx, "--threads", str(threads)]
         cmd += ["--level", str(args.level), "--frames", str(args.frames), "--seed", str(args.seed)]
         cmd += ["--metric", args.metric]
-        cmd += ["--matrix", str(matrix), "--batch", str(args.batch)] + (["--dask"] if dask else [])
+        cmd += ["--matrix", str(matrix)] + (["--batch", str(args.batch)] if args.batch else []) + (["--dask"] if dask else [])
         if approx == "straight":
             cmd += ["--steps", str(args.straight_steps)]
         r = subprocess.run(cmd, capture_output=True, text=True)

@@ -19,13 +19,15 @@ How it runs: the per-deformation part of the pipeline (interpolation, alignment,
 the common base, scaling) runs once, here, in the calling process; the prepared poses are
 scattered to every worker once; the n(n-1)/2 pairs are split into batches of ``batch_size``
 pairs, one task each, so that the per-topology set-up (metric pattern, solver layout) is paid
-once per batch. A task that fails is retried (``retries``), a task lost with its worker is
-recomputed by the scheduler; every pair is computed by the same deterministic code, so the
-result equals ``qcshape.similarity_matrix(ds, **options)`` bit for bit, whatever the cluster.
+once per batch; the pairs are ordered by square tiles of the matrix, so that a batch uses the
+poses of about 2 sqrt(batch_size) deformations, not all of them. A task that fails is retried
+(``retries``), a task lost with its worker is recomputed by the scheduler; every pair is
+computed by the same deterministic code, so the result equals ``qcshape.similarity_matrix(ds, **options)`` bit for bit, whatever the cluster.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 import uuid
@@ -47,15 +49,34 @@ def _distributed():
 
 
 def _batch(poses: np.ndarray, faces: np.ndarray, pairs: np.ndarray, options: dict) -> tuple:
-    """One task: the distances of a batch of pairs on one worker (one thread)."""
-    d, converged = _qcshape.pair_distances(poses, faces, pairs, threads=1, **options)
+    """One task: the distances of a batch of pairs on one worker (one thread), from the poses of
+    the deformations the batch uses only (they are copied and, in the straight mode, their
+    angle defects computed, once per task)."""
+    used, local = np.unique(pairs, return_inverse=True)
+    d, converged = _qcshape.pair_distances(
+        poses[used], faces, local.reshape(pairs.shape).astype(np.int64), threads=1, **options
+    )
     return pairs, d, converged
+
+
+def _tiled_pairs(n: int, batch_size: int) -> np.ndarray:
+    """Every pair i < j of n items (m, 2), ordered by square tiles of about sqrt(batch_size) rows
+    and columns of the upper triangle, so that a batch of consecutive pairs touches about
+    2 sqrt(batch_size) deformations instead of up to n."""
+    b = max(1, math.isqrt(batch_size))
+    tiles = []
+    for r in range(0, n, b):
+        for c in range(r, n, b):
+            ii, jj = np.meshgrid(np.arange(r, min(r + b, n)), np.arange(c, min(c + b, n)), indexing="ij")
+            keep = ii < jj
+            tiles.append(np.stack([ii[keep], jj[keep]], axis=1))
+    return np.concatenate(tiles).astype(np.int64)
 
 
 def similarity_matrix(
     ds: Any,
     client: Optional[Any] = None,
-    batch_size: int = 64,
+    batch_size: Optional[int] = None,
     retries: int = 3,
     progress: bool = True,
     **options: Any,
@@ -63,7 +84,9 @@ def similarity_matrix(
     """The similarity matrix (eq. 13) of ``ds`` (a ``qcshape.Dataset``) computed on a Dask cluster.
 
     ``client``: a ``distributed.Client`` (None: the current default client, or a new local
-    cluster that is closed afterwards). ``batch_size``: pairs per task (>= 1). ``retries``: how
+    cluster that is closed afterwards). ``batch_size``: pairs per task (>= 1; None: 64 for exact
+    geodesics, 2048 with ``approx``, whose pairs are so cheap that the per-task preparation of
+    the poses a batch uses would dominate smaller tasks). ``retries``: how
     often a failed task is resubmitted. ``progress``: a line on stderr at most every 10 s.
     ``options``: those of ``qcshape.similarity_matrix`` (metric, steps, transport, approx, ...;
     ``threads`` applies to the preparation here, every task uses one thread).
@@ -71,7 +94,9 @@ def similarity_matrix(
     Returns an (n, n) float64 array in normalized units, equal to
     ``qcshape.similarity_matrix(ds, **options)``.
     """
-    if not isinstance(batch_size, int) or batch_size < 1:
+    if batch_size is None:
+        batch_size = 64 if options.get("approx", "exact") == "exact" else 2048
+    if not isinstance(batch_size, int) or isinstance(batch_size, bool) or batch_size < 1:
         raise ValueError(f"batch_size: must be a positive integer, got {batch_size!r}")
     if not isinstance(retries, int) or retries < 0:
         raise ValueError(f"retries: must be a non-negative integer, got {retries!r}")
@@ -95,8 +120,7 @@ def _run(distributed, client, ds, batch_size, retries, progress, options) -> np.
     poses, faces, names, _converged = _qcshape.prepare_pairs(ds, **prep_options)
     task_options = {k: v for k, v in options.items() if k not in ("threads", "progress")}
     n = len(names)
-    iu, ju = np.triu_indices(n, 1)
-    pairs = np.stack([iu, ju], axis=1).astype(np.int64)
+    pairs = _tiled_pairs(n, batch_size)
     # Unique keys (hash=False): with content-hashed keys, a second call on the same data reuses
     # the key of the first call's data while the scheduler is still releasing it, and the
     # batches then wait for data that is gone (seen as a hang or a FutureCancelledError).

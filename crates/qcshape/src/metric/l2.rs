@@ -114,6 +114,21 @@ impl FrozenL2 {
         a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect()
     }
 
+    /// [`Metric::segment_squared_norms`] (needs no pattern): `sum_v Abar_v |X_v|^2` of each
+    /// term, length^4.
+    pub(crate) fn values(topo: &Topology, segs: [&Segment; 2]) -> [f64; 2] {
+        segs.map(|seg| {
+            let w = Self::segment_weights(topo, seg);
+            let mut value = 0.0;
+            for (v, wv) in w.iter().enumerate() {
+                let (p, q) = (seg.a[v], seg.b[v]);
+                let x = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                value += wv.max(0.0) * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+            }
+            value
+        })
+    }
+
     /// `seg.frozen` (#V) if present, else the weights of the segment's own end poses.
     fn segment_weights<'a>(topo: &Topology, seg: &Segment<'a>) -> std::borrow::Cow<'a, [f64]> {
         match seg.frozen {
@@ -214,16 +229,7 @@ impl Metric for FrozenL2 {
 
     /// `sum_v Abar_v |X_v|^2` for each term, without storing residuals.
     fn segment_squared_norms(&self, topo: &Topology, _p: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        segs.map(|seg| {
-            let w = Self::segment_weights(topo, seg);
-            let mut value = 0.0;
-            for (v, wv) in w.iter().enumerate() {
-                let (p, q) = (seg.a[v], seg.b[v]);
-                let x = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-                value += wv.max(0.0) * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-            }
-            value
-        })
+        Self::values(topo, segs)
     }
 
     /// With frozen weights the residuals are linear in the unknowns: no second-order part.

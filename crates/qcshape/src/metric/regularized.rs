@@ -252,14 +252,22 @@ impl Metric for Regularized {
     /// The inner metric's values plus `lambda` times the L2 part's, each by its own
     /// (value-only where available) pass.
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        let parts = self.patterns(topo, pattern);
         let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
-        let v_in = self
-            .inner
-            .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
-        let v_l2 = self
-            .l2()
-            .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
+        let (v_in, v_l2) = if self.frozen_areas {
+            // The frozen L2 part needs no pattern: no rebased copy of its offsets.
+            let inner = self.inner_pattern(topo, pattern);
+            let v_in = self.inner.segment_squared_norms(topo, inner, [&s0_in, &s1_in]);
+            (v_in, FrozenL2::values(topo, [&s0_l2, &s1_l2]))
+        } else {
+            let parts = self.patterns(topo, pattern);
+            let v_in = self
+                .inner
+                .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
+            let v_l2 = self
+                .l2()
+                .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
+            (v_in, v_l2)
+        };
         let lambda = self.lambda.max(0.0);
         [v_in[0] + lambda * v_l2[0], v_in[1] + lambda * v_l2[1]]
     }
@@ -312,12 +320,18 @@ impl Regularized {
         let n_in = self.inner.n_residuals(topo);
         let e_in = pattern.offsets[n_in] as usize;
         Parts {
-            inner: PatternRef {
-                offsets: &pattern.offsets[..=n_in],
-                vertices: &pattern.vertices[..e_in],
-            },
+            inner: self.inner_pattern(topo, pattern),
             l2_offsets: pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect(),
             l2_vertices: &pattern.vertices[e_in..],
+        }
+    }
+
+    /// The inner metric's rows of `pattern` (its prefix), without the L2 rows.
+    fn inner_pattern<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> PatternRef<'p> {
+        let n_in = self.inner.n_residuals(topo);
+        PatternRef {
+            offsets: &pattern.offsets[..=n_in],
+            vertices: &pattern.vertices[..pattern.offsets[n_in] as usize],
         }
     }
 

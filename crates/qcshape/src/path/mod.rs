@@ -57,7 +57,7 @@ pub use interpolate::{
 };
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
-use crate::metric::Metric;
+use crate::metric::{At, Metric, Segment};
 
 /// Which optimizer minimizes the path energy.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -404,14 +404,33 @@ impl<'m> GeodesicSolver<'m> {
         b: &[[f64; 3]],
         summaries: Option<[&[f64]; 2]>,
     ) -> Result<f64, GeodesicError> {
-        let ends = self.ends_with(a, b, summaries)?;
-        let x0 = self.energy.linear_start(&ends);
-        let length: f64 = self
-            .energy
-            .segment_norms(&x0, &ends)
-            .iter()
-            .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
-            .sum();
+        let length: f64 = if self.energy.steps() == 1 {
+            // One segment from `a` to `b`: no path to build, no copy of the poses (a cohort
+            // matrix measures millions of such pairs).
+            self.check_ends(a, b)?;
+            let frozen = self.frozen_weights(a, b, summaries);
+            let seg = |at| Segment {
+                a,
+                b,
+                at,
+                aux: &[],
+                frozen: frozen.as_deref(),
+            };
+            let (s0, s1) = (seg(At::Start), seg(At::End));
+            let pe = &self.energy;
+            let [g0, g1] = pe
+                .metric
+                .segment_squared_norms(&pe.topo, pe.pattern.as_ref(), [&s0, &s1]);
+            ((g0 + g1) / 2.0).max(0.0).sqrt()
+        } else {
+            let ends = self.ends_with(a, b, summaries)?;
+            let x0 = self.energy.linear_start(&ends);
+            self.energy
+                .segment_norms(&x0, &ends)
+                .iter()
+                .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
+                .sum()
+        };
         if !length.is_finite() {
             return Err(GeodesicError::NonFinite(format!("straight-path length {length}")));
         }
@@ -447,6 +466,31 @@ impl<'m> GeodesicSolver<'m> {
         b: &[[f64; 3]],
         summaries: Option<[&[f64]; 2]>,
     ) -> Result<Ends, GeodesicError> {
+        self.check_ends(a, b)?;
+        Ok(Ends {
+            start: a.to_vec(),
+            end: b.to_vec(),
+            frozen: self.frozen_weights(a, b, summaries),
+        })
+    }
+
+    /// The metric's frozen weights of a path from `a` to `b` (from the pose summaries when
+    /// given).
+    fn frozen_weights(
+        &self,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Option<Vec<f64>> {
+        let (metric, topo) = (self.energy.metric, &self.energy.topo);
+        match summaries {
+            Some(s) => metric.frozen_weights_from(topo, a, b, s),
+            None => metric.frozen_weights(topo, a, b),
+        }
+    }
+
+    /// Both end poses have #V finite vertices.
+    fn check_ends(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<(), GeodesicError> {
         let nv = self.energy.n_vertices();
         for p in [a, b] {
             if p.len() != nv {
@@ -464,16 +508,7 @@ impl<'m> GeodesicSolver<'m> {
                 return Err(MeshError::NonFinite { vertex, value: *v }.into());
             }
         }
-        let (metric, topo) = (self.energy.metric, &self.energy.topo);
-        let frozen = match summaries {
-            Some(s) => metric.frozen_weights_from(topo, a, b, s),
-            None => metric.frozen_weights(topo, a, b),
-        };
-        Ok(Ends {
-            start: a.to_vec(),
-            end: b.to_vec(),
-            frozen,
-        })
+        Ok(())
     }
 
     fn solve_from<'s>(
@@ -779,6 +814,60 @@ mod tests {
             .map(|p| [p[0] + 0.3 * p[2] * p[2], p[1] * (1.0 + 0.3 * p[0]), 1.4 * p[2]])
             .collect();
         Shape::new(s.topology.clone(), pos).unwrap()
+    }
+
+    #[test]
+    fn straight_lengths_of_one_segment_and_of_n_segments_agree_with_the_definition() {
+        let a = icosphere(2);
+        let b = bent(&a);
+        let qc = crate::metric::MetricSpec::new(crate::metric::MetricKind::QuasiConformal).build();
+        let iso = Regularized::new(Box::new(Isometric), 0.5);
+        let metrics: [&dyn Metric; 3] = [qc.as_ref(), &iso, &crate::metric::FrozenL2];
+        for m in metrics {
+            let solver = |steps| {
+                let options = GeodesicOptions {
+                    steps,
+                    ..GeodesicOptions::default()
+                };
+                GeodesicSolver::new(m, a.topology.clone(), options).unwrap()
+            };
+            // One segment (the copy-free branch) against the definition through the residuals.
+            let one = solver(1).straight_length(&a.positions, &b.positions).unwrap();
+            let frozen = m.frozen_weights(&a.topology, &a.positions, &b.positions);
+            let pat = m.pattern(&a.topology);
+            let g: f64 = [At::Start, At::End]
+                .map(|at| {
+                    let seg = Segment {
+                        a: &a.positions,
+                        b: &b.positions,
+                        at,
+                        aux: &[],
+                        frozen: frozen.as_deref(),
+                    };
+                    crate::metric::squared_norm_from_residuals(m, &a.topology, pat.as_ref(), &seg)
+                })
+                .iter()
+                .sum();
+            let want = (g / 2.0).sqrt();
+            assert!(
+                want > 0.0 && (one - want).abs() <= 1e-12 * want,
+                "{}: {one} vs {want}",
+                m.name()
+            );
+            // Four segments (through the path): an upper bound of the geodesic, and for the
+            // frozen L2 metric (flat) the straight line is the geodesic, whatever N.
+            let four = solver(4);
+            let len4 = four.straight_length(&a.positions, &b.positions).unwrap();
+            let geo = four.solve(&a.positions, &b.positions).unwrap().length;
+            assert!(
+                geo <= len4 * (1.0 + 1e-9),
+                "{}: geodesic {geo} > straight {len4}",
+                m.name()
+            );
+            if m.name() == "l2(frozen)" {
+                assert!((len4 - one).abs() <= 1e-12 * one, "flat: {len4} vs {one}");
+            }
+        }
     }
 
     #[test]
