@@ -83,3 +83,16 @@ def test_a_worker_killed_mid_run_does_not_change_the_result(client, synthetic):
     assert not t.is_alive(), "the run did not finish after the worker was killed"
     assert killed_mid_run
     np.testing.assert_allclose(result["d"], expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("n,batch_size", [(2, 64), (3, 1), (10, 4), (23, 20), (120, 2048), (400, 2048)])
+def test_batches_are_tiles_that_cover_every_pair_once(n, batch_size):
+    batches = qcshape.dask._tiled_batches(n, batch_size)
+    pairs = np.concatenate(batches)
+    assert len({tuple(p) for p in pairs}) == len(pairs) == n * (n - 1) // 2
+    assert np.all(pairs[:, 0] < pairs[:, 1]) and pairs.min() >= 0 and pairs.max() < n
+    side = max(1, int(np.sqrt(batch_size)))
+    for b in batches:
+        assert 0 < len(b) <= batch_size
+        # A tile touches at most 2 sqrt(batch_size) deformations (what a task copies).
+        assert len(np.unique(b)) <= 2 * side

@@ -19,8 +19,8 @@ How it runs: the per-deformation part of the pipeline (interpolation, alignment,
 the common base, scaling) runs once, here, in the calling process; the prepared poses are
 scattered to every worker once; the n(n-1)/2 pairs are split into batches of ``batch_size``
 pairs, one task each, so that the per-topology set-up (metric pattern, solver layout) is paid
-once per batch; the pairs are ordered by square tiles of the matrix, so that a batch uses the
-poses of about 2 sqrt(batch_size) deformations, not all of them. A task that fails is retried
+once per batch; a batch is a square tile of the matrix, so that it uses the poses of at most
+2 sqrt(batch_size) deformations, not all of them. A task that fails is retried
 (``retries``), a task lost with its worker is recomputed by the scheduler; every pair is
 computed by the same deterministic code, so the result equals ``qcshape.similarity_matrix(ds, **options)`` bit for bit, whatever the cluster.
 """
@@ -59,18 +59,19 @@ def _batch(poses: np.ndarray, faces: np.ndarray, pairs: np.ndarray, options: dic
     return pairs, d, converged
 
 
-def _tiled_pairs(n: int, batch_size: int) -> np.ndarray:
-    """Every pair i < j of n items (m, 2), ordered by square tiles of about sqrt(batch_size) rows
-    and columns of the upper triangle, so that a batch of consecutive pairs touches about
-    2 sqrt(batch_size) deformations instead of up to n."""
+def _tiled_batches(n: int, batch_size: int) -> list:
+    """Every pair i < j of n items, in batches of at most batch_size pairs: square tiles of
+    b = isqrt(batch_size) rows and columns of the upper triangle (each an (m, 2) int64 array),
+    so that a batch uses the poses of at most 2 b deformations instead of up to n."""
     b = max(1, math.isqrt(batch_size))
     tiles = []
     for r in range(0, n, b):
         for c in range(r, n, b):
             ii, jj = np.meshgrid(np.arange(r, min(r + b, n)), np.arange(c, min(c + b, n)), indexing="ij")
             keep = ii < jj
-            tiles.append(np.stack([ii[keep], jj[keep]], axis=1))
-    return np.concatenate(tiles).astype(np.int64)
+            if keep.any():
+                tiles.append(np.stack([ii[keep], jj[keep]], axis=1).astype(np.int64))
+    return tiles
 
 
 def similarity_matrix(
@@ -84,10 +85,11 @@ def similarity_matrix(
     """The similarity matrix (eq. 13) of ``ds`` (a ``qcshape.Dataset``) computed on a Dask cluster.
 
     ``client``: a ``distributed.Client`` (None: the current default client, or a new local
-    cluster that is closed afterwards). ``batch_size``: pairs per task (>= 1; None: 64 for exact
-    geodesics, 2048 with ``approx``, whose pairs are so cheap that the per-task preparation of
-    the poses a batch uses would dominate smaller tasks). ``retries``: how
-    often a failed task is resubmitted. ``progress``: a line on stderr at most every 10 s.
+    cluster that is closed afterwards). ``batch_size``: at most that many pairs per task (>= 1;
+    None: 64 for exact geodesics, 2048 with ``approx``, whose pairs are so cheap that the
+    per-task preparation of the poses a batch uses would dominate smaller tasks); a task is a
+    square tile of isqrt(batch_size) rows and columns of the matrix. ``retries``: how often a
+    failed task is resubmitted. ``progress``: a line on stderr at most every 10 s.
     ``options``: those of ``qcshape.similarity_matrix`` (metric, steps, transport, approx, ...;
     ``threads`` applies to the preparation here, every task uses one thread).
 
@@ -120,7 +122,7 @@ def _run(distributed, client, ds, batch_size, retries, progress, options) -> np.
     poses, faces, names, _converged = _qcshape.prepare_pairs(ds, **prep_options)
     task_options = {k: v for k, v in options.items() if k not in ("threads", "progress")}
     n = len(names)
-    pairs = _tiled_pairs(n, batch_size)
+    batches = _tiled_batches(n, batch_size)
     # Unique keys (hash=False): with content-hashed keys, a second call on the same data reuses
     # the key of the first call's data while the scheduler is still releasing it, and the
     # batches then wait for data that is gone (seen as a hang or a FutureCancelledError).
@@ -131,16 +133,16 @@ def _run(distributed, client, ds, batch_size, retries, progress, options) -> np.
             _batch,
             poses_f,
             faces_f,
-            pairs[k : k + batch_size],
+            batch,
             task_options,
-            key=f"qcshape-pairs-{token}-{k // batch_size}",
+            key=f"qcshape-pairs-{token}-{k}",
             retries=retries,
             pure=False,
         )
-        for k in range(0, len(pairs), batch_size)
+        for k, batch in enumerate(batches)
     ]
     d = np.zeros((n, n))
-    done, total = 0, len(pairs)
+    done, total = 0, n * (n - 1) // 2
     t0 = last = time.monotonic()
     for _future, (batch, dist, _ok) in distributed.as_completed(futures, with_results=True):
         d[batch[:, 0], batch[:, 1]] = dist
