@@ -6,7 +6,7 @@
 
     ds = qs.Dataset.from_manifest("cohort/manifest.csv")
     with Client(LocalCluster(n_workers=2, threads_per_worker=1)) as client:
-        D = qcshape.dask.similarity_matrix(ds, client=client, batch_size=64, metric="l2")
+        D = qcshape.dask.similarity_matrix(ds, client=client, metric="l2")
 
 The same call runs on a batch system through ``dask-jobqueue`` (see docs/scale.md)::
 
