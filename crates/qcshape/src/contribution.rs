@@ -74,15 +74,7 @@ pub fn term_contribution(
     seg: &Segment,
     out: &mut [f64],
 ) -> f64 {
-    let aux;
-    let seg = if metric.n_aux() > 0 {
-        aux = metric.best_aux(topo, seg);
-        Segment { aux: &aux, ..*seg }
-    } else {
-        *seg
-    };
-    let mut r = vec![0.0; pattern.n_residuals()];
-    metric.residuals(topo, pattern.as_ref(), &seg, &mut r, None);
+    let r = crate::metric::residuals_at_best_aux(metric, topo, pattern.as_ref(), seg);
     debug_assert_eq!(support.n_residuals(), r.len());
     let mut total = 0.0;
     for (i, ri) in r.iter().enumerate() {

@@ -417,6 +417,41 @@ fn edge_derivatives(
     (dl, dp)
 }
 
+/// The edge quantities of one face on the two poses of a segment (edge `j` joins corners `j`
+/// and `j+1`): edges `ea`, `eb` of `a` and `b`, displacement edges `d = eb - ea`, squared
+/// lengths `la`, `lb` and products `qa = <ea, d>`, `qb = <eb, d>`.
+struct FaceEdges {
+    v: [usize; 3],
+    ea: [[f64; 3]; 3],
+    eb: [[f64; 3]; 3],
+    d: [[f64; 3]; 3],
+    la: [f64; 3],
+    lb: [f64; 3],
+    qa: [f64; 3],
+    qb: [f64; 3],
+}
+
+impl FaceEdges {
+    #[inline(always)]
+    fn new(a: &[[f64; 3]], b: &[[f64; 3]], f: &[u32; 3]) -> Self {
+        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
+        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
+        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
+        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
+        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
+        FaceEdges {
+            v,
+            la: [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])],
+            lb: [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])],
+            qa: [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])],
+            qb: [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])],
+            ea,
+            eb,
+            d,
+        }
+    }
+}
+
 /// The fused gradient of the quadratic form `weight sum_k (w_k T_k)^2` over all faces, for
 /// both terms of a segment in one pass (`weights[t]` those of term `t`: `At::Start`, then
 /// `At::End`), written on the face's three edges. With `L_ij = |g_i - g_j|^2` and
@@ -441,15 +476,16 @@ pub(crate) fn quadratic_segment_gradient(
     let two_w = 2.0 * sink.weight;
     let mut value = 0.0;
     for f in topo.faces() {
-        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
-        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
-        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
-        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
-        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
-        let la = [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])];
-        let lb = [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])];
-        let qa = [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])];
-        let qb = [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])];
+        let FaceEdges {
+            v,
+            ea,
+            eb,
+            d,
+            la,
+            lb,
+            qa,
+            qb,
+        } = FaceEdges::new(a, b, f);
         let (dls, dps) = edge_derivatives(&la, &qa, &face_weights(weights[0], &v), two_w, &mut value);
         let (dle, dpe) = edge_derivatives(&lb, &qb, &face_weights(weights[1], &v), two_w, &mut value);
         let mut va = [[0.0; 3]; 3];
@@ -487,17 +523,9 @@ pub(crate) fn quadratic_segment_values(
 ) -> [f64; 2] {
     let mut value = [0.0; 2];
     for f in topo.faces() {
-        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
-        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
-        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
-        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
-        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
-        let la = [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])];
-        let lb = [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])];
-        let qa = [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])];
-        let qb = [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])];
-        value[0] += edge_value(&la, &qa, &face_weights(weights[0], &v));
-        value[1] += edge_value(&lb, &qb, &face_weights(weights[1], &v));
+        let e = FaceEdges::new(a, b, f);
+        value[0] += edge_value(&e.la, &e.qa, &face_weights(weights[0], &e.v));
+        value[1] += edge_value(&e.lb, &e.qb, &face_weights(weights[1], &e.v));
     }
     value
 }

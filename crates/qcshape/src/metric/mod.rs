@@ -336,6 +336,20 @@ pub fn squared_norm_from_residuals<M: Metric + ?Sized>(
     pattern: PatternRef,
     seg: &Segment,
 ) -> f64 {
+    residuals_at_best_aux(metric, topo, pattern, seg)
+        .iter()
+        .map(|x| x * x)
+        .sum()
+}
+
+/// The residuals `r` (length `pattern.n_residuals()`) of one segment term with the auxiliary
+/// unknowns at [`Metric::best_aux`] (when the metric has any).
+pub(crate) fn residuals_at_best_aux<M: Metric + ?Sized>(
+    metric: &M,
+    topo: &Topology,
+    pattern: PatternRef,
+    seg: &Segment,
+) -> Vec<f64> {
     let aux;
     let seg = if metric.n_aux() > 0 {
         aux = metric.best_aux(topo, seg);
@@ -345,7 +359,7 @@ pub fn squared_norm_from_residuals<M: Metric + ?Sized>(
     };
     let mut r = vec![0.0; pattern.n_residuals()];
     metric.residuals(topo, pattern, &seg, &mut r, None);
-    r.iter().map(|x| x * x).sum()
+    r
 }
 
 /// Chain rule from `(geometry g, displacement X)` derivatives to `(a, b)` derivatives for a
