@@ -107,7 +107,6 @@ pub fn run(args: &Args) -> Result<()> {
     }
 }
 
-/// A plain progress bar of `n` subjects.
 /// The part of each subject's surface that `lv mesh` writes and `lv run` analyses (`--region`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum Region {
@@ -144,6 +143,7 @@ impl Region {
     }
 }
 
+/// A plain progress bar of `n` subjects.
 pub(crate) fn progress(n: usize) -> ProgressBar {
     let pb = crate::progress::new_bar(n);
     crate::progress::start(&pb);

@@ -22,7 +22,8 @@ pairs, one task each, so that the per-topology set-up (metric pattern, solver la
 once per batch; a batch is a square tile of the matrix, so that it uses the poses of at most
 2 sqrt(batch_size) deformations, not all of them. A task that fails is retried
 (``retries``), a task lost with its worker is recomputed by the scheduler; every pair is
-computed by the same deterministic code, so the result equals ``qcshape.similarity_matrix(ds, **options)`` bit for bit, whatever the cluster.
+computed by the same deterministic code, so the result equals
+``qcshape.similarity_matrix(ds, **options)`` bit for bit, whatever the cluster.
 """
 
 from __future__ import annotations

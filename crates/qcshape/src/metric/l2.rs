@@ -111,7 +111,12 @@ impl FrozenL2 {
     pub fn weights(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Vec<f64> {
         let a = crate::mesh::geometry::vertex_areas(topo, start);
         let b = crate::mesh::geometry::vertex_areas(topo, end);
-        a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect()
+        Self::mean_areas(&a, &b)
+    }
+
+    /// `Abar = (A(start) + A(end)) / 2` from the two poses' vertex areas (#V each).
+    fn mean_areas(a: &[f64], b: &[f64]) -> Vec<f64> {
+        a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect()
     }
 
     /// [`Metric::segment_squared_norms`] (needs no pattern): `sum_v Abar_v |X_v|^2` of each
@@ -171,7 +176,7 @@ impl Metric for FrozenL2 {
         if a.len() != nv || b.len() != nv {
             return self.frozen_weights(topo, start, end);
         }
-        Some(a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect())
+        Some(Self::mean_areas(a, b))
     }
 
     /// Uses `seg.frozen` (#V); without it, the segment's own end poses supply the weights.

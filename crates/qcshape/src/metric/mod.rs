@@ -321,8 +321,8 @@ pub trait Metric: Send + Sync + Debug {
     /// each with its frozen weights), with the optimal auxiliary unknowns: the straight-path
     /// length (eq. 13 on the linear path) needs nothing else. The default evaluates the
     /// residuals of each term; metrics override it with one value-only pass that stores
-    /// neither residuals nor Jacobian (same values to rounding, test
-    /// `segment_squared_norms_match_the_residuals`).
+    /// neither residuals nor Jacobian (same values to rounding: checked by every metric's
+    /// finite-difference test, `fdcheck::check_values`).
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
         segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg))
     }

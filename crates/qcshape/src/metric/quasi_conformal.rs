@@ -72,6 +72,22 @@ impl QuasiConformal {
     }
 }
 
+impl QuasiConformal {
+    /// The two terms' frozen weights (#V each) when the fused segment kernels of the
+    /// quadratic form apply (endpoint weights present on both terms); `None` otherwise.
+    fn fused_weights<'a>(&self, topo: &Topology, segs: [&Segment<'a>; 2]) -> Option<[Option<&'a [f64]>; 2]> {
+        let nv = topo.n_vertices();
+        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
+            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
+                if w0.len() == nv && w1.len() == nv =>
+            {
+                Some([Some(w0), Some(w1)])
+            }
+            _ => None,
+        }
+    }
+}
+
 impl Metric for QuasiConformal {
     fn name(&self) -> String {
         format!("quasi-conformal({},{})", self.form.label(), self.weights.label())
@@ -174,26 +190,16 @@ impl Metric for QuasiConformal {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
-        let nv = topo.n_vertices();
-        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
-            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
-                if w0.len() == nv && w1.len() == nv =>
-            {
-                quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [Some(w0), Some(w1)], sink)
-            }
-            _ => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
+        match self.fused_weights(topo, segs) {
+            Some(w) => quadratic_segment_gradient(topo, segs[0].a, segs[0].b, w, sink),
+            None => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
         }
     }
 
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        let nv = topo.n_vertices();
-        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
-            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
-                if w0.len() == nv && w1.len() == nv =>
-            {
-                quadratic_segment_values(topo, segs[0].a, segs[0].b, [Some(w0), Some(w1)])
-            }
-            _ => segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg)),
+        match self.fused_weights(topo, segs) {
+            Some(w) => quadratic_segment_values(topo, segs[0].a, segs[0].b, w),
+            None => segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg)),
         }
     }
 

@@ -46,17 +46,6 @@ impl Regularized {
             &L2
         }
     }
-
-    /// The inner metric's frozen weights followed by the L2 part's.
-    fn join_frozen(
-        &self,
-        topo: &Topology,
-        start: &[[f64; 3]],
-        end: &[[f64; 3]],
-        inner: Option<Vec<f64>>,
-    ) -> Option<Vec<f64>> {
-        join(inner, self.l2().frozen_weights(topo, start, end))
-    }
 }
 
 /// The inner metric's values followed by the L2 part's (frozen weights or pose summaries).
@@ -109,8 +98,10 @@ impl Metric for Regularized {
     }
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        let inner = self.inner.frozen_weights(topo, start, end);
-        self.join_frozen(topo, start, end, inner)
+        join(
+            self.inner.frozen_weights(topo, start, end),
+            self.l2().frozen_weights(topo, start, end),
+        )
     }
 
     /// The inner metric's summary followed by the L2 part's (the vertex areas, #V, when the
@@ -317,10 +308,10 @@ impl Regularized {
     /// The inner metric's rows of `pattern` (a prefix of the combined pattern, rows and
     /// entries) and the L2 rows.
     fn patterns<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> Parts<'p> {
-        let n_in = self.inner.n_residuals(topo);
-        let e_in = pattern.offsets[n_in] as usize;
+        let inner = self.inner_pattern(topo, pattern);
+        let (n_in, e_in) = (inner.n_residuals(), inner.vertices.len());
         Parts {
-            inner: self.inner_pattern(topo, pattern),
+            inner,
             l2_offsets: pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect(),
             l2_vertices: &pattern.vertices[e_in..],
         }

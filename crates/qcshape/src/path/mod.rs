@@ -421,14 +421,14 @@ impl<'m> GeodesicSolver<'m> {
             let [g0, g1] = pe
                 .metric
                 .segment_squared_norms(&pe.topo, pe.pattern.as_ref(), [&s0, &s1]);
-            ((g0 + g1) / 2.0).max(0.0).sqrt()
+            segment_length(g0 + g1)
         } else {
             let ends = self.ends_with(a, b, summaries)?;
             let x0 = self.energy.linear_start(&ends);
             self.energy
                 .segment_norms(&x0, &ends)
                 .iter()
-                .map(|(g0, g1)| ((g0 + g1) / 2.0).max(0.0).sqrt())
+                .map(|&(g0, g1)| segment_length(g0 + g1))
                 .sum()
         };
         if !length.is_finite() {
@@ -592,10 +592,7 @@ impl<'m> GeodesicSolver<'m> {
         if !energy.is_finite() {
             return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
         }
-        let segment_lengths: Vec<f64> = segment_energies
-            .iter()
-            .map(|e| (e / 2.0).max(0.0).sqrt())
-            .collect();
+        let segment_lengths: Vec<f64> = segment_energies.iter().map(|&e| segment_length(e)).collect();
         let poses = (0..=pe.steps())
             .map(|i| pe.pose(&out.x, ends, i).to_vec())
             .collect();
@@ -731,6 +728,12 @@ impl SolveContext<'_> {
             }
         }
     }
+}
+
+/// The length of a segment from its energy `G_{P_i}(X_i) + G_{P_{i+1}}(X_i)` (eq. 12's two
+/// terms; normalized length units): `sqrt(energy / 2)`, 0 for a rounding-negative energy.
+fn segment_length(energy: f64) -> f64 {
+    (energy / 2.0).max(0.0).sqrt()
 }
 
 /// How shapes are scaled before solving (METHOD.md: one common factor for all shapes compared).
