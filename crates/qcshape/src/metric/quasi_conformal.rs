@@ -70,9 +70,7 @@ impl QuasiConformal {
     pub fn new(form: ConformalForm, weights: QcWeights) -> Self {
         QuasiConformal { form, weights }
     }
-}
 
-impl QuasiConformal {
     /// The two terms' frozen weights (#V each) when the fused segment kernels of the
     /// quadratic form apply (endpoint weights present on both terms); `None` otherwise.
     fn fused_weights<'a>(&self, topo: &Topology, segs: [&Segment<'a>; 2]) -> Option<[Option<&'a [f64]>; 2]> {
