@@ -115,6 +115,11 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
         "{report}"
     );
     assert!(report.contains("| Our method | 88.8 | 85.7 |"), "{report}");
+    // The default registration filters the landmark trajectories, and the report says so.
+    assert!(
+        report.contains("low-pass filtered to the Fourier harmonics 0-2 of the cycle"),
+        "{report}"
+    );
     // The signed motion map, with the phantom's abnormal region (known to the cohort).
     assert!(
         report.contains("## Where the groups move differently"),
@@ -217,6 +222,26 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("spectral[:SCALE]"), "{err}");
+    // A bad harmonics count is a usage error; a spline regularization on meshes is refused
+    // (it acts on the landmark registration of a cohort folder).
+    let out = qcshape(&["lv", "run", s(&cohort), "--out", s(&again), "--harmonics", "two"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("or none"));
+    let out = qcshape(&[
+        "lv",
+        "run",
+        s(&manifest),
+        "--out",
+        s(&again),
+        "--tps-lambda",
+        "0.5",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--tps-lambda acts on the landmark registration"),
+        "{err}"
+    );
 }
 
 /// The shared data folder: `$QCSHAPE_DATA`, else `../../../shared/data` from this crate.

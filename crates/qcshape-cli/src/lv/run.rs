@@ -16,7 +16,7 @@ use qcshape::dataset::{load_sequence, mesh_files, Deformation};
 use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
 use qcshape::lv::study_report::cycle_report;
 use qcshape::path::GeodesicOptions;
-use qcshape::transport::Alignment;
+use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs};
 use progress::Bars;
@@ -68,6 +68,17 @@ pub struct RunArgs {
     /// Taubin smoothing iterations of the surfaces.
     #[arg(long, default_value_t = 10)]
     pub(crate) smooth: usize,
+    /// Regularization of the frame-0 -> frame-k landmark thin-plate splines (normalized units;
+    /// 0: exact at the landmarks, the paper's).
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) tps_lambda: f64,
+    /// Low-pass filter of the landmark trajectories before registration: keep the Fourier
+    /// harmonics 0..H of the cycle (the frames must cover one whole cycle), which removes
+    /// frame-to-frame landmark jitter; `none` registers the raw landmarks (the paper's). Not
+    /// applied with --open. The default was chosen on five harder phantom cohorts (README,
+    /// "Left ventricle").
+    #[arg(long, value_name = "H|none", default_value_t = Harmonics(qcshape::defaults::LANDMARK_HARMONICS))]
+    pub(crate) harmonics: Harmonics,
     /// Name of the subject whose cycle is mapped in Fig. 9 (default: the first).
     #[arg(long)]
     pub(crate) mds_subject: Option<String>,
@@ -89,6 +100,10 @@ pub struct RunArgs {
     /// (also a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     pub(crate) align: Alignment,
+    /// Transport of every subject's cycle to the base: parallel (the paper's section 4
+    /// pipeline, the default here), schild or euclidean (the other commands' default).
+    #[arg(long, default_value = qcshape::defaults::LV_TRANSPORT.label())]
+    pub(crate) transport: Transport,
     /// Clustering restarts.
     #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
     pub(crate) restarts: usize,
@@ -98,6 +113,33 @@ pub struct RunArgs {
     /// With a folder of mesh files: only files whose name contains this text (e.g. LV_ENDO).
     #[arg(long)]
     pub(crate) pattern: Option<String>,
+}
+
+/// `--harmonics`: the Fourier harmonics of the cycle kept in the landmark trajectories, or
+/// `none` (raw landmarks).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Harmonics(pub(crate) Option<usize>);
+
+impl std::str::FromStr for Harmonics {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(Harmonics(None)),
+            n => n
+                .parse::<usize>()
+                .map(|h| Harmonics(Some(h)))
+                .map_err(|_| format!("expected a number of harmonics (0, 1, 2, ...) or none, got {n:?}")),
+        }
+    }
+}
+
+impl std::fmt::Display for Harmonics {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(h) => write!(f, "{h}"),
+            None => f.write_str("none"),
+        }
+    }
 }
 
 /// Options shared by `lv run` and `lv cycle`.

@@ -33,6 +33,12 @@ pub struct MeshSettings {
     /// The sector kept with `free_wall` ([`SectorOptions::default`]: the paper's free wall;
     /// [`SectorOptions::wall`]: the whole wall).
     pub sector: SectorOptions,
+    /// Regularization of the frame-0 -> frame-k landmark splines ([`super::tps::Tps::fit`];
+    /// normalized units, 0: exact at the landmarks, the paper's).
+    pub tps_lambda: f64,
+    /// Low-pass filter of every landmark's trajectory over the cycle before registration
+    /// ([`Landmarks::low_pass`]): the Fourier harmonics kept, `None` for the raw landmarks.
+    pub harmonics: Option<usize>,
 }
 
 /// The meshed cohort.
@@ -110,8 +116,12 @@ pub fn mesh_cohort(
     let (vol, file) = read_frame0(&subs[0].path)?;
     let template = extract_surface(&vol, &surface_opts((s.vertices > 0).then_some(s.vertices), 5))
         .map_err(|error| LvError::Surface { path: file, error })?;
+    let filtered = |lm: Landmarks| match s.harmonics {
+        Some(h) => lm.low_pass(h),
+        None => lm,
+    };
     let (lm0, lm0_path) = read_subject_landmarks(&subs[0].path)?;
-    let lm0 = subset(&lm0, n, &lm0_path)?;
+    let lm0 = subset(&filtered(lm0), n, &lm0_path)?;
     let whole_topo = template.shape.topology.clone();
     let (topo, keep): (Arc<Topology>, Option<Vec<u32>>) = if s.free_wall {
         let axis = LvAxis::new(
@@ -146,7 +156,8 @@ pub fn mesh_cohort(
     for (i, sub) in subs.iter().enumerate() {
         let t = Instant::now();
         let (lm, lm_path) = read_subject_landmarks(&sub.path)?;
-        let reg = Registration::fit(&lm, n, 0.0, &lm_path)?;
+        let lm = filtered(lm);
+        let reg = Registration::fit(&lm, n, s.tps_lambda, &lm_path)?;
         let first = subset(&lm, n, &lm_path)?;
         if first.ids != lm0.ids {
             return Err(StudyError::Input(format!(

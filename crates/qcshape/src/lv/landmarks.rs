@@ -78,6 +78,49 @@ impl Landmarks {
         })
     }
 
+    /// The landmark trajectories low-pass filtered over one periodic cycle: every coordinate
+    /// of every landmark, as a function of the frame `t = 0 .. F-1` (F frames covering one
+    /// whole cycle, frame F following frame F-1 being frame 0), is replaced by its projection
+    /// on the Fourier harmonics `0 .. harmonics` of the cycle (least squares, the same linear
+    /// filter for every coordinate; world mm). It removes frame-to-frame jitter of tracked or
+    /// hand-placed landmarks (independent per frame) while keeping the smooth cardiac motion.
+    /// `harmonics >= F / 2` keeps every frequency (a copy).
+    pub fn low_pass(&self, harmonics: usize) -> Landmarks {
+        let f = self.n_frames();
+        if 2 * harmonics >= f {
+            return self.clone();
+        }
+        // Projection matrix onto the kept harmonics: for the orthogonal DFT basis on F points,
+        // P[t][s] = (1 + 2 sum_{h=1..H} cos(2 pi h (t - s) / F)) / F.
+        let weight = |t: usize, s: usize| {
+            let d = t as f64 - s as f64;
+            let sum: f64 = (1..=harmonics)
+                .map(|h| (2.0 * std::f64::consts::PI * h as f64 * d / f as f64).cos())
+                .sum();
+            (1.0 + 2.0 * sum) / f as f64
+        };
+        let frames = (0..f)
+            .map(|t| {
+                (0..self.ids.len())
+                    .map(|k| {
+                        let mut p = [0.0; 3];
+                        for s in 0..f {
+                            let w = weight(t, s);
+                            for (c, v) in p.iter_mut().enumerate() {
+                                *v += w * self.frames[s][k][c];
+                            }
+                        }
+                        p
+                    })
+                    .collect()
+            })
+            .collect();
+        Landmarks {
+            ids: self.ids.clone(),
+            frames,
+        }
+    }
+
     /// Position of landmark `id` in frame `t`, if both exist.
     pub fn get(&self, t: usize, id: u32) -> Option<[f64; 3]> {
         let k = self.ids.binary_search(&id).ok()?;
@@ -205,4 +248,61 @@ pub fn write_landmarks(path: &Path, lm: &Landmarks) -> Result<(), LandmarkError>
     }
     write_atomically(path, |w| w.write_all(s.as_bytes()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Landmark 0 at `x(t)` on the x axis in each of `f` frames.
+    fn trajectory(f: usize, x: impl Fn(f64) -> f64) -> Landmarks {
+        Landmarks {
+            ids: vec![0],
+            frames: (0..f)
+                .map(|t| vec![[x(2.0 * std::f64::consts::PI * t as f64 / f as f64), 1.0, -2.0]])
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn low_pass_keeps_the_kept_harmonics_and_removes_the_others() {
+        let smooth = |a: f64| 3.0 + 2.0 * a.cos() - 0.5 * (2.0 * a).sin();
+        let jitter = |a: f64| 0.7 * (3.0 * a).cos();
+        let clean = trajectory(8, smooth);
+        let noisy = trajectory(8, |a| smooth(a) + jitter(a));
+        let filtered = noisy.low_pass(2);
+        for (f, c) in filtered.frames.iter().zip(&clean.frames) {
+            for k in 0..3 {
+                assert!((f[0][k] - c[0][k]).abs() < 1e-12, "{f:?} vs {c:?}");
+            }
+        }
+        // With one harmonic the second one goes too; the mean and the first harmonic stay.
+        let first = noisy.low_pass(1);
+        let expected = trajectory(8, |a| 3.0 + 2.0 * a.cos());
+        for (f, c) in first.frames.iter().zip(&expected.frames) {
+            assert!((f[0][0] - c[0][0]).abs() < 1e-12);
+        }
+        // Every frequency kept: a copy.
+        assert_eq!(noisy.low_pass(4), noisy);
+    }
+
+    #[test]
+    fn low_pass_reduces_independent_noise_by_the_share_of_kept_harmonics() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let f = 8;
+        let lm = Landmarks {
+            ids: (0..2000).collect(),
+            frames: (0..f)
+                .map(|_| (0..2000).map(|_| [rng.random::<f64>() - 0.5, 0.0, 0.0]).collect())
+                .collect(),
+        };
+        let var = |l: &Landmarks| {
+            let n = (l.frames.len() * l.ids.len()) as f64;
+            l.frames.iter().flatten().map(|p| p[0] * p[0]).sum::<f64>() / n
+        };
+        // Keeping harmonics 0..2 of 8 frames keeps 5 of 8 degrees of freedom per coordinate.
+        let ratio = var(&lm.low_pass(2)) / var(&lm);
+        assert!((ratio - 5.0 / 8.0).abs() < 0.03, "{ratio}");
+    }
 }

@@ -59,6 +59,11 @@ pub struct RunSummary {
     pub split: String,
     /// How the deformations were aligned before transfer (a sentence).
     pub align: String,
+    /// How the landmarks were filtered and the splines regularized (a clause starting with
+    /// "; " or empty: raw landmarks, exact splines).
+    pub registration: String,
+    /// The transport to the base (`parallel`, `schild` or `euclidean`).
+    pub transport: String,
     /// The phantom's abnormal region on the base mesh (#V), when the cohort knows it
     /// ([`super::region::cohort_region`] weights >= 0.5).
     pub abnormal: Option<Vec<bool>>,
@@ -226,8 +231,8 @@ pub fn run_report(
     writeln!(
         md,
         "{n} subjects ({npos} {}, {} {}), {} frames each, region: {}, {} vertices, registration with {} \
-         landmarks{}. Pipeline: the cycle {} ({} poses per subject: {} frames + {} interpolated), \
-         {}transfer by parallel transport to frame 0 of `{}`, similarity (eq. 13) with the {} metric, \
+         landmarks{}{}. Pipeline: the cycle {} ({} poses per subject: {} frames + {} interpolated), \
+         {}transfer by {} transport to frame 0 of `{}`, similarity (eq. 13) with the {} metric, \
          geodesics with N = {} segments, {} with k = 2, {} restarts, seed {}.\n",
         main.scores.positive,
         n - npos,
@@ -241,6 +246,7 @@ pub fn run_report(
         } else {
             " (not applicable: meshes given)"
         },
+        s.registration,
         if common.open {
             "is left open".to_string()
         } else {
@@ -252,6 +258,7 @@ pub fn run_report(
         main.prepared.is_key.iter().filter(|&&k| k).count(),
         main.prepared.is_key.iter().filter(|&&k| !k).count(),
         s.align,
+        s.transport,
         main.prepared.names[0],
         common.metric.build().name(),
         common.geodesic.steps,

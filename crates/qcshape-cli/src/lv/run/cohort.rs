@@ -14,7 +14,7 @@ use qcshape::lv::region::{cohort_region, write_region, REGION_NAME};
 use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::lv::study_report::{run_report, RunSummary};
 use qcshape::similarity::PipelineOptions;
-use qcshape::transport::{Alignment, Transport};
+use qcshape::transport::Alignment;
 
 use super::progress::Bars;
 use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
@@ -31,7 +31,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         geodesic: settings.geodesic.clone(),
         insert: a.common.insert,
         levels: qcshape::defaults::LEVELS,
-        transport: Transport::Parallel,
+        transport: a.transport,
         base: 0,
         align: a.align,
         smoothing: PipelineOptions::default().smoothing,
@@ -42,6 +42,13 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         restarts: a.restarts,
         seed: a.seed,
     };
+    if a.tps_lambda != 0.0 && !is_cohort(&a.dir) {
+        bail!(
+            "{}: --tps-lambda acts on the landmark registration of a cohort folder, not on meshes \
+             given as input",
+            a.dir.display()
+        );
+    }
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
     let mesh = MeshSettings {
         threshold: a.threshold,
@@ -49,6 +56,8 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         vertices: a.common.vertices,
         free_wall: a.region.cuts(),
         sector: a.region.sector(SectorOptions::default()),
+        tps_lambda: a.tps_lambda,
+        harmonics: landmark_harmonics(a),
     };
     let bars = Bars::default();
     let progress = |t: Tick<'_>| bars.tick(t);
@@ -215,6 +224,8 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
                     m.label()
                 ),
                 },
+                registration: registration_clause(a, from_images),
+                transport: a.transport.label().to_string(),
                 abnormal: abnormal.clone(),
             };
             let mut md = run_report(
@@ -276,4 +287,29 @@ fn mark_partial(md: &str, after: &str) -> String {
         Some(i) => format!("{}{note}{}", &md[..i + 2], &md[i + 2..]),
         None => format!("{note}{md}"),
     }
+}
+
+/// The harmonics kept in the landmark trajectories: `--harmonics`, but none for an open cycle
+/// (the frames need not cover a whole cycle then, and the filter is periodic).
+fn landmark_harmonics(a: &RunArgs) -> Option<usize> {
+    a.harmonics.0.filter(|_| !a.common.open)
+}
+
+/// How the landmarks were filtered and the splines regularized, for the report (empty for raw
+/// landmarks and exact splines, or meshes given as input).
+fn registration_clause(a: &RunArgs, from_images: bool) -> String {
+    let mut parts = Vec::new();
+    match landmark_harmonics(a).filter(|_| from_images) {
+        Some(h) => parts.push(format!(
+            "landmark trajectories low-pass filtered to the Fourier harmonics 0-{h} of the cycle"
+        )),
+        None if from_images && a.harmonics.0.is_some() => {
+            parts.push("raw landmarks (an open cycle is not filtered)".to_string())
+        }
+        None => {}
+    }
+    if from_images && a.tps_lambda != 0.0 {
+        parts.push(format!("splines regularized with lambda {}", a.tps_lambda));
+    }
+    parts.iter().map(|p| format!("; {p}")).collect()
 }
