@@ -28,8 +28,8 @@ use progress::Bars;
     long_about = "Section 4.3 in one command. DIR is a cohort folder (labels.csv and per-subject images \
 and landmarks.csv, as made by 'qcshape lv phantom'), a manifest CSV or folder of deformations already \
 meshed on one connectivity, or a folder of one subject's mesh files (then only the cycle map, as \
-'qcshape lv cycle').\n\nFor a cohort: per subject, landmark thin-plate splines frame 0 -> frame k \
-(--landmarks); the first subject's frame-0 cavity surface (decimated to --vertices) is the template, \
+'qcshape lv cycle').\n\nFor a cohort: per subject, the landmark trajectories low-pass filtered over the \
+cycle (--harmonics), landmark thin-plate splines frame 0 -> frame k (--landmarks, --tps-lambda); the first subject's frame-0 cavity surface (decimated to --vertices) is the template, \
 carried to every other subject's frame 0 by the landmark spline between the subjects and projected on \
 that subject's own surface, then to every frame through the subject's splines (one connectivity for \
 the cohort); --region keeps the free wall, the wall without the valve plane or the whole surface. The cycle is closed (frame 0 is \
