@@ -27,7 +27,7 @@ use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{outer_add, SegmentBlocks, Structure};
-use super::GeodesicError;
+use super::{GeodesicError, LinearAlgebraError};
 use crate::mesh::geometry::dot;
 use crate::metric::At;
 
@@ -141,9 +141,10 @@ impl SpatialLayout {
         let vals: Vec<f64> = self.src.iter().map(|&(slot, k)| blocks[slot][k]).collect();
         let dmax = self.diag_idx.iter().map(|&i| vals[i]).fold(0.0f64, f64::max);
         if !dmax.is_finite() || vals.iter().any(|v| !v.is_finite()) {
-            return Err(GeodesicError::LinearAlgebra(
-                "spatial preconditioner: the Gauss-Newton blocks are not finite".into(),
-            ));
+            return Err(GeodesicError::LinearAlgebra {
+                what: "the spatial preconditioner",
+                source: LinearAlgebraError::NonFinite,
+            });
         }
         let mut last = None;
         for relative in [1e-8, 1e-6, 1e-4] {
@@ -157,10 +158,10 @@ impl SpatialLayout {
                 Err(e) => last = Some(e),
             }
         }
-        Err(GeodesicError::LinearAlgebra(format!(
-            "spatial preconditioner: {:?}",
-            last.expect("three attempts")
-        )))
+        Err(GeodesicError::LinearAlgebra {
+            what: "the spatial preconditioner",
+            source: last.expect("three attempts").into(),
+        })
     }
 
     /// Cholesky factor values of the upper CSC values `vals` (the layout's structure).
@@ -494,6 +495,55 @@ mod tests {
             )),
             Box::new(Regularized::new(Box::new(Rigid), 0.1)),
         ]
+    }
+
+    /// A failed factorization says which part failed and keeps faer's error as its source:
+    /// non-finite blocks are refused before factorizing, and a negative definite matrix fails
+    /// with the Cholesky error even after the ridges.
+    #[test]
+    fn failed_factorizations_keep_their_source_error() {
+        use std::error::Error;
+        let m = Regularized::new(Box::new(Isometric), 0.1);
+        let (pe, _, _) = problem(&m, 2, 3);
+        let layout = SpatialLayout::new(&pe).unwrap();
+        let pairs = &layout.structure().pairs;
+        let n_slots = pairs.rows.len();
+        let mut blocks = vec![[0.0f64; 9]; n_slots];
+        for v in 0..pe.n_vertices() {
+            for slot in pairs.off[v]..pairs.off[v + 1] {
+                if pairs.rows[slot] == v {
+                    blocks[slot] = [-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0];
+                }
+            }
+        }
+        let err = layout.factorize(&blocks).unwrap_err();
+        assert!(
+            matches!(
+                &err,
+                GeodesicError::LinearAlgebra {
+                    what: "the spatial preconditioner",
+                    source: LinearAlgebraError::Cholesky(_),
+                }
+            ),
+            "{err:?}"
+        );
+        let source = err.source().expect("the source error is kept");
+        assert!(source.to_string().contains("NonPositivePivot"), "{source}");
+        assert!(err.to_string().contains("spatial preconditioner"), "{err}");
+
+        blocks[0][0] = f64::NAN;
+        let err = layout.factorize(&blocks).unwrap_err();
+        assert!(matches!(
+            err,
+            GeodesicError::LinearAlgebra {
+                source: LinearAlgebraError::NonFinite,
+                ..
+            }
+        ));
+        assert_eq!(
+            err.to_string(),
+            "linear algebra failure in the spatial preconditioner: the Gauss-Newton blocks are not finite"
+        );
     }
 
     /// The direct assembly of the pose-block sum (preconditioned solver) equals the sum of

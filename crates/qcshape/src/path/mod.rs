@@ -280,15 +280,37 @@ pub enum GeodesicError {
     /// A bad option value.
     #[error("invalid option: {0}")]
     Option(String),
-    /// The linear system could not be set up or solved.
-    #[error("linear algebra failure: {0}")]
-    LinearAlgebra(String),
+    /// The linear algebra of the solver's set-up or preconditioner failed (`what`: which
+    /// part; the source error is kept).
+    #[error("linear algebra failure in {what}: {source}")]
+    LinearAlgebra {
+        /// The part that failed (a structure or a factorization).
+        what: &'static str,
+        /// The failure.
+        source: LinearAlgebraError,
+    },
     /// The optimizer failed.
     #[error("optimizer failure: {0}")]
     Optimizer(String),
     /// The energy became NaN or infinite (degenerate poses along the path).
     #[error("the path energy is not finite ({0}); the poses may be degenerate")]
     NonFinite(String),
+}
+
+/// The failure behind [`GeodesicError::LinearAlgebra`].
+#[derive(Debug, Error)]
+pub enum LinearAlgebraError {
+    /// A sparse structure or its symbolic factorization could not be built (faer's
+    /// allocation or index errors).
+    #[error("{0}")]
+    Structure(#[from] faer::sparse::FaerError),
+    /// A Cholesky factorization met a non-positive pivot, even after the diagonal ridges
+    /// were tried.
+    #[error("Cholesky factorization: {0}")]
+    Cholesky(#[from] faer::linalg::cholesky::llt::factor::LltError),
+    /// The matrix to factorize has non-finite entries.
+    #[error("the Gauss-Newton blocks are not finite")]
+    NonFinite,
 }
 
 /// A reusable geodesic solver for one (metric, topology, N): the metric's Jacobian pattern and
@@ -324,8 +346,10 @@ impl<'m> GeodesicSolver<'m> {
         let energy = PathEnergy::new(metric, topo, options.steps);
         let layout = if options.solver == Solver::LevenbergMarquardt && energy.n_vars() > 0 {
             Some(
-                hessian::HessianLayout::new(&energy)
-                    .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
+                hessian::HessianLayout::new(&energy).map_err(|e| GeodesicError::LinearAlgebra {
+                    what: "the Gauss-Newton structure",
+                    source: e.into(),
+                })?,
             )
         } else {
             None
@@ -336,8 +360,10 @@ impl<'m> GeodesicSolver<'m> {
         ) && energy.n_vars() > 0
         {
             Some(
-                kronecker::SpatialLayout::new(&energy)
-                    .map_err(|e| GeodesicError::LinearAlgebra(format!("{e:?}")))?,
+                kronecker::SpatialLayout::new(&energy).map_err(|e| GeodesicError::LinearAlgebra {
+                    what: "the spatial preconditioner's structure",
+                    source: e.into(),
+                })?,
             )
         } else {
             None
