@@ -371,176 +371,13 @@ pub(crate) fn face_kernel(
     }
 }
 
-/// Adds the gradient `g` with respect to edge `j` (`x_j - x_{j+1}`) to its two corners.
-#[inline(always)]
-fn add_edge(acc: &mut [[f64; 3]; 3], j: usize, g: [f64; 3]) {
-    let (i0, i1) = (j, NEXT[j][1]);
-    acc[i0] = add(acc[i0], g);
-    acc[i1] = sub(acc[i1], g);
-}
-
 /// The weights of a face's corners (all 1 without weights).
 #[inline(always)]
-fn face_weights(weights: Option<&[f64]>, v: &[usize; 3]) -> [f64; 3] {
+pub(crate) fn face_weights(weights: Option<&[f64]>, v: &[usize; 3]) -> [f64; 3] {
     match weights {
         Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
         None => [1.0; 3],
     }
-}
-
-/// One face term of the quadratic form on its edges (edge `j` joins corners `j` and `j+1`):
-/// with squared lengths `l` and products `p` (`P_ij = <g_i - g_j, X_i - X_j>`), corner `k`
-/// (neighbours `a = k+1`, `b = k+2`) is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7). Adds
-/// `sum_k (w_k T_k)^2` to `value` and returns `dphi/dL`, `dphi/dP` per edge for
-/// `phi = sum_k c_k T_k`, `c_k = two_w w_k^2 T_k` (`two_w = 2 weight`).
-#[inline(always)]
-fn edge_derivatives(
-    l: &[f64; 3],
-    p: &[f64; 3],
-    w: &[f64; 3],
-    two_w: f64,
-    value: &mut f64,
-) -> ([f64; 3], [f64; 3]) {
-    let mut dl = [0.0; 3];
-    let mut dp = [0.0; 3];
-    for k in 0..3 {
-        // Edge to corner k+1 is edge k, edge to k+2 is edge k+2 (P, L symmetric in i, j).
-        let (ea, eb) = (k, NEXT[k][2]);
-        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
-        *value += wt * wt;
-        let c = two_w * w[k] * wt;
-        dp[ea] += c * l[eb];
-        dl[eb] += c * p[ea];
-        dp[eb] -= c * l[ea];
-        dl[ea] -= c * p[eb];
-    }
-    (dl, dp)
-}
-
-/// The edge quantities of one face on the two poses of a segment (edge `j` joins corners `j`
-/// and `j+1`): edges `ea`, `eb` of `a` and `b`, displacement edges `d = eb - ea`, squared
-/// lengths `la`, `lb` and products `qa = <ea, d>`, `qb = <eb, d>`.
-struct FaceEdges {
-    v: [usize; 3],
-    ea: [[f64; 3]; 3],
-    eb: [[f64; 3]; 3],
-    d: [[f64; 3]; 3],
-    la: [f64; 3],
-    lb: [f64; 3],
-    qa: [f64; 3],
-    qb: [f64; 3],
-}
-
-impl FaceEdges {
-    #[inline(always)]
-    fn new(a: &[[f64; 3]], b: &[[f64; 3]], f: &[u32; 3]) -> Self {
-        let v = [f[0] as usize, f[1] as usize, f[2] as usize];
-        let (pa, pb) = ([a[v[0]], a[v[1]], a[v[2]]], [b[v[0]], b[v[1]], b[v[2]]]);
-        let ea = [sub(pa[0], pa[1]), sub(pa[1], pa[2]), sub(pa[2], pa[0])];
-        let eb = [sub(pb[0], pb[1]), sub(pb[1], pb[2]), sub(pb[2], pb[0])];
-        let d = [sub(eb[0], ea[0]), sub(eb[1], ea[1]), sub(eb[2], ea[2])];
-        FaceEdges {
-            v,
-            la: [dot(ea[0], ea[0]), dot(ea[1], ea[1]), dot(ea[2], ea[2])],
-            lb: [dot(eb[0], eb[0]), dot(eb[1], eb[1]), dot(eb[2], eb[2])],
-            qa: [dot(ea[0], d[0]), dot(ea[1], d[1]), dot(ea[2], d[2])],
-            qb: [dot(eb[0], d[0]), dot(eb[1], d[1]), dot(eb[2], d[2])],
-            ea,
-            eb,
-            d,
-        }
-    }
-}
-
-/// The fused gradient of the quadratic form `weight sum_k (w_k T_k)^2` over all faces, for
-/// both terms of a segment in one pass (`weights[t]` those of term `t`: `At::Start`, then
-/// `At::End`), written on the face's three edges. With `L_ij = |g_i - g_j|^2` and
-/// `P_ij = <g_i - g_j, X_i - X_j>`, corner `k` is `T_k = P_ka L_kb - P_kb L_ka` (eq. 7), so the
-/// derivatives of `phi = sum_k c_k T_k` reduce to two scalars per edge, `dphi/dL` and `dphi/dP`
-/// ([`edge_derivatives`]), and `dphi/de = 2 dphi/dL e + dphi/dP d`, `dphi/dd = dphi/dP e` for
-/// the edge `e` of the geometry pose and `d` of the displacement. The terms share the poses,
-/// so with the edges `e^a`, `e^b` of `a` and `b` the displacement edges are `d = e^b - e^a`,
-/// and the derivatives of the start term `phi_S(e^a, d)` and the end term `phi_E(e^b, d)`
-/// collect into one gradient per edge and pose:
-/// `G^a = 2 dl_S e^a + dp_S (d - e^a) - dp_E e^b`, `G^b = dp_S e^a + 2 dl_E e^b + dp_E (d + e^b)`.
-/// Same result as two calls of the general [`face_kernel`] (test
-/// `segment_gradients_match_the_per_term_jacobian_form`), a fraction of its arithmetic.
-/// Returns `weight |r|^2` of both terms.
-pub(crate) fn quadratic_segment_gradient(
-    topo: &Topology,
-    a: &[[f64; 3]],
-    b: &[[f64; 3]],
-    weights: [Option<&[f64]>; 2],
-    sink: &mut SegmentSink,
-) -> f64 {
-    let two_w = 2.0 * sink.weight;
-    let mut value = 0.0;
-    for f in topo.faces() {
-        let FaceEdges {
-            v,
-            ea,
-            eb,
-            d,
-            la,
-            lb,
-            qa,
-            qb,
-        } = FaceEdges::new(a, b, f);
-        let (dls, dps) = edge_derivatives(&la, &qa, &face_weights(weights[0], &v), two_w, &mut value);
-        let (dle, dpe) = edge_derivatives(&lb, &qb, &face_weights(weights[1], &v), two_w, &mut value);
-        let mut va = [[0.0; 3]; 3];
-        let mut vb = [[0.0; 3]; 3];
-        for j in 0..3 {
-            let mut ga = [0.0; 3];
-            let mut gb = [0.0; 3];
-            for c in 0..3 {
-                ga[c] = 2.0 * dls[j] * ea[j][c] + dps[j] * (d[j][c] - ea[j][c]) - dpe[j] * eb[j][c];
-                gb[c] = dps[j] * ea[j][c] + 2.0 * dle[j] * eb[j][c] + dpe[j] * (d[j][c] + eb[j][c]);
-            }
-            add_edge(&mut va, j, ga);
-            add_edge(&mut vb, j, gb);
-        }
-        for m in 0..3 {
-            let (pa, pb) = (&mut sink.ga[v[m]], &mut sink.gb[v[m]]);
-            for c in 0..3 {
-                pa[c] += va[m][c];
-                pb[c] += vb[m][c];
-            }
-        }
-    }
-    sink.weight * value
-}
-
-/// The value-only sibling of [`quadratic_segment_gradient`]: `[sum_k (w_k T_k)^2]` of the start
-/// term (geometry `a`, weights `weights[0]`) and of the end term (geometry `b`, `weights[1]`)
-/// for the displacement `b - a`, in one pass over the faces with the same edge quantities,
-/// storing nothing (the straight-path lengths of the cohort mode). Units: length^8.
-pub(crate) fn quadratic_segment_values(
-    topo: &Topology,
-    a: &[[f64; 3]],
-    b: &[[f64; 3]],
-    weights: [Option<&[f64]>; 2],
-) -> [f64; 2] {
-    let mut value = [0.0; 2];
-    for f in topo.faces() {
-        let e = FaceEdges::new(a, b, f);
-        value[0] += edge_value(&e.la, &e.qa, &face_weights(weights[0], &e.v));
-        value[1] += edge_value(&e.lb, &e.qb, &face_weights(weights[1], &e.v));
-    }
-    value
-}
-
-/// `sum_k (w_k T_k)^2` of one face from its edge quantities (the value part of
-/// [`edge_derivatives`]).
-#[inline(always)]
-fn edge_value(l: &[f64; 3], p: &[f64; 3], w: &[f64; 3]) -> f64 {
-    let mut value = 0.0;
-    for k in 0..3 {
-        let (ea, eb) = (k, NEXT[k][2]);
-        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
-        value += wt * wt;
-    }
-    value
 }
 
 /// The conformal metric (eqs. 7-9): for every triangle `(p, q, r)` of `M`,
@@ -612,7 +449,7 @@ impl Metric for Conformal {
     ) -> f64 {
         match self.form {
             ConformalForm::Quadratic => {
-                quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [None, None], sink)
+                super::fused::quadratic_segment_gradient(topo, segs[0].a, segs[0].b, [None, None], sink)
             }
             ConformalForm::Paper => segment_gradient_per_term(self, topo, pattern, segs, scratch, sink),
         }
@@ -620,7 +457,9 @@ impl Metric for Conformal {
 
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
         match self.form {
-            ConformalForm::Quadratic => quadratic_segment_values(topo, segs[0].a, segs[0].b, [None, None]),
+            ConformalForm::Quadratic => {
+                super::fused::quadratic_segment_values(topo, segs[0].a, segs[0].b, [None, None])
+            }
             ConformalForm::Paper => segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg)),
         }
     }

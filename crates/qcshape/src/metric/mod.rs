@@ -13,6 +13,7 @@
 
 mod conformal;
 mod curvature;
+mod fused;
 mod gradient;
 mod isometric;
 mod l2;

@@ -2,10 +2,11 @@
 //! angle-defect curvature, in the two readings of METHOD.md ("segment" and "endpoints").
 
 use super::conformal::{
-    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values,
-    quadratic_segment_gradient, quadratic_segment_values, sign0, FaceOut,
+    eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values, sign0,
+    FaceOut,
 };
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
+use super::fused::{quadratic_segment_gradient, quadratic_segment_values};
 use super::{
     geometry_and_displacement, gradient_from_jacobian, segment_gradient_per_term, split_segment,
     squared_norm_from_residuals, ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
