@@ -250,6 +250,28 @@ impl<'m> PathEnergy<'m> {
         self.pack(&poses, ends)
     }
 
+    /// Start vector from the poses `Q_0 .. Q_N` (each #V x 3) of a path between other, nearby
+    /// ends: `P_i = Q_i + (1 - t_i) (A - Q_0) + t_i (B - Q_N)`, `t_i = i / N`, for the ends `A`,
+    /// `B` of `ends`. The path's bend (its difference from the straight line between its ends) is
+    /// kept and the line moved onto the new ends; with a straight `Q` this is
+    /// [`Self::linear_start`]. The caller checks that `near` has N + 1 poses of #V vertices.
+    pub fn shifted_start(&self, near: &[Vec<[f64; 3]>], ends: &Ends) -> Vec<f64> {
+        let n = self.steps;
+        let (q0, qn) = (&near[0], &near[n]);
+        let poses: Vec<Vec<[f64; 3]>> = (1..n)
+            .map(|i| {
+                let t = i as f64 / n as f64;
+                (0..ends.start.len())
+                    .map(|v| {
+                        let (a, b, q) = (ends.start[v], ends.end[v], near[i][v]);
+                        [0, 1, 2].map(|c| q[c] + (1.0 - t) * (a[c] - q0[v][c]) + t * (b[c] - qn[v][c]))
+                    })
+                    .collect()
+            })
+            .collect();
+        self.pack(&poses, ends)
+    }
+
     /// Unknown vector from interior poses `P_1 .. P_{N-1}`, with the auxiliary unknowns at
     /// their optimum for those poses.
     pub fn pack(&self, interior: &[Vec<[f64; 3]>], ends: &Ends) -> Vec<f64> {

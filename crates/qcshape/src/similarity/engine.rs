@@ -159,8 +159,10 @@ fn pose_distances_with(
     let mut out = Vec::with_capacity(m.len());
     let mut converged = true;
     let mut iterations = 0;
-    // One preconditioner fit for the pair's poses (consecutive poses are close).
+    // One preconditioner fit for the pair's poses (consecutive poses are close), and each
+    // geodesic started from the previous pose's.
     let mut ctx = SolveContext::default();
+    let mut previous = None;
     for (k, (a, b)) in m.iter().zip(n).enumerate() {
         if a == b {
             out.push(0.0);
@@ -172,10 +174,13 @@ fn pose_distances_with(
             out.push(solver.straight_length_with(a, b, s).map_err(|e| (k, e))?);
             continue;
         }
-        let g = solver.solve_in(&mut ctx, a, b).map_err(|e| (k, e))?;
+        let g = solver
+            .solve_near(&mut ctx, a, b, previous.as_ref())
+            .map_err(|e| (k, e))?;
         converged &= g.converged;
         iterations += g.iterations;
         out.push(g.length);
+        previous = Some(g);
     }
     Ok((out, converged, iterations))
 }

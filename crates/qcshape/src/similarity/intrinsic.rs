@@ -212,11 +212,15 @@ fn squared_similarity(
     let limit = bound.map_or(f64::INFINITY, |b| b * (1.0 + PRUNE_MARGIN));
     let mut d = vec![0.0; x.len()];
     let mut partial = 0.0;
-    // The poses of one deformation share a preconditioner fit ([`SolveContext`]).
+    // The poses of one deformation share a preconditioner fit ([`SolveContext`]), and each
+    // geodesic starts from the previous pose's.
     let mut ctx = SolveContext::default();
+    let mut previous = None;
     for p in (0..x.len()).rev() {
         if x[p] != mu[p] {
-            d[p] = solver.solve_in(&mut ctx, &x[p], &mu[p])?.length;
+            let g = solver.solve_near(&mut ctx, &x[p], &mu[p], previous.as_ref())?;
+            d[p] = g.length;
+            previous = Some(g);
         }
         partial += d[p];
         if partial > limit {

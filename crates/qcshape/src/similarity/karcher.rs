@@ -1,7 +1,7 @@
 //! Intrinsic (Karcher) means of poses in shape space, with the discrete log map (METHOD.md,
 //! "k-means (eq. 14) with intrinsic means").
 
-use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
+use crate::path::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
 
 use super::engine::Pose;
 
@@ -50,21 +50,25 @@ pub fn log_map(
     mu: &[[f64; 3]],
     p: &[[f64; 3]],
 ) -> Result<(Pose, f64), GeodesicError> {
-    log_map_in(solver, &mut SolveContext::default(), mu, p)
+    let (log, d, _) = log_map_in(solver, &mut SolveContext::default(), mu, p, None)?;
+    Ok((log, d))
 }
 
 /// [`log_map`] through a solve context (the poses of one Karcher iteration share the
-/// preconditioner fit; [`SolveContext`]).
+/// preconditioner fit; [`SolveContext`]), started from `near` (the geodesic to the same pose
+/// from the previous iteration's mean; [`GeodesicSolver::solve_near`]). Also returns the
+/// geodesic (`None` when `mu == p`).
 fn log_map_in<'s>(
     solver: &'s GeodesicSolver,
     ctx: &mut SolveContext<'s>,
     mu: &[[f64; 3]],
     p: &[[f64; 3]],
-) -> Result<(Pose, f64), GeodesicError> {
+    near: Option<&Geodesic>,
+) -> Result<(Pose, f64, Option<Geodesic>), GeodesicError> {
     if mu == p {
-        return Ok((vec![[0.0; 3]; mu.len()], 0.0));
+        return Ok((vec![[0.0; 3]; mu.len()], 0.0, None));
     }
-    let g = solver.solve_in(ctx, mu, p)?;
+    let g = solver.solve_near(ctx, mu, p, near)?;
     let n = (g.poses.len() - 1) as f64;
     let p1 = &g.poses[1];
     let log = p1
@@ -72,7 +76,8 @@ fn log_map_in<'s>(
         .zip(mu)
         .map(|(a, b)| [0, 1, 2].map(|c| n * (a[c] - b[c])))
         .collect();
-    Ok((log, g.length))
+    let d = g.length;
+    Ok((log, d, Some(g)))
 }
 
 fn field_norm(x: &[[f64; 3]]) -> f64 {
@@ -100,12 +105,15 @@ pub fn karcher_mean(
     }
     let k = poses.len() as f64;
     let mut iterations = 0;
+    // Each member's geodesic from the previous mean starts the next iteration's.
+    let mut previous: Vec<Option<Geodesic>> = vec![None; poses.len()];
     loop {
         let mut mean_log = vec![[0.0; 3]; mu.len()];
         let (mut norm_sum, mut variance) = (0.0, 0.0);
         let mut ctx = SolveContext::default();
-        for p in poses {
-            let (log, d) = log_map_in(solver, &mut ctx, &mu, p)?;
+        for (p, near) in poses.iter().zip(previous.iter_mut()) {
+            let (log, d, g) = log_map_in(solver, &mut ctx, &mu, p, near.as_ref())?;
+            *near = g;
             norm_sum += field_norm(&log);
             variance += d * d;
             for (m, l) in mean_log.iter_mut().zip(&log) {

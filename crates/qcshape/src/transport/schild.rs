@@ -16,7 +16,7 @@
 //! its own ends). A flat metric (constant quadratic form, e.g. L2 with frozen areas) has
 //! straight geodesics, and the ladder then returns `V_0` unchanged.
 
-use crate::path::GeodesicSolver;
+use crate::path::{GeodesicSolver, SolveContext};
 
 use super::parallel::check_curve;
 use super::TransportError;
@@ -108,8 +108,11 @@ pub fn schild_ladder(
         ];
         return Ok(out);
     }
-    let mid = |a: &[[f64; 3]], b: &[[f64; 3]]| -> Result<(Vec<[f64; 3]>, bool), TransportError> {
-        let g = midpoints.solve(a, b)?;
+    // The midpoint geodesics of a ladder are short and close to each other: they share a
+    // preconditioner fit ([`SolveContext`]).
+    let mut ctx = SolveContext::default();
+    let mut mid = |a: &[[f64; 3]], b: &[[f64; 3]]| -> Result<(Vec<[f64; 3]>, bool), TransportError> {
+        let g = midpoints.solve_in(&mut ctx, a, b)?;
         Ok((g.poses[1].clone(), g.converged))
     };
     let mut v: Vec<[f64; 3]> = v0.iter().map(|p| p.map(|c| c * eps)).collect();

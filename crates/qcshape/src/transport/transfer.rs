@@ -302,8 +302,10 @@ impl Transfer<'_> {
                 poses.push(n);
             }
         }
-        // The geodesics M_k -> N_k of consecutive poses share a preconditioner fit.
+        // The geodesics M_k -> N_k of consecutive poses share a preconditioner fit, and each
+        // starts from the previous one.
         let mut ctx = SolveContext::default();
+        let mut previous = None;
         for k in 0..deformation.len() - 1 {
             let ts = Instant::now();
             let (mk, mk1) = (scale(&deformation[k]), scale(&deformation[k + 1]));
@@ -318,7 +320,7 @@ impl Transfer<'_> {
                     (difference(&nk, &nk1), frozen)
                 }
                 Transport::Parallel | Transport::Schild => {
-                    let g = self.geodesics.solve_in(&mut ctx, &mk, &nk)?;
+                    let g = self.geodesics.solve_near(&mut ctx, &mk, &nk, previous.as_ref())?;
                     report.geodesic_length = g.length;
                     report.geodesic_iterations = g.iterations;
                     report.geodesic_converged = g.converged;
@@ -339,6 +341,7 @@ impl Transfer<'_> {
                         report.rungs = t.rungs;
                         t.vector
                     };
+                    previous = Some(g);
                     (y, frozen)
                 }
             };
