@@ -1,8 +1,11 @@
 //! The rigid metric with area weights frozen along the path (the default reading of `rigid`).
 
 use super::rigid::fit_motion_weighted;
-use super::{geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment};
-use crate::mesh::geometry::{cross, scale, sub};
+use super::{
+    geometry_and_displacement, split_segment, At, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
+    Scratch, Segment,
+};
+use crate::mesh::geometry::{cross, dot, scale, sub};
 use crate::mesh::Topology;
 
 /// The rigid metric (eq. 1) with frozen area weights:
@@ -98,13 +101,60 @@ impl Metric for FrozenRigid {
             }
         }
     }
+
+    /// The fused gradient of `weight sum_v Abar_v |e_v|^2`, `e_v = X_v - t - w x g_v` (`g` the
+    /// term's geometry pose): `2 weight Abar_v e_v` for `X_v`, `2 weight Abar_v (w x e_v)` for
+    /// `g_v`, and `-2 weight sum_v Abar_v e_v`, `-2 weight sum_v Abar_v (g_v x e_v)` for the
+    /// motion `(t, w)`; the same as the Jacobian form (test
+    /// `segment_gradients_match_the_per_term_jacobian_form`) without storing it.
+    fn gradient(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        _scratch: &mut Scratch,
+        sink: &mut GradientSink,
+    ) -> f64 {
+        let mut own = Vec::new();
+        let wts = Self::weights(topo, seg, &mut own);
+        let g = match seg.at {
+            At::Start => seg.a,
+            At::End => seg.b,
+        };
+        let aux = |i: usize| seg.aux.get(i).copied().unwrap_or(0.0);
+        let t = [aux(0), aux(1), aux(2)];
+        let w = [aux(3), aux(4), aux(5)];
+        let mut value = 0.0;
+        let mut g_aux = [0.0; 6];
+        for v in 0..topo.n_vertices() {
+            let s2 = wts[v].max(0.0);
+            let e = sub(sub(sub(seg.b[v], seg.a[v]), t), cross(w, g[v]));
+            value += s2 * dot(e, e);
+            let f = 2.0 * sink.weight * s2;
+            let dx = scale(e, f);
+            let (da, db) = split_segment(seg.at, scale(cross(w, e), f), dx);
+            for c in 0..3 {
+                sink.ga[v][c] += da[c];
+                sink.gb[v][c] += db[c];
+            }
+            let ge = cross(g[v], e);
+            for c in 0..3 {
+                g_aux[c] -= dx[c];
+                g_aux[3 + c] -= f * ge[c];
+            }
+        }
+        for (out, d) in sink.gaux.iter_mut().zip(g_aux) {
+            *out += d;
+        }
+        sink.weight * value
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::geometry::add;
-    use crate::metric::{fdcheck, At, FrozenL2, Regularized};
+    use crate::metric::{fdcheck, FrozenL2, Regularized};
 
     #[test]
     fn frozen_rigid_jacobian_matches_finite_differences() {
