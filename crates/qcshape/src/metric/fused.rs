@@ -50,12 +50,12 @@ fn edge_derivatives(
 ) -> ([f64; 3], [f64; 3]) {
     let mut dl = [0.0; 3];
     let mut dp = [0.0; 3];
-    for k in 0..3 {
+    for (k, &wk) in w.iter().enumerate() {
         // Edge to corner k+1 is edge k, edge to k+2 is edge k+2 (P, L symmetric in i, j).
         let (ea, eb) = (k, (k + 2) % 3);
-        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
+        let wt = wk * (p[ea] * l[eb] - p[eb] * l[ea]);
         *value += wt * wt;
-        let c = two_w * w[k] * wt;
+        let c = two_w * wk * wt;
         dp[ea] += c * l[eb];
         dl[eb] += c * p[ea];
         dp[eb] -= c * l[ea];
@@ -69,9 +69,9 @@ fn edge_derivatives(
 #[inline(always)]
 fn edge_value(l: &[f64; 3], p: &[f64; 3], w: &[f64; 3]) -> f64 {
     let mut value = 0.0;
-    for k in 0..3 {
+    for (k, &wk) in w.iter().enumerate() {
         let (ea, eb) = (k, (k + 2) % 3);
-        let wt = w[k] * (p[ea] * l[eb] - p[eb] * l[ea]);
+        let wt = wk * (p[ea] * l[eb] - p[eb] * l[ea]);
         value += wt * wt;
     }
     value
