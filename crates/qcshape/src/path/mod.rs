@@ -428,7 +428,21 @@ impl<'m> GeodesicSolver<'m> {
         b: &[[f64; 3]],
         near: Option<&Geodesic>,
     ) -> Result<Geodesic, GeodesicError> {
-        let ends = self.ends(a, b)?;
+        self.solve_near_with(ctx, a, b, near, None)
+    }
+
+    /// [`Self::solve_near`] with the metric's [`Metric::pose_summary`] of `a` and `b` computed
+    /// beforehand (once per pose for a whole similarity matrix instead of once per geodesic):
+    /// the same geodesic, bit for bit.
+    pub fn solve_near_with<'s>(
+        &'s self,
+        ctx: &mut SolveContext<'s>,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        near: Option<&Geodesic>,
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Result<Geodesic, GeodesicError> {
+        let ends = self.ends_with(a, b, summaries)?;
         let x0 = match near {
             None => self.energy.linear_start(&ends),
             Some(g) => {

@@ -147,8 +147,8 @@ pub fn pose_distances(
 /// Per pose of one deformation, the metric's [`crate::metric::Metric::pose_summary`].
 type PoseSummaries = Vec<Vec<f64>>;
 
-/// [`pose_distances`] with the poses' summaries computed beforehand (straight mode only; the
-/// same lengths, bit for bit).
+/// [`pose_distances`] with the poses' summaries computed beforehand (exact and straight modes;
+/// the same lengths, bit for bit).
 fn pose_distances_with(
     solver: &GeodesicSolver,
     m: &[Pose],
@@ -168,14 +168,14 @@ fn pose_distances_with(
             out.push(0.0);
             continue;
         }
+        let s = summaries.map(|(sm, sn)| [sm[k].as_slice(), sn[k].as_slice()]);
         if approx != Approx::Exact {
             // Straight (the tangent mode never gets here: it has no per-pose solve).
-            let s = summaries.map(|(sm, sn)| [sm[k].as_slice(), sn[k].as_slice()]);
             out.push(solver.straight_length_with(a, b, s).map_err(|e| (k, e))?);
             continue;
         }
         let g = solver
-            .solve_near(&mut ctx, a, b, previous.as_ref())
+            .solve_near_with(&mut ctx, a, b, previous.as_ref(), s)
             .map_err(|e| (k, e))?;
         converged &= g.converged;
         iterations += g.iterations;
@@ -252,10 +252,10 @@ where
         }
         _ => None,
     };
-    // The straight mode's per-pose part of the frozen weights (the quasi-conformal angle
-    // defects), once per pose of every deformation in `todo` instead of once per pair:
-    // #deformations x #poses x #V values in memory.
-    let summaries: Vec<Option<PoseSummaries>> = if approx == Approx::Straight {
+    // The per-pose part of the frozen weights (the quasi-conformal angle defects), once per
+    // pose of every deformation in `todo` instead of once per pair and pose: #deformations x
+    // #poses x #V values in memory (a third of the poses' own).
+    let summaries: Vec<Option<PoseSummaries>> = if approx != Approx::Tangent {
         let pe = solver.path_energy();
         let mut used = vec![false; n];
         for &(i, j) in todo {
@@ -433,11 +433,11 @@ mod tests {
         assert!((rest[0].distance - pairs[2].distance).abs() < 1e-12);
     }
 
-    /// The straight mode's matrix, with the angle defects computed once per pose, equals the
-    /// per-pair straight lengths bit for bit, for every metric (the quasi-conformal ones have a
+    /// The straight and exact modes' matrices, with the angle defects computed once per pose,
+    /// equal the per-pair lengths bit for bit, for every metric (the quasi-conformal ones have a
     /// pose summary, the others none).
     #[test]
-    fn straight_lengths_from_pose_summaries_are_bit_identical() {
+    fn lengths_from_pose_summaries_are_bit_identical() {
         use crate::metric::{MetricKind, MetricSpec};
         let s = icosphere(2);
         let bumpy = |amp: f64| -> Vec<[f64; 3]> {
@@ -461,34 +461,31 @@ mod tests {
                 ..Default::default()
             };
             let solver = GeodesicSolver::new(metric.as_ref(), s.topology.clone(), opts).unwrap();
-            let pairs = compute_pairs(
-                &solver,
-                Approx::Straight,
-                &names,
-                &defs,
-                &HashSet::new(),
-                None,
-                |_| Ok(()),
-            )
-            .unwrap();
-            assert_eq!(pairs.len(), 3);
-            for p in &pairs {
-                for (k, d) in p.per_pose.iter().enumerate() {
-                    let (a, b) = (&defs[p.i][k], &defs[p.j][k]);
-                    let want = if a == b {
-                        0.0
-                    } else {
-                        solver.straight_length(a, b).unwrap()
-                    };
-                    assert_eq!(
-                        d.to_bits(),
-                        want.to_bits(),
-                        "{kind:?} ({}, {}) pose {k}",
-                        p.i,
-                        p.j
-                    );
+            for approx in [Approx::Straight, Approx::Exact] {
+                let pairs =
+                    compute_pairs(&solver, approx, &names, &defs, &HashSet::new(), None, |_| Ok(())).unwrap();
+                assert_eq!(pairs.len(), 3);
+                for p in &pairs {
+                    let exact = pose_distances(&solver, &defs[p.i], &defs[p.j], Approx::Exact)
+                        .unwrap()
+                        .0;
+                    for (k, d) in p.per_pose.iter().enumerate() {
+                        let (a, b) = (&defs[p.i][k], &defs[p.j][k]);
+                        let want = match approx {
+                            _ if a == b => 0.0,
+                            Approx::Straight => solver.straight_length(a, b).unwrap(),
+                            _ => exact[k],
+                        };
+                        assert_eq!(
+                            d.to_bits(),
+                            want.to_bits(),
+                            "{kind:?} {approx:?} ({}, {}) pose {k}",
+                            p.i,
+                            p.j
+                        );
+                    }
+                    assert!(p.distance > 0.0);
                 }
-                assert!(p.distance > 0.0);
             }
         }
     }
