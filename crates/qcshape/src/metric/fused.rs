@@ -15,6 +15,19 @@ use super::SegmentSink;
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
 
+/// The edge vectors `(e^a, e^b) = (a_i - a_j, b_i - b_j)` of every edge `(i, j)` of
+/// [`Topology::edges`] on the segment `a -> b`.
+fn edge_vectors<'a>(
+    topo: &'a Topology,
+    a: &'a [[f64; 3]],
+    b: &'a [[f64; 3]],
+) -> impl Iterator<Item = ([f64; 3], [f64; 3])> + 'a {
+    topo.edges().iter().map(move |&[i, j]| {
+        let (i, j) = (i as usize, j as usize);
+        (sub(a[i], a[j]), sub(b[i], b[j]))
+    })
+}
+
 /// The scalars of one edge `i -> j` (`(min, max)` of [`Topology::edges`]) on a segment
 /// `a -> b`: with `e^a = a_i - a_j`, `e^b = b_i - b_j` and the displacement edge
 /// `d = e^b - e^a`, `[L^a, L^b, P^a, P^b] = [|e^a|^2, |e^b|^2, <e^a, d>, <e^b, d>]`
@@ -100,16 +113,8 @@ pub(crate) fn quadratic_segment_gradient(
     let two_w = 2.0 * sink.weight;
     let edges = topo.edges();
     // Pass 1, per edge: the edge vectors of both poses and their scalars.
-    let mut vectors = Vec::with_capacity(edges.len());
-    let scalars: Vec<[f64; 4]> = edges
-        .iter()
-        .map(|&[i, j]| {
-            let (i, j) = (i as usize, j as usize);
-            let (ea, eb) = (sub(a[i], a[j]), sub(b[i], b[j]));
-            vectors.push((ea, eb));
-            edge_scalars(ea, eb)
-        })
-        .collect();
+    let vectors: Vec<([f64; 3], [f64; 3])> = edge_vectors(topo, a, b).collect();
+    let scalars: Vec<[f64; 4]> = vectors.iter().map(|&(ea, eb)| edge_scalars(ea, eb)).collect();
     // Pass 2, per face: the derivatives, summed per edge as the three coefficients of
     // `G^a = ca e^a + cm e^b`, `G^b = cm e^a + cb e^b`.
     let mut coef = vec![[0.0f64; 3]; edges.len()];
@@ -152,13 +157,8 @@ pub(crate) fn quadratic_segment_values(
     b: &[[f64; 3]],
     weights: [Option<&[f64]>; 2],
 ) -> [f64; 2] {
-    let scalars: Vec<[f64; 4]> = topo
-        .edges()
-        .iter()
-        .map(|&[i, j]| {
-            let (i, j) = (i as usize, j as usize);
-            edge_scalars(sub(a[i], a[j]), sub(b[i], b[j]))
-        })
+    let scalars: Vec<[f64; 4]> = edge_vectors(topo, a, b)
+        .map(|(ea, eb)| edge_scalars(ea, eb))
         .collect();
     let mut value = [0.0; 2];
     for (f, fe) in topo.faces().iter().zip(topo.face_edges()) {

@@ -377,12 +377,18 @@ pub(crate) fn split_segment(at: At, dg: [f64; 3], dx: [f64; 3]) -> ([f64; 3], [f
     }
 }
 
-/// The geometry pose and the displacement `X = b - a` (#V x 3) of a segment.
-pub(crate) fn geometry_and_displacement<'a>(seg: &Segment<'a>) -> (&'a [[f64; 3]], Vec<[f64; 3]>) {
-    let g = match seg.at {
+/// The pose that supplies a segment term's geometry (#V x 3): `a` for `At::Start`, `b` for
+/// `At::End`.
+pub(crate) fn geometry<'a>(seg: &Segment<'a>) -> &'a [[f64; 3]] {
+    match seg.at {
         At::Start => seg.a,
         At::End => seg.b,
-    };
+    }
+}
+
+/// The geometry pose and the displacement `X = b - a` (#V x 3) of a segment.
+pub(crate) fn geometry_and_displacement<'a>(seg: &Segment<'a>) -> (&'a [[f64; 3]], Vec<[f64; 3]>) {
+    let g = geometry(seg);
     let x = seg
         .a
         .iter()

@@ -2,8 +2,8 @@
 
 use super::rigid::fit_motion_weighted;
 use super::{
-    geometry_and_displacement, split_segment, At, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, Segment,
+    geometry, geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern,
+    PatternRef, Scratch, Segment,
 };
 use crate::mesh::geometry::{cross, dot, scale, sub};
 use crate::mesh::Topology;
@@ -25,6 +25,12 @@ use crate::mesh::Topology;
 pub struct FrozenRigid;
 
 impl FrozenRigid {
+    /// The motion `(t, w)` of the segment's auxiliary unknowns (missing entries count as zero).
+    fn motion(seg: &Segment) -> ([f64; 3], [f64; 3]) {
+        let aux = |i: usize| seg.aux.get(i).copied().unwrap_or(0.0);
+        ([aux(0), aux(1), aux(2)], [aux(3), aux(4), aux(5)])
+    }
+
     fn weights<'a>(topo: &Topology, seg: &'a Segment, own: &'a mut Vec<f64>) -> &'a [f64] {
         match seg.frozen {
             Some(w) if w.len() == topo.n_vertices() => w,
@@ -76,9 +82,7 @@ impl Metric for FrozenRigid {
         let mut own = Vec::new();
         let wts = Self::weights(topo, seg, &mut own);
         let (g, x) = geometry_and_displacement(seg);
-        let aux = |i: usize| seg.aux.get(i).copied().unwrap_or(0.0);
-        let t = [aux(0), aux(1), aux(2)];
-        let w = [aux(3), aux(4), aux(5)];
+        let (t, w) = Self::motion(seg);
         for v in 0..topo.n_vertices() {
             let s = wts[v].max(0.0).sqrt();
             let e = sub(sub(x[v], t), cross(w, g[v]));
@@ -117,13 +121,8 @@ impl Metric for FrozenRigid {
     ) -> f64 {
         let mut own = Vec::new();
         let wts = Self::weights(topo, seg, &mut own);
-        let g = match seg.at {
-            At::Start => seg.a,
-            At::End => seg.b,
-        };
-        let aux = |i: usize| seg.aux.get(i).copied().unwrap_or(0.0);
-        let t = [aux(0), aux(1), aux(2)];
-        let w = [aux(3), aux(4), aux(5)];
+        let g = geometry(seg);
+        let (t, w) = Self::motion(seg);
         let mut value = 0.0;
         let mut g_aux = [0.0; 6];
         for v in 0..topo.n_vertices() {
@@ -154,7 +153,7 @@ impl Metric for FrozenRigid {
 mod tests {
     use super::*;
     use crate::mesh::geometry::add;
-    use crate::metric::{fdcheck, FrozenL2, Regularized};
+    use crate::metric::{fdcheck, At, FrozenL2, Regularized};
 
     #[test]
     fn frozen_rigid_jacobian_matches_finite_differences() {
