@@ -77,6 +77,13 @@ pub struct SolverArgs {
     /// so that the gradient test decides (more iterations).
     #[arg(long, default_value_t = defaults::ENERGY_TOLERANCE)]
     pub energy_tolerance: f64,
+    /// Relative length tolerance of the distances (similarity matrices, the intrinsic k-means
+    /// assignment): also converged when two consecutive steps each change a geodesic's length
+    /// by less than this fraction. The length settles long before the path; 0 disables the
+    /// test (every distance solved to --tolerance / --energy-tolerance, slower). Paths
+    /// (interpolation, transfer, means) never use it.
+    #[arg(long, default_value_t = defaults::LENGTH_TOLERANCE)]
+    pub length_tolerance: f64,
 }
 
 impl SolverArgs {
@@ -90,6 +97,7 @@ impl SolverArgs {
             solver: self.solver,
             gradient_tolerance: non_negative("--tolerance", self.tolerance)?,
             energy_tolerance: non_negative("--energy-tolerance", self.energy_tolerance)?,
+            length_tolerance: non_negative("--length-tolerance", self.length_tolerance)?,
             ..Default::default()
         })
     }

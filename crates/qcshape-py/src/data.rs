@@ -277,7 +277,8 @@ pub fn run_pipeline(
 /// a Dataset, computed as ``qcshape similarity`` does (interpolation, transfer to the first
 /// pose of the base deformation, sum of pose distances), equal to its CSV. Options (None or
 /// left out: the library's defaults): metric, form, weights, lam, l2_areas (the metric);
-/// steps, solver, tolerance, energy_tolerance (the geodesics); insert (poses inserted between
+/// steps, solver, tolerance, energy_tolerance, length_tolerance (the geodesics; the last
+/// stops each distance once its length has settled, 1e-8, 0 = off); insert (poses inserted between
 /// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), align ("rigid" |
 /// "similarity" | "none": placement of each deformation on the base), smooth (Taubin iterations
 /// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
@@ -287,7 +288,7 @@ pub fn run_pipeline(
 #[pyo3(signature = (dataset, **options))]
 #[pyo3(
     text_signature = "(dataset, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
-l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, insert=0, levels=None, \
+l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
 pub fn similarity_matrix<'py>(
@@ -315,7 +316,7 @@ pub fn similarity_matrix<'py>(
 #[pyo3(signature = (dataset, a, b, **options))]
 #[pyo3(
     text_signature = "(dataset, a, b, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
-l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, insert=0, levels=None, \
+l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
 pub fn pair_contributions<'py>(
@@ -376,7 +377,7 @@ pub fn pair_contributions<'py>(
 #[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
 #[pyo3(
     text_signature = "(dataset, *, measure='normal', scale='absolute', metric='quasi-conformal', form=None, \
-weights=None, lam=None, l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, \
+weights=None, lam=None, l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, \
 insert=0, levels=None, transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
 pub fn motion_maps<'py>(

@@ -75,13 +75,15 @@ impl MetricKw {
     }
 }
 
-/// The solver keywords (the CLI's `--steps --solver --tolerance --energy-tolerance`).
+/// The solver keywords (the CLI's `--steps --solver --tolerance --energy-tolerance
+/// --length-tolerance`).
 #[derive(Debug, Clone, Default)]
 pub struct SolverKw {
     pub steps: Option<usize>,
     pub solver: Option<String>,
     pub tolerance: Option<f64>,
     pub energy_tolerance: Option<f64>,
+    pub length_tolerance: Option<f64>,
 }
 
 impl SolverKw {
@@ -104,6 +106,9 @@ impl SolverKw {
         }
         if let Some(t) = self.energy_tolerance {
             g.energy_tolerance = non_negative("energy_tolerance", t)?;
+        }
+        if let Some(t) = self.length_tolerance {
+            g.length_tolerance = non_negative("length_tolerance", t)?;
         }
         Ok(g)
     }
@@ -154,7 +159,7 @@ pub struct PipelineKw {
 
 /// The keywords of the pipeline, for the docstrings and the error on an unknown one.
 pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, steps, solver, tolerance, \
-energy_tolerance, insert, levels, transport, align, smooth, base, approx, threads, progress";
+energy_tolerance, length_tolerance, insert, levels, transport, align, smooth, base, approx, threads, progress";
 
 impl PipelineKw {
     /// Reads the keywords of a `**kwargs` dict; an unknown keyword is a `TypeError`.
@@ -179,6 +184,7 @@ impl PipelineKw {
                 "solver" => k.solver.solver = Some(value.extract().map_err(bad)?),
                 "tolerance" => k.solver.tolerance = Some(value.extract().map_err(bad)?),
                 "energy_tolerance" => k.solver.energy_tolerance = Some(value.extract().map_err(bad)?),
+                "length_tolerance" => k.solver.length_tolerance = Some(value.extract().map_err(bad)?),
                 "insert" => k.insert = Some(value.extract().map_err(bad)?),
                 "levels" => k.levels = Some(value.extract().map_err(bad)?),
                 "transport" => k.transport = Some(value.extract().map_err(bad)?),

@@ -103,7 +103,9 @@ impl PyGeodesic {
 /// | segment; ``lam`` L2 weight lambda (eq. 11, default 0.1); ``l2_areas`` frozen | pose;
 /// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
 /// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; ``tolerance`` (1e-6) and
-/// ``energy_tolerance`` (1e-12); ``n_vertices`` (default max index + 1).
+/// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
+/// ``pairwise_distances`` and ``similarity``, stop once the length has settled; 0 = off);
+/// ``n_vertices`` (default max index + 1).
 ///
 /// Coordinates are normalized before solving, as ``qcshape geodesic`` does: divided by the mean
 /// edge length of the first shape of each call; ``reference=V0`` fixes that to V0's for every
@@ -145,8 +147,8 @@ impl PyShapeSpace {
 impl PyShapeSpace {
     #[new]
     #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
-        steps=None, solver=None, tolerance=None, energy_tolerance=None, reference=None, scale=None,
-        n_vertices=None))]
+        steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None,
+        reference=None, scale=None, n_vertices=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         faces: &Bound<'_, PyAny>,
@@ -159,6 +161,7 @@ impl PyShapeSpace {
         solver: Option<String>,
         tolerance: Option<f64>,
         energy_tolerance: Option<f64>,
+        length_tolerance: Option<f64>,
         reference: Option<&Bound<'_, PyAny>>,
         scale: Option<f64>,
         n_vertices: Option<usize>,
@@ -180,6 +183,7 @@ impl PyShapeSpace {
             solver,
             tolerance,
             energy_tolerance,
+            length_tolerance,
         }
         .options()?;
         let mut space = ShapeSpace::new(topo, spec, geo).map_err(errors::space)?;

@@ -35,6 +35,11 @@ pub const TOLERANCE: f64 = 1e-6;
 /// lowers the energy by less than this fraction; 0 disables the test).
 pub const ENERGY_TOLERANCE: f64 = 1e-12;
 
+/// Relative length tolerance of distance solves (similarity matrices, the intrinsic k-means
+/// assignment): also converged when two consecutive steps each change the path's length by
+/// less than this fraction (0 disables the test; path solves never use it).
+pub const LENGTH_TOLERANCE: f64 = 1e-8;
+
 /// Poses inserted between consecutive key poses before comparing (section 2.2.1): none. The
 /// similarity pipeline compares the key poses as given; the paper's setting is
 /// [`PAPER_INSERT`].
@@ -114,6 +119,7 @@ mod tests {
         assert_eq!(g.solver, SOLVER);
         assert_eq!(g.gradient_tolerance, TOLERANCE);
         assert_eq!(g.energy_tolerance, ENERGY_TOLERANCE);
+        assert_eq!(g.length_tolerance, LENGTH_TOLERANCE);
         let i = InterpolationOptions::default();
         assert_eq!((i.insert, i.levels), (PAPER_INSERT, LEVELS));
         // PipelineOptions is defined in the similarity module; its Default must agree.

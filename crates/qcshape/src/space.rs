@@ -24,7 +24,7 @@ use crate::mesh::{MeshError, Shape, Topology};
 use crate::metric::{At, Metric, MetricSpec, Pattern, Segment};
 use crate::path::{
     self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
-    InterpolationError, InterpolationOptions, Interpolator, Normalization,
+    InterpolationError, InterpolationOptions, Interpolator, Normalization, SolveContext,
 };
 use crate::similarity::{
     assemble, compute_pairs, intrinsic_kmeans, karcher_mean, log_map, prepare, similarities, DistanceMatrix,
@@ -283,13 +283,25 @@ impl ShapeSpace {
 
     /// `dis(a, b)`: the length of the discrete geodesic (eq. 12, `L = sum_i sqrt((G_{P_i}(X_i) +
     /// G_{P_{i+1}}(X_i)) / 2)`), normalized units; exactly 0 for identical shapes (no solve,
-    /// as in [`crate::similarity::pose_distances`]).
+    /// as in [`crate::similarity::pose_distances`]). A distance solve
+    /// ([`GeodesicSolver::distance_near_with`]: stopped once the length has settled), the
+    /// same number as [`Self::pairwise_distances`] gives for the pair.
     pub fn dist(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<f64, SpaceError> {
+        self.shape("the first shape", a)?;
+        self.shape("the second shape", b)?;
         if a == b {
-            self.shape("the first shape", a)?;
             return Ok(0.0);
         }
-        Ok(self.geodesic(a, b)?.length)
+        let f = self.factor(a)?;
+        let solver = self.solver(self.geodesic.steps)?;
+        let g = solver.distance_near_with(
+            &mut SolveContext::default(),
+            &scaled(a, f),
+            &scaled(b, f),
+            None,
+            None,
+        )?;
+        Ok(g.length)
     }
 
     /// The discrete log map `log_M(P) = N (P_1 - M)` (#V x 3, input units), `P_1` the first

@@ -32,6 +32,7 @@ class PipelineOptions(TypedDict, total=False):
     solver: Optional[str]
     tolerance: Optional[float]
     energy_tolerance: Optional[float]
+    length_tolerance: Optional[float]
     insert: Optional[int]
     levels: Optional[int]
     transport: Optional[str]
@@ -91,6 +92,7 @@ class ShapeSpace:
         solver: Optional[str] = None,
         tolerance: Optional[float] = None,
         energy_tolerance: Optional[float] = None,
+        length_tolerance: Optional[float] = None,
         reference: Optional[_Points] = None,
         scale: Optional[float] = None,
         n_vertices: Optional[int] = None,

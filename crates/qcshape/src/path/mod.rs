@@ -158,6 +158,13 @@ pub struct GeodesicOptions {
     /// Converged when an accepted step lowers the energy by less than this fraction.
     /// Default 1e-12.
     pub energy_tolerance: f64,
+    /// Distance solves only ([`GeodesicSolver::distance_near_with`]: similarity matrices, the
+    /// intrinsic k-means assignment): also converged when two consecutive accepted steps each
+    /// change the path's length `L` (eq. 12) by less than this fraction of it. The length
+    /// settles long before the path (a step that only evens out the speed along the path
+    /// lowers the energy but not `L`). Only the default solver ([`Solver::Preconditioned`])
+    /// applies it; 0 disables it. Default [`crate::defaults::LENGTH_TOLERANCE`].
+    pub length_tolerance: f64,
     /// Stop as soon as the energy is at or below this value (used to time solvers to a
     /// common energy).
     pub target_energy: Option<f64>,
@@ -204,6 +211,7 @@ impl Default for GeodesicOptions {
             max_iterations: None,
             gradient_tolerance: crate::defaults::TOLERANCE,
             energy_tolerance: crate::defaults::ENERGY_TOLERANCE,
+            length_tolerance: crate::defaults::LENGTH_TOLERANCE,
             target_energy: None,
             lbfgs_memory: 10,
             preconditioner_refresh: 45,
@@ -223,6 +231,9 @@ pub enum StopReason {
     GradientTolerance,
     /// The energy stopped decreasing (relative decrease below tolerance).
     EnergyTolerance,
+    /// The length settled (distance solves: two consecutive relative changes below
+    /// [`GeodesicOptions::length_tolerance`]).
+    LengthTolerance,
     /// The target energy was reached.
     TargetEnergy,
     /// The iteration limit was reached.
@@ -241,6 +252,7 @@ impl StopReason {
             StopReason::NothingToOptimize
                 | StopReason::GradientTolerance
                 | StopReason::EnergyTolerance
+                | StopReason::LengthTolerance
                 | StopReason::TargetEnergy
         )
     }
@@ -336,7 +348,10 @@ impl<'m> GeodesicSolver<'m> {
         if options.steps == 0 {
             return Err(GeodesicError::Option("steps must be at least 1".into()));
         }
-        if !(options.gradient_tolerance >= 0.0 && options.energy_tolerance >= 0.0) {
+        if !(options.gradient_tolerance >= 0.0
+            && options.energy_tolerance >= 0.0
+            && options.length_tolerance >= 0.0)
+        {
             return Err(GeodesicError::Option("tolerances must be non-negative".into()));
         }
         if !(options.vertex_block_weight >= 0.0 && options.vertex_block_weight.is_finite()) {
@@ -442,6 +457,36 @@ impl<'m> GeodesicSolver<'m> {
         near: Option<&Geodesic>,
         summaries: Option<[&[f64]; 2]>,
     ) -> Result<Geodesic, GeodesicError> {
+        self.near(ctx, a, b, near, summaries, Goal::Path)
+    }
+
+    /// The distance `dis(a, b)` (each #V x 3, already scaled): [`Self::solve_near_with`] that
+    /// also stops once the length has settled ([`GeodesicOptions::length_tolerance`]), for
+    /// callers that use only [`Geodesic::length`] (similarity matrices, the intrinsic k-means
+    /// assignment). The returned path is a less converged geodesic than `solve_near_with`'s
+    /// (its speed may still be uneven) and its length agrees with it to about the tolerance
+    /// (48-deformation benchmark: docs/speed.md); it is still a good start for the next
+    /// distance (`near`).
+    pub fn distance_near_with<'s>(
+        &'s self,
+        ctx: &mut SolveContext<'s>,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        near: Option<&Geodesic>,
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Result<Geodesic, GeodesicError> {
+        self.near(ctx, a, b, near, summaries, Goal::Length)
+    }
+
+    fn near<'s>(
+        &'s self,
+        ctx: &mut SolveContext<'s>,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        near: Option<&Geodesic>,
+        summaries: Option<[&[f64]; 2]>,
+        goal: Goal,
+    ) -> Result<Geodesic, GeodesicError> {
         let ends = self.ends_with(a, b, summaries)?;
         let x0 = match near {
             None => self.energy.linear_start(&ends),
@@ -459,7 +504,7 @@ impl<'m> GeodesicSolver<'m> {
                 self.energy.shifted_start(&g.poses, &ends)
             }
         };
-        self.solve_from(&ends, x0, Some(ctx))
+        self.solve_from(&ends, x0, Some(ctx), goal)
     }
 
     /// The length of the straight (linear) path from `a` to `b` with the solver's N segments,
@@ -528,7 +573,7 @@ impl<'m> GeodesicSolver<'m> {
             )));
         }
         let x0 = self.energy.pack(interior, &ends);
-        self.solve_from(&ends, x0, None)
+        self.solve_from(&ends, x0, None, Goal::Path)
     }
 
     fn ends(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Ends, GeodesicError> {
@@ -591,6 +636,7 @@ impl<'m> GeodesicSolver<'m> {
         ends: &Ends,
         x0: Vec<f64>,
         mut ctx: Option<&mut SolveContext<'s>>,
+        goal: Goal,
     ) -> Result<Geodesic, GeodesicError> {
         let t0 = Instant::now();
         let pe = &self.energy;
@@ -635,13 +681,25 @@ impl<'m> GeodesicSolver<'m> {
                         .expect("layout is built for the preconditioned solver");
                     let fitted = ctx.as_ref().is_some_and(|c| c.pre.is_none());
                     let shared = ctx.as_mut().map(|c| &mut c.pre);
-                    let out = plbfgs::minimize(pe, Some(layout), ends, x0, &self.options, shared)?;
+                    let length_tolerance = match goal {
+                        Goal::Path => 0.0,
+                        Goal::Length => self.options.length_tolerance,
+                    };
+                    let out = plbfgs::minimize(
+                        pe,
+                        Some(layout),
+                        ends,
+                        x0,
+                        &self.options,
+                        length_tolerance,
+                        shared,
+                    )?;
                     if let Some(c) = ctx {
                         c.record(fitted, out.iterations, self.options.preconditioner_reuse);
                     }
                     out
                 }
-                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options, None)?,
+                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options, 0.0, None)?,
             }
         };
         let (energy, initial_energy, gradient_norm, segment_energies) = match out.last {
@@ -685,6 +743,14 @@ impl<'m> GeodesicSolver<'m> {
             seconds: t0.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// What a solve is for: the converged path, or only its length (a looser stop,
+/// [`GeodesicOptions::length_tolerance`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Goal {
+    Path,
+    Length,
 }
 
 /// Dot product of two equally long vectors, summed in 8 interleaved lanes (vectorizes; the

@@ -72,3 +72,72 @@ fn started_from_the_previous_geodesic_the_lengths_agree_in_fewer_iterations() {
         assert!(matches!(err, GeodesicError::Option(_)), "{err}");
     }
 }
+
+/// Distance solves ([`GeodesicSolver::distance_near_with`]) stop once the length has settled:
+/// on the same sequence of pose pairs their lengths agree with a 10,000x tighter solve to a
+/// few times the length tolerance, in fewer iterations than the path solves, and with the
+/// length test switched off they are the path solves, bit for bit.
+#[test]
+fn distance_solves_stop_when_the_length_settles() {
+    use super::StopReason;
+    let a = icosphere(2);
+    for kind in [MetricKind::Conformal, MetricKind::Isometric, MetricKind::Rigid] {
+        let metric = MetricSpec::new(kind).build();
+        let new = |options: GeodesicOptions| {
+            GeodesicSolver::new(metric.as_ref(), a.topology.clone(), options).unwrap()
+        };
+        let solver = new(GeodesicOptions::default());
+        let off = new(GeodesicOptions {
+            length_tolerance: 0.0,
+            ..GeodesicOptions::default()
+        });
+        let tight = new(GeodesicOptions {
+            gradient_tolerance: 1e-10,
+            energy_tolerance: 0.0,
+            ..GeodesicOptions::default()
+        });
+        let ends: Vec<_> = (1..=5)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                (bent(&a.positions, t), bent(&a.positions, 1.7 * t))
+            })
+            .collect();
+        let (mut cp, mut cd, mut co) = (
+            SolveContext::default(),
+            SolveContext::default(),
+            SolveContext::default(),
+        );
+        let (mut pp, mut pd, mut po) = (None, None, None);
+        let (mut path_iterations, mut distance_iterations, mut settled) = (0, 0, 0);
+        for (x, y) in &ends {
+            let p = solver.solve_near_with(&mut cp, x, y, pp.as_ref(), None).unwrap();
+            let d = solver
+                .distance_near_with(&mut cd, x, y, pd.as_ref(), None)
+                .unwrap();
+            let o = off.distance_near_with(&mut co, x, y, po.as_ref(), None).unwrap();
+            let t = tight.solve(x, y).unwrap();
+            assert!(d.converged, "{kind:?}: {:?}", d.stop);
+            assert_eq!(o.length.to_bits(), p.length.to_bits(), "{kind:?}: test off");
+            assert_eq!(o.iterations, p.iterations);
+            let rel = (d.length - t.length).abs() / t.length;
+            assert!(
+                rel <= 5.0 * crate::defaults::LENGTH_TOLERANCE,
+                "{kind:?}: distance {} path {} tight {} ({rel:e})",
+                d.length,
+                p.length,
+                t.length
+            );
+            path_iterations += p.iterations;
+            distance_iterations += d.iterations;
+            settled += usize::from(d.stop == StopReason::LengthTolerance);
+            pp = Some(p);
+            pd = Some(d);
+            po = Some(o);
+        }
+        assert!(settled > 0, "{kind:?}: the length test never stopped a solve");
+        assert!(
+            distance_iterations < path_iterations,
+            "{kind:?}: {distance_iterations} iterations for distances, {path_iterations} for paths"
+        );
+    }
+}

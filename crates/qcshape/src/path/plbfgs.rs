@@ -92,8 +92,19 @@ fn eval(
     e
 }
 
+/// The path's length `L = sum_i sqrt(E_i / 2)` from its segments' energies
+/// `E_i = G_{P_i}(X_i) + G_{P_{i+1}}(X_i)` (eq. 12's discretization; the same sum as
+/// [`super::Geodesic::length`]).
+fn path_length(segments: &[f64]) -> f64 {
+    segments.iter().map(|&e| super::segment_length(e)).sum()
+}
+
 /// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
 /// (`H0 = gamma I`, the first step of unit length).
+///
+/// `length_tolerance > 0` adds a stop once two consecutive accepted steps each change the
+/// path's length by at most that fraction of it ([`StopReason::LengthTolerance`]; distance
+/// solves, [`super::GeodesicOptions::length_tolerance`]); 0 disables it.
 ///
 /// With `shared`, the preconditioner in it (if any) is used instead of fitting one at `x0`,
 /// and the one in use at the end (the last refit) is left in it for the next solve: the
@@ -104,6 +115,7 @@ pub(crate) fn minimize<'l>(
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
+    length_tolerance: f64,
     mut shared: Option<&mut Option<Preconditioner<'l>>>,
 ) -> Result<SolveOutput, GeodesicError> {
     let np = pe.n_pose_vars();
@@ -152,6 +164,10 @@ pub(crate) fn minimize<'l>(
         super::Solver::PlainLbfgs.default_max_iterations()
     });
     let mut stop = StopReason::MaxIterations;
+    // The length test: the path's length after the last accepted step, and how many
+    // consecutive steps changed it by at most `length_tolerance` of it.
+    let mut length = path_length(&seg);
+    let mut settled = 0;
     if np == 0 || super::at_roundoff(g0, e) {
         if let Some(slot) = shared {
             *slot = Some(pre);
@@ -253,6 +269,19 @@ pub(crate) fn minimize<'l>(
         if decrease <= opts.energy_tolerance * e.abs() {
             stop = StopReason::EnergyTolerance;
             break;
+        }
+        if length_tolerance > 0.0 {
+            let new_length = path_length(&seg);
+            if (new_length - length).abs() <= length_tolerance * new_length {
+                settled += 1;
+            } else {
+                settled = 0;
+            }
+            length = new_length;
+            if settled >= 2 {
+                stop = StopReason::LengthTolerance;
+                break;
+            }
         }
     }
     let gnorm = norm(&g);

@@ -175,7 +175,7 @@ fn pose_distances_with(
             continue;
         }
         let g = solver
-            .solve_near_with(&mut ctx, a, b, previous.as_ref(), s)
+            .distance_near_with(&mut ctx, a, b, previous.as_ref(), s)
             .map_err(|e| (k, e))?;
         converged &= g.converged;
         iterations += g.iterations;

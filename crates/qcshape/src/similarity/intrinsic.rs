@@ -218,7 +218,7 @@ fn squared_similarity(
     let mut previous = None;
     for p in (0..x.len()).rev() {
         if x[p] != mu[p] {
-            let g = solver.solve_near(&mut ctx, &x[p], &mu[p], previous.as_ref())?;
+            let g = solver.distance_near_with(&mut ctx, &x[p], &mu[p], previous.as_ref(), None)?;
             d[p] = g.length;
             previous = Some(g);
         }

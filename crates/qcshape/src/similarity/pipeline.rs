@@ -359,12 +359,13 @@ where
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
     format!(
-        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}|smoothing={}{}",
+        "{:?}|steps={}|solver={:?}|gtol={:e}|etol={:e}|ltol={:e}|maxit={}|mem={}|refresh={}|omega={:e}|insert={}|levels={}|transport={:?}|base={}|align={:?}|smoothing={}{}",
         opts.metric,
         g.steps,
         g.solver,
         g.gradient_tolerance,
         g.energy_tolerance,
+        g.length_tolerance,
         g.max_iterations.map_or_else(|| "default".to_string(), |n| n.to_string()),
         g.lbfgs_memory,
         g.preconditioner_refresh,
