@@ -41,6 +41,21 @@ def test_defaults_are_the_librarys(pair):
     assert space.dist(V, B) == explicit.dist(V, B)
 
 
+def test_dist_stops_when_the_length_settles_and_length_tolerance_switches_it_off(pair):
+    V, B, F = pair
+    for metric in ["isometric", "conformal"]:
+        default = qs.ShapeSpace(F, metric=metric, steps=4)
+        off = qs.ShapeSpace(F, metric=metric, steps=4, length_tolerance=0)
+        # The geodesic is a path solve: its length is the distance solved without the length test.
+        assert off.dist(V, B) == off.geodesic(V, B).length
+        assert default.geodesic(V, B).length == off.geodesic(V, B).length
+        tight = qs.ShapeSpace(F, metric=metric, steps=4, tolerance=1e-10, energy_tolerance=0, length_tolerance=0)
+        d, t = default.dist(V, B), tight.dist(V, B)
+        assert abs(d - t) <= 1e-7 * t, (metric, d, t)
+    with pytest.raises(ValueError, match="length_tolerance"):
+        qs.ShapeSpace(F, length_tolerance=-1.0)
+
+
 def test_log_is_the_first_step_of_the_geodesic_and_norms_agree(pair):
     V, B, F = pair
     space = qs.ShapeSpace(F, metric="isometric", steps=4, reference=V)
