@@ -226,7 +226,7 @@ pub fn mesh_cohort(
     Ok(out)
 }
 
-/// Writes OUT/<subject>/poseNN.ply and OUT/manifest.csv (a data set for `lv run` or
+/// Writes `OUT/<subject>/poseNN.ply` and `OUT/manifest.csv` (a data set for `lv run` or
 /// `similarity`); returns the manifest's path.
 pub fn write_meshes(out: &Path, defs: &[Deformation]) -> Result<PathBuf, StudyError> {
     let mut rows = Vec::new();

@@ -1,0 +1,230 @@
+//! The geodesic solvers' options ([`GeodesicOptions`], [`Solver`]) and why a solve stopped
+//! ([`StopReason`]).
+
+#[cfg(doc)]
+use super::GeodesicSolver;
+#[cfg(doc)]
+use crate::metric::Metric;
+
+/// Which optimizer minimizes the path energy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Solver {
+    /// L-BFGS preconditioned by the Kronecker model `2 T_c (x) A` of the Gauss-Newton Hessian
+    /// (one sparse Cholesky of size 3 #V per refit, every
+    /// [`GeodesicOptions::preconditioner_refresh`] iterations) plus a vertex-block term
+    /// ([`GeodesicOptions::vertex_block_weight`]), scaled by the newest curvature pair. The
+    /// default: the fastest in the benchmark.
+    #[default]
+    Preconditioned,
+    /// Truncated Gauss-Newton: the Gauss-Newton step by preconditioned conjugate gradients
+    /// (Kronecker preconditioner `T_c (x) A`, one sparse Cholesky of size 3 #V per
+    /// iteration), line search on the energy.
+    GaussNewton,
+    /// Truncated Newton: [`Solver::GaussNewton`] with the metric's second-order part
+    /// `sum r_i d2 r_i` added to `J^T J` (the exact Hessian, [`Metric::add_second_order`]);
+    /// conjugate gradients stop at negative curvature. Converges superlinearly near the
+    /// geodesic, where Gauss-Newton converges linearly (a geodesic is a large-residual
+    /// problem). Metrics without second derivatives (rigid, paper forms, segment weights,
+    /// per-pose L2) run as Gauss-Newton.
+    Newton,
+    /// Levenberg-Marquardt: damped Gauss-Newton steps from a sparse Cholesky factorization of
+    /// the full block-tridiagonal normal equations `J^T J + mu D` at every iteration (small
+    /// meshes). Command-line values `gauss-newton-direct`, `gn-direct`, `lm` or
+    /// `levenberg-marquardt`. Formerly `Solver::GaussNewtonDirect`.
+    LevenbergMarquardt,
+    /// L-BFGS (the paper's quasi-Newton method) through argmin (More-Thuente line search).
+    Lbfgs,
+    /// [`Solver::Preconditioned`] without its preconditioner (`H0 = gamma I`, same compact
+    /// L-BFGS and backtracking line search): the reference for what the Kronecker model buys,
+    /// and a lean L-BFGS (one energy-and-gradient evaluation per accepted step, where argmin's
+    /// [`Solver::Lbfgs`] evaluates the gradient about twice per iteration).
+    PlainLbfgs,
+}
+
+impl std::str::FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "gauss-newton" | "gn" => Ok(Solver::GaussNewton),
+            "newton" => Ok(Solver::Newton),
+            "gauss-newton-direct" | "gn-direct" | "lm" | "levenberg-marquardt" => Ok(Solver::LevenbergMarquardt),
+            "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
+            "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
+            "plain-lbfgs" => Ok(Solver::PlainLbfgs),
+            _ => Err(format!(
+                "unknown solver '{s}' (expected preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs or plain-lbfgs)"
+            )),
+        }
+    }
+}
+
+impl Solver {
+    /// The command-line name (`preconditioned`, `gauss-newton`, `newton`,
+    /// `gauss-newton-direct`, `lbfgs`, `plain-lbfgs`); [`str::parse`] reads it back.
+    pub fn label(self) -> &'static str {
+        match self {
+            Solver::Preconditioned => "preconditioned",
+            Solver::GaussNewton => "gauss-newton",
+            Solver::Newton => "newton",
+            Solver::LevenbergMarquardt => "gauss-newton-direct",
+            Solver::Lbfgs => "lbfgs",
+            Solver::PlainLbfgs => "plain-lbfgs",
+        }
+    }
+
+    /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`: 100 outer
+    /// steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a linear system),
+    /// 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers
+    /// (`plain-lbfgs`, `lbfgs`), whose steps are cheaper and more numerous.
+    pub fn default_max_iterations(self) -> usize {
+        match self {
+            Solver::GaussNewton | Solver::Newton | Solver::LevenbergMarquardt => 100,
+            Solver::Preconditioned => 1000,
+            Solver::PlainLbfgs | Solver::Lbfgs => 5000,
+        }
+    }
+}
+
+/// Options of the geodesic solvers.
+#[derive(Debug, Clone)]
+pub struct GeodesicOptions {
+    /// Number of path segments `N` (N - 1 free interior poses). Default 8.
+    pub steps: usize,
+    /// The optimizer. Default [`Solver::Preconditioned`].
+    pub solver: Solver,
+    /// Iteration limit of the solver; `None` (the default): the solver's own limit,
+    /// [`Solver::default_max_iterations`] (100 outer steps for the Gauss-Newton family, 1,000
+    /// for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers). A `Some`
+    /// value is the limit itself, for every solver.
+    pub max_iterations: Option<usize>,
+    /// Converged when the gradient norm falls below this fraction of its value at the start.
+    /// Default 1e-6.
+    pub gradient_tolerance: f64,
+    /// Converged when an accepted step lowers the energy by less than this fraction.
+    /// Default 1e-12.
+    pub energy_tolerance: f64,
+    /// Distance solves only ([`GeodesicSolver::distance_near_with`]: similarity matrices, the
+    /// intrinsic k-means assignment): also converged when two consecutive accepted steps each
+    /// change the path's length `L` (eq. 12) by less than this fraction of it. On coarse
+    /// meshes the length settles long before the path (a step that only evens out the speed
+    /// along the path lowers the energy but not `L`): at 162 vertices distances move by at
+    /// most 5e-8 relative; at 2,562 by up to 3e-7 (docs/speed.md, round 4). Only the default
+    /// solver ([`Solver::Preconditioned`]) applies it; 0 disables it. Default
+    /// [`crate::defaults::LENGTH_TOLERANCE`].
+    pub length_tolerance: f64,
+    /// Stop as soon as the energy is at or below this value (used to time solvers to a
+    /// common energy).
+    pub target_energy: Option<f64>,
+    /// Number of correction pairs kept by L-BFGS. Default 10.
+    pub lbfgs_memory: usize,
+    /// The preconditioned solver refits its Kronecker model `T_c (x) A` at the current path
+    /// every this many iterations (0: only at the start). Default 45 (2,562-vertex benchmark,
+    /// one core, time to the converged energy: without refits isometric 1.38 s and conformal
+    /// 3.01 s; refitting every 20 / 30 / 45 / 60 iterations: isometric 0.98 / 0.90 / 0.87
+    /// / 0.86 s, conformal 1.90 / 1.56 / 1.43 / 1.49 s; README "Benchmark").
+    pub preconditioner_refresh: usize,
+    /// Weight `omega` of the vertex-block term of the preconditioned solver:
+    /// `M^{-1} = (2 T_c (x) A)^{-1} + omega (2 D)^{-1}`, `D` the 3 x 3 diagonal blocks of
+    /// `J^T J` per interior pose and vertex (0: the Kronecker model alone). Default 0.3
+    /// (2,562-vertex benchmark, one core, iterations to E* (1 + 1e-6) for omega = 0 / 0.2 /
+    /// 0.3 / 0.4 / 0.5: conformal 155 / 96 / 70 / 66 / 61, isometric 148 / 155 / 148 / 164 /
+    /// 179; at 162 and 642 vertices within +-2 iterations of omega = 0; on the real left
+    /// ventricle neutral; isometric runs to convergence can take up to 25 % longer, ending in
+    /// other minima 1e-5 apart; README "Benchmark" and "How the defaults were chosen").
+    pub vertex_block_weight: f64,
+    /// How long [`GeodesicSolver::solve_in`] keeps one preconditioner fit for the next
+    /// geodesics: refit once the solves after the fitting one have together taken more than
+    /// this many iterations beyond the fitting solve's count (0: refit as soon as a solve
+    /// with the fit needs more iterations than the one that fitted it). Default 10 (162-vertex benchmark,
+    /// 48 deformations x 9 poses, iterations per geodesic fresh / 0 / 4 / 10 / never refit:
+    /// quasi-conformal 4.7 / 5.0 / 5.3 / 5.4 / 6.5, conformal 13.0 / 13.2 / 13.8 / 14.3 / 18.6;
+    /// CPU time of the matrix lowest for 4-10; docs/speed.md).
+    pub preconditioner_reuse: usize,
+}
+
+impl GeodesicOptions {
+    /// The iteration limit in force: `max_iterations`, or the solver's default.
+    pub fn iteration_limit(&self) -> usize {
+        self.max_iterations
+            .unwrap_or_else(|| self.solver.default_max_iterations())
+    }
+}
+
+impl Default for GeodesicOptions {
+    fn default() -> Self {
+        GeodesicOptions {
+            steps: crate::defaults::STEPS,
+            solver: crate::defaults::SOLVER,
+            max_iterations: None,
+            gradient_tolerance: crate::defaults::TOLERANCE,
+            energy_tolerance: crate::defaults::ENERGY_TOLERANCE,
+            length_tolerance: crate::defaults::LENGTH_TOLERANCE,
+            target_energy: None,
+            lbfgs_memory: 10,
+            preconditioner_refresh: 45,
+            vertex_block_weight: 0.3,
+            preconditioner_reuse: 10,
+        }
+    }
+}
+
+/// Why a solver stopped.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopReason {
+    /// The path has no free unknowns (N = 1 and no auxiliary unknowns).
+    NothingToOptimize,
+    /// The gradient norm fell below the relative tolerance.
+    GradientTolerance,
+    /// The energy stopped decreasing (relative decrease below tolerance).
+    EnergyTolerance,
+    /// The length settled (distance solves: two consecutive relative changes below
+    /// [`GeodesicOptions::length_tolerance`]).
+    LengthTolerance,
+    /// The target energy was reached.
+    TargetEnergy,
+    /// The iteration limit was reached.
+    MaxIterations,
+    /// No step could lower the energy further (the damping grew without bound).
+    NoProgress,
+    /// The solver stopped for another reason (message).
+    Other(String),
+}
+
+impl StopReason {
+    /// Whether the reason counts as converged.
+    pub fn is_converged(&self) -> bool {
+        matches!(
+            self,
+            StopReason::NothingToOptimize
+                | StopReason::GradientTolerance
+                | StopReason::EnergyTolerance
+                | StopReason::LengthTolerance
+                | StopReason::TargetEnergy
+        )
+    }
+}
+
+impl GeodesicOptions {
+    /// The stopping test at the top of a solver iteration: the target energy is reached, or
+    /// the gradient norm `gnorm` fell below the relative tolerance of its start value `g0`.
+    pub(crate) fn stop_before_iteration(&self, energy: f64, gnorm: f64, g0: f64) -> Option<StopReason> {
+        if self.target_energy.is_some_and(|t| energy <= t) {
+            Some(StopReason::TargetEnergy)
+        } else if gnorm <= self.gradient_tolerance * g0 {
+            Some(StopReason::GradientTolerance)
+        } else {
+            None
+        }
+    }
+
+    /// A solver's final stop reason: running out of iterations with the gradient test met
+    /// counts as converged.
+    pub(crate) fn final_stop(&self, stop: StopReason, gnorm: f64, g0: f64) -> StopReason {
+        if stop == StopReason::MaxIterations && gnorm <= self.gradient_tolerance * g0 {
+            StopReason::GradientTolerance
+        } else {
+            stop
+        }
+    }
+}

@@ -1,0 +1,208 @@
+//! Tests of the geodesic solver ([`super::GeodesicSolver`], [`super::geodesic`]).
+
+use super::*;
+use crate::metric::{Isometric, Regularized, L2};
+use crate::synth::icosphere;
+
+fn bent(s: &Shape) -> Shape {
+    let pos = s
+        .positions
+        .iter()
+        .map(|p| [p[0] + 0.3 * p[2] * p[2], p[1] * (1.0 + 0.3 * p[0]), 1.4 * p[2]])
+        .collect();
+    Shape::new(s.topology.clone(), pos).unwrap()
+}
+
+#[test]
+fn straight_lengths_of_one_segment_and_of_n_segments_agree_with_the_definition() {
+    let a = icosphere(2);
+    let b = bent(&a);
+    let qc = crate::metric::MetricSpec::new(crate::metric::MetricKind::QuasiConformal).build();
+    let iso = Regularized::new(Box::new(Isometric), 0.5);
+    let metrics: [&dyn Metric; 3] = [qc.as_ref(), &iso, &crate::metric::FrozenL2];
+    for m in metrics {
+        let solver = |steps| {
+            let options = GeodesicOptions {
+                steps,
+                ..GeodesicOptions::default()
+            };
+            GeodesicSolver::new(m, a.topology.clone(), options).unwrap()
+        };
+        // One segment (the copy-free branch) against the definition through the residuals.
+        let one = solver(1).straight_length(&a.positions, &b.positions).unwrap();
+        let frozen = m.frozen_weights(&a.topology, &a.positions, &b.positions);
+        let pat = m.pattern(&a.topology);
+        let g: f64 = [At::Start, At::End]
+            .map(|at| {
+                let seg = Segment {
+                    a: &a.positions,
+                    b: &b.positions,
+                    at,
+                    aux: &[],
+                    frozen: frozen.as_deref(),
+                };
+                crate::metric::squared_norm_from_residuals(m, &a.topology, pat.as_ref(), &seg)
+            })
+            .iter()
+            .sum();
+        let want = (g / 2.0).sqrt();
+        assert!(
+            want > 0.0 && (one - want).abs() <= 1e-12 * want,
+            "{}: {one} vs {want}",
+            m.name()
+        );
+        // Four segments (through the path): an upper bound of the geodesic, and for the
+        // frozen L2 metric (flat) the straight line is the geodesic, whatever N.
+        let four = solver(4);
+        let len4 = four.straight_length(&a.positions, &b.positions).unwrap();
+        let geo = four.solve(&a.positions, &b.positions).unwrap().length;
+        assert!(
+            geo <= len4 * (1.0 + 1e-9),
+            "{}: geodesic {geo} > straight {len4}",
+            m.name()
+        );
+        if m.name() == "l2(frozen)" {
+            assert!((len4 - one).abs() <= 1e-12 * one, "flat: {len4} vs {one}");
+        }
+    }
+}
+
+#[test]
+fn gradient_of_path_energy_matches_finite_differences() {
+    let a = icosphere(1);
+    let b = bent(&a);
+    let m = Regularized::new(Box::new(Isometric), 0.5);
+    let pe = PathEnergy::new(&m, a.topology.clone(), 3);
+    let frozen = m.frozen_weights(&a.topology, &a.positions, &b.positions);
+    let ends = Ends {
+        start: a.positions.clone(),
+        end: b.positions.clone(),
+        frozen,
+    };
+    let mut x = pe.linear_start(&ends);
+    for (i, v) in x.iter_mut().enumerate() {
+        *v += 0.01 * ((i * 7919 % 13) as f64 - 6.0);
+    }
+    let mut g = vec![0.0; x.len()];
+    pe.energy_gradient(&x, &ends, &mut g);
+    let h = 1e-6;
+    for i in (0..x.len()).step_by(37) {
+        let mut xp = x.clone();
+        xp[i] += h;
+        let mut xm = x.clone();
+        xm[i] -= h;
+        let fd = (pe.energy(&xp, &ends) - pe.energy(&xm, &ends)) / (2.0 * h);
+        assert!(
+            (fd - g[i]).abs() <= 1e-6 * (1.0 + g[i].abs()),
+            "{i}: {fd} vs {}",
+            g[i]
+        );
+    }
+}
+
+/// The default solver reports its own last evaluation (no second pass): energy, initial
+/// energy and segment lengths agree with evaluating the returned path afresh.
+#[test]
+fn reported_energy_and_lengths_match_a_fresh_evaluation() {
+    let a = icosphere(1);
+    let b = bent(&a);
+    let m = Regularized::new(Box::new(Isometric), 0.1);
+    let solver = GeodesicSolver::new(&m, a.topology.clone(), GeodesicOptions::default()).unwrap();
+    let g = solver.solve(&a.positions, &b.positions).unwrap();
+    assert!(g.iterations > 0);
+    let ends = solver.ends(&a.positions, &b.positions).unwrap();
+    let pe = solver.path_energy();
+    let x = pe.pack(&g.poses[1..g.poses.len() - 1], &ends);
+    let mut grad = vec![0.0; pe.n_vars()];
+    let e = pe.energy_gradient(&x, &ends, &mut grad);
+    assert!((g.energy - e).abs() <= 1e-12 * e, "{} vs {e}", g.energy);
+    let e0 = pe.energy(&pe.linear_start(&ends), &ends);
+    assert!((g.initial_energy - e0).abs() <= 1e-12 * e0);
+    let gn = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(
+        (g.gradient_norm - gn).abs() <= 1e-9 * (1.0 + gn),
+        "{} vs {gn}",
+        g.gradient_norm
+    );
+    for (l, (g0, g1)) in g.segment_lengths.iter().zip(pe.segment_norms(&x, &ends)) {
+        let want = ((g0 + g1) / 2.0).sqrt();
+        assert!((l - want).abs() <= 1e-12 * want, "{l} vs {want}");
+    }
+}
+
+/// Solves through one [`SolveContext`] (one preconditioner fit for several geodesics)
+/// reach the same distances as fresh solves to solver tolerance, and repeat bit for bit.
+#[test]
+fn shared_preconditioner_gives_the_same_distances() {
+    let a = icosphere(2);
+    let m = Regularized::new(Box::new(Isometric), 0.1);
+    let solver = GeodesicSolver::new(&m, a.topology.clone(), GeodesicOptions::default()).unwrap();
+    // A sequence of growing deformations of one shape, like the poses of a pair.
+    let ends: Vec<(crate::similarity::Pose, crate::similarity::Pose)> = (1..=5)
+        .map(|k| {
+            let t = 0.1 * k as f64;
+            let p = |s: f64| -> Vec<[f64; 3]> {
+                a.positions
+                    .iter()
+                    .map(|v| {
+                        [
+                            v[0] * (1.0 + s * v[2]),
+                            v[1] + s * v[0] * v[0],
+                            v[2] * (1.0 + 0.5 * s),
+                        ]
+                    })
+                    .collect()
+            };
+            (p(t), p(1.5 * t))
+        })
+        .collect();
+    let shared = |()| {
+        let mut ctx = SolveContext::default();
+        ends.iter()
+            .map(|(x, y)| solver.solve_in(&mut ctx, x, y).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let (first, again) = (shared(()), shared(()));
+    let mut ctx = SolveContext::default();
+    for (x, y) in &ends {
+        solver.solve_in(&mut ctx, x, y).unwrap();
+    }
+    assert!((1..ends.len()).contains(&ctx.fits()), "{} fits", ctx.fits());
+    for ((s, r), (x, y)) in first.iter().zip(&again).zip(&ends) {
+        assert_eq!(s.length.to_bits(), r.length.to_bits());
+        assert!(s.converged, "{:?}", s.stop);
+        let fresh = solver.solve(x, y).unwrap();
+        let rel = (s.length - fresh.length).abs() / fresh.length;
+        assert!(rel < 1e-6, "{} vs {} ({rel:e})", s.length, fresh.length);
+    }
+}
+
+#[test]
+fn gauss_newton_and_lbfgs_agree_on_small_problems() {
+    let a = icosphere(1);
+    let b = bent(&a);
+    for m in [&L2 as &dyn Metric, &Regularized::new(Box::new(Isometric), 0.1)] {
+        let o = |solver| GeodesicOptions {
+            steps: 4,
+            solver,
+            gradient_tolerance: 1e-9,
+            ..Default::default()
+        };
+        let gn = geodesic(m, &a, &b, &o(Solver::GaussNewton), Normalization::MeanEdgeOfFirst).unwrap();
+        let lb = geodesic(m, &a, &b, &o(Solver::Lbfgs), Normalization::MeanEdgeOfFirst).unwrap();
+        assert!(gn.converged, "{:?}", gn.stop);
+        assert!(gn.energy <= gn.initial_energy);
+        let rel = (gn.energy - lb.energy).abs() / gn.energy;
+        assert!(
+            rel < 1e-6,
+            "{}: {} vs {} ({:?}, {} its)",
+            m.name(),
+            gn.energy,
+            lb.energy,
+            lb.stop,
+            lb.iterations
+        );
+        assert_eq!(gn.poses[0], a.positions);
+        assert_eq!(gn.poses[4], b.positions);
+    }
+}
