@@ -475,6 +475,11 @@ fn dataset_cases() -> Vec<Case> {
         ("--tolerance", "inf", vec!["--tolerance", "finite"]),
         ("--tolerance", "-1e-3", vec!["--tolerance", "non-negative"]),
         ("--energy-tolerance", "nan", vec!["--energy-tolerance"]),
+        (
+            "--length-tolerance",
+            "-1e-8",
+            vec!["--length-tolerance", "non-negative"],
+        ),
         ("--steps", "0", vec!["--steps", "at least 1"]),
         ("--threads", "0", vec!["--threads", "at least 1"]),
         ("--levels", "0", vec!["--levels", "at least 1"]),

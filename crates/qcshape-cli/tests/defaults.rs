@@ -57,6 +57,7 @@ fn library() -> BTreeMap<&'static str, String> {
         ("solver", defaults::SOLVER.label().to_string()),
         ("tolerance", defaults::TOLERANCE.to_string()),
         ("energy-tolerance", defaults::ENERGY_TOLERANCE.to_string()),
+        ("length-tolerance", defaults::LENGTH_TOLERANCE.to_string()),
         ("insert", defaults::INSERT.to_string()),
         ("levels", defaults::LEVELS.to_string()),
         ("transport", defaults::TRANSPORT.label().to_string()),
