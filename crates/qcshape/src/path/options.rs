@@ -109,9 +109,8 @@ pub struct GeodesicOptions {
     /// meshes the length settles long before the path (a step that only evens out the speed
     /// along the path lowers the energy but not `L`): at 162 vertices distances move by at
     /// most 5e-8 relative; at 2,562 and 10,242 by up to 3e-7 and 5e-7 (docs/speed.md, round
-    /// 4). Only the default
-    /// solver ([`Solver::Preconditioned`]) applies it; 0 disables it. Default
-    /// [`crate::defaults::LENGTH_TOLERANCE`].
+    /// 4). Only the default solver ([`Solver::Preconditioned`]) applies it; 0 disables it.
+    /// Default [`crate::defaults::LENGTH_TOLERANCE`].
     pub length_tolerance: f64,
     /// Stop as soon as the energy is at or below this value (used to time solvers to a
     /// common energy).
