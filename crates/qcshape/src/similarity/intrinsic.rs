@@ -264,24 +264,49 @@ mod tests {
     use crate::path::GeodesicOptions;
     use crate::synth::icosphere;
 
+    /// The level-1 icosphere and its positions scaled to unit mean edge length (#V x 3).
+    fn unit_icosphere() -> (crate::mesh::Shape, Pose) {
+        let s = icosphere(1);
+        let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
+        let base = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
+        (s, base)
+    }
+
+    /// `base` (#V x 3) with coordinate `axis` multiplied by `1 + amp`.
+    fn stretched(base: &[[f64; 3]], axis: usize, amp: f64) -> Pose {
+        base.iter()
+            .map(|p| {
+                let mut q = *p;
+                q[axis] *= 1.0 + amp;
+                q
+            })
+            .collect()
+    }
+
+    /// The 2-segment geodesic solver of `metric` on `s`'s topology.
+    fn two_step_solver<'m>(metric: &'m Regularized, s: &crate::mesh::Shape) -> GeodesicSolver<'m> {
+        GeodesicSolver::new(
+            metric,
+            s.topology.clone(),
+            GeodesicOptions {
+                steps: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    }
+
     /// The first round's Karcher start: the arithmetic mean is exact for equal poses and, for
     /// poses that differ, is fewer Karcher iterations from the mean than the first member.
     #[test]
     fn karcher_means_start_from_the_arithmetic_mean() {
-        let s = icosphere(1);
-        let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
-        let base: Pose = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
+        let (s, base) = unit_icosphere();
         assert_eq!(arithmetic_mean(&[&base, &base, &base]), base);
-        let stretched = |axis: usize, amp: f64| -> Pose {
-            base.iter()
-                .map(|p| {
-                    let mut q = *p;
-                    q[axis] *= 1.0 + amp;
-                    q
-                })
-                .collect()
-        };
-        let poses = [stretched(0, 0.3), stretched(1, 0.25), stretched(2, 0.35)];
+        let poses = [
+            stretched(&base, 0, 0.3),
+            stretched(&base, 1, 0.25),
+            stretched(&base, 2, 0.35),
+        ];
         let members: Vec<&[[f64; 3]]> = poses.iter().map(Vec::as_slice).collect();
         let mid = arithmetic_mean(&members[..2]);
         for ((m, a), b) in mid.iter().zip(&poses[0]).zip(&poses[1]) {
@@ -290,15 +315,7 @@ mod tests {
             }
         }
         let metric = Regularized::new(Box::new(Isometric), 0.1);
-        let solver = GeodesicSolver::new(
-            &metric,
-            s.topology.clone(),
-            GeodesicOptions {
-                steps: 2,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let solver = two_step_solver(&metric, &s);
         let opts = KarcherOptions::default();
         let from_first = karcher_mean(&solver, &members, members[0], &opts).unwrap();
         let from_mean = karcher_mean(&solver, &members, &arithmetic_mean(&members), &opts).unwrap();
@@ -320,21 +337,11 @@ mod tests {
 
     #[test]
     fn recovers_two_families_from_a_bad_start() {
-        let s = icosphere(1);
-        let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
-        let base: Pose = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
+        let (s, base) = unit_icosphere();
         // Family 0 stretches along x, family 1 along z, with small amplitude differences.
         let def = |axis: usize, amp: f64| -> Vec<Pose> {
             (0..3)
-                .map(|t| {
-                    base.iter()
-                        .map(|p| {
-                            let mut q = *p;
-                            q[axis] *= 1.0 + amp * t as f64 / 2.0;
-                            q
-                        })
-                        .collect()
-                })
+                .map(|t| stretched(&base, axis, amp * t as f64 / 2.0))
                 .collect()
         };
         let defs = vec![
@@ -346,15 +353,7 @@ mod tests {
             def(2, 0.27),
         ];
         let metric = Regularized::new(Box::new(Isometric), 0.1);
-        let solver = GeodesicSolver::new(
-            &metric,
-            s.topology.clone(),
-            GeodesicOptions {
-                steps: 2,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let solver = two_step_solver(&metric, &s);
         // Start with one item of each family misplaced.
         let start = vec![0, 0, 1, 1, 1, 0];
         let r = intrinsic_kmeans(&solver, &defs, &start, 2, &IntrinsicOptions::default()).unwrap();
