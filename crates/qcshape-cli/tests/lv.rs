@@ -62,6 +62,12 @@ fn phantom_register_mesh_gives_a_loadable_labelled_manifest() {
         "400",
     ]));
     assert!(out.contains("(saved maps)"), "{out}");
+    // Every frame's mesh is refined on its image by default (8 frames per subject).
+    assert_eq!(
+        out.matches("8 poses (8 refined on their images)").count(),
+        4,
+        "{out}"
+    );
     let ds = Dataset::load(&fw).unwrap();
     assert_eq!(ds.deformations.len(), 4);
     let mut n_hcm = 0;

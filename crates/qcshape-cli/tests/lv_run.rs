@@ -120,6 +120,12 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
         report.contains("low-pass filtered to the Fourier harmonics 0-2 of the cycle"),
         "{report}"
     );
+    // ... and refines the frames' meshes on their images (6 subjects x 6 frames here).
+    assert!(
+        report.contains("refined on its own image")
+            && report.contains(" of 36 frames, root mean square move"),
+        "{report}"
+    );
     // The signed motion map, with the phantom's abnormal region (known to the cohort).
     assert!(
         report.contains("## Where the groups move differently"),
@@ -227,6 +233,9 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     let out = qcshape(&["lv", "run", s(&cohort), "--out", s(&again), "--harmonics", "two"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("or none"));
+    let out = qcshape(&["lv", "run", s(&cohort), "--out", s(&again), "--refine=-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected a search reach in mm (> 0) or none"));
     let out = qcshape(&[
         "lv",
         "run",

@@ -44,6 +44,11 @@ pub(crate) struct Args {
     /// closed surface.
     #[arg(long, value_enum, default_value = "free-wall")]
     region: super::Region,
+    /// Image refinement of every carried frame: each vertex moves along its normal to the
+    /// cavity threshold of that frame's own image, searched within MM mm; `none` keeps the
+    /// landmark splines alone (the paper's step 3).
+    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
+    refine: super::Refine,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
     #[arg(long, default_value_t = 180.0)]
     sector_centre: f64,
@@ -79,6 +84,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         landmarks: a.landmarks,
         lambda: a.lambda,
         free_wall: a.region.cuts(),
+        refine: a.refine.0,
     };
     let mut rows = Vec::new();
     let bar = progress(subs.len());
@@ -100,7 +106,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         }
         bar.suspend(|| {
             println!(
-                "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses, {} landmarks{}, {:.2} s",
+                "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses ({} refined on their images), {} landmarks{}, {:.2} s",
                 s.name,
                 m.threshold,
                 m.raw_vertices,
@@ -108,6 +114,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
                 poses[0].len(),
                 a.region.name(),
                 poses.len(),
+                m.refined,
                 m.landmarks,
                 if m.saved_maps { " (saved maps)" } else { "" },
                 t0.elapsed().as_secs_f64()

@@ -144,6 +144,33 @@ impl Region {
 }
 
 /// A plain progress bar of `n` subjects.
+/// `--refine MM|none`: the image refinement's search reach along the normals (mm), or none
+/// (the landmark splines alone).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Refine(pub(crate) Option<f64>);
+
+impl std::str::FromStr for Refine {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(Refine(None)),
+            mm => match mm.parse::<f64>() {
+                Ok(r) if r.is_finite() && r > 0.0 => Ok(Refine(Some(r))),
+                _ => Err(format!("expected a search reach in mm (> 0) or none, got {mm:?}")),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Refine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(r) => write!(f, "{r}"),
+            None => f.write_str("none"),
+        }
+    }
+}
+
 pub(crate) fn progress(n: usize) -> ProgressBar {
     let pb = crate::progress::new_bar(n);
     crate::progress::start(&pb);

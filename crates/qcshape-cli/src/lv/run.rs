@@ -79,6 +79,12 @@ pub struct RunArgs {
     /// "Left ventricle").
     #[arg(long, value_name = "H|none", default_value_t = Harmonics(qcshape::defaults::LANDMARK_HARMONICS))]
     pub(crate) harmonics: Harmonics,
+    /// Image refinement of every carried frame: each vertex moves along its normal to the
+    /// cavity threshold of that frame's own image, searched within MM mm on both sides; `none`
+    /// keeps the landmark splines alone (the paper's). The default was chosen on five harder
+    /// phantom cohorts (README, "Left ventricle").
+    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
+    pub(crate) refine: super::Refine,
     /// Name of the subject whose cycle is mapped in Fig. 9 (default: the first).
     #[arg(long)]
     pub(crate) mds_subject: Option<String>,

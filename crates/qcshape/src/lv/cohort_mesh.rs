@@ -9,12 +9,13 @@ use std::time::Instant;
 
 use super::analysis::{carry_template, Axis};
 use super::cohort::{
-    read_frame0, read_subject_landmarks, subjects, LvError, Registration, SubjectDir, LABELS_NAME,
-    LANDMARKS_NAME,
+    read_frame0, read_frames, read_subject_landmarks, subjects, LvError, Registration, SubjectDir,
+    LABELS_NAME, LANDMARKS_NAME,
 };
 use super::freewall::{free_wall, LvAxis, SectorOptions};
 use super::landmarks::{Landmarks, APEX, BASE_CENTRE, SEPTUM};
 use super::meshing::{extract_surface, SurfaceOptions};
+use super::refine::{refine_to_image, RefineOptions};
 use super::study::{Progress, StudyError, Tick};
 use crate::dataset::{write_manifest, Deformation, ManifestRow, MANIFEST_NAME};
 use crate::mesh::Topology;
@@ -39,6 +40,10 @@ pub struct MeshSettings {
     /// Low-pass filter of every landmark's trajectory over the cycle before registration
     /// ([`Landmarks::low_pass`]): the Fourier harmonics kept, `None` for the raw landmarks.
     pub harmonics: Option<usize>,
+    /// Image refinement of every carried frame ([`super::refine::refine_to_image`]): the
+    /// search reach along the normals (mm), `None` for the landmark splines alone (the
+    /// paper's step 3).
+    pub refine: Option<f64>,
 }
 
 /// The meshed cohort.
@@ -54,6 +59,9 @@ pub struct MeshedCohort {
     pub snapped: usize,
     /// Vertices of the template's whole surface.
     pub whole_vertices: usize,
+    /// Frames refined on their image (of all subjects' frames), and the root mean square
+    /// normal offset of those (mm).
+    pub refined: (usize, f64),
 }
 
 /// Whether `dir` is a cohort folder (labels.csv, or sub-folders with landmarks.csv).
@@ -152,7 +160,9 @@ pub fn mesh_cohort(
         seconds: Vec::new(),
         snapped: 0,
         whole_vertices: whole_topo.n_vertices(),
+        refined: (0, 0.0),
     };
+    let mut sum_sq = 0.0;
     for (i, sub) in subs.iter().enumerate() {
         let t = Instant::now();
         let (lm, lm_path) = read_subject_landmarks(&sub.path)?;
@@ -168,8 +178,8 @@ pub fn mesh_cohort(
                 lm0.ids
             )));
         }
-        let frame0 = if i == 0 {
-            template.shape.positions.clone()
+        let (frame0, threshold) = if i == 0 {
+            (template.shape.positions.clone(), template.threshold)
         } else {
             let (vol, file) = read_frame0(&sub.path)?;
             let own = extract_surface(&vol, &surface_opts(None, 0))
@@ -187,10 +197,15 @@ pub fn mesh_cohort(
                 error,
             })?;
             out.snapped += usize::from(snapped);
-            p
+            (p, own.threshold)
         };
-        let poses: Vec<Vec<[f64; 3]>> = reg
-            .carry(&frame0)
+        let mut carried = reg.carry(&frame0);
+        if let Some(reach) = s.refine {
+            let (n, sq) = refine_frames(&sub.path, &whole_topo, &mut carried, threshold, reach)?;
+            out.refined.0 += n;
+            sum_sq += sq;
+        }
+        let poses: Vec<Vec<[f64; 3]>> = carried
             .into_iter()
             .map(|p| match &keep {
                 Some(k) => k.iter().map(|&v| p[v as usize]).collect(),
@@ -223,7 +238,43 @@ pub fn mesh_cohort(
         });
     }
     progress(Tick::DONE);
+    if out.refined.0 > 0 {
+        out.refined.1 = (sum_sq / out.refined.0 as f64).sqrt();
+    }
     Ok(out)
+}
+
+/// Refines every carried frame of a subject (`poses`, one #V x 3 pose per frame on the
+/// closed surface `topo`) on that frame's image at the subject's cavity `threshold`
+/// ([`refine_to_image`], search `reach` mm). Returns the frames refined and the sum of their
+/// squared root mean square offsets (mm²).
+fn refine_frames(
+    subject: &Path,
+    topo: &Topology,
+    poses: &mut [Vec<[f64; 3]>],
+    threshold: f64,
+    reach: f64,
+) -> Result<(usize, f64), StudyError> {
+    let images = read_frames(subject)?;
+    if images.len() != poses.len() {
+        return Err(StudyError::Input(format!(
+            "{}: {} image frames but {} landmark frames",
+            subject.display(),
+            images.len(),
+            poses.len()
+        )));
+    }
+    let opts = RefineOptions::within(reach);
+    let (mut n, mut sum_sq) = (0, 0.0);
+    for (p, vol) in poses.iter_mut().zip(&images) {
+        let (q, r) = refine_to_image(topo, p, vol, threshold, &opts);
+        if r.rounds > 0 {
+            n += 1;
+            sum_sq += r.rms_offset * r.rms_offset;
+        }
+        *p = q;
+    }
+    Ok((n, sum_sq))
 }
 
 /// Writes `OUT/<subject>/poseNN.ply` and `OUT/manifest.csv` (a data set for `lv run` or
@@ -265,6 +316,9 @@ pub struct SubjectMeshOptions {
     pub lambda: f64,
     /// Keep the free-wall submesh only.
     pub free_wall: bool,
+    /// Image refinement of every carried frame: the search reach along the normals (mm),
+    /// `None` for the landmark splines alone ([`MeshSettings::refine`]).
+    pub refine: Option<f64>,
 }
 
 /// One subject's frame-0 surface carried to every frame.
@@ -284,6 +338,8 @@ pub struct MeshedSubject {
     pub landmarks: usize,
     /// Whether the registration was read from the subject's saved `tps_nNN.json`.
     pub saved_maps: bool,
+    /// Frames refined on their image (0 without `refine`).
+    pub refined: usize,
 }
 
 /// The subject's saved registration with `n` landmarks (`tps_nNN.json`), else one fitted here;
@@ -317,6 +373,11 @@ pub fn mesh_subject(s: &SubjectDir, o: &SubjectMeshOptions) -> Result<MeshedSubj
         )));
     }
     let mut poses = reg.carry(&surface.shape.positions);
+    let mut refined = 0;
+    if let Some(reach) = o.refine {
+        let topo = &surface.shape.topology;
+        refined = refine_frames(&s.path, topo, &mut poses, surface.threshold, reach)?.0;
+    }
     let mut faces = surface.shape.topology.faces().to_vec();
     if o.free_wall {
         let freewall = |error| LvError::FreeWall {
@@ -347,5 +408,6 @@ pub fn mesh_subject(s: &SubjectDir, o: &SubjectMeshOptions) -> Result<MeshedSubj
         surface_vertices: surface.shape.n_vertices(),
         landmarks: reg.landmarks,
         saved_maps,
+        refined,
     })
 }

@@ -6,7 +6,8 @@
 //! 2. [`phantom`] + [`anatomy`]: a CT-like phantom cohort (controls and HCM) with landmarks.
 //! 3. [`tps`]: landmark thin-plate splines from frame 0 to every frame (section 4.2 step 1).
 //! 4. [`surface`] + [`meshing`]: the cavity surface of frame 0 at a threshold (step 2),
-//!    carried to every frame through the splines (step 3, [`cohort::Registration::carry`]).
+//!    carried to every frame through the splines (step 3, [`cohort::Registration::carry`]),
+//!    then [`refine`]d on each frame's own image (the wall's position across the surface).
 //! 5. [`freewall`]: the free-wall faces as an open submesh (section 4.3).
 //! 6. [`region`]: the phantom's abnormal region (known by construction) as a per-vertex weight.
 //!
@@ -28,6 +29,7 @@ pub mod meshing;
 pub mod motion_report;
 pub mod nifti;
 pub mod phantom;
+pub mod refine;
 pub mod region;
 pub mod study;
 pub mod study_report;

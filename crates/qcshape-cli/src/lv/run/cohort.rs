@@ -58,6 +58,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         sector: a.region.sector(SectorOptions::default()),
         tps_lambda: a.tps_lambda,
         harmonics: landmark_harmonics(a),
+        refine: a.refine.0,
     };
     let bars = Bars::default();
     let progress = |t: Tick<'_>| bars.tick(t);
@@ -88,19 +89,33 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
                 c.defs.len() - 1,
                 t0.elapsed().as_secs_f64()
             );
+            let frames: usize = c.defs.iter().map(|d| d.poses.len()).sum();
+            let refined = match mesh.refine {
+                Some(reach) => format!(
+                    " Every frame's mesh was then refined on its own image (vertices moved along \
+                     their normals to the cavity threshold, searched within {reach} mm): {} of {frames} \
+                     frames, root mean square move {:.2} mm.",
+                    c.refined.0, c.refined.1
+                ),
+                None => String::new(),
+            };
+            if !refined.is_empty() {
+                eprintln!("{}", refined.trim());
+            }
             let note =
                 format!(
             "cohort `{}`: template = frame 0 of `{}` ({} vertices on the whole surface, {} in the {}), \
              carried to the other subjects by the landmark spline between frame-0 landmarks and projected \
              on each subject's own frame-0 surface ({} of {} projected; the rest kept the spline result, \
-             which would otherwise fold a triangle); meshes in `meshes/manifest.csv`.",
+             which would otherwise fold a triangle).{} Meshes in `meshes/manifest.csv`.",
             a.dir.display(),
             c.defs[0].name,
             c.whole_vertices,
             c.defs[0].topology.n_vertices(),
             if mesh.free_wall { "free wall" } else { "whole surface" },
             c.snapped,
-            c.defs.len() - 1
+            c.defs.len() - 1,
+            refined
         );
             (c.defs, c.axes, c.seconds, note, true)
         } else {
