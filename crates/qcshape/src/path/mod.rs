@@ -108,9 +108,13 @@ pub enum GeodesicError {
         /// The failure.
         source: LinearAlgebraError,
     },
-    /// The optimizer failed.
-    #[error("optimizer failure: {0}")]
-    Optimizer(String),
+    /// The paper's L-BFGS (the `argmin` crate, [`Solver::Lbfgs`]) failed; the source error is
+    /// kept.
+    #[error("optimizer failure: {source}")]
+    Optimizer {
+        /// argmin's error.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// The energy became NaN or infinite (degenerate poses along the path).
     #[error("the path energy is not finite ({0}); the poses may be degenerate")]
     NonFinite(String),

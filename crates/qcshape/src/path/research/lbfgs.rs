@@ -51,7 +51,7 @@ pub(crate) fn minimize(
             last: None,
         });
     }
-    let err = |e: argmin::core::Error| GeodesicError::Optimizer(e.to_string());
+    let err = |e: argmin::core::Error| GeodesicError::Optimizer { source: e.into() };
     let solver = LBFGS::new(MoreThuenteLineSearch::new(), opts.lbfgs_memory.max(1))
         .with_tolerance_grad(opts.gradient_tolerance * g0)
         .map_err(err)?
@@ -91,7 +91,9 @@ pub(crate) fn minimize(
     let x = state
         .get_best_param()
         .cloned()
-        .ok_or_else(|| GeodesicError::Optimizer("no parameter returned".into()))?;
+        .ok_or_else(|| GeodesicError::Optimizer {
+            source: "argmin returned no parameter".into(),
+        })?;
     Ok(SolveOutput {
         x,
         iterations,
