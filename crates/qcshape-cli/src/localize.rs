@@ -88,11 +88,11 @@ pub struct Args {
     /// How the signed motion maps measure each deformation's motion per vertex: `normal`
     /// (motion along the surface normal, times the vertex area; tangential sliding does not
     /// count) or `metric` (the metric's per-vertex length split of each step).
-    #[arg(long, default_value = "normal", value_parser = ["normal", "metric"])]
+    #[arg(long, default_value = "normal", value_parser = MotionMeasure::NAMES)]
     motion: String,
     /// Divide each deformation's motion map by its total (`share`): where a deformation moves,
     /// whatever its overall amount of motion.
-    #[arg(long, default_value = "absolute", value_parser = ["absolute", "share"])]
+    #[arg(long, default_value = "absolute", value_parser = MotionScale::NAMES)]
     motion_scale: String,
 }
 
@@ -159,16 +159,8 @@ pub fn run(args: &Args) -> Result<()> {
         let scaled = prepared.scaled();
         let maps = pair_maps(&solver, &scaled)?;
         let result = contrasts(&maps, &labels, &lopts)?;
-        let measure = if args.motion == "metric" {
-            MotionMeasure::Metric(metric.as_ref())
-        } else {
-            MotionMeasure::Normal
-        };
-        let scale = if args.motion_scale == "share" {
-            MotionScale::Share
-        } else {
-            MotionScale::Absolute
-        };
+        let measure = MotionMeasure::parse(&args.motion, metric.as_ref())?;
+        let scale: MotionScale = args.motion_scale.parse()?;
         let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
         let motion = motion_contrasts(&m, &labels, &lopts)?;
         Ok((prepared, maps, result, motion))

@@ -391,37 +391,19 @@ pub fn motion_maps<'py>(
     let ds = dataset
         .cast::<PyDataset>()
         .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
-    let by_metric = match measure {
-        "normal" => false,
-        "metric" => true,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "measure: expected 'normal' or 'metric', got {other:?}"
-            )))
-        }
+    let bad = |what: &'static str| {
+        move |e: qcshape::localize::LocalizeError| PyValueError::new_err(format!("{what}: {e}"))
     };
-    let scale = match scale {
-        "absolute" => MotionScale::Absolute,
-        "share" => MotionScale::Share,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "scale: expected 'absolute' or 'share', got {other:?}"
-            )))
-        }
-    };
+    let scale: MotionScale = scale.parse().map_err(bad("scale"))?;
     let kw = PipelineKw::from_kwargs(options)?;
     let defs = ds.get().defs.clone();
     let names: Vec<String> = defs.iter().map(|d| d.name.clone()).collect();
     let opts = kw.options(&names)?;
+    let metric = opts.metric.build();
+    let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;
     let (rows, nv, values) = detached(py, kw.threads, |_| {
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let metric = opts.metric.build();
-        let measure = if by_metric {
-            MotionMeasure::Metric(metric.as_ref())
-        } else {
-            MotionMeasure::Normal
-        };
         let m = qcshape::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let nv = prepared.topology.n_vertices();

@@ -39,6 +39,22 @@ pub enum MotionMeasure<'m> {
     Metric(&'m dyn Metric),
 }
 
+impl<'m> MotionMeasure<'m> {
+    /// The names [`Self::parse`] accepts (the CLI's `--motion`, Python's `measure=`).
+    pub const NAMES: [&'static str; 2] = ["normal", "metric"];
+
+    /// The measure named `name` (`normal` or `metric`, the latter with `metric`'s split).
+    pub fn parse(name: &str, metric: &'m dyn Metric) -> Result<MotionMeasure<'m>, LocalizeError> {
+        match name {
+            "normal" => Ok(MotionMeasure::Normal),
+            "metric" => Ok(MotionMeasure::Metric(metric)),
+            other => Err(LocalizeError::Input(format!(
+                "expected 'normal' or 'metric', got {other:?}"
+            ))),
+        }
+    }
+}
+
 impl std::fmt::Debug for MotionMeasure<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -58,6 +74,26 @@ pub enum MotionScale {
     /// (a group that moves less everywhere then only shows where it moves less than its own
     /// average).
     Share,
+}
+
+impl MotionScale {
+    /// The names [`str::parse`] accepts (the CLI's `--motion-scale`, Python's `scale=`).
+    pub const NAMES: [&'static str; 2] = ["absolute", "share"];
+}
+
+impl std::str::FromStr for MotionScale {
+    type Err = LocalizeError;
+
+    /// `absolute` or `share`.
+    fn from_str(name: &str) -> Result<Self, LocalizeError> {
+        match name {
+            "absolute" => Ok(MotionScale::Absolute),
+            "share" => Ok(MotionScale::Share),
+            other => Err(LocalizeError::Input(format!(
+                "expected 'absolute' or 'share', got {other:?}"
+            ))),
+        }
+    }
 }
 
 /// Per-vertex motion `m_v` (module docs) of every deformation (each #poses x #V x 3, at least
@@ -195,6 +231,34 @@ pub fn motion_contrasts(
 mod tests {
     use super::*;
     use crate::metric::{MetricKind, MetricSpec};
+
+    #[test]
+    fn measure_and_scale_names_parse_and_bad_names_are_input_errors() {
+        let metric = MetricSpec::new(MetricKind::L2).build();
+        assert!(matches!(
+            MotionMeasure::parse("normal", metric.as_ref()),
+            Ok(MotionMeasure::Normal)
+        ));
+        assert!(matches!(
+            MotionMeasure::parse("metric", metric.as_ref()),
+            Ok(MotionMeasure::Metric(_))
+        ));
+        for name in MotionMeasure::NAMES {
+            assert!(MotionMeasure::parse(name, metric.as_ref()).is_ok(), "{name}");
+        }
+        let e = MotionMeasure::parse("radial", metric.as_ref()).unwrap_err();
+        assert_eq!(e.to_string(), "expected 'normal' or 'metric', got \"radial\"");
+        assert_eq!("absolute".parse::<MotionScale>().unwrap(), MotionScale::Absolute);
+        assert_eq!("share".parse::<MotionScale>().unwrap(), MotionScale::Share);
+        assert_eq!(
+            MotionScale::NAMES.map(|n| n.parse::<MotionScale>().is_ok()),
+            [true; 2]
+        );
+        assert!(matches!(
+            "relative".parse::<MotionScale>(),
+            Err(LocalizeError::Input(_))
+        ));
+    }
 
     /// Two groups of 5 deformations of a sphere: in group `a` the cap `z > 0.5` bulges out and
     /// back (amplitude 0.2), in group `b` by only 0.05; the rest of the sphere breathes by
