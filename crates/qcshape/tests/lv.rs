@@ -880,6 +880,17 @@ fn image_refinement_brings_carried_meshes_onto_the_true_cavity_wall() {
     };
     let carried = mesh_cohort(&dir, 16, &settings(None), &none).unwrap();
     let refined = mesh_cohort(&dir, 16, &settings(Some(4.0)), &none).unwrap();
+    // Refinement needs an image per landmark frame: a missing one is an error naming the subject.
+    let short = tmp.path().join("short");
+    write_cohort(&short, 2, 1, &opts);
+    std::fs::remove_file(short.join(&names[1].0).join("frame07.nii.gz")).unwrap();
+    let e = mesh_cohort(&short, 16, &settings(Some(4.0)), &none)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&names[1].0) && e.contains("7 image frames but 8 landmark frames"),
+        "{e}"
+    );
     let (e_carried, e_refined) = (off_wall(&carried), off_wall(&refined));
     // Measured: 1.54 mm carried, 0.65 mm refined (32³ voxels of 3.3 x 3.3 x 4.1 mm).
     assert_eq!(refined.refined.0, 3 * 8, "every frame is refined");
