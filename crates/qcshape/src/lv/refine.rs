@@ -5,9 +5,10 @@
 //! landmarks becomes a smooth error of that frame's whole mesh. The frame's own image says
 //! where the cavity wall is: [`refine_to_image`] moves every vertex along its normal to the
 //! nearest crossing of the cavity threshold in that image (trilinear intensity, searched
-//! within `reach` mm on both sides), smooths those normal offsets over the mesh, and keeps the
-//! result only if no triangle flips. The correspondence along the wall still comes from the
-//! landmarks; only the wall's position across it comes from the image.
+//! within `reach` mm on both sides) and smooths those normal offsets over the mesh, in a few
+//! rounds, each from the previous round's normals; a step that would flip a triangle is
+//! halved or quartered, else the rounds stop. The correspondence along the wall still comes
+//! from the landmarks; only the wall's position across it comes from the image.
 
 use super::nifti::{apply_affine, Volume};
 use crate::mesh::{geometry, Topology};
@@ -39,9 +40,9 @@ impl RefineOptions {
 /// What [`refine_to_image`] did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Refinement {
-    /// Vertices whose normal met the threshold within the reach.
+    /// Vertices whose normal met the threshold within the reach (in the last round searched).
     pub found: usize,
-    /// Root mean square of the applied normal offsets (mm).
+    /// Root mean square of the vertices' total moves over the rounds (mm).
     pub rms_offset: f64,
     /// Rounds applied (0: the carried positions are returned unchanged, because no crossing
     /// was found or every step would flip a triangle or shrink it below 5 % of its area).
