@@ -81,8 +81,9 @@ pub struct RunArgs {
     pub(crate) harmonics: Harmonics,
     /// Image refinement of every carried frame: each vertex moves along its normal to the
     /// cavity threshold of that frame's own image, searched within MM mm on both sides; `none`
-    /// keeps the landmark splines alone (the paper's). The default was chosen on five harder
-    /// phantom cohorts (README, "Left ventricle").
+    /// keeps the landmark splines alone (the paper's). Image cohorts only: meshes given as input
+    /// are used as they are. The default was chosen on five harder phantom cohorts (README,
+    /// "Left ventricle").
     #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
     pub(crate) refine: super::Refine,
     /// Name of the subject whose cycle is mapped in Fig. 9 (default: the first).
