@@ -333,16 +333,24 @@ pub fn carry_template(
             best.1
         })
         .collect();
+    let ok = keeps_triangles(topo, &warped, &snapped);
+    Ok(if ok { (snapped, true) } else { (warped, false) })
+}
+
+/// Whether moving a mesh on `topo` from `before` to `after` (#V x 3 each) keeps every
+/// triangle's orientation (normals with a positive dot product) and at least 5 % of its area:
+/// the guard of every surface projection here ([`carry_template`],
+/// [`super::refine::refine_to_image`]).
+pub fn keeps_triangles(topo: &Topology, before: &[[f64; 3]], after: &[[f64; 3]]) -> bool {
     let (n0, n1) = (
-        geometry::face_normals(topo, &warped),
-        geometry::face_normals(topo, &snapped),
+        geometry::face_normals(topo, before),
+        geometry::face_normals(topo, after),
     );
     let (a0, a1) = (
-        geometry::face_areas(topo, &warped),
-        geometry::face_areas(topo, &snapped),
+        geometry::face_areas(topo, before),
+        geometry::face_areas(topo, after),
     );
-    let ok = (0..n0.len()).all(|f| geometry::dot(n0[f], n1[f]) > 0.0 && a1[f] >= 0.05 * a0[f]);
-    Ok(if ok { (snapped, true) } else { (warped, false) })
+    (0..n0.len()).all(|f| geometry::dot(n0[f], n1[f]) > 0.0 && a1[f] >= 0.05 * a0[f])
 }
 
 /// The point of triangle `abc` closest to `p` (Ericson, Real-Time Collision Detection 5.1.5).

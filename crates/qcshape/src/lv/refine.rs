@@ -10,6 +10,7 @@
 //! halved or quartered, else the rounds stop. The correspondence along the wall still comes
 //! from the landmarks; only the wall's position across it comes from the image.
 
+use super::analysis::keeps_triangles;
 use super::nifti::{apply_affine, Volume};
 use crate::mesh::{geometry, Topology};
 
@@ -161,14 +162,6 @@ pub fn refine_to_image(
         return unchanged(0);
     };
     let step = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min) / 8.0;
-    let valid = |moved: &[[f64; 3]]| {
-        let (n0, n1) = (
-            geometry::face_normals(topo, pos),
-            geometry::face_normals(topo, moved),
-        );
-        let (a0, a1) = (geometry::face_areas(topo, pos), geometry::face_areas(topo, moved));
-        (0..n0.len()).all(|f| geometry::dot(n0[f], n1[f]) > 0.0 && a1[f] >= 0.05 * a0[f])
-    };
     let mut cur = pos.to_vec();
     let mut found = 0;
     let mut rounds = 0;
@@ -192,7 +185,7 @@ pub fn refine_to_image(
                 .zip(&d)
                 .map(|((&p, &n), &o)| geometry::add(p, geometry::scale(n, frac * o)))
                 .collect();
-            valid(&moved).then_some(moved)
+            keeps_triangles(topo, pos, &moved).then_some(moved)
         });
         let Some(next) = next else { break };
         cur = next;
