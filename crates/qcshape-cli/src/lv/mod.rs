@@ -143,7 +143,6 @@ impl Region {
     }
 }
 
-/// A plain progress bar of `n` subjects.
 /// `--refine MM|none`: the image refinement's search reach along the normals (mm), or none
 /// (the landmark splines alone).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,6 +170,7 @@ impl std::fmt::Display for Refine {
     }
 }
 
+/// A plain progress bar of `n` subjects.
 pub(crate) fn progress(n: usize) -> ProgressBar {
     let pb = crate::progress::new_bar(n);
     crate::progress::start(&pb);

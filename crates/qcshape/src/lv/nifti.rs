@@ -88,6 +88,21 @@ impl Volume {
         }))
     }
 
+    /// The world-to-voxel map (the inverse of `affine`, row 3 `[0, 0, 0, 1]`), for mapping
+    /// many points ([`Self::to_voxel`] inverts the affine on every call); `None` if the
+    /// affine is singular.
+    pub fn inverse_affine(&self) -> Option<[[f64; 4]; 4]> {
+        let inv = invert3(&self.affine)?;
+        let t = [self.affine[0][3], self.affine[1][3], self.affine[2][3]];
+        let mut m = [[0.0; 4]; 4];
+        for r in 0..3 {
+            let shift = -(inv[r][0] * t[0] + inv[r][1] * t[1] + inv[r][2] * t[2]);
+            m[r] = [inv[r][0], inv[r][1], inv[r][2], shift];
+        }
+        m[3][3] = 1.0;
+        Some(m)
+    }
+
     /// Volume of one voxel in mm^3 (|det| of the affine's 3 x 3 part).
     pub fn voxel_volume(&self) -> f64 {
         det3(&self.affine).abs()

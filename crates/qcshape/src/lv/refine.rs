@@ -59,22 +59,9 @@ pub struct Sampler<'a> {
 impl<'a> Sampler<'a> {
     /// A sampler of `vol`; `None` if its affine is singular.
     pub fn new(vol: &'a Volume) -> Option<Sampler<'a>> {
-        // Columns of the inverse affine: the voxel steps of the world unit vectors.
-        let base = vol.to_voxel([0.0; 3])?;
-        let unit = |c: usize| {
-            let mut w = [0.0; 3];
-            w[c] = 1.0;
-            vol.to_voxel(w).map(|v| geometry::sub(v, base))
-        };
-        let (ux, uy, uz) = (unit(0)?, unit(1)?, unit(2)?);
-        let mut m = [[0.0; 4]; 4];
-        for r in 0..3 {
-            m[r] = [ux[r], uy[r], uz[r], base[r]];
-        }
-        m[3][3] = 1.0;
         Some(Sampler {
             vol,
-            world_to_voxel: m,
+            world_to_voxel: vol.inverse_affine()?,
         })
     }
 
@@ -273,6 +260,11 @@ mod tests {
             assert!((got - f(p)).abs() < 1e-3, "{p:?}: {got} vs {}", f(p));
         }
         assert!(s.at([60.0, 0.0, 0.0]).is_none());
+        // The sampler's inverse affine is `to_voxel`'s map.
+        let inv = v.inverse_affine().unwrap();
+        let p = [3.7, -21.0, 8.2];
+        let (a, b) = (apply_affine(&inv, p), v.to_voxel(p).unwrap());
+        assert!((0..3).all(|c| (a[c] - b[c]).abs() < 1e-12), "{a:?} vs {b:?}");
     }
 
     #[test]
