@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use qcshape::defaults;
-use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
+use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
 use qcshape::path::{GeodesicOptions, Solver};
 
 /// The metric (METHOD.md) and its variants.
@@ -12,31 +12,74 @@ pub struct MetricArgs {
     /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(long, default_value = defaults::METRIC.label())]
     pub metric: MetricKind,
+    #[command(flatten)]
+    pub variants: VariantArgs,
+}
+
+impl MetricArgs {
+    /// The metric specification, after checking the values.
+    pub fn spec(&self) -> Result<MetricSpec> {
+        self.variants.spec(self.metric)
+    }
+}
+
+/// A metric's variants and regularization (shared by every metric a command compares).
+#[derive(Debug, Clone, clap::Args)]
+pub struct VariantArgs {
     /// Conformal triangle term: quadratic (T_p^2 + T_q^2 + T_r^2) or paper ((|T_p|+|T_q|+|T_r|)^2).
     #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
     pub form: String,
     /// Quasi-conformal curvature-change weights: endpoints (frozen K(B) - K(A)) or segment.
     #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
     pub weights: String,
-    /// Weight of the L2 regularizer (eq. 11); 0 disables it.
+    /// Weight of the L2 regularizer (eq. 11); 0 disables it. On the calibrated scale a ratio of
+    /// two dimensionless terms; on the raw scale the previous releases' weight (their default
+    /// was 0.1).
     #[arg(long, default_value_t = defaults::LAMBDA)]
     pub lambda: f64,
+    /// How the metric's terms are scaled: calibrated (each term divided by its own
+    /// resolution-consistent scale at the reference pose, so distances and lambda do not depend
+    /// on the mesh resolution or size) or raw (the paper's sums in mean-edge units, the
+    /// previous releases').
+    #[arg(long, default_value = defaults::SCALE.label())]
+    pub scale: MetricScale,
+    /// Quasi-conformal endpoint weights: rms (the curvature-change density over its RMS, with
+    /// --qc-floor) or raw (the paper's angle-defect change in radians).
+    #[arg(long, default_value = if defaults::QC_NORMALIZE.is_some() { "rms" } else { "raw" }, value_parser = ["rms", "raw"])]
+    pub qc_weights: String,
+    /// Floor of the rms quasi-conformal weights, sqrt(floor^2 + w^2): no vertex moves for free.
+    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0.0, |n| n.floor))]
+    pub qc_floor: f64,
+    /// One-ring smoothing passes of the curvature-change density before the rms weights.
+    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0, |n| n.smooth))]
+    pub qc_smooth: usize,
     /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
     #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
     pub l2_areas: String,
 }
 
-impl MetricArgs {
-    /// The metric specification, after checking the values.
-    pub fn spec(&self) -> Result<MetricSpec> {
+impl VariantArgs {
+    /// The specification of the metric `kind` with these variants, after checking the values.
+    pub fn spec(&self, kind: MetricKind) -> Result<MetricSpec> {
         if !self.lambda.is_finite() || self.lambda < 0.0 {
             bail!(
                 "--lambda must be a finite non-negative number (got {})",
                 self.lambda
             );
         }
+        if !self.qc_floor.is_finite() || self.qc_floor < 0.0 {
+            bail!("--qc-floor must be a finite number >= 0 (got {})", self.qc_floor);
+        }
+        if self.qc_smooth > 1000 {
+            bail!("--qc-smooth must be at most 1000 (got {})", self.qc_smooth);
+        }
         Ok(MetricSpec {
-            kind: self.metric,
+            kind,
+            scale: self.scale,
+            qc_normalize: (self.qc_weights == "rms").then_some(QcNormalize {
+                floor: self.qc_floor,
+                smooth: self.qc_smooth,
+            }),
             form: if self.form == "paper" {
                 ConformalForm::Paper
             } else {

@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::contribution::path_contributions;
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
-use qcshape::path::{geodesic, Normalization};
+use qcshape::path::{geodesic, pair_metric, Normalization};
 
 use crate::args::{MetricArgs, SolverArgs};
 
@@ -14,9 +14,11 @@ use crate::args::{MetricArgs, SolverArgs};
 /// distance.
 ///
 /// Both meshes are scaled by one common factor before solving, 1 / ((mean edge length of A +
-/// mean edge length of B) / 2): symmetric in A and B, so that `geodesic A B` and `geodesic B A`
-/// give the same distance. Distance and energy are reported in those normalized units (the
-/// JSON's `scale` is the factor, `normalization` says how it was chosen). With --out, the N + 1 poses of
+/// mean edge length of B) / 2), and the metric is calibrated on both (--scale): symmetric in A
+/// and B, so that `geodesic A B` and `geodesic B A` give the same distance. Distance and
+/// energy are in the metric's units (calibrated: dimensionless; raw: the scaled coordinates';
+/// the JSON's `scale` is the factor). The energy is split into the geometric term and the L2
+/// regularizer; a warning says when the regularizer carries more than half of it. With --out, the N + 1 poses of
 /// the path are written as pose_000.ply ... in the input's units, together with maps of where
 /// the two shapes differ (docs/maps.md): segment_000.vtk ... (on pose i: `energy`, the
 /// per-vertex energy contribution of segment i, `length`, its length contribution, and
@@ -137,7 +139,7 @@ pub fn run(args: &Args) -> Result<()> {
         bail!("{names} cannot be compared: {e}");
     }
     let spec = args.metric.spec()?;
-    let metric = spec.build();
+    let (metric, factor) = pair_metric(&spec, &a, &b)?;
     let opts = args.solver.options()?;
     eprintln!(
         "solving {} on {} vertices, N = {} ...",
@@ -145,7 +147,16 @@ pub fn run(args: &Args) -> Result<()> {
         a.n_vertices(),
         opts.steps
     );
-    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::MeanEdgeOfBoth)?;
+    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::Factor(factor))?;
+    let share = g.regularizer_share();
+    if share > 0.5 {
+        eprintln!(
+            "warning: the L2 regularizer carries {:.0} % of the energy: this {} distance measures \
+             L2 displacement more than its own geometry (lower --lambda)",
+            100.0 * share,
+            spec.kind.label()
+        );
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (i, p) in g.poses.iter().enumerate() {
@@ -166,6 +177,11 @@ pub fn run(args: &Args) -> Result<()> {
             },
             "distance": g.length,
             "energy": g.energy,
+            "geometric_energy": g.geometric_energy,
+            "regularizer_energy": g.regularizer_energy,
+            "regularizer_share": share,
+            "metric_scale": spec.scale.label(),
+            "lambda": spec.lambda,
             "linear_energy": g.initial_energy,
             "segment_lengths": g.segment_lengths,
             "iterations": g.iterations,
@@ -190,6 +206,12 @@ pub fn run(args: &Args) -> Result<()> {
             "energy      {}  (linear path {})",
             num(g.energy),
             num(g.initial_energy)
+        );
+        println!(
+            "terms       geometric {}, L2 regularizer {} ({:.1} % of the energy)",
+            num(g.geometric_energy),
+            num(g.regularizer_energy),
+            100.0 * share
         );
         println!("iterations  {}", g.iterations);
         println!("converged   {} ({:?})", g.converged, g.stop);

@@ -91,9 +91,9 @@ pub fn run(args: &Args) -> Result<()> {
     let Some(first) = data.deformations.first() else {
         bail!("the input has no deformations");
     };
-    let metric = spec.build();
-    // One scale for the whole data set.
+    // One scale and one calibrated metric for the whole data set.
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &first.topology, &first.poses[0]);
+    let metric = spec.build_scaled(&first.topology, &first.poses[0], factor)?;
     let options = InterpolationOptions {
         insert: args.insert,
         levels: args.levels,

@@ -141,7 +141,6 @@ pub fn run(args: &Args) -> Result<()> {
         seed: args.seed,
         alpha: args.alpha,
     };
-    let metric = opts.metric.build();
     eprintln!(
         "localizing {} deformation(s) with {} labels, {} ...",
         defs.len(),
@@ -151,10 +150,11 @@ pub fn run(args: &Args) -> Result<()> {
             u.dedup();
             u.len()
         },
-        metric.name()
+        opts.metric.label()
     );
-    let (prepared, maps, result, motion) = in_pool(args.threads, || {
+    let (prepared, maps, result, motion, metric_name) = in_pool(args.threads, || {
         let prepared = prepare(&defs, &opts, &|_, _| {})?;
+        let metric = prepared.metric(&opts.metric);
         let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
         let scaled = prepared.scaled();
         let maps = pair_maps(&solver, &scaled)?;
@@ -163,7 +163,7 @@ pub fn run(args: &Args) -> Result<()> {
         let scale: MotionScale = args.motion_scale.parse()?;
         let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
         let motion = motion_contrasts(&m, &labels, &lopts)?;
-        Ok((prepared, maps, result, motion))
+        Ok((prepared, maps, result, motion, metric.name()))
     })?;
     if !maps.converged {
         eprintln!("warning: not every geodesic converged");
@@ -198,14 +198,14 @@ pub fn run(args: &Args) -> Result<()> {
                 Field::scalar("between", &c.between),
                 Field::scalar("within", &c.within),
             ],
-            &format!("{} vs {}: {}", c.a, c.b, metric.name()),
+            &format!("{} vs {}: {}", c.a, c.b, metric_name),
             "score = mean between - mean within similarity split",
         )?;
         out.summarize(&mut summary, "contrast", &c.a, &c.b, &c.score, &c.significant)?;
     }
     let motion_name = match (args.motion.as_str(), args.motion_scale.as_str()) {
-        ("metric", "share") => format!("{} length, shares", metric.name()),
-        ("metric", _) => format!("{} length", metric.name()),
+        ("metric", "share") => format!("{} length, shares", metric_name),
+        ("metric", _) => format!("{} length", metric_name),
         (_, "share") => "normal excursion, shares".to_string(),
         _ => "normal excursion".to_string(),
     };

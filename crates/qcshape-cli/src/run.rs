@@ -140,7 +140,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.seed,
         labels.as_deref(),
     )?;
-    let metric = opts.metric.build().name();
+    let metric = opts.metric.label();
     analysis.write(&args.out, &matrix, &metric)?;
     let cmd: Vec<String> = std::env::args().collect();
     let report = AnalysisReport {

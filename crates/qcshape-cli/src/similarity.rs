@@ -180,7 +180,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         "{n} deformations, {} poses each, {} vertices; {}",
         data.deformations[0].poses.len(),
         data.deformations[0].topology.n_vertices(),
-        opts.metric.build().name()
+        opts.metric.label()
     );
     let prepared = prepare_with_progress(&data, &opts)?;
     if let Some(shard) = args.shard {
@@ -254,12 +254,7 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
     let e = qcshape::explain::explain(prepared, opts, a.trim(), b.trim())?;
     let stem = qcshape::explain::stem_beside(details, &e.a, &e.b);
     let base = &prepared.transferred[0][0];
-    let files = e.write(
-        &stem,
-        base,
-        prepared.topology.faces(),
-        &opts.metric.build().name(),
-    )?;
+    let files = e.write(&stem, base, prepared.topology.faces(), &opts.metric.label())?;
     eprintln!(
         "explained {} vs {} (similarity {:.6}): {}",
         e.a,

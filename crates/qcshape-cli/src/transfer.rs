@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{self, Dataset, Deformation, ManifestRow};
 use qcshape::io;
-use qcshape::path::Normalization;
+use qcshape::path::{normalization_factor, Normalization};
 use qcshape::transport::{TransferOptions, TransferSetup, Transport};
 
 use crate::args::{MetricArgs, SolverArgs};
@@ -126,7 +126,15 @@ pub fn run(args: &Args) -> Result<()> {
         normalization: Normalization::MeanEdgeOfFirst,
         ..Default::default()
     };
-    let setup = TransferSetup::new(&spec, base.topology.clone(), options)?;
+    // The metric calibrated on the base, in the base's mean-edge units.
+    let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &base.topology, &base.positions);
+    let scaled: Vec<[f64; 3]> = base.positions.iter().map(|p| p.map(|c| c * factor)).collect();
+    let calibration = spec.calibrate(&base.topology, &[&scaled])?;
+    let options = TransferOptions {
+        normalization: Normalization::Factor(factor),
+        ..options
+    };
+    let setup = TransferSetup::new(&spec, &calibration, base.topology.clone(), options)?;
     let transfer = setup.solver()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     eprintln!(

@@ -399,11 +399,14 @@ pub fn motion_maps<'py>(
     let defs = ds.get().defs.clone();
     let names: Vec<String> = defs.iter().map(|d| d.name.clone()).collect();
     let opts = kw.options(&names)?;
-    let metric = opts.metric.build();
-    let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;
+    // The measure's name is checked before the pipeline runs (with an uncalibrated metric).
+    let raw = opts.metric.build(&qcshape::metric::Calibration::RAW);
+    MotionMeasure::parse(measure, raw.as_ref()).map_err(bad("measure"))?;
     let (rows, nv, values) = detached(py, kw.threads, |_| {
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let metric = prepared.metric(&opts.metric);
+        let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;
         let m = qcshape::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let nv = prepared.topology.n_vertices();

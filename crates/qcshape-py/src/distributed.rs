@@ -78,7 +78,12 @@ pub fn pair_distances<'py>(
     let names: Vec<String> = (0..defs.len()).map(|i| i.to_string()).collect();
     let opts = kw.options(&names)?;
     let out = detached(py, kw.threads, |cancel| {
-        let metric = opts.metric.build();
+        // Every transferred deformation starts at the (scaled) base pose: the pipeline's
+        // calibration, bit for bit.
+        let metric = opts
+            .metric
+            .build_for(&topo, &[&defs[0][0]])
+            .map_err(|e| errors::space(qcshape::path::GeodesicError::from(e).into()))?;
         let solver = GeodesicSolver::new(metric.as_ref(), topo, opts.geodesic.clone())
             .map_err(|e| errors::space(e.into()))?;
         compute_listed_pairs(&solver, opts.approx, &names, &defs, &todo, Some(cancel), |_| {

@@ -221,7 +221,7 @@ impl PyShapeSpace {
     /// The metric's name with its variants, e.g. "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen)".
     #[getter]
     fn metric(&self) -> String {
-        self.space.metric().name()
+        self.space.metric_label()
     }
 
     /// Segments N of every geodesic.
@@ -235,7 +235,7 @@ impl PyShapeSpace {
             "ShapeSpace(n_vertices={}, n_faces={}, metric={:?}, steps={})",
             self.nv(),
             self.space.topology().n_faces(),
-            self.space.metric().name(),
+            self.space.metric_label(),
             self.steps()
         )
     }

@@ -50,22 +50,22 @@ fn metric(name: &str, lambda: f64) -> Box<dyn Metric> {
         "conformal-quadratic" => reg(Box::new(Conformal {
             form: ConformalForm::Quadratic,
         })),
-        "qc-quadratic-endpoints" => reg(Box::new(QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Endpoints,
-        })),
-        "qc-paper-endpoints" => reg(Box::new(QuasiConformal {
-            form: ConformalForm::Paper,
-            weights: QcWeights::Endpoints,
-        })),
-        "qc-quadratic-segment" => reg(Box::new(QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Segment,
-        })),
-        "qc-paper-segment" => reg(Box::new(QuasiConformal {
-            form: ConformalForm::Paper,
-            weights: QcWeights::Segment,
-        })),
+        "qc-quadratic-endpoints" => reg(Box::new(QuasiConformal::new(
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ))),
+        "qc-paper-endpoints" => reg(Box::new(QuasiConformal::new(
+            ConformalForm::Paper,
+            QcWeights::Endpoints,
+        ))),
+        "qc-quadratic-segment" => reg(Box::new(QuasiConformal::new(
+            ConformalForm::Quadratic,
+            QcWeights::Segment,
+        ))),
+        "qc-paper-segment" => reg(Box::new(QuasiConformal::new(
+            ConformalForm::Paper,
+            QcWeights::Segment,
+        ))),
         _ => panic!("unknown metric {name}"),
     }
 }

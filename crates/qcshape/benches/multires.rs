@@ -52,9 +52,8 @@ fn main() {
         .unwrap_or("isometric")
         .parse()
         .expect("--metric takes l2, rigid, isometric, conformal or quasi-conformal");
-    let metric = MetricSpec::new(kind).build();
-    let metric = metric.as_ref();
-    println!("metric {}, {insert} inserted poses", metric.name());
+    let spec = MetricSpec::new(kind);
+    println!("metric {}, {insert} inserted poses", spec.label());
     println!("| vertices | variant | levels (vertices) | setup s | solve s | fine its | energy | energy / direct | time / single |");
     println!("|---:|---|---|---:|---:|---:|---:|---:|---:|");
     for level in sizes {
@@ -62,6 +61,11 @@ fn main() {
         let b = twist_stretch(&a);
         let nv = a.n_vertices();
         let geo = GeodesicOptions::default();
+        let f = 1.0 / qcshape::mesh::geometry::mean_edge_length(&a.topology, &a.positions);
+        let metric = spec
+            .build_scaled(&a.topology, &a.positions, f)
+            .expect("calibration");
+        let metric = metric.as_ref();
 
         // Reference: direct N = n + 1 solve from the linear path, in the same scale.
         let t = Instant::now();
@@ -75,7 +79,6 @@ fn main() {
         )
         .expect("solver");
         let setup = t.elapsed().as_secs_f64();
-        let f = 1.0 / qcshape::mesh::geometry::mean_edge_length(&a.topology, &a.positions);
         let sc = |p: &[[f64; 3]]| p.iter().map(|v| v.map(|c| c * f)).collect::<Vec<_>>();
         let t = Instant::now();
         let direct = solver.solve(&sc(&a.positions), &sc(&b)).expect("direct solve");

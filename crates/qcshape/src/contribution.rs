@@ -295,7 +295,7 @@ mod tests {
         for form in [ConformalForm::Quadratic, ConformalForm::Paper] {
             v.push(Box::new(Conformal { form }));
             for weights in [QcWeights::Endpoints, QcWeights::Segment] {
-                v.push(Box::new(QuasiConformal { form, weights }));
+                v.push(Box::new(QuasiConformal::new(form, weights)));
             }
         }
         v.push(Box::new(Regularized::new(
@@ -376,7 +376,7 @@ mod tests {
         let cap: Vec<bool> = unit.iter().map(|p| p[2] > 0.5).collect();
         let n_cap = cap.iter().filter(|&&c| c).count();
         for kind in MetricKind::all() {
-            let metric = MetricSpec::new(kind).build();
+            let metric = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
             let opts = GeodesicOptions {
                 steps: 4,
                 ..Default::default()

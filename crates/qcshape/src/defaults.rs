@@ -8,17 +8,32 @@
 //! command that keeps a different value does so through one of the named exceptions at the end
 //! of this module, each with the reason, and says so in its `--help`.
 
-use crate::metric::MetricKind;
+use crate::metric::{MetricKind, MetricScale, QcNormalize};
 use crate::path::Solver;
 use crate::transport::{Alignment, Transport};
 
 /// The metric: quasi-conformal (the paper's method).
 pub const METRIC: MetricKind = MetricKind::QuasiConformal;
 
-/// Weight `lambda` of the L2 regularizer of every metric (eq. 11). 0.1 is the smallest value
-/// that is good both for classification and for middle-pose interpolation (README, "How the
-/// defaults were chosen").
-pub const LAMBDA: f64 = 0.1;
+/// Weight `lambda` of the L2 regularizer of every metric (eq. 11), on the
+/// [`MetricScale::Calibrated`] scale (a ratio of two dimensionless terms; docs/geometry.md).
+pub const LAMBDA: f64 = 0.01;
+
+/// How the metric's terms are scaled: calibrated (dimensionless, resolution-consistent terms;
+/// docs/geometry.md).
+pub const SCALE: MetricScale = MetricScale::Calibrated;
+
+/// Normalization of the quasi-conformal `endpoints` weights: the curvature-change density over
+/// its RMS, floored (docs/geometry.md).
+pub const QC_NORMALIZE: Option<QcNormalize> = Some(QcNormalize {
+    floor: 0.5,
+    smooth: 0,
+});
+
+/// `lambda` of the previous releases' [`MetricScale::Raw`] scale (coordinates in mean-edge
+/// units): 0.1. With it the regularizer carried almost all of the energy (docs/geometry.md);
+/// kept so that [`crate::metric::MetricSpec::previous`] reproduces the previous tables.
+pub const RAW_LAMBDA: f64 = 0.1;
 
 /// Segments N of every geodesic (transfer, similarity, interpolation steps).
 pub const STEPS: usize = 8;

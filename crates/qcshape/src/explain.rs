@@ -78,7 +78,7 @@ pub fn explain(
             "{a:?} is named twice: give two different deformations"
         )));
     }
-    let metric = opts.metric.build();
+    let metric = prepared.metric(&opts.metric);
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     let f = prepared.factor;
     let scale = |d: &[Vec<[f64; 3]>]| -> Vec<Vec<[f64; 3]>> {

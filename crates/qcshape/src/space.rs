@@ -6,12 +6,14 @@
 //! (Python) can keep it, clone it cheaply and share it between threads.
 //!
 //! Shapes (poses) are #V x 3 position arrays on the space's topology, tangent vectors #V x 3
-//! displacement arrays, both in the caller's length unit. Before any solve, coordinates are
-//! multiplied by the factor of the space's [`Normalization`] (default
-//! [`Normalization::MeanEdgeOfFirst`], as `qcshape geodesic`: 1 / the mean edge length of the
-//! first shape of each call); lengths, squared norms and energies are reported in those
-//! normalized units, poses and vectors in the caller's units. [`ShapeSpace::normalized_to`]
-//! fixes one factor for every call (then `dist` is a true metric: symmetric for any pair).
+//! displacement arrays, both in the caller's length unit. Each call works in [`Units`]: its
+//! coordinates multiplied by the factor of the space's [`Normalization`] (default: 1 / the mean
+//! edge length of the call's reference shapes) and the metric calibrated on those shapes
+//! ([`MetricSpec::calibrate`]). The reference shapes of `geodesic`, `dist` and `log` are both
+//! ends, as for `qcshape geodesic`, so `dist(a, b) = dist(b, a)`; of the other calls, the first
+//! shape (or the base). Lengths, squared norms and energies are in the metric's units
+//! ([`crate::metric::MetricScale`]), poses and vectors in the caller's units.
+//! [`ShapeSpace::normalized_to`] fixes one set of units for every call.
 
 use std::collections::HashSet;
 use std::sync::atomic::AtomicBool;
@@ -21,7 +23,7 @@ use thiserror::Error;
 
 use crate::dataset::Deformation;
 use crate::mesh::{MeshError, Shape, Topology};
-use crate::metric::{At, Metric, MetricSpec, Pattern, Segment};
+use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::path::{
     self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
     InterpolationError, InterpolationOptions, Interpolator, Normalization, SolveContext,
@@ -89,17 +91,26 @@ pub struct SimilarityResult {
     pub matrix: DistanceMatrix,
 }
 
+/// The units of one shape-space call: the factor coordinates are multiplied by before solving
+/// and the metric's calibrated factors in those coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Units {
+    /// Coordinates are multiplied by this factor (> 0).
+    pub factor: f64,
+    /// The metric's factors ([`MetricSpec::calibrate`] on the call's reference shapes).
+    pub calibration: Calibration,
+}
+
 /// A shape space on one topology with one metric (paper section 2; see the [module docs](self)).
 /// Cheap to clone (shared `Arc`s) and `Send + Sync`.
 #[derive(Debug, Clone)]
 pub struct ShapeSpace {
     topology: Arc<Topology>,
     spec: MetricSpec,
-    metric: Arc<dyn Metric>,
-    pattern: Arc<Pattern>,
-    transport: Arc<TransportMetric>,
     geodesic: GeodesicOptions,
     normalization: Normalization,
+    /// One set of units for every call ([`ShapeSpace::normalized_to`]).
+    fixed: Option<Units>,
 }
 
 impl ShapeSpace {
@@ -117,39 +128,85 @@ impl ShapeSpace {
                 spec.lambda
             )));
         }
-        let metric: Arc<dyn Metric> = Arc::from(spec.build());
         // Validates the options once, as every call will.
+        let metric = spec.build(&Calibration::RAW);
         GeodesicSolver::new(metric.as_ref(), topology.clone(), geodesic.clone())?;
         Ok(ShapeSpace {
-            pattern: Arc::new(metric.pattern(&topology)),
-            transport: Arc::new(TransportMetric::new(&spec, topology.clone())),
             topology,
             spec,
-            metric,
             geodesic,
-            normalization: Normalization::MeanEdgeOfFirst,
+            normalization: Normalization::MeanEdgeOfBoth,
+            fixed: None,
         })
     }
 
-    /// The same space with another normalization.
+    /// The same space with another normalization of the coordinates (the metric is still
+    /// calibrated on each call's reference shapes).
     pub fn with_normalization(mut self, normalization: Normalization) -> Self {
         self.normalization = normalization;
+        self.fixed = None;
         self
     }
 
-    /// The same space with one fixed factor for every call: 1 / the mean edge length of
-    /// `reference` (#V x 3). Errors if `reference` does not fit the topology.
-    pub fn normalized_to(self, reference: &[[f64; 3]]) -> Result<Self, SpaceError> {
+    /// The same space with one set of units for every call: the factor 1 / the mean edge
+    /// length of `reference` (#V x 3) and the metric calibrated on it. Then `dist` is a true
+    /// metric (symmetric for any pair) and equals [`ShapeSpace::pairwise_distances`]. Errors
+    /// if `reference` does not fit the topology.
+    pub fn normalized_to(mut self, reference: &[[f64; 3]]) -> Result<Self, SpaceError> {
         self.shape("the reference", reference)?;
-        let f = self.factor(reference)?;
-        Ok(self.with_normalization(Normalization::Factor(f)))
+        self.fixed = None;
+        let units = self.units(&[reference])?;
+        self.fixed = Some(units);
+        Ok(self)
     }
 
     /// The same space with other geodesic options (checked as in [`ShapeSpace::new`]).
     pub fn with_geodesic(mut self, geodesic: GeodesicOptions) -> Result<Self, SpaceError> {
-        GeodesicSolver::new(self.metric.as_ref(), self.topology.clone(), geodesic.clone())?;
+        let metric = self.spec.build(&Calibration::RAW);
+        GeodesicSolver::new(metric.as_ref(), self.topology.clone(), geodesic.clone())?;
         self.geodesic = geodesic;
         Ok(self)
+    }
+
+    /// The units of a call whose reference shapes are `refs` (each #V x 3, input units): the
+    /// fixed units of [`ShapeSpace::normalized_to`], else the factor of the space's
+    /// [`Normalization`] (mean-edge normalizations: 1 / the mean of the references' mean edge
+    /// lengths) and the metric calibrated on the scaled references.
+    pub fn units(&self, refs: &[&[[f64; 3]]]) -> Result<Units, SpaceError> {
+        if let Some(u) = self.fixed {
+            return Ok(u);
+        }
+        let Some(first) = refs.first() else {
+            return Err(SpaceError::Input("no reference shape".into()));
+        };
+        let factor = match self.normalization {
+            Normalization::MeanEdgeOfFirst | Normalization::MeanEdgeOfBoth => {
+                let mean = refs
+                    .iter()
+                    .map(|r| crate::mesh::geometry::mean_edge_length(&self.topology, r))
+                    .sum::<f64>()
+                    / refs.len() as f64;
+                1.0 / mean.max(f64::MIN_POSITIVE)
+            }
+            n => normalization_factor(n, &self.topology, first),
+        };
+        if !(factor.is_finite() && factor > 0.0) {
+            return Err(SpaceError::Input(format!(
+                "normalization factor {factor} is not positive"
+            )));
+        }
+        let scaled_refs: Vec<Pose> = refs.iter().map(|r| scaled(r, factor)).collect();
+        let views: Vec<&[[f64; 3]]> = scaled_refs.iter().map(Vec::as_slice).collect();
+        let calibration = self
+            .spec
+            .calibrate(&self.topology, &views)
+            .map_err(GeodesicError::from)?;
+        Ok(Units { factor, calibration })
+    }
+
+    /// The space's metric in `units`.
+    pub fn metric(&self, units: &Units) -> Box<dyn Metric> {
+        self.spec.build(&units.calibration)
     }
 
     /// The topology (#V vertices, #F faces).
@@ -162,9 +219,9 @@ impl ShapeSpace {
         &self.spec
     }
 
-    /// The metric.
-    pub fn metric(&self) -> &dyn Metric {
-        self.metric.as_ref()
+    /// The metric's description ([`MetricSpec::label`]).
+    pub fn metric_label(&self) -> String {
+        self.spec.label()
     }
 
     /// The geodesic options (`steps` = N segments of every geodesic).
@@ -177,30 +234,15 @@ impl ShapeSpace {
         self.normalization
     }
 
-    /// The factor coordinates are multiplied by in a call whose first shape is `first`.
-    pub fn factor(&self, first: &[[f64; 3]]) -> Result<f64, SpaceError> {
-        let f = normalization_factor(self.normalization, &self.topology, first);
-        if f.is_finite() && f > 0.0 {
-            Ok(f)
-        } else {
-            Err(SpaceError::Input(format!(
-                "normalization factor {f} is not positive"
-            )))
-        }
-    }
-
-    /// A reusable geodesic solver of the space with `steps` segments (its symbolic factorization
-    /// is built once; use it for many pairs of already scaled poses).
-    pub fn solver(&self, steps: usize) -> Result<GeodesicSolver<'_>, SpaceError> {
+    /// A reusable geodesic solver of `metric` (from [`ShapeSpace::metric`]) with `steps`
+    /// segments (its symbolic factorization is built once; use it for many pairs of poses
+    /// already scaled to the metric's units).
+    pub fn solver<'m>(&self, metric: &'m dyn Metric, steps: usize) -> Result<GeodesicSolver<'m>, SpaceError> {
         let opts = GeodesicOptions {
             steps,
             ..self.geodesic.clone()
         };
-        Ok(GeodesicSolver::new(
-            self.metric.as_ref(),
-            self.topology.clone(),
-            opts,
-        )?)
+        Ok(GeodesicSolver::new(metric, self.topology.clone(), opts)?)
     }
 
     /// The pipeline options of this space: its metric and geodesic options, every other field
@@ -220,14 +262,16 @@ impl ShapeSpace {
     pub fn squared_norm(&self, base: &[[f64; 3]], v: &[[f64; 3]]) -> Result<f64, SpaceError> {
         self.shape("the base", base)?;
         self.vector("the tangent vector", v)?;
-        let f = self.factor(base)?;
+        let u = self.units(&[base])?;
+        let f = u.factor;
+        let metric = self.metric(&u);
         let a = scaled(base, f);
         let b: Vec<[f64; 3]> = a
             .iter()
             .zip(v)
             .map(|(p, d)| [0, 1, 2].map(|c| p[c] + f * d[c]))
             .collect();
-        let frozen = self.metric.frozen_weights(&self.topology, &a, &b);
+        let frozen = metric.frozen_weights(&self.topology, &a, &b);
         let seg = Segment {
             a: &a,
             b: &b,
@@ -235,7 +279,7 @@ impl ShapeSpace {
             aux: &[],
             frozen: frozen.as_deref(),
         };
-        Ok(self.metric.squared_norm(&self.topology, &self.pattern, &seg))
+        Ok(metric.squared_norm(&self.topology, &metric.pattern(&self.topology), &seg))
     }
 
     /// The inner product `<<u, v>>_M` at `base` = M (each #V x 3): the polarization of the
@@ -254,30 +298,34 @@ impl ShapeSpace {
         self.shape("the base", base)?;
         self.vector("u", u)?;
         self.vector("v", v)?;
-        let f = self.factor(base)?;
+        let units = self.units(&[base])?;
+        let f = units.factor;
         let (s, e) = ends.unwrap_or((base, base));
         self.shape("the curve's start", s)?;
         self.shape("the curve's end", e)?;
-        let frozen = self.transport.frozen_weights(&scaled(s, f), &scaled(e, f));
-        let g = self.transport.at(&scaled(base, f), frozen.as_deref())?;
+        let transport = TransportMetric::new(&self.spec, &units.calibration, self.topology.clone());
+        let frozen = transport.frozen_weights(&scaled(s, f), &scaled(e, f));
+        let g = transport.at(&scaled(base, f), frozen.as_deref())?;
         Ok(g.inner(&scaled(u, f), &scaled(v, f)))
     }
 
     /// The discrete geodesic from `a` to `b` (each #V x 3) with `N` = `steps` segments (eq.
     /// 12): poses `(N + 1) x #V x 3` in input units (ends bit-exact), length = `dis(a, b)`,
-    /// energy, iterations, convergence ([`path::geodesic`]).
+    /// energy (with its geometric and regularizer parts), iterations, convergence, in the units
+    /// of both ends ([`ShapeSpace::units`]; the same geodesic as [`path::geodesic_between`]).
     pub fn geodesic(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Geodesic, SpaceError> {
         let (sa, sb) = (
             self.shape("the first shape", a)?,
             self.shape("the second shape", b)?,
         );
-        let norm = Normalization::Factor(self.factor(a)?);
+        let u = self.units(&[a, b])?;
+        let metric = self.metric(&u);
         Ok(path::geodesic(
-            self.metric.as_ref(),
+            metric.as_ref(),
             &sa,
             &sb,
             &self.geodesic,
-            norm,
+            Normalization::Factor(u.factor),
         )?)
     }
 
@@ -292,8 +340,10 @@ impl ShapeSpace {
         if a == b {
             return Ok(0.0);
         }
-        let f = self.factor(a)?;
-        let solver = self.solver(self.geodesic.steps)?;
+        let u = self.units(&[a, b])?;
+        let f = u.factor;
+        let metric = self.metric(&u);
+        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
         let g = solver.distance_near_with(
             &mut SolveContext::default(),
             &scaled(a, f),
@@ -310,8 +360,10 @@ impl ShapeSpace {
     pub fn log(&self, base: &[[f64; 3]], p: &[[f64; 3]]) -> Result<(Pose, f64), SpaceError> {
         self.shape("the base", base)?;
         self.shape("the shape", p)?;
-        let f = self.factor(base)?;
-        let solver = self.solver(self.geodesic.steps)?;
+        let u = self.units(&[base, p])?;
+        let f = u.factor;
+        let metric = self.metric(&u);
+        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
         let (log, d) = log_map(&solver, &scaled(base, f), &scaled(p, f))?;
         Ok((scaled(&log, 1.0 / f), d))
     }
@@ -332,13 +384,22 @@ impl ShapeSpace {
             // No scale needed: the vector comes back bit for bit.
             return Ok(euclidean_transport(curve, v).vector);
         }
-        let f = self.factor(first)?;
+        let u = self.units(&[first])?;
+        let f = u.factor;
         let c: Vec<Pose> = curve.iter().map(|s| scaled(s, f)).collect();
         let w = scaled(v, f);
         let out = if method == Transport::Parallel {
-            parallel_transport(&self.transport, &c, &w, &ParallelOptions::default())?.vector
+            let transport = TransportMetric::new(&self.spec, &u.calibration, self.topology.clone());
+            parallel_transport(&transport, &c, &w, &ParallelOptions::default())?.vector
         } else {
-            schild_ladder(&self.solver(2)?, &c, &w, &SchildOptions::default())?.vector
+            let metric = self.metric(&u);
+            schild_ladder(
+                &self.solver(metric.as_ref(), 2)?,
+                &c,
+                &w,
+                &SchildOptions::default(),
+            )?
+            .vector
         };
         Ok(scaled(&out, 1.0 / f))
     }
@@ -362,10 +423,13 @@ impl ShapeSpace {
         }
         let init = init.unwrap_or(first);
         self.shape("the start", init)?;
-        let f = self.factor(first)?;
+        let u = self.units(&[first])?;
+        let f = u.factor;
+        let metric = self.metric(&u);
         let s: Vec<Pose> = poses.iter().map(|p| scaled(p, f)).collect();
         let refs: Vec<&[[f64; 3]]> = s.iter().map(Vec::as_slice).collect();
-        let mut m = karcher_mean(&self.solver(self.geodesic.steps)?, &refs, &scaled(init, f), opts)?;
+        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
+        let mut m = karcher_mean(&solver, &refs, &scaled(init, f), opts)?;
         m.mean = scaled(&m.mean, 1.0 / f);
         Ok(m)
     }
@@ -387,14 +451,16 @@ impl ShapeSpace {
         for (k, p) in poses.iter().enumerate() {
             self.shape(&format!("pose {k}"), p)?;
         }
+        let u = self.units(&[first])?;
+        let metric = self.metric(&u);
         let opts = InterpolationOptions {
             insert,
             levels,
             geodesic: self.geodesic.clone(),
-            normalization: Normalization::Factor(self.factor(first)?),
+            normalization: Normalization::Factor(u.factor),
             ..Default::default()
         };
-        let interp = Interpolator::new(self.metric.as_ref(), &self.topology, first, opts)?;
+        let interp = Interpolator::new(metric.as_ref(), &self.topology, first, opts)?;
         Ok(interp.interpolate_sequence(poses, progress)?)
     }
 
@@ -408,12 +474,13 @@ impl ShapeSpace {
         method: Transport,
     ) -> Result<Transferred, SpaceError> {
         self.shape("the base", base)?;
+        let u = self.units(&[base])?;
         let opts = TransferOptions {
             geodesic: self.geodesic.clone(),
-            normalization: Normalization::Factor(self.factor(base)?),
+            normalization: Normalization::Factor(u.factor),
             ..Default::default()
         };
-        let setup = TransferSetup::new(&self.spec, self.topology.clone(), opts)?;
+        let setup = TransferSetup::new(&self.spec, &u.calibration, self.topology.clone(), opts)?;
         Ok(setup.solver()?.run(poses, base, method)?)
     }
 
@@ -447,13 +514,15 @@ impl ShapeSpace {
                 self.shape(&format!("deformation {i}, pose {k}"), p)?;
             }
         }
-        let f = self.factor(first)?;
+        let u = self.units(&[first])?;
+        let f = u.factor;
+        let metric = self.metric(&u);
         let s: Vec<Vec<Pose>> = deformations
             .iter()
             .map(|d| d.iter().map(|p| scaled(p, f)).collect())
             .collect();
         let names: Vec<String> = (0..s.len()).map(|i| i.to_string()).collect();
-        let solver = self.solver(self.geodesic.steps)?;
+        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
         let pairs = compute_pairs(
             &solver,
             crate::similarity::Approx::Exact,
@@ -507,7 +576,8 @@ impl ShapeSpace {
         k: usize,
         opts: &IntrinsicOptions,
     ) -> Result<IntrinsicClustering, SpaceError> {
-        let solver = self.solver(self.geodesic.steps)?;
+        let metric = prepared.metric(&self.spec);
+        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
         Ok(intrinsic_kmeans(&solver, &prepared.scaled(), start, k, opts)?)
     }
 

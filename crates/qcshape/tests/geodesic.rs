@@ -49,10 +49,10 @@ fn metrics() -> Vec<Box<dyn Metric>> {
         reg(Box::new(Conformal {
             form: ConformalForm::Quadratic,
         })),
-        reg(Box::new(QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Endpoints,
-        })),
+        reg(Box::new(QuasiConformal::new(
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ))),
     ]
 }
 
@@ -299,10 +299,10 @@ fn rigid_motion_of_both_ends_keeps_invariant_distances() {
         reg(Box::new(Conformal {
             form: ConformalForm::Quadratic,
         })),
-        reg(Box::new(QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Endpoints,
-        })),
+        reg(Box::new(QuasiConformal::new(
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ))),
     ];
     for m in invariant {
         let o = opts(Solver::GaussNewton, 4);
@@ -344,14 +344,8 @@ fn quasi_conformal_segment_length_shrinks_as_the_path_is_refined() {
             .map(|(g0, g1)| ((g0 + g1) / 2.0).sqrt())
             .sum::<f64>()
     };
-    let seg = QuasiConformal {
-        form: ConformalForm::Quadratic,
-        weights: QcWeights::Segment,
-    };
-    let end = QuasiConformal {
-        form: ConformalForm::Quadratic,
-        weights: QcWeights::Endpoints,
-    };
+    let seg = QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Segment);
+    let end = QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Endpoints);
     let (s2, s4, s8) = (
         linear_length(&seg, 2),
         linear_length(&seg, 4),

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use qcshape::mesh::{geometry, Shape, Topology};
-use qcshape::metric::{At, ConformalForm, MetricKind, MetricSpec, QcWeights, Segment};
+use qcshape::metric::{At, Calibration, ConformalForm, MetricKind, MetricSpec, QcWeights, Segment};
 use qcshape::path::{GeodesicOptions, GeodesicSolver, Normalization};
 use qcshape::synth::icosphere;
 use qcshape::transport::{
@@ -72,7 +72,7 @@ fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
 fn spec(kind: MetricKind, lambda: f64) -> MetricSpec {
     MetricSpec {
         lambda,
-        ..MetricSpec::new(kind)
+        ..MetricSpec::previous(kind)
     }
 }
 
@@ -111,7 +111,7 @@ fn operator_matches_the_polarization_of_squared_norm() {
     );
     let end = scaled(&ellipsoid(&s).positions, f);
     for sp in all_specs() {
-        let tm = TransportMetric::new(&sp, s.topology.clone());
+        let tm = TransportMetric::new(&sp, &Calibration::RAW, s.topology.clone());
         let frozen = tm.frozen_weights(&pose, &end);
         let g = tm.at(&pose, frozen.as_deref()).unwrap();
         let sq = |x: &[[f64; 3]]| {
@@ -168,7 +168,7 @@ fn transport_along_a_zero_length_curve_is_the_identity() {
         spec(MetricKind::QuasiConformal, 0.1),
         spec(MetricKind::Rigid, 0.0),
     ] {
-        let tm = TransportMetric::new(&sp, s.topology.clone());
+        let tm = TransportMetric::new(&sp, &Calibration::RAW, s.topology.clone());
         let t = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
         assert_eq!(t.steps.len(), 4);
         assert!(max_dist(&t.vector, &v0) <= 1e-14, "{}", max_dist(&t.vector, &v0));
@@ -184,11 +184,19 @@ fn transport_along_a_zero_length_curve_is_the_identity() {
                 .collect()
         })
         .collect();
-    let tm = TransportMetric::new(&spec(MetricKind::QuasiConformal, 0.1), s.topology.clone());
+    let tm = TransportMetric::new(
+        &spec(MetricKind::QuasiConformal, 0.1),
+        &Calibration::RAW,
+        s.topology.clone(),
+    );
     let t = parallel_transport(&tm, &noisy, &v0, &ParallelOptions::default()).unwrap();
     assert!(max_dist(&t.vector, &v0) <= 1e-14, "{}", max_dist(&t.vector, &v0));
     // Zero vector stays zero, along any curve.
-    let tm = TransportMetric::new(&spec(MetricKind::Isometric, 0.1), s.topology.clone());
+    let tm = TransportMetric::new(
+        &spec(MetricKind::Isometric, 0.1),
+        &Calibration::RAW,
+        s.topology.clone(),
+    );
     let curve = vec![p.clone(), scaled(&icosphere(2).positions, f)];
     let zero = vec![[0.0; 3]; s.n_vertices()];
     let t = parallel_transport(&tm, &curve, &zero, &ParallelOptions::default()).unwrap();
@@ -200,7 +208,7 @@ fn sphere_to_ellipsoid(sp: &MetricSpec, steps: usize) -> (Arc<Topology>, Vec<Pos
     let a = icosphere(2);
     let b = ellipsoid(&a);
     let f = 1.0 / geometry::mean_edge_length(&a.topology, &a.positions);
-    let metric = sp.build();
+    let metric = sp.build(&Calibration::RAW);
     let solver = GeodesicSolver::new(
         metric.as_ref(),
         a.topology.clone(),
@@ -231,7 +239,7 @@ fn transport_along_a_geodesic_keeps_the_inner_product_and_the_norm() {
             .iter()
             .map(|&p| geometry::sub(twist_bend(p, 0.02, 0.01, 0.005), p))
             .collect();
-        let tm = TransportMetric::new(&sp, topo.clone());
+        let tm = TransportMetric::new(&sp, &Calibration::RAW, topo.clone());
         let t = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
         assert_eq!(t.along.len(), curve.len());
         let frozen = tm.frozen_weights(&curve[0], &curve[curve.len() - 1]);
@@ -288,7 +296,7 @@ fn a_metric_null_space_is_carried_exactly() {
     // keeps its (zero) norm and is transported unchanged.
     let sp = spec(MetricKind::Isometric, 0.0);
     let (topo, curve) = sphere_to_ellipsoid(&sp, 4);
-    let tm = TransportMetric::new(&sp, topo.clone());
+    let tm = TransportMetric::new(&sp, &Calibration::RAW, topo.clone());
     let v0 = vec![[0.3, -0.2, 0.1]; topo.n_vertices()];
     let t = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
     assert_eq!(t.initial_norm, 0.0);
@@ -365,7 +373,7 @@ fn transfer_to_b_and_back_returns_the_deformation() {
 
 fn round_trip(a: &Shape, b: &Shape, m: &[Shape], f: f64, sp: &MetricSpec) {
     let opts = options(8, f);
-    let setup = TransferSetup::new(sp, a.topology.clone(), opts).unwrap();
+    let setup = TransferSetup::new(sp, &Calibration::RAW, a.topology.clone(), opts).unwrap();
     let solver = setup.solver().unwrap();
     let there = solver.run_shapes(m, b, Transport::Parallel).unwrap();
     let euclid = solver.run_shapes(m, b, Transport::Translate).unwrap();
@@ -411,7 +419,7 @@ fn on_a_flat_metric_parallel_and_schild_equal_euclidean() {
     let m = deformation(&a, 2);
     let f = 1.0 / geometry::mean_edge_length(&a.topology, &a.positions);
     let sp = spec(MetricKind::L2, 0.0);
-    let setup = TransferSetup::new(&sp, a.topology.clone(), options(3, f)).unwrap();
+    let setup = TransferSetup::new(&sp, &Calibration::RAW, a.topology.clone(), options(3, f)).unwrap();
     let solver = setup.solver().unwrap();
     let e = solver.run_shapes(&m, &b, Transport::Translate).unwrap();
     let size = max_dist(&m[2].positions, &m[0].positions);
@@ -431,7 +439,7 @@ fn schild_ladder_nearly_keeps_the_norm_on_a_riemannian_metric() {
     // the norm.
     let sp = spec(MetricKind::Isometric, 0.0);
     let (topo, curve) = sphere_to_ellipsoid(&sp, 4);
-    let metric = sp.build();
+    let metric = sp.build(&Calibration::RAW);
     let solver2 = GeodesicSolver::new(
         metric.as_ref(),
         topo.clone(),
@@ -445,7 +453,7 @@ fn schild_ladder_nearly_keeps_the_norm_on_a_riemannian_metric() {
         .iter()
         .map(|&p| geometry::sub(twist_bend(p, 0.02, 0.01, 0.005), p))
         .collect();
-    let tm = TransportMetric::new(&sp, topo.clone());
+    let tm = TransportMetric::new(&sp, &Calibration::RAW, topo.clone());
     let par = parallel_transport(&tm, &curve, &v0, &ParallelOptions::default()).unwrap();
     let sch = schild_ladder(&solver2, &curve, &v0, &SchildOptions::default()).unwrap();
     assert_eq!(sch.rungs.len(), 4);
@@ -490,7 +498,13 @@ fn mismatched_topology_is_a_clear_error() {
     let err = transfer(&sp, &m, &base, Transport::Translate, &TransferOptions::default()).unwrap_err();
     assert!(err.to_string().contains("face 5"), "{err}");
     // Wrong vertex counts through the pose API.
-    let setup = TransferSetup::new(&sp, a.topology.clone(), TransferOptions::default()).unwrap();
+    let setup = TransferSetup::new(
+        &sp,
+        &Calibration::RAW,
+        a.topology.clone(),
+        TransferOptions::default(),
+    )
+    .unwrap();
     let solver = setup.solver().unwrap();
     let short = vec![a.positions.clone(), a.positions[..10].to_vec()];
     assert!(matches!(

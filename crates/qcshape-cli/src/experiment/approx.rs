@@ -154,7 +154,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             (None, Some(s)) => format!("robustness benchmark, level {}, scenario {s}", args.level),
             (None, None) => format!("synthetic benchmark, level {}", args.level),
         },
-        opts.metric.build().name(),
+        opts.metric.label(),
         args.seed,
         report.markdown()
     );

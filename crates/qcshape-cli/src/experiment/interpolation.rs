@@ -12,7 +12,7 @@ use qcshape::metric::MetricKind;
 use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
-use crate::args::{non_negative, MetricArgs};
+use crate::args::{non_negative, VariantArgs};
 
 /// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
 ///
@@ -95,23 +95,6 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// Metric variants shared by all compared metrics (as in `qcshape geodesic`).
-#[derive(Debug, Clone, clap::Args)]
-struct VariantArgs {
-    /// Conformal triangle term: quadratic or paper.
-    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
-    form: String,
-    /// Quasi-conformal curvature-change weights: endpoints or segment.
-    #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
-    weights: String,
-    /// Weight of the L2 regularizer (eq. 11); 0 disables it.
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
-    lambda: f64,
-    /// L2 area weights: frozen at the path's ends, or taken from each pose.
-    #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
-    l2_areas: String,
-}
-
 fn progress_bar(n: usize, what: &str) -> ProgressBar {
     let bar = crate::progress::new_bar(n);
     bar.set_style(
@@ -158,16 +141,7 @@ pub fn run(args: &Args) -> Result<()> {
     let metrics = args
         .metrics
         .iter()
-        .map(|&kind| {
-            MetricArgs {
-                metric: kind,
-                form: args.variants.form.clone(),
-                weights: args.variants.weights.clone(),
-                lambda: args.variants.lambda,
-                l2_areas: args.variants.l2_areas.clone(),
-            }
-            .spec()
-        })
+        .map(|&kind| args.variants.spec(kind))
         .collect::<Result<Vec<_>>>()?;
     if metrics.is_empty() {
         bail!("--metrics must name at least one metric");

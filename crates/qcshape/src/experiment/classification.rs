@@ -257,7 +257,7 @@ pub fn cluster_intrinsic(
             max_iterations: 100,
         },
     )?;
-    let metric = opts.metric.build();
+    let metric = prepared.metric(&opts.metric);
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     let intrinsic = intrinsic_kmeans(
         &solver,

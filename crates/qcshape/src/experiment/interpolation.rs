@@ -262,7 +262,7 @@ impl InterpolationExperiment {
             .map(|m| {
                 let dup = self.metrics.iter().filter(|o| o.kind == m.kind).count() > 1;
                 if dup {
-                    m.build().name()
+                    m.label()
                 } else {
                     kind_name(m.kind).to_string()
                 }
@@ -462,14 +462,22 @@ impl InterpolationExperiment {
         scale: f64,
         progress: &(dyn Fn() + Sync),
     ) -> Result<(Vec<CaseError>, Vec<Vec<Outcome>>), ExperimentError> {
-        let metrics: Vec<Box<dyn Metric>> = self.metrics.iter().map(MetricSpec::build).collect();
         let methods = self.methods();
-        let nm = metrics.len();
+        let nm = self.metrics.len();
         let results: Vec<Outcome> = (0..tasks.len() * nm)
             .into_par_iter()
             .map(|i| {
                 let (t, m) = (&tasks[i / nm], i % nm);
-                let r = self.predict(metrics[m].as_ref(), t, scale, &methods[m]);
+                // Each task's metric is calibrated on its first key pose.
+                let metric = self.metrics[m]
+                    .build_scaled(&t.def.topology, &t.def.poses[t.from], scale)
+                    .map_err(|e| ExperimentError::Interpolation {
+                        deformation: t.def.name.clone(),
+                        pose: t.pose,
+                        method: methods[m].clone(),
+                        source: InterpolationError::from(crate::path::GeodesicError::from(e)),
+                    })?;
+                let r = self.predict(metric.as_ref(), t, scale, &methods[m]);
                 progress();
                 r
             })

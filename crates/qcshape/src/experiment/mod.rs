@@ -15,6 +15,7 @@
 pub mod analysis;
 pub mod approx;
 pub mod classification;
+pub mod geometry;
 pub mod interpolation;
 pub mod noise;
 pub mod provenance;

@@ -133,7 +133,7 @@ impl NoiseExperiment {
             rows.push(NoiseRow { level, tau: taus });
         }
         Ok(NoiseReport {
-            metric: self.pipeline.metric.build().name(),
+            metric: self.pipeline.metric.label(),
             n: defs.len(),
             k,
             kinds: self.kinds.iter().map(|k| k.name().to_string()).collect(),

@@ -191,7 +191,7 @@ impl Reproduction {
         let c = classify_set(defs, &opts, CLASSES, self.restarts, self.seed, progress)?;
         Ok(MetricRun {
             kind,
-            metric: opts.metric.build().name(),
+            metric: opts.metric.label(),
             kernel_scores: score(&c.matrix, &c.kernel, labels)?,
             scores: score(&c.matrix, &c.clustering, labels)?,
             classified: c,

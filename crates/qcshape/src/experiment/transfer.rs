@@ -357,12 +357,16 @@ impl TransferExperiment {
             .iter()
             .zip(&labels)
             .map(|(spec, label)| {
-                TransferSetup::new(spec, topo.clone(), options.clone()).map_err(|error| {
-                    ExperimentError::Transfer {
-                        what: format!("metric {label}"),
-                        error,
-                    }
-                })
+                // One calibration per metric, on the source's first pose.
+                let scaled: Vec<[f64; 3]> = source.positions.iter().map(|p| p.map(|c| c * scale)).collect();
+                let wrap = |error| ExperimentError::Transfer {
+                    what: format!("metric {label}"),
+                    error,
+                };
+                let calibration = spec
+                    .calibrate(&topo, &[&scaled])
+                    .map_err(|e| wrap(crate::path::GeodesicError::from(e).into()))?;
+                TransferSetup::new(spec, &calibration, topo.clone(), options.clone()).map_err(wrap)
             })
             .collect::<Result<Vec<_>, _>>()?;
         let solvers = setups

@@ -234,7 +234,7 @@ mod tests {
 
     #[test]
     fn measure_and_scale_names_parse_and_bad_names_are_input_errors() {
-        let metric = MetricSpec::new(MetricKind::L2).build();
+        let metric = MetricSpec::previous(MetricKind::L2).build(&crate::metric::Calibration::RAW);
         assert!(matches!(
             MotionMeasure::parse("normal", metric.as_ref()),
             Ok(MotionMeasure::Normal)
@@ -300,7 +300,7 @@ mod tests {
             (true, MotionScale::Share, MetricKind::QuasiConformal),
         ];
         for (by_metric, scale, kind) in variants {
-            let metric = MetricSpec::new(kind).build();
+            let metric = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
             let measure = if by_metric {
                 MotionMeasure::Metric(metric.as_ref())
             } else {
@@ -336,7 +336,7 @@ mod tests {
     #[test]
     fn a_deformation_with_one_pose_or_too_few_vertices_is_an_error() {
         let s = crate::synth::icosphere(1);
-        let metric = MetricSpec::new(MetricKind::L2).build();
+        let metric = MetricSpec::previous(MetricKind::L2).build(&crate::metric::Calibration::RAW);
         let one = [vec![s.positions.clone()]];
         for measure in [MotionMeasure::Normal, MotionMeasure::Metric(metric.as_ref())] {
             let e = motion_maps(measure, MotionScale::Absolute, &s.topology, &one).unwrap_err();

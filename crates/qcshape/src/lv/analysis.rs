@@ -546,7 +546,7 @@ mod tests {
                     .collect()
             })
             .collect();
-        let metric = MetricSpec::new(MetricKind::QuasiConformal).build();
+        let metric = MetricSpec::previous(MetricKind::QuasiConformal).build(&crate::metric::Calibration::RAW);
         let solver = GeodesicSolver::new(
             metric.as_ref(),
             s.topology.clone(),

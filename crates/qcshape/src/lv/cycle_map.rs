@@ -13,6 +13,7 @@ use crate::dataset::Deformation;
 use crate::embed::{smacof, MdsOptions};
 use crate::mesh::Topology;
 use crate::metric::MetricSpec;
+use crate::path::GeodesicError;
 use crate::path::{
     normalization_factor, GeodesicOptions, GeodesicSolver, InterpolationOptions, Interpolator, Normalization,
 };
@@ -76,7 +77,10 @@ pub fn cycle_map(
     progress: Progress<'_>,
 ) -> Result<CycleMap, StudyError> {
     let t0 = Instant::now();
-    let metric = settings.metric.build();
+    let metric = settings
+        .metric
+        .build_scaled(topo, &poses[0], factor)
+        .map_err(GeodesicError::from)?;
     let solver = GeodesicSolver::new(metric.as_ref(), topo.clone(), settings.geodesic.clone())?;
     let scaled: Vec<Pose> = poses
         .iter()
@@ -211,9 +215,12 @@ pub fn study_cycle(
     let mut defs = vec![def];
     let note = coarsen(&mut defs, settings.vertices)?;
     let def = defs.pop().expect("one deformation");
-    let metric = settings.metric.build();
     let topo = def.topology.clone();
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &topo, &def.poses[0]);
+    let metric = settings
+        .metric
+        .build_scaled(&topo, &def.poses[0], factor)
+        .map_err(GeodesicError::from)?;
     let keys = if settings.open {
         def.poses.clone()
     } else {

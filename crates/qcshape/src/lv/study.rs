@@ -228,7 +228,7 @@ pub fn split_prepared(
         return split_matrix(d, s);
     }
     let start = kernel_kmeans(d, &s.cluster_options())?;
-    let metric = opts.metric.build();
+    let metric = prepared.metric(&opts.metric);
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     let r = intrinsic_kmeans(
         &solver,

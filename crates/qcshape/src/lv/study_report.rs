@@ -260,7 +260,7 @@ pub fn run_report(
         s.align,
         s.transport,
         main.prepared.names[0],
-        common.metric.build().name(),
+        common.metric.label(),
         common.geodesic.steps,
         s.split,
         s.restarts,
@@ -506,7 +506,7 @@ pub fn cycle_report(
             "closed (frame 0 appended so the gap last -> frame 0 is interpolated too)"
         },
         common.insert,
-        common.metric.build().name(),
+        common.metric.label(),
         common.geodesic.steps,
         if interp_converged {
             ""

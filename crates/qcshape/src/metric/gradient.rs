@@ -163,10 +163,10 @@ mod tests {
             Box::new(L2),
             Box::new(Conformal::new(ConformalForm::Quadratic)),
             Box::new(Conformal::new(ConformalForm::Paper)),
-            Box::new(QuasiConformal {
-                form: ConformalForm::Quadratic,
-                weights: QcWeights::Endpoints,
-            }),
+            Box::new(QuasiConformal::new(
+                ConformalForm::Quadratic,
+                QcWeights::Endpoints,
+            )),
             Box::new(Regularized::new(Box::new(Isometric), 0.3)),
             Box::new(Regularized::new(
                 Box::new(Conformal::new(ConformalForm::Quadratic)),
@@ -176,17 +176,14 @@ mod tests {
             Box::new(Regularized::new(Box::new(Rigid), 0.3)),
             Box::new(Regularized::new(Box::new(FrozenRigid), 0.3)),
             Box::new(Regularized::new(
-                Box::new(QuasiConformal {
-                    form: ConformalForm::Quadratic,
-                    weights: QcWeights::Endpoints,
-                }),
+                Box::new(QuasiConformal::new(
+                    ConformalForm::Quadratic,
+                    QcWeights::Endpoints,
+                )),
                 0.3,
             )),
             Box::new(Regularized::new(
-                Box::new(QuasiConformal {
-                    form: ConformalForm::Paper,
-                    weights: QcWeights::Segment,
-                }),
+                Box::new(QuasiConformal::new(ConformalForm::Paper, QcWeights::Segment)),
                 0.3,
             )),
         ]

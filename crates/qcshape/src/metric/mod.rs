@@ -23,6 +23,7 @@ mod rigid;
 mod rigid_frozen;
 mod second_order;
 mod spec;
+mod weighted;
 
 #[cfg(test)]
 pub(crate) mod fdcheck;
@@ -31,12 +32,13 @@ pub use conformal::{Conformal, ConformalForm};
 pub use gradient::{gradient_from_jacobian, segment_gradient_per_term, GradientSink, Scratch, SegmentSink};
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
-pub use quasi_conformal::{QcWeights, QuasiConformal};
+pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
 pub use regularized::Regularized;
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;
-pub use spec::{MetricKind, MetricSpec};
+pub use spec::{Calibration, CalibrationError, MetricKind, MetricScale, MetricSpec};
+pub use weighted::Weighted;
 
 use std::fmt::Debug;
 
@@ -326,6 +328,15 @@ pub trait Metric: Send + Sync + Debug {
     /// finite-difference test, `fdcheck::check_values`).
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
         segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg))
+    }
+
+    /// [`Metric::segment_squared_norms`] split into the geometric term and the L2
+    /// regularizer of eq. 11 ([`Regularized`]): `[geometric, regularizer]`, each the sum of
+    /// the segment's two terms, adding up to theirs (to rounding). The default: everything is
+    /// geometric.
+    fn segment_energy_parts(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        let [g0, g1] = self.segment_squared_norms(topo, pattern, segs);
+        [g0 + g1, 0.0]
     }
 }
 

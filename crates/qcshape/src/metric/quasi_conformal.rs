@@ -12,7 +12,7 @@ use super::{
     squared_norm_from_residuals, ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
     Scratch, SecondOrderSink, Segment, SegmentSink,
 };
-use crate::mesh::geometry::{add, angle_defect, scale};
+use crate::mesh::geometry::{add, angle_defect, scale, vertex_areas};
 use crate::mesh::Topology;
 
 /// Which "change of curvature during deformation" weights the quasi-conformal terms
@@ -58,18 +58,53 @@ impl QcWeights {
 /// Sparsity: with [`QcWeights::Endpoints`] every residual depends on its face's 3 vertices;
 /// with [`QcWeights::Segment`] a residual's row is the sorted union of the closed one-rings of
 /// the corners it involves (one corner for the quadratic form, three for the paper form).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QuasiConformal {
     /// Which triangle term (paper or quadratic).
     pub form: ConformalForm,
     /// Which curvature-change weights.
     pub weights: QcWeights,
+    /// How the `endpoints` weights are scaled: `None` is the paper's raw angle-defect change
+    /// (radians); [`QcNormalize`] turns it into a dimensionless, resolution- and
+    /// amplitude-independent weight with an optional floor. Ignored by [`QcWeights::Segment`].
+    pub normalize: Option<QcNormalize>,
+}
+
+/// Normalization of the quasi-conformal `endpoints` weights (METHOD.md "Scale"). The paper's
+/// weight `w_v = K_v(B) - K_v(A)` is an angle-defect change, an *integrated* curvature: it
+/// shrinks like the vertex area (`h^2`) as the mesh is refined and grows with the size of the
+/// motion, so the quasi-conformal term's weight against any other term depends on both.
+/// Normalized, the weight is the change of the Gaussian curvature density
+/// `d_v = w_v / Abar_v` (`Abar_v` the mean vertex area of the two ends, one-third rule),
+/// optionally smoothed over one-rings (`smooth` passes of the area-weighted average of the
+/// closed one-ring), divided by its area-weighted RMS over the surface, then floored:
+/// `w_v = sqrt(floor^2 + (d_v / rms(d))^2)`. The weights are dimensionless with RMS about 1
+/// (exactly 1 without floor), so the metric is a curvature-weighted conformal metric whose
+/// scale is that of [`super::Conformal`]; a floor > 0 leaves no vertex free (the metric's null
+/// space is then the conformal metric's). A motion that changes no curvature (rms 0) gets the
+/// weight `floor` everywhere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QcNormalize {
+    /// The weight floor (>= 0, dimensionless, relative to the RMS weight 1).
+    pub floor: f64,
+    /// One-ring smoothing passes of the curvature-change density before the RMS.
+    pub smooth: usize,
 }
 
 impl QuasiConformal {
-    /// The quasi-conformal metric with the given triangle form and weights.
+    /// The quasi-conformal metric with the given triangle form and weights (raw, the paper's).
     pub fn new(form: ConformalForm, weights: QcWeights) -> Self {
-        QuasiConformal { form, weights }
+        QuasiConformal {
+            form,
+            weights,
+            normalize: None,
+        }
+    }
+
+    /// The same metric with normalized `endpoints` weights ([`QcNormalize`]).
+    pub fn normalized(mut self, normalize: QcNormalize) -> Self {
+        self.normalize = Some(normalize);
+        self
     }
 
     /// The two terms' frozen weights (#V each) when the fused segment kernels of the
@@ -89,7 +124,16 @@ impl QuasiConformal {
 
 impl Metric for QuasiConformal {
     fn name(&self) -> String {
-        format!("quasi-conformal({},{})", self.form.label(), self.weights.label())
+        match (self.weights, self.normalize) {
+            (QcWeights::Endpoints, Some(n)) => format!(
+                "quasi-conformal({},{},rms,floor={},smooth={})",
+                self.form.label(),
+                self.weights.label(),
+                n.floor,
+                n.smooth
+            ),
+            _ => format!("quasi-conformal({},{})", self.form.label(), self.weights.label()),
+        }
     }
 
     fn pattern(&self, topo: &Topology) -> Pattern {
@@ -109,20 +153,32 @@ impl Metric for QuasiConformal {
         face_pattern(topo, self.form.residuals_per_face())
     }
 
-    /// `K(end) - K(start)` (#V, radians) for [`QcWeights::Endpoints`] (`None` if a pose does
-    /// not have #V vertices); `None` for [`QcWeights::Segment`].
+    /// `K(end) - K(start)` (#V, radians) for [`QcWeights::Endpoints`], normalized by
+    /// [`QcNormalize`] when set (`None` if a pose does not have #V vertices); `None` for
+    /// [`QcWeights::Segment`].
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
         let nv = topo.n_vertices();
         if self.weights != QcWeights::Endpoints || start.len() != nv || end.len() != nv {
             return None;
         }
-        Some(curvature_change(topo, start, end))
+        let w = curvature_change(topo, start, end);
+        Some(match self.normalize {
+            None => w,
+            Some(n) => normalized_weights(topo, &w, &vertex_areas(topo, start), &vertex_areas(topo, end), n),
+        })
     }
 
-    /// The angle defects `K(pose)` (#V) with [`QcWeights::Endpoints`].
+    /// With [`QcWeights::Endpoints`]: the angle defects `K(pose)` (#V), followed by the vertex
+    /// areas (#V) when the weights are normalized.
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        (self.weights == QcWeights::Endpoints && pose.len() == topo.n_vertices())
-            .then(|| angle_defect(topo, pose))
+        if self.weights != QcWeights::Endpoints || pose.len() != topo.n_vertices() {
+            return None;
+        }
+        let mut s = angle_defect(topo, pose);
+        if self.normalize.is_some() {
+            s.extend(vertex_areas(topo, pose));
+        }
+        Some(s)
     }
 
     fn frozen_weights_from(
@@ -130,13 +186,18 @@ impl Metric for QuasiConformal {
         topo: &Topology,
         start: &[[f64; 3]],
         end: &[[f64; 3]],
-        [ks, ke]: [&[f64]; 2],
+        [ss, se]: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
         let nv = topo.n_vertices();
-        if self.weights != QcWeights::Endpoints || ks.len() != nv || ke.len() != nv {
+        let want = if self.normalize.is_some() { 2 * nv } else { nv };
+        if self.weights != QcWeights::Endpoints || ss.len() != want || se.len() != want {
             return self.frozen_weights(topo, start, end);
         }
-        Some(curvature_difference(ks, ke.to_vec()))
+        let w = curvature_difference(&ss[..nv], se[..nv].to_vec());
+        Some(match self.normalize {
+            None => w,
+            Some(n) => normalized_weights(topo, &w, &ss[nv..], &se[nv..], n),
+        })
     }
 
     /// With [`QcWeights::Endpoints`] the weights are `seg.frozen`; if it is absent (or not of
@@ -156,7 +217,9 @@ impl Metric for QuasiConformal {
                     eval_constant_weights(topo, self.form, seg, Some(w), r, jac)
                 }
                 _ => {
-                    let w = curvature_change(topo, seg.a, seg.b);
+                    let w = self
+                        .frozen_weights(topo, seg.a, seg.b)
+                        .unwrap_or_else(|| curvature_change(topo, seg.a, seg.b));
                     eval_constant_weights(topo, self.form, seg, Some(&w), r, jac)
                 }
             },
@@ -224,6 +287,63 @@ impl Metric for QuasiConformal {
 /// `K(end) - K(start)` (#V).
 fn curvature_change(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Vec<f64> {
     curvature_difference(&angle_defect(topo, start), angle_defect(topo, end))
+}
+
+/// The normalized weights of [`QcNormalize`] (#V) from the angle-defect change `dk` and the
+/// two ends' vertex areas (#V each).
+pub(crate) fn normalized_weights(
+    topo: &Topology,
+    dk: &[f64],
+    area_start: &[f64],
+    area_end: &[f64],
+    n: QcNormalize,
+) -> Vec<f64> {
+    let area: Vec<f64> = area_start
+        .iter()
+        .zip(area_end)
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
+    let mut d: Vec<f64> = dk
+        .iter()
+        .zip(&area)
+        .map(|(k, a)| if *a > 0.0 { k / a } else { 0.0 })
+        .collect();
+    for _ in 0..n.smooth {
+        d = (0..d.len())
+            .map(|v| {
+                let (mut num, mut den) = (area[v] * d[v], area[v]);
+                for &u in topo.neighbors(v) {
+                    num += area[u as usize] * d[u as usize];
+                    den += area[u as usize];
+                }
+                if den > 0.0 {
+                    num / den
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+    }
+    let (num, den) = d
+        .iter()
+        .zip(&area)
+        .fold((0.0, 0.0), |(n, s), (x, a)| (n + a * x * x, s + a));
+    let rms = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
+    let inv = if rms > 0.0 && rms.is_finite() {
+        1.0 / rms
+    } else {
+        0.0
+    };
+    d.iter()
+        .map(|x| {
+            let w = x * inv;
+            if n.floor > 0.0 {
+                (n.floor * n.floor + w * w).sqrt()
+            } else {
+                w
+            }
+        })
+        .collect()
 }
 
 /// `K(end) - K(start)` from the two poses' angle defects (`ke` is overwritten).

@@ -243,24 +243,14 @@ impl Metric for Regularized {
     /// The inner metric's values plus `lambda` times the L2 part's, each by its own
     /// (value-only where available) pass.
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
-        let (v_in, v_l2) = if self.frozen_areas {
-            // The frozen L2 part needs no pattern: no rebased copy of its offsets.
-            let inner = self.inner_pattern(topo, pattern);
-            let v_in = self.inner.segment_squared_norms(topo, inner, [&s0_in, &s1_in]);
-            (v_in, FrozenL2::values(topo, [&s0_l2, &s1_l2]))
-        } else {
-            let parts = self.patterns(topo, pattern);
-            let v_in = self
-                .inner
-                .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
-            let v_l2 = self
-                .l2()
-                .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
-            (v_in, v_l2)
-        };
-        let lambda = self.lambda.max(0.0);
-        [v_in[0] + lambda * v_l2[0], v_in[1] + lambda * v_l2[1]]
+        let (v_in, v_l2) = self.parts_values(topo, pattern, segs);
+        [v_in[0] + v_l2[0], v_in[1] + v_l2[1]]
+    }
+
+    /// `[inner, lambda * L2]`, each summed over the segment's two terms.
+    fn segment_energy_parts(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
+        let (v_in, v_l2) = self.parts_values(topo, pattern, segs);
+        [v_in[0] + v_in[1], v_l2[0] + v_l2[1]]
     }
 
     /// The inner metric's part (its residuals are the first rows); the frozen L2 part adds
@@ -305,6 +295,34 @@ impl Parts<'_> {
 }
 
 impl Regularized {
+    /// Both terms of a segment for the inner metric and for `lambda * L2`, each by its own
+    /// (value-only where available) pass.
+    fn parts_values(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+    ) -> ([f64; 2], [f64; 2]) {
+        let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
+        let (v_in, v_l2) = if self.frozen_areas {
+            // The frozen L2 part needs no pattern: no rebased copy of its offsets.
+            let inner = self.inner_pattern(topo, pattern);
+            let v_in = self.inner.segment_squared_norms(topo, inner, [&s0_in, &s1_in]);
+            (v_in, FrozenL2::values(topo, [&s0_l2, &s1_l2]))
+        } else {
+            let parts = self.patterns(topo, pattern);
+            let v_in = self
+                .inner
+                .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
+            let v_l2 = self
+                .l2()
+                .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
+            (v_in, v_l2)
+        };
+        let lambda = self.lambda.max(0.0);
+        (v_in, v_l2.map(|v| lambda * v))
+    }
+
     /// The inner metric's rows of `pattern` (a prefix of the combined pattern, rows and
     /// entries) and the L2 rows.
     fn patterns<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> Parts<'p> {
@@ -371,10 +389,7 @@ mod tests {
         fdcheck::check_metric(&Regularized::new(Box::new(Isometric), 0.3), 5);
         fdcheck::check_metric(&Regularized::with_pose_areas(Box::new(Isometric), 0.3), 6);
         fdcheck::check_metric(&Regularized::new(Box::new(Rigid), 0.2), 7);
-        let qc = QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Endpoints,
-        };
+        let qc = QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Endpoints);
         fdcheck::check_metric(&Regularized::new(Box::new(qc), 0.2), 8);
     }
 
@@ -382,10 +397,7 @@ mod tests {
     fn frozen_weights_are_split_between_inner_and_l2() {
         let s = crate::synth::icosphere(1);
         let b: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0] * 1.2, p[1], p[2]]).collect();
-        let qc = QuasiConformal {
-            form: ConformalForm::Quadratic,
-            weights: QcWeights::Endpoints,
-        };
+        let qc = QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Endpoints);
         let m = Regularized::new(Box::new(qc), 0.5);
         let f = m.frozen_weights(&s.topology, &s.positions, &b).unwrap();
         assert_eq!(f.len(), 2 * s.n_vertices());

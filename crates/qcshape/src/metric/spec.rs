@@ -1,9 +1,13 @@
 //! Building a metric from names (CLI, data files).
 
+use thiserror::Error;
+
 use super::{
-    Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal,
-    Regularized, Rigid, L2,
+    Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcNormalize, QcWeights,
+    QuasiConformal, Regularized, Rigid, Weighted, L2,
 };
+use crate::mesh::geometry::{dot, sub, total_area};
+use crate::mesh::Topology;
 
 /// Which metric (paper section 2.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,6 +60,90 @@ impl std::str::FromStr for MetricKind {
     }
 }
 
+/// How a metric's terms are scaled, which fixes what `lambda` means (METHOD.md "Scale").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MetricScale {
+    /// Every term divided by its own scale at the reference pose(s) of the analysis
+    /// ([`Calibration`]): the geometric term becomes an area-weighted mean of squared strain
+    /// rates (isometric: edge strain `<dX_e, e> / |e|^2`; conformal and quasi-conformal: the
+    /// difference of the two edge strains at each corner), the L2 term (metric or
+    /// regularizer) the mean squared displacement per unit area `sum_p A_p |X_p|^2 / A^2`.
+    /// Both are dimensionless and converge as the mesh is refined, so `lambda` is a plain
+    /// ratio that does not depend on the resolution, the shapes' size or the coordinates'
+    /// units. The default.
+    Calibrated,
+    /// The paper's sums as written, in coordinates divided by the mean edge length (every
+    /// release before 2026-12-04, `lambda` 0.1): the terms scale with the resolution
+    /// differently (isometric like `h^2`, conformal like `h^6` relative to L2), so at the
+    /// previous default the regularizer carried almost all of the energy.
+    Raw,
+}
+
+impl MetricScale {
+    /// Every scale, the default first.
+    pub const ALL: [MetricScale; 2] = [MetricScale::Calibrated, MetricScale::Raw];
+
+    /// The command-line name (`"calibrated"`, `"raw"`).
+    pub fn label(self) -> &'static str {
+        match self {
+            MetricScale::Calibrated => "calibrated",
+            MetricScale::Raw => "raw",
+        }
+    }
+}
+
+impl std::str::FromStr for MetricScale {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        MetricScale::ALL
+            .into_iter()
+            .find(|m| m.label() == s)
+            .ok_or_else(|| format!("unknown metric scale '{s}' (expected calibrated or raw)"))
+    }
+}
+
+/// The constant factors of one analysis's metric ([`MetricSpec::calibrate`]): the metric is
+/// `geometric * G + lambda * l2 * L2` (the L2 metric itself: `l2 * L2`). Computed once from
+/// the reference pose(s) in the solver's coordinates, so one analysis uses one metric.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    /// Factor of the geometric term (1 for [`MetricScale::Raw`]; units length^-4 for L2,
+    /// rigid and isometric, length^-8 for conformal and quasi-conformal).
+    pub geometric: f64,
+    /// Factor of every L2 term, `1 / A^2` with `A` the reference's area (1 for
+    /// [`MetricScale::Raw`]; units length^-4).
+    pub l2: f64,
+}
+
+impl Calibration {
+    /// Factors 1: the metric as written ([`MetricScale::Raw`]).
+    pub const RAW: Calibration = Calibration {
+        geometric: 1.0,
+        l2: 1.0,
+    };
+}
+
+/// A reference pose that cannot calibrate a metric.
+#[derive(Debug, Error)]
+pub enum CalibrationError {
+    /// No reference pose, or one without #V vertices.
+    #[error("the metric's reference pose has {got} vertices, the mesh {expected}")]
+    Reference {
+        /// Vertices of the topology.
+        expected: usize,
+        /// Vertices of the reference (0: no reference).
+        got: usize,
+    },
+    /// The reference's area or edge sums are zero or not finite.
+    #[error("the metric's reference pose is degenerate: its {what} is {value}")]
+    Degenerate {
+        /// Which quantity.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
+}
+
 /// A metric with its variants (METHOD.md) and regularization `G + lambda * L2`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetricSpec {
@@ -65,34 +153,141 @@ pub struct MetricSpec {
     pub form: ConformalForm,
     /// Curvature-change weights (quasi-conformal).
     pub weights: QcWeights,
-    /// Weight of the L2 regularizer (ignored for the L2 metric itself); 0 disables it.
+    /// Normalization of the quasi-conformal `endpoints` weights (`None`: the paper's raw
+    /// angle-defect change).
+    pub qc_normalize: Option<QcNormalize>,
+    /// Weight of the L2 regularizer (ignored for the L2 metric itself); 0 disables it. Its
+    /// meaning depends on [`MetricSpec::scale`].
     pub lambda: f64,
+    /// How the terms are scaled (what `lambda` means).
+    pub scale: MetricScale,
     /// L2 area weights frozen at the path's ends (true) or taken from each pose (false).
     pub frozen_areas: bool,
 }
 
 impl MetricSpec {
-    /// Defaults: quadratic form, endpoint weights, `lambda` = [`crate::defaults::LAMBDA`]
-    /// (0.1), frozen areas.
+    /// Defaults: quadratic form, endpoint weights normalized as [`crate::defaults::QC_NORMALIZE`],
+    /// `lambda` = [`crate::defaults::LAMBDA`] on the [`MetricScale::Calibrated`] scale, frozen
+    /// areas.
     pub fn new(kind: MetricKind) -> Self {
         MetricSpec {
             kind,
             form: ConformalForm::Quadratic,
             weights: QcWeights::Endpoints,
+            qc_normalize: crate::defaults::QC_NORMALIZE,
             lambda: crate::defaults::LAMBDA,
+            scale: crate::defaults::SCALE,
             frozen_areas: true,
         }
     }
 
-    /// Builds the metric.
-    pub fn build(&self) -> Box<dyn Metric> {
-        let inner: Box<dyn Metric> = match self.kind {
+    /// The configuration of every release before 2026-12-04 (and of the README's previous
+    /// tables): raw terms in mean-edge units, raw quasi-conformal weights, `lambda`
+    /// [`crate::defaults::RAW_LAMBDA`] (0.1).
+    pub fn previous(kind: MetricKind) -> Self {
+        MetricSpec {
+            qc_normalize: None,
+            lambda: crate::defaults::RAW_LAMBDA,
+            scale: MetricScale::Raw,
+            ..MetricSpec::new(kind)
+        }
+    }
+
+    /// A short description of the metric as built (the name of [`MetricSpec::build`]'s
+    /// metric without the calibrated factors), e.g.
+    /// `"quasi-conformal(quadratic,endpoints,rms,floor=0.5,smooth=0)+0.01*l2(frozen),calibrated"`.
+    pub fn label(&self) -> String {
+        let inner = self.inner().name();
+        let core = if self.kind == MetricKind::L2 || self.lambda <= 0.0 {
+            inner
+        } else {
+            let l2 = if self.frozen_areas {
+                FrozenL2.name()
+            } else {
+                L2.name()
+            };
+            format!("{inner}+{}*{l2}", self.lambda)
+        };
+        format!("{core},{}", self.scale.label())
+    }
+
+    /// The factors of this metric for an analysis whose reference pose(s) `refs` (each #V x 3,
+    /// in the solver's coordinates, i.e. already multiplied by the normalization factor) are
+    /// given: [`Calibration::RAW`] for [`MetricScale::Raw`]; for
+    /// [`MetricScale::Calibrated`] the inverse of the geometric term's scale, averaged over
+    /// the references (isometric: `1 / sum_e |e|^4`; conformal and quasi-conformal:
+    /// `1 / sum over corners |e1|^4 |e2|^4`; L2 and rigid: `1 / A^2`) and `1 / A^2` for L2.
+    pub fn calibrate(&self, topo: &Topology, refs: &[&[[f64; 3]]]) -> Result<Calibration, CalibrationError> {
+        if self.scale == MetricScale::Raw {
+            return Ok(Calibration::RAW);
+        }
+        let nv = topo.n_vertices();
+        if refs.is_empty() || refs.iter().any(|r| r.len() != nv) {
+            return Err(CalibrationError::Reference {
+                expected: nv,
+                got: refs.iter().map(|r| r.len()).find(|&n| n != nv).unwrap_or(0),
+            });
+        }
+        let mean =
+            |f: &dyn Fn(&[[f64; 3]]) -> f64| refs.iter().map(|r| f(r)).sum::<f64>() / refs.len() as f64;
+        let area = mean(&|r| total_area(topo, r));
+        let positive = |what, value: f64| {
+            if value > 0.0 && value.is_finite() {
+                Ok(value)
+            } else {
+                Err(CalibrationError::Degenerate { what, value })
+            }
+        };
+        let area = positive("area", area)?;
+        let l2 = 1.0 / (area * area);
+        let geometric = match self.kind {
+            MetricKind::L2 | MetricKind::Rigid => l2,
+            MetricKind::Isometric => {
+                1.0 / positive("sum of |e|^4 over the edges", mean(&|r| edge_scale(topo, r)))?
+            }
+            MetricKind::Conformal | MetricKind::QuasiConformal => {
+                1.0 / positive(
+                    "sum of |e1|^4 |e2|^4 over the corners",
+                    mean(&|r| corner_scale(topo, r)),
+                )?
+            }
+        };
+        Ok(Calibration { geometric, l2 })
+    }
+
+    /// [`MetricSpec::calibrate`] on `refs` (solver coordinates), then [`MetricSpec::build`].
+    pub fn build_for(
+        &self,
+        topo: &Topology,
+        refs: &[&[[f64; 3]]],
+    ) -> Result<Box<dyn Metric>, CalibrationError> {
+        Ok(self.build(&self.calibrate(topo, refs)?))
+    }
+
+    /// [`MetricSpec::build_for`] with the reference given in the input's coordinates and the
+    /// normalization `factor` that takes it to the solver's.
+    pub fn build_scaled(
+        &self,
+        topo: &Topology,
+        reference: &[[f64; 3]],
+        factor: f64,
+    ) -> Result<Box<dyn Metric>, CalibrationError> {
+        if self.scale == MetricScale::Raw {
+            return Ok(self.build(&Calibration::RAW));
+        }
+        let scaled: Vec<[f64; 3]> = reference.iter().map(|p| p.map(|c| c * factor)).collect();
+        self.build_for(topo, &[&scaled])
+    }
+
+    /// The metric without regularizer or factors.
+    fn inner(&self) -> Box<dyn Metric> {
+        match self.kind {
             MetricKind::L2 => {
-                return if self.frozen_areas {
+                if self.frozen_areas {
                     Box::new(FrozenL2)
                 } else {
                     Box::new(L2)
-                };
+                }
             }
             MetricKind::Rigid => {
                 if self.frozen_areas {
@@ -103,21 +298,74 @@ impl MetricSpec {
             }
             MetricKind::Isometric => Box::new(Isometric),
             MetricKind::Conformal => Box::new(Conformal { form: self.form }),
-            MetricKind::QuasiConformal => Box::new(QuasiConformal {
-                form: self.form,
-                weights: self.weights,
-            }),
-        };
-        if self.lambda > 0.0 {
-            if self.frozen_areas {
-                Box::new(Regularized::new(inner, self.lambda))
+            MetricKind::QuasiConformal => {
+                let qc = QuasiConformal::new(self.form, self.weights);
+                Box::new(match self.qc_normalize {
+                    Some(n) => qc.normalized(n),
+                    None => qc,
+                })
+            }
+        }
+    }
+
+    /// Builds the metric `cal.geometric * G + lambda * cal.l2 * L2` (eq. 11 with the factors
+    /// of [`MetricSpec::calibrate`]; [`Calibration::RAW`] gives the metric as written).
+    pub fn build(&self, cal: &Calibration) -> Box<dyn Metric> {
+        let scaled = |m: Box<dyn Metric>, w: f64| -> Box<dyn Metric> {
+            if w == 1.0 {
+                m
             } else {
-                Box::new(Regularized::with_pose_areas(inner, self.lambda))
+                Box::new(Weighted::new(m, w))
+            }
+        };
+        let inner = scaled(self.inner(), cal.geometric);
+        if self.kind == MetricKind::L2 {
+            return inner;
+        }
+        if self.lambda > 0.0 {
+            let lambda = self.lambda * cal.l2;
+            if self.frozen_areas {
+                Box::new(Regularized::new(inner, lambda))
+            } else {
+                Box::new(Regularized::with_pose_areas(inner, lambda))
             }
         } else {
             inner
         }
     }
+}
+
+/// `sum_e |e|^4` over the edges of `pose` (the isometric metric's scale).
+fn edge_scale(topo: &Topology, pose: &[[f64; 3]]) -> f64 {
+    topo.edges()
+        .iter()
+        .map(|&[p, q]| {
+            let e = sub(pose[q as usize], pose[p as usize]);
+            let l2 = dot(e, e);
+            l2 * l2
+        })
+        .sum()
+}
+
+/// `sum over the corners (p, q, r) of |q - p|^4 |r - p|^4` (the conformal metrics' scale: the
+/// corner term `T_p` is `|q - p|^2 |r - p|^2` times a difference of two edge strains).
+fn corner_scale(topo: &Topology, pose: &[[f64; 3]]) -> f64 {
+    topo.faces()
+        .iter()
+        .map(|f| {
+            (0..3)
+                .map(|c| {
+                    let p = pose[f[c] as usize];
+                    let (e1, e2) = (
+                        sub(pose[f[(c + 1) % 3] as usize], p),
+                        sub(pose[f[(c + 2) % 3] as usize], p),
+                    );
+                    let m = dot(e1, e1) * dot(e2, e2);
+                    m * m
+                })
+                .sum::<f64>()
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -126,12 +374,78 @@ mod tests {
 
     #[test]
     fn specs_build_the_named_metrics() {
-        assert_eq!(MetricSpec::new(MetricKind::L2).build().name(), "l2(frozen)");
-        let mut s = MetricSpec::new(MetricKind::QuasiConformal);
+        let raw = Calibration::RAW;
+        let mut s = MetricSpec::new(MetricKind::L2);
+        s.scale = MetricScale::Raw;
+        assert_eq!(s.build(&raw).name(), "l2(frozen)");
+        let mut s = MetricSpec::previous(MetricKind::QuasiConformal);
         s.lambda = 0.0;
-        assert_eq!(s.build().name(), "quasi-conformal(quadratic,endpoints)");
+        assert_eq!(s.build(&raw).name(), "quasi-conformal(quadratic,endpoints)");
         s.lambda = 0.5;
-        assert!(s.build().name().contains("+0.5*l2(frozen)"));
+        assert!(s.build(&raw).name().contains("+0.5*l2(frozen)"));
         assert!("bogus".parse::<MetricKind>().is_err());
+        assert_eq!("raw".parse::<MetricScale>(), Ok(MetricScale::Raw));
+        assert!("size".parse::<MetricScale>().is_err());
+    }
+
+    /// The calibrated factors make every metric invariant under a change of units: the same
+    /// shapes in coordinates scaled by 7 give the same squared norms.
+    #[test]
+    fn calibrated_metrics_do_not_depend_on_the_coordinates_units() {
+        use crate::metric::{At, Segment};
+        let s = crate::synth::icosphere(2);
+        let b: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| [p[0] * 1.1 + 0.05 * p[1] * p[2], p[1] - 0.1 * p[2] * p[2], p[2]])
+            .collect();
+        for kind in MetricKind::all() {
+            let spec = MetricSpec::new(kind);
+            let value = |f: f64| {
+                let a: Vec<[f64; 3]> = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
+                let bb: Vec<[f64; 3]> = b.iter().map(|p| p.map(|c| c * f)).collect();
+                let cal = spec.calibrate(&s.topology, &[&a]).unwrap();
+                let m = spec.build(&cal);
+                let frozen = m.frozen_weights(&s.topology, &a, &bb);
+                let seg = |at| Segment {
+                    a: &a,
+                    b: &bb,
+                    at,
+                    aux: &[],
+                    frozen: frozen.as_deref(),
+                };
+                let pat = m.pattern(&s.topology);
+                let [g0, g1] =
+                    m.segment_squared_norms(&s.topology, pat.as_ref(), [&seg(At::Start), &seg(At::End)]);
+                g0 + g1
+            };
+            let (v1, v7) = (value(1.0), value(7.0));
+            assert!(
+                v1 > 0.0 && (v1 - v7).abs() <= 1e-10 * v1,
+                "{kind:?}: {v1} vs {v7}"
+            );
+        }
+    }
+
+    #[test]
+    fn calibration_refuses_degenerate_references() {
+        let s = crate::synth::icosphere(1);
+        let spec = MetricSpec::new(MetricKind::Isometric);
+        let flat = vec![[0.0; 3]; s.n_vertices()];
+        assert!(matches!(
+            spec.calibrate(&s.topology, &[&flat]),
+            Err(CalibrationError::Degenerate { .. })
+        ));
+        assert!(matches!(
+            spec.calibrate(&s.topology, &[&s.positions[1..]]),
+            Err(CalibrationError::Reference { .. })
+        ));
+        assert!(matches!(
+            spec.calibrate(&s.topology, &[]),
+            Err(CalibrationError::Reference { got: 0, .. })
+        ));
+        // The raw scale needs no reference.
+        let raw = MetricSpec::previous(MetricKind::Isometric);
+        assert_eq!(raw.calibrate(&s.topology, &[]).unwrap(), Calibration::RAW);
     }
 }

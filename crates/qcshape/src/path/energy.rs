@@ -165,6 +165,26 @@ impl<'m> PathEnergy<'m> {
             .collect()
     }
 
+    /// The path energy (eq. 12) split into the geometric term and the L2 regularizer
+    /// ([`Metric::segment_energy_parts`]), `[geometric, regularizer]`, each summed over the
+    /// segments in order (the auxiliary unknowns at their optimum).
+    pub fn energy_parts(&self, x: &[f64], ends: &Ends) -> [f64; 2] {
+        let parts: Vec<[f64; 2]> = (0..self.steps)
+            .into_par_iter()
+            .map(|s| {
+                let (s0, s1) = (
+                    self.segment(x, ends, s, At::Start),
+                    self.segment(x, ends, s, At::End),
+                );
+                self.metric
+                    .segment_energy_parts(&self.topo, self.pattern.as_ref(), [&s0, &s1])
+            })
+            .collect();
+        parts
+            .iter()
+            .fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]])
+    }
+
     /// The energy and its exact gradient `2 J^T r` (written to `grad`, length [`Self::n_vars`]).
     pub fn energy_gradient(&self, x: &[f64], ends: &Ends, grad: &mut [f64]) -> f64 {
         self.energy_gradient_segments(x, ends, grad, None)

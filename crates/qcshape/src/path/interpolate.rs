@@ -558,6 +558,8 @@ mod tests {
             poses: vec![pose(0.0), pose(1.0), pose(3.0), pose(4.0)],
             energy: 0.0,
             initial_energy: 0.0,
+            geometric_energy: 0.0,
+            regularizer_energy: 0.0,
             length: 4.0,
             segment_lengths: vec![1.0, 2.0, 1.0],
             iterations: 0,

@@ -61,7 +61,7 @@ pub use interpolate::{
 pub use options::{GeodesicOptions, Solver, StopReason};
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
-use crate::metric::{At, Metric, Segment};
+use crate::metric::{At, CalibrationError, Metric, MetricSpec, Segment};
 
 /// A discrete geodesic (or, if not converged, the best path found).
 #[derive(Debug, Clone)]
@@ -72,6 +72,13 @@ pub struct Geodesic {
     pub energy: f64,
     /// Path energy of the linear interpolation (the start).
     pub initial_energy: f64,
+    /// The part of [`Geodesic::energy`] carried by the geometric term (the metric without its
+    /// L2 regularizer, eq. 12 with `G` alone); with [`Geodesic::regularizer_energy`] it sums
+    /// to the energy (to rounding).
+    pub geometric_energy: f64,
+    /// The part of [`Geodesic::energy`] carried by the L2 regularizer `lambda * L2` of eq. 11
+    /// (0 without regularizer).
+    pub regularizer_energy: f64,
     /// Length `L` of the path = `dis(A, B)` (normalized units).
     pub length: f64,
     /// Length of each segment, `sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`.
@@ -88,6 +95,25 @@ pub struct Geodesic {
     pub scale: f64,
     /// Wall-clock seconds spent in the solver.
     pub seconds: f64,
+}
+
+impl Geodesic {
+    /// The regularizer's share of the energy, `regularizer / (geometric + regularizer)` in
+    /// [0, 1] (0 for a path of zero energy). Above 0.5 the L2 regularizer, not the metric's
+    /// geometry, decides the path: the metric then measures L2.
+    pub fn regularizer_share(&self) -> f64 {
+        share(self.geometric_energy, self.regularizer_energy)
+    }
+}
+
+/// `regularizer / (geometric + regularizer)`, 0 when both are 0 (a path of zero energy).
+pub fn share(geometric: f64, regularizer: f64) -> f64 {
+    let total = geometric + regularizer;
+    if total > 0.0 {
+        (regularizer / total).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Errors of the geodesic computation.
@@ -115,6 +141,9 @@ pub enum GeodesicError {
         /// argmin's error.
         source: Box<dyn std::error::Error + Send + Sync>,
     },
+    /// The metric could not be calibrated on its reference pose(s).
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
     /// The energy became NaN or infinite (degenerate poses along the path).
     #[error("the path energy is not finite ({0}); the poses may be degenerate")]
     NonFinite(String),
@@ -535,6 +564,7 @@ impl<'m> GeodesicSolver<'m> {
             return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
         }
         let segment_lengths: Vec<f64> = segment_energies.iter().map(|&e| segment_length(e)).collect();
+        let [geometric_energy, regularizer_energy] = pe.energy_parts(&out.x, ends);
         let poses = (0..=pe.steps())
             .map(|i| pe.pose(&out.x, ends, i).to_vec())
             .collect();
@@ -542,6 +572,8 @@ impl<'m> GeodesicSolver<'m> {
             poses,
             energy,
             initial_energy,
+            geometric_energy,
+            regularizer_energy,
             length: segment_lengths.iter().sum(),
             segment_lengths,
             iterations: out.iterations,
@@ -728,6 +760,46 @@ pub fn geodesic(
     g.poses[n] = b.positions.clone();
     g.scale = f;
     Ok(g)
+}
+
+/// The discrete geodesic from shape `a` to shape `b` for the metric `spec`, symmetric in the
+/// two shapes: coordinates are multiplied by [`Normalization::MeanEdgeOfBoth`]'s factor and
+/// the metric is calibrated on both ends ([`MetricSpec::calibrate`]), so `dis(a, b) =
+/// dis(b, a)` (what `qcshape geodesic` and Python's `ShapeSpace.dist` report). Lengths and
+/// energies are in the metric's units ([`crate::metric::MetricScale`]); the poses in the
+/// input's.
+pub fn geodesic_between(
+    spec: &MetricSpec,
+    a: &Shape,
+    b: &Shape,
+    options: &GeodesicOptions,
+) -> Result<Geodesic, GeodesicError> {
+    let (metric, f) = pair_metric(spec, a, b)?;
+    geodesic(metric.as_ref(), a, b, options, Normalization::Factor(f))
+}
+
+/// The metric `spec` and the coordinate factor of a geodesic between `a` and `b`, symmetric in
+/// the two shapes ([`geodesic_between`]): the factor of [`pair_factor`] and the metric
+/// calibrated on both scaled ends.
+pub fn pair_metric(spec: &MetricSpec, a: &Shape, b: &Shape) -> Result<(Box<dyn Metric>, f64), GeodesicError> {
+    a.check_same_topology(b)?;
+    let f = pair_factor(&a.positions, &b.positions, &a.topology)?;
+    let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
+    let (sa, sb) = (scale(&a.positions), scale(&b.positions));
+    Ok((spec.build_for(&a.topology, &[&sa, &sb])?, f))
+}
+
+/// [`Normalization::MeanEdgeOfBoth`]'s factor `2 / (mean_edge(a) + mean_edge(b))`, checked
+/// positive and finite.
+pub fn pair_factor(a: &[[f64; 3]], b: &[[f64; 3]], topo: &Topology) -> Result<f64, GeodesicError> {
+    let mean = 0.5 * (geometry::mean_edge_length(topo, a) + geometry::mean_edge_length(topo, b));
+    let f = 1.0 / mean.max(f64::MIN_POSITIVE);
+    if !(f.is_finite() && f > 0.0) {
+        return Err(GeodesicError::Option(format!(
+            "normalization factor {f} is not positive"
+        )));
+    }
+    Ok(f)
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ fn started_from_the_previous_geodesic_the_lengths_agree_in_fewer_iterations() {
         MetricKind::QuasiConformal,
         MetricKind::Isometric,
     ] {
-        let metric = MetricSpec::new(kind).build();
+        let metric = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
         let solver =
             GeodesicSolver::new(metric.as_ref(), a.topology.clone(), GeodesicOptions::default()).unwrap();
         let ends: Vec<_> = (1..=6)
@@ -82,7 +82,7 @@ fn distance_solves_stop_when_the_length_settles() {
     use super::StopReason;
     let a = icosphere(2);
     for kind in [MetricKind::Conformal, MetricKind::Isometric, MetricKind::Rigid] {
-        let metric = MetricSpec::new(kind).build();
+        let metric = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
         let new = |options: GeodesicOptions| {
             GeodesicSolver::new(metric.as_ref(), a.topology.clone(), options).unwrap()
         };

@@ -17,7 +17,8 @@ fn bent(s: &Shape) -> Shape {
 fn straight_lengths_of_one_segment_and_of_n_segments_agree_with_the_definition() {
     let a = icosphere(2);
     let b = bent(&a);
-    let qc = crate::metric::MetricSpec::new(crate::metric::MetricKind::QuasiConformal).build();
+    let qc = crate::metric::MetricSpec::previous(crate::metric::MetricKind::QuasiConformal)
+        .build(&crate::metric::Calibration::RAW);
     let iso = Regularized::new(Box::new(Isometric), 0.5);
     let metrics: [&dyn Metric; 3] = [qc.as_ref(), &iso, &crate::metric::FrozenL2];
     for m in metrics {

@@ -452,7 +452,7 @@ mod tests {
             .collect();
         let names: Vec<String> = ["a", "b", "c"].iter().map(|n| n.to_string()).collect();
         for kind in [MetricKind::QuasiConformal, MetricKind::Conformal, MetricKind::L2] {
-            let metric = MetricSpec::new(kind).build();
+            let metric = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
             if kind == MetricKind::QuasiConformal {
                 assert!(metric.pose_summary(&s.topology, &s.positions).is_some());
             }

@@ -10,7 +10,7 @@ use thiserror::Error;
 
 use crate::dataset::Deformation;
 use crate::mesh::{MeshError, Topology};
-use crate::metric::MetricSpec;
+use crate::metric::{Calibration, Metric, MetricSpec};
 use crate::path::{
     normalization_factor, GeodesicError, GeodesicOptions, GeodesicSolver, InterpolationError,
     InterpolationOptions, Interpolator, Normalization,
@@ -132,8 +132,12 @@ pub struct Prepared {
     /// The shared connectivity.
     pub topology: Arc<Topology>,
     /// The common factor coordinates are multiplied by for every geodesic (1 / mean edge length
-    /// of the base pose); distances are in those units.
+    /// of the base pose): the solver's coordinates.
     pub factor: f64,
+    /// The metric's factors, calibrated once on the base pose (in the solver's coordinates):
+    /// every geodesic of the data set uses the metric [`Prepared::metric`] builds with them,
+    /// so distances are in the metric's units ([`crate::metric::MetricScale`]).
+    pub calibration: Calibration,
     /// Interpolated deformations before transfer, after the alignment of
     /// [`PipelineOptions::align`] (#deformations x #poses x #V x 3; input units).
     pub interpolated: Vec<Vec<Pose>>,
@@ -151,6 +155,11 @@ pub struct Prepared {
 }
 
 impl Prepared {
+    /// The metric `spec` with this data set's [`Prepared::calibration`].
+    pub fn metric(&self, spec: &MetricSpec) -> Box<dyn Metric> {
+        spec.build(&self.calibration)
+    }
+
     /// The transferred deformations multiplied by [`Prepared::factor`] (solver units).
     pub fn scaled(&self) -> Vec<Vec<Pose>> {
         let f = self.factor;
@@ -235,7 +244,12 @@ pub fn prepare(
     };
     let base_pose = &poses_of(opts.base)[0];
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &topo, base_pose);
-    let metric = opts.metric.build();
+    let scaled_base: Pose = base_pose.iter().map(|p| p.map(|c| c * factor)).collect();
+    let calibration = opts
+        .metric
+        .calibrate(&topo, &[&scaled_base])
+        .map_err(GeodesicError::from)?;
+    let metric = opts.metric.build(&calibration);
     let mut converged = true;
 
     // Placement on the base (the deformation's own motion is kept).
@@ -283,6 +297,7 @@ pub fn prepare(
     // Transfer to the base.
     let setup = TransferSetup::new(
         &opts.metric,
+        &calibration,
         topo.clone(),
         TransferOptions {
             geodesic: opts.geodesic.clone(),
@@ -321,6 +336,7 @@ pub fn prepare(
         labels: defs.iter().map(|d| d.label.clone()).collect(),
         topology: topo,
         factor,
+        calibration,
         interpolation_seconds: interpolated.iter().map(|x| x.2).collect(),
         interpolated: interpolated.into_iter().map(|x| x.0).collect(),
         is_key,
@@ -342,7 +358,7 @@ pub fn similarities<F>(
 where
     F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
 {
-    let metric = opts.metric.build();
+    let metric = prepared.metric(&opts.metric);
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
     Ok(compute_pairs(
         &solver,

@@ -114,7 +114,7 @@ mod tests {
             .map(|x| [x[0], x[1] * 0.99, x[2] + 0.02 * x[0]])
             .collect();
         for kind in [MetricKind::L2, MetricKind::Isometric, MetricKind::Conformal] {
-            let m = MetricSpec::new(kind).build();
+            let m = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
             let y = features(m.as_ref(), &topo, &v, &[&p, &q, &v]).unwrap();
             assert!(y[2].iter().all(|x| *x == 0.0), "the base itself is the origin");
             // |y(P) - y(B)|^2 is G_B(P - B) up to the linearization (exact for quadratic norms).
@@ -136,7 +136,7 @@ mod tests {
             assert!(distance(&y[0], &y[1]) > 0.0);
         }
         for kind in [MetricKind::QuasiConformal, MetricKind::Rigid] {
-            let m = MetricSpec::new(kind).build();
+            let m = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
             let e = features(m.as_ref(), &topo, &v, &[&p]).unwrap_err().to_string();
             assert!(e.contains("straight"), "{e}");
         }

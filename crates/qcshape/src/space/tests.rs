@@ -55,7 +55,9 @@ fn dist_equals_the_library_geodesic() {
     .unwrap();
     let sb = Shape::new(a.topology.clone(), b.clone()).unwrap();
     let direct = path::geodesic(
-        MetricSpec::new(MetricKind::Conformal).build().as_ref(),
+        MetricSpec::previous(MetricKind::Conformal)
+            .build(&crate::metric::Calibration::RAW)
+            .as_ref(),
         &a,
         &sb,
         s.geodesic_options(),

@@ -96,6 +96,55 @@ pub fn torus(nu: usize, nv: usize, major: f64, minor: f64) -> Shape {
     Shape::new(topo, pos).expect("torus positions are finite")
 }
 
+/// Open tube (a cylinder without caps) along the x axis from 0 to `length`, of radius `radius`,
+/// with `n_along` rings of `n_around` vertices (`n_along * n_around` vertices, two boundary
+/// loops). Ring `i` is at `x = length * i / (n_along - 1)`; faces are oriented outwards.
+/// Vertex `i * n_around + j` is ring `i`, angle `2 pi j / n_around`.
+pub fn tube(length: f64, radius: f64, n_around: usize, n_along: usize) -> Shape {
+    assert!(n_around >= 3 && n_along >= 2, "tube needs at least 3 x 2 samples");
+    let mut pos = Vec::with_capacity(n_around * n_along);
+    for i in 0..n_along {
+        let x = length * i as f64 / (n_along - 1) as f64;
+        for j in 0..n_around {
+            let a = 2.0 * std::f64::consts::PI * j as f64 / n_around as f64;
+            pos.push([x, radius * a.cos(), radius * a.sin()]);
+        }
+    }
+    let id = |i: usize, j: usize| (i * n_around + j % n_around) as u32;
+    let mut faces = Vec::with_capacity(2 * n_around * (n_along - 1));
+    for i in 0..n_along - 1 {
+        for j in 0..n_around {
+            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+    }
+    let topo = Topology::new(pos.len(), faces).expect("tube topology is valid");
+    Shape::new(topo, pos).expect("tube positions are finite")
+}
+
+/// The positions of a straight shape along the x axis (such as [`tube`], centre line on the x
+/// axis from 0) bent in the x-y plane so that the x axis becomes a circular arc of the same
+/// length turning by `angle` radians (`pi`: a half circle): the point `(x, y, z)` goes to
+/// `c(x) + y n(x) + (0, 0, z)` with `c` the arc and `n` its in-plane normal. Cross-sections
+/// stay rigid and perpendicular to the centre line, whose length is kept. `angle` 0 leaves
+/// the positions unchanged.
+pub fn bend_along_x(positions: &[[f64; 3]], angle: f64) -> Vec<[f64; 3]> {
+    if angle == 0.0 {
+        return positions.to_vec();
+    }
+    let length = positions.iter().fold(0.0f64, |m, p| m.max(p[0]));
+    let r = length / angle;
+    positions
+        .iter()
+        .map(|p| {
+            let phi = p[0] / r;
+            let (s, c) = phi.sin_cos();
+            [r * s - p[1] * s, r * (1.0 - c) + p[1] * c, p[2]]
+        })
+        .collect()
+}
+
 /// Open planar grid on `[0, 1]^2` (z = 0) with `n x n` vertices: a disk with one boundary loop.
 pub fn grid(n: usize) -> Shape {
     assert!(n >= 2, "grid needs at least 2 x 2 vertices");
@@ -118,6 +167,33 @@ pub fn grid(n: usize) -> Shape {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_bent_tube_keeps_its_centre_line_length_and_cross_sections() {
+        let t = super::tube(10.0, 0.6, 24, 60);
+        assert_eq!(t.n_vertices(), 1440);
+        let b = super::bend_along_x(&t.positions, std::f64::consts::PI);
+        // Ring centroids lie on a half circle of length 10; rings keep their radius.
+        let centroid = |p: &[[f64; 3]], i: usize| {
+            let ring = &p[i * 24..(i + 1) * 24];
+            [0, 1, 2].map(|c| ring.iter().map(|v| v[c]).sum::<f64>() / 24.0)
+        };
+        let mut len = 0.0;
+        for i in 1..60 {
+            let (a, c) = (centroid(&b, i - 1), centroid(&b, i));
+            len += crate::mesh::geometry::norm(crate::mesh::geometry::sub(c, a));
+            let ring = &b[i * 24..(i + 1) * 24];
+            for v in ring {
+                let r = crate::mesh::geometry::norm(crate::mesh::geometry::sub(*v, c));
+                assert!((r - 0.6).abs() < 1e-9 * 0.6 + 1e-3, "{r}");
+            }
+        }
+        // The chord polyline of a half circle sampled at 60 rings is within 0.1 % of 10.
+        assert!((len - 10.0).abs() < 0.01, "{len}");
+        // The far end comes back: x of the last ring's centroid is 0, y = 2 R = 20 / pi.
+        let end = centroid(&b, 59);
+        assert!(end[0].abs() < 1e-9 && (end[1] - 20.0 / std::f64::consts::PI).abs() < 1e-9);
+    }
+
     use super::*;
     use crate::mesh::geometry::{corner_angle, corner_angle_gradient};
     use std::f64::consts::PI;

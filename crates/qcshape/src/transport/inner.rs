@@ -29,7 +29,9 @@ use std::sync::Arc;
 
 use super::{dot, TransportError};
 use crate::mesh::Topology;
-use crate::metric::{At, ConformalForm, Jacobian, Metric, MetricSpec, Pattern, QcWeights, Segment};
+use crate::metric::{
+    At, Calibration, ConformalForm, Jacobian, Metric, MetricSpec, Pattern, QcWeights, Segment,
+};
 
 /// The metric whose polarization is the transport's inner product: `spec` with the conformal
 /// triangle term set to [`ConformalForm::Quadratic`] and the quasi-conformal weights set to
@@ -55,10 +57,11 @@ pub struct TransportMetric {
 }
 
 impl TransportMetric {
-    /// Builds the quadratic companion of `spec` on `topo`.
-    pub fn new(spec: &MetricSpec, topo: Arc<Topology>) -> Self {
+    /// Builds the quadratic companion of `spec` on `topo`, with the factors `calibration` of
+    /// the analysis ([`MetricSpec::calibrate`]).
+    pub fn new(spec: &MetricSpec, calibration: &Calibration, topo: Arc<Topology>) -> Self {
         let spec = quadratic_companion(spec);
-        let metric = spec.build();
+        let metric = spec.build(calibration);
         let pattern = metric.pattern(&topo);
         TransportMetric {
             spec,

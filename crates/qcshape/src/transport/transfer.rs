@@ -22,7 +22,7 @@ use super::parallel::{parallel_transport, ParallelOptions, StepDiagnostics};
 use super::schild::{schild_ladder, RungDiagnostics, SchildOptions};
 use super::{difference, TransportError, TransportMetric};
 use crate::mesh::{Shape, Topology};
-use crate::metric::{Metric, MetricSpec};
+use crate::metric::{Calibration, Metric, MetricSpec};
 use crate::path::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization, SolveContext};
 
 /// How a deformation segment is carried to the new base. No `Default`: the pipeline's default
@@ -147,10 +147,13 @@ pub struct TransferSetup {
 }
 
 impl TransferSetup {
-    /// Builds the metrics of `spec` on `topo`. Errors on invalid options (no geodesic steps,
+    /// Builds the metrics of `spec` on `topo` with the factors `calibration` of the analysis
+    /// ([`MetricSpec::calibrate`] on the base, in the solver's coordinates of
+    /// [`TransferOptions::normalization`]). Errors on invalid options (no geodesic steps,
     /// negative or NaN `lambda`).
     pub fn new(
         spec: &MetricSpec,
+        calibration: &Calibration,
         topo: Arc<Topology>,
         options: TransferOptions,
     ) -> Result<Self, TransportError> {
@@ -164,8 +167,8 @@ impl TransferSetup {
             )));
         }
         Ok(TransferSetup {
-            metric: spec.build(),
-            transport: TransportMetric::new(spec, topo.clone()),
+            metric: spec.build(calibration),
+            transport: TransportMetric::new(spec, calibration, topo.clone()),
             topo,
             options,
         })
@@ -380,7 +383,12 @@ pub fn transfer(
     method: Transport,
     options: &TransferOptions,
 ) -> Result<Transferred, TransportError> {
-    let setup = TransferSetup::new(spec, base.topology.clone(), options.clone())?;
+    let f = normalization_factor(options.normalization, &base.topology, &base.positions);
+    let scaled: Vec<[f64; 3]> = base.positions.iter().map(|p| p.map(|c| c * f)).collect();
+    let calibration = spec
+        .calibrate(&base.topology, &[&scaled])
+        .map_err(crate::path::GeodesicError::from)?;
+    let setup = TransferSetup::new(spec, &calibration, base.topology.clone(), options.clone())?;
     setup.solver()?.run_shapes(deformation, base, method)
 }
 

@@ -1,0 +1,164 @@
+//! Does the metric's geometry count? Two measurements with known answers (docs/geometry.md):
+//!
+//! - **bent tube**: a tube (length 10, radius 0.6) bent from straight to a half circle. The
+//!   true middle pose, a quarter circle, keeps its centre line at length 10; the linear
+//!   midpoint (every metric whose energy is mostly L2) shrinks it to `20 / pi = 6.37`. The
+//!   geodesic's middle pose shows whether a metric keeps lengths.
+//! - **resolution**: one smooth deformation (twist and stretch of the unit sphere) sampled on
+//!   icospheres of 162 to 10,242 vertices. A metric whose meaning does not depend on the mesh
+//!   gives distances that converge as the mesh is refined.
+//!
+//! Every row carries the energy's split into the geometric term and the L2 regularizer.
+
+use std::f64::consts::PI;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::mesh::geometry::{norm, sub};
+use crate::mesh::Shape;
+use crate::metric::MetricSpec;
+use crate::path::{geodesic_between, GeodesicError, GeodesicOptions};
+use crate::synth::{bend_along_x, icosphere, tube};
+
+/// Rings and vertices per ring of the bent tube (1,440 vertices).
+pub const TUBE_RINGS: usize = 60;
+/// Vertices per ring of the bent tube.
+pub const TUBE_AROUND: usize = 24;
+/// Length of the tube's centre line.
+pub const TUBE_LENGTH: f64 = 10.0;
+/// Radius of the tube.
+pub const TUBE_RADIUS: f64 = 0.6;
+
+/// One geodesic of the study.
+#[derive(Debug, Clone, Serialize)]
+pub struct GeometryRow {
+    /// `tube` or `sphere`.
+    pub case: String,
+    /// The metric ([`MetricSpec::label`]).
+    pub metric: String,
+    /// Vertices of the mesh.
+    pub vertices: usize,
+    /// `dis(A, B)` in the metric's units.
+    pub distance: f64,
+    /// Centre-line length of the middle pose (tube; NaN for the sphere).
+    pub centre_line: f64,
+    /// Share of the energy carried by the L2 regularizer.
+    pub regularizer_share: f64,
+    /// Solver iterations.
+    pub iterations: usize,
+    /// Whether the solver converged.
+    pub converged: bool,
+    /// Seconds of the solve.
+    pub seconds: f64,
+}
+
+/// The straight tube and the tube bent to a half circle (1,440 vertices).
+pub fn tube_pair() -> (Shape, Shape) {
+    let a = tube(TUBE_LENGTH, TUBE_RADIUS, TUBE_AROUND, TUBE_RINGS);
+    let b = Shape::new(a.topology.clone(), bend_along_x(&a.positions, PI)).expect("bent tube is valid");
+    (a, b)
+}
+
+/// Length of the polyline through the ring centroids of a pose of [`tube_pair`]'s mesh.
+pub fn centre_line_length(pose: &[[f64; 3]]) -> f64 {
+    let centroid = |i: usize| {
+        let ring = &pose[i * TUBE_AROUND..(i + 1) * TUBE_AROUND];
+        [0, 1, 2].map(|c| ring.iter().map(|v| v[c]).sum::<f64>() / TUBE_AROUND as f64)
+    };
+    (1..TUBE_RINGS)
+        .map(|i| norm(sub(centroid(i), centroid(i - 1))))
+        .sum()
+}
+
+/// The unit icosphere of `level` and the same smooth deformation of it at every level: a twist
+/// about z by 1.2 z radians and a stretch by 1.5 along z (the `geodesic --demo` pair).
+pub fn sphere_pair(level: u32) -> (Shape, Shape) {
+    let a = icosphere(level);
+    let pos = a
+        .positions
+        .iter()
+        .map(|p| {
+            let t = 1.2 * p[2];
+            [
+                t.cos() * p[0] - t.sin() * p[1],
+                t.sin() * p[0] + t.cos() * p[1],
+                1.5 * p[2],
+            ]
+        })
+        .collect();
+    let b = Shape::new(a.topology.clone(), pos).expect("twisted sphere is valid");
+    (a, b)
+}
+
+/// The bent-tube geodesic of every metric in `specs`, metrics in parallel.
+pub fn tube_rows(specs: &[MetricSpec], options: &GeodesicOptions) -> Result<Vec<GeometryRow>, GeodesicError> {
+    let (a, b) = tube_pair();
+    specs
+        .par_iter()
+        .map(|spec| {
+            let g = geodesic_between(spec, &a, &b, options)?;
+            Ok(GeometryRow {
+                case: "tube".into(),
+                metric: spec.label(),
+                vertices: a.n_vertices(),
+                distance: g.length,
+                centre_line: centre_line_length(&g.poses[g.poses.len() / 2]),
+                regularizer_share: g.regularizer_share(),
+                iterations: g.iterations,
+                converged: g.converged,
+                seconds: g.seconds,
+            })
+        })
+        .collect()
+}
+
+/// The twisted-sphere distance of every metric in `specs` at every icosphere `levels`.
+pub fn resolution_rows(
+    specs: &[MetricSpec],
+    levels: &[u32],
+    options: &GeodesicOptions,
+) -> Result<Vec<GeometryRow>, GeodesicError> {
+    let jobs: Vec<(u32, &MetricSpec)> = levels
+        .iter()
+        .flat_map(|&l| specs.iter().map(move |s| (l, s)))
+        .collect();
+    jobs.par_iter()
+        .map(|&(level, spec)| {
+            let (a, b) = sphere_pair(level);
+            let g = geodesic_between(spec, &a, &b, options)?;
+            Ok(GeometryRow {
+                case: "sphere".into(),
+                metric: spec.label(),
+                vertices: a.n_vertices(),
+                distance: g.length,
+                centre_line: f64::NAN,
+                regularizer_share: g.regularizer_share(),
+                iterations: g.iterations,
+                converged: g.converged,
+                seconds: g.seconds,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_linear_midpoint_of_the_tube_is_a_chord_of_length_20_over_pi() {
+        let (a, b) = tube_pair();
+        assert!((centre_line_length(&a.positions) - TUBE_LENGTH).abs() < 1e-12);
+        let mid: Vec<[f64; 3]> = a
+            .positions
+            .iter()
+            .zip(&b.positions)
+            .map(|(p, q)| [0, 1, 2].map(|c| 0.5 * (p[c] + q[c])))
+            .collect();
+        // The ring centroids of the linear midpoint lie on a half circle of radius 10 / (2 pi)...
+        // scaled by 1/2 towards the straight line: their polyline is within 1 % of 20 / pi.
+        let l = centre_line_length(&mid);
+        assert!((l - 20.0 / PI).abs() < 0.01 * l + 0.05, "{l}");
+    }
+}
