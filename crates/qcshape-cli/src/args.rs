@@ -73,6 +73,14 @@ impl VariantArgs {
         if self.qc_smooth > 1000 {
             bail!("--qc-smooth must be at most 1000 (got {})", self.qc_smooth);
         }
+        if self.lambda == 0.0 && matches!(kind, MetricKind::Conformal | MetricKind::QuasiConformal) {
+            eprintln!(
+                "warning: --lambda 0 leaves the {} metric's null space free (rigid motions, scalings, \
+                 conformal fields; every normal motion of a sphere): geodesics are not unique and \
+                 distances collapse towards 0 (docs/geometry.md)",
+                kind.label()
+            );
+        }
         Ok(MetricSpec {
             kind,
             scale: self.scale,

@@ -33,7 +33,11 @@ fn the_default_isometric_geodesic_keeps_the_bent_tubes_length() {
     let old = geodesic_between(&MetricSpec::previous(MetricKind::Isometric), &a, &b, &opts(8)).unwrap();
     let old_mid = centre_line_length(&old.poses[4]);
     assert!(old_mid < 0.75 * TUBE_LENGTH, "raw scale: {old_mid}");
-    assert!(old.regularizer_share() > 0.5, "raw scale: {}", old.regularizer_share());
+    assert!(
+        old.regularizer_share() > 0.5,
+        "raw scale: {}",
+        old.regularizer_share()
+    );
 }
 
 /// The same smooth deformation of the unit sphere at 162 and 642 vertices: every metric's

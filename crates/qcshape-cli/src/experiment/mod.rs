@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::Subcommand;
 
 mod approx;
+mod geometry;
 mod interpolation;
 mod noise;
 mod robustness;
@@ -24,6 +25,7 @@ enum Experiment {
     Noise(noise::Args),
     Robustness(robustness::Args),
     Approx(approx::Args),
+    Geometry(geometry::Args),
 }
 
 /// Runs the chosen experiment.
@@ -34,5 +36,6 @@ pub fn run(args: &Args) -> Result<()> {
         Experiment::Noise(a) => noise::run(a),
         Experiment::Robustness(a) => robustness::run_command(a),
         Experiment::Approx(a) => approx::run(a),
+        Experiment::Geometry(a) => geometry::run(a),
     }
 }

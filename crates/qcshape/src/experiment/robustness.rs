@@ -543,7 +543,7 @@ mod tests {
     #[test]
     fn baselines_and_a_metric_on_a_small_set() {
         let qc = PipelineOptions {
-            metric: MetricSpec::new(MetricKind::QuasiConformal),
+            metric: MetricSpec::new(MetricKind::Isometric),
             geodesic: GeodesicOptions {
                 steps: 2,
                 ..Default::default()

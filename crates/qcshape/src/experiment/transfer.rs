@@ -595,13 +595,13 @@ mod tests {
         let b = MetricSpec::new(MetricKind::Isometric);
         assert_eq!(metric_labels(&[a, b]), ["quasi-conformal", "isometric"]);
         let c = a;
-        a.lambda = 0.01;
+        a.lambda = 0.5;
         assert_eq!(
             metric_labels(&[a, c, c]),
             [
+                "quasi-conformal-lambda0.5",
                 "quasi-conformal-lambda0.01",
-                "quasi-conformal-lambda0.1",
-                "quasi-conformal-lambda0.1-2"
+                "quasi-conformal-lambda0.01-2"
             ]
         );
     }
@@ -639,10 +639,12 @@ mod tests {
     /// deformation. The metrics are invariant to translations and their L2 regularizer makes
     /// translations a flat factor of shape space, so parallel transport along the (straight)
     /// geodesic must reproduce it for every metric, to solver tolerance. Schild's ladder does
-    /// too for the quasi-conformal and isometric metrics once its doubling is iterated to
-    /// convergence (2 corrections, the default, leave ~4e-3 mean edges); with the conformal
-    /// metric its doubling does not converge (0.2 mean edges after 40 corrections), so it is
-    /// not asserted here.
+    /// too for the isometric metric once its doubling is iterated to convergence (2
+    /// corrections, the default, leave ~4e-3 mean edges); with the conformal metrics
+    /// (conformal, and quasi-conformal with its calibrated floor, whose null space is the
+    /// conformal one) its doubling does not converge: their geodesics run through the
+    /// conformal null space, pinned only by the small L2 regularizer, so the ladder's rungs are
+    /// not unique (docs/geometry.md). They are not asserted here.
     #[test]
     fn transfer_to_a_translated_copy_is_the_translated_deformation() {
         let mut e = small(vec![DeformationKind::Stretch, DeformationKind::Bend]);
@@ -665,12 +667,15 @@ mod tests {
             .unwrap();
         assert_eq!(r.cases.len(), 2 * (3 * 2 + 1));
         assert_eq!(calls.into_inner(), r.cases.len());
-        let conformal = r.metrics.iter().position(|m| m == "conformal");
+        let conformal: Vec<Option<usize>> = ["conformal", "quasi-conformal"]
+            .iter()
+            .map(|name| r.metrics.iter().position(|m| m == name))
+            .collect();
         for c in &r.cases {
             assert_eq!(c.errors.len(), 2);
             assert!(c.converged, "{c:?}");
             let tol = match c.transport {
-                Transport::Schild if c.metric == conformal => continue,
+                Transport::Schild if conformal.contains(&c.metric) => continue,
                 Transport::Schild => 1e-5,
                 _ => 1e-6,
             };

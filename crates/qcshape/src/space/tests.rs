@@ -54,17 +54,24 @@ fn dist_equals_the_library_geodesic() {
     )
     .unwrap();
     let sb = Shape::new(a.topology.clone(), b.clone()).unwrap();
-    let direct = path::geodesic(
-        MetricSpec::previous(MetricKind::Conformal)
-            .build(&crate::metric::Calibration::RAW)
-            .as_ref(),
+    // Both ends' units, as `qcshape geodesic`: the same geodesic, in either order.
+    let direct = path::geodesic_between(
+        &MetricSpec::new(MetricKind::Conformal),
         &a,
         &sb,
         s.geodesic_options(),
-        Normalization::MeanEdgeOfFirst,
     )
     .unwrap();
-    assert_eq!(s.dist(&a.positions, &b).unwrap(), direct.length);
+    assert_eq!(s.geodesic(&a.positions, &b).unwrap().length, direct.length);
+    let back = path::geodesic_between(
+        &MetricSpec::new(MetricKind::Conformal),
+        &sb,
+        &a,
+        s.geodesic_options(),
+    )
+    .unwrap();
+    let d = s.dist(&b, &a.positions).unwrap();
+    assert!((d - back.length).abs() <= 1e-6 * d, "{d} vs {}", back.length);
 }
 
 #[test]
