@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
     assemble, fingerprint, prepare, settings_key, similarities, Approx, DistanceMatrix, Journal,
-    PairDistance, PipelineOptions, Prepared, Shard, Stage,
+    PairDistance, PipelineOptions, Prepared, Shard, ShareSummary, Stage,
 };
 use qcshape::transport::{Alignment, Transport};
 
@@ -153,6 +153,18 @@ fn journaled_pairs(
     pairs.extend(new_pairs);
     pairs.sort_by_key(|p| (p.i, p.j));
     Ok(pairs)
+}
+
+/// The L2 regularizer's share of the energy over `pairs` ([`ShareSummary`]), printed: one
+/// stderr line with its distribution and, when the regularizer carries more than half of the
+/// energy for more than half of the pairs, a warning naming the metric `metric`.
+pub(crate) fn report_shares(pairs: &[PairDistance], metric: &str) -> ShareSummary {
+    let s = ShareSummary::of(pairs);
+    eprintln!("{}", s.line());
+    if let Some(w) = s.warning(metric) {
+        eprintln!("warning: {w}");
+    }
+    s
 }
 
 /// `OUTPUT.journal` beside the output.

@@ -10,7 +10,7 @@ use qcshape::experiment::provenance::Provenance;
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{journaled_matrix, pipeline_options, prepare_with_progress};
+use crate::pipeline::{journaled_matrix, pipeline_options, prepare_with_progress, report_shares};
 
 /// Run the whole analysis of a data set: interpolation, transfer, similarity, classification,
 /// projection and a report.
@@ -126,10 +126,11 @@ fn run_in_pool(args: &Args) -> Result<()> {
 
     let ts = Instant::now();
     let matrix_path = args.out.join("similarity.csv");
-    let (matrix, _, journal) = journaled_matrix(&prepared, &opts, &matrix_path, args.resume)?;
+    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &matrix_path, args.resume)?;
     matrix.write_csv(&matrix_path)?;
     journal.remove()?;
     let similarity_seconds = ts.elapsed().as_secs_f64();
+    let shares = report_shares(&pairs, opts.metric.kind.label());
 
     let analysis = analyse(
         &matrix,
@@ -156,6 +157,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         steps: opts.geodesic.steps,
         prepare_seconds,
         similarity_seconds,
+        shares,
         k,
         analysis,
     };

@@ -12,7 +12,7 @@ use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::pipeline::{
-    journal_path, journaled_matrix, pipeline_options, prepare_with_progress, sharded_pairs,
+    journal_path, journaled_matrix, pipeline_options, prepare_with_progress, report_shares, sharded_pairs,
 };
 
 /// Compute the similarity matrix of the deformations of a data set.
@@ -22,6 +22,10 @@ use crate::pipeline::{
 /// and `similarity(M, N) = sum_i dis(M_i, N_i)` over corresponding poses (eq. 13) is computed for
 /// every pair, pairs in parallel. Distances are in normalized units (coordinates divided by the
 /// mean edge length of the base pose).
+///
+/// The L2 regularizer's share of each pair's path energy is summarized on stderr (min, median,
+/// max, pairs above 50 %), with a warning when it is above one half for more than half of the
+/// pairs: the distances then measure L2 displacement more than the metric's geometry.
 ///
 /// Finished pairs are appended to OUTPUT.journal as they complete; after an interruption, run
 /// the same command with --resume to compute only the missing pairs. OUTPUT appears only when
@@ -71,7 +75,9 @@ pub struct Args {
     /// in .npy writes a NumPy float64 (n, n) array instead, with the names in NAME.names.txt.
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
-    /// Also write the per-pose distances dis(M_i, N_i) of every pair to this CSV.
+    /// Also write the per-pose distances dis(M_i, N_i) of every pair to this CSV, with the
+    /// energy split of each pose's path (geometric_energy, regularizer_energy) and the pair's
+    /// regularizer_share (empty with --approx tangent).
     #[arg(long)]
     details: Option<PathBuf>,
     /// Compute only shard K of S of the pairs (a deterministic round-robin split) into
@@ -112,7 +118,8 @@ pub struct MergeArgs {
     /// Output matrix: CSV, or .npy (names in NAME.names.txt), as for `qcshape similarity`.
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
-    /// Also write the per-pose distances of every pair to this CSV.
+    /// Also write the per-pose distances of every pair to this CSV (with the energy split, as
+    /// `similarity --details`; empty for shards written before it was recorded).
     #[arg(long)]
     details: Option<PathBuf>,
 }
@@ -200,6 +207,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         return Ok(());
     }
     let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
+    report_shares(&pairs, opts.metric.kind.label());
     write_matrix(&args.output, &matrix)?;
     if let Some(path) = &args.details {
         write_details(path, &prepared.names, &pairs)?;
@@ -237,6 +245,16 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
     if let Some(path) = &args.details {
         write_details(path, &merged.names, &merged.pairs)?;
     }
+    // What a merge knows of the metric is the settings string (`MetricSpec { kind: ... }|...`).
+    let metric = qcshape::metric::MetricKind::all()
+        .into_iter()
+        .find(|k| {
+            merged
+                .settings
+                .starts_with(&format!("MetricSpec {{ kind: {k:?},"))
+        })
+        .map_or("merged matrix's", |k| k.label());
+    report_shares(&merged.pairs, metric);
     eprintln!(
         "merged {} shards ({} pairs) into {} ({n} x {n})",
         merged.count,

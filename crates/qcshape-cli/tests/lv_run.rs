@@ -158,6 +158,7 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     }
     // Every clustering method of --compare on the similarity and on both baselines.
     assert!(report.contains("## Clustering methods"), "{report}");
+    assert!(report.contains("Energy share of the L2 regularizer"), "{report}");
     let methods = rows(&res.join("clustering.csv"));
     assert_eq!(methods.len(), 3 * 5);
     assert_eq!(methods[0][..2], ["similarity", "kmeans"]);

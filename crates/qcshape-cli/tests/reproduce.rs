@@ -37,6 +37,7 @@ fn quick_reproduction_writes_a_report_with_all_four_metrics() {
         );
     }
     assert!(report.contains("## Table 2") && report.contains("## Table 3"));
+    assert!(table1.contains("Energy share of the L2 regularizer"), "{table1}");
     // The final report is not marked partial, embeds its figures as PNG and has one top-level
     // heading.
     assert!(!report.contains("Partial report"), "{report}");

@@ -48,6 +48,16 @@ fn run_writes_matrix_classes_map_and_report() {
     // Two very different motions: the classes are recovered.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("| sensitivity (eq. 15) | 100.0 % |"), "{report}");
+    // The regularizer's share of the 28 pairs' energy, printed and reported.
+    assert!(
+        report.contains("Energy share of the L2 regularizer") && report.contains("pairs above 50 %: "),
+        "{report}"
+    );
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("energy share of the L2 regularizer over 28 pairs"),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
     for f in [
         "map.svg",
         "map.png",

@@ -313,3 +313,71 @@ fn npy_output_holds_the_csv_matrix() {
     let names = std::fs::read_to_string(dir.path().join("D.names.txt")).unwrap();
     assert_eq!(names.lines().collect::<Vec<_>>(), d.names());
 }
+
+/// `--details` holds the energy split of every pose's path and the pair's regularizer share
+/// (in [0, 1], the regularizer's part of the pair's summed energy); the distribution of the
+/// shares is printed, with a warning when the regularizer carries most of the energy of most
+/// pairs: with `--lambda 100`, not with `--lambda 0.001`.
+#[test]
+fn details_hold_the_energy_split_and_a_dominant_regularizer_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dataset(dir.path(), 1, 6);
+    for (lambda, warned) in [("100", true), ("0.001", false)] {
+        let out = dir.path().join(format!("D-{lambda}.csv"));
+        let details = dir.path().join(format!("P-{lambda}.csv"));
+        let mut a = args(&manifest, &out);
+        a.extend(["--lambda", lambda, "--details", details.to_str().unwrap()]);
+        let r = qcshape().args(&a).output().unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{stderr}");
+        assert!(
+            stderr.contains("energy share of the L2 regularizer over 15 pairs: min "),
+            "{stderr}"
+        );
+        let warning = "warning: the L2 regularizer carries more than half of the energy for ";
+        assert_eq!(stderr.contains(warning), warned, "--lambda {lambda}: {stderr}");
+        if warned {
+            assert!(
+                stderr.contains(
+                    "of 15 pairs: the isometric distances measure L2 displacement more than the \
+                     metric's geometry (lower --lambda)"
+                ),
+                "{stderr}"
+            );
+        }
+        let text = std::fs::read_to_string(&details).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next(),
+            Some("a,b,pose,distance,converged,geometric_energy,regularizer_energy,regularizer_share")
+        );
+        // Per pair: summed geometric and regularizer energies, and the share of its rows.
+        let mut pairs: std::collections::BTreeMap<(String, String), (f64, f64, Vec<f64>)> =
+            Default::default();
+        for line in lines {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f.len(), 8, "{line}");
+            let num = |k: usize| -> f64 { f[k].parse().unwrap_or_else(|_| panic!("{line}")) };
+            let (d, g, reg, share) = (num(3), num(5), num(6), num(7));
+            assert!(g >= 0.0 && reg >= 0.0 && (0.0..=1.0).contains(&share), "{line}");
+            if f[2] == "0" {
+                assert_eq!((d, g, reg), (0.0, 0.0, 0.0), "{line}");
+            } else {
+                assert!(d > 0.0 && g > 0.0 && reg > 0.0, "{line}");
+            }
+            let e = pairs.entry((f[0].into(), f[1].into())).or_default();
+            e.0 += g;
+            e.1 += reg;
+            e.2.push(share);
+        }
+        assert_eq!(pairs.len(), 15);
+        for (ab, (g, reg, shares)) in &pairs {
+            let want = reg / (g + reg);
+            assert!(
+                shares.iter().all(|s| (s - want).abs() <= 1e-12),
+                "{ab:?}: {shares:?} vs {want}"
+            );
+            assert_eq!(want > 0.5, warned, "--lambda {lambda}: {ab:?} share {want}");
+        }
+    }
+}

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict, PyTuple};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::io::{self, VertexAttributes};
 use qcshape::similarity::{PipelineOptions, Stage};
@@ -284,25 +284,91 @@ pub fn run_pipeline(
 /// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md); threads (None: all cores); progress (True: counts on stderr). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
+///
+/// With ``return_details=True`` the result is ``(D, details)``, details a dict of numpy arrays
+/// over the P = n (n - 1) / 2 pairs i < j in row order and the K poses: ``pairs`` (P, 2) int64
+/// (i, j); ``distance`` (P, K) dis(M_k, N_k); ``geometric_energy`` and ``regularizer_energy``
+/// (P, K), the energy (eq. 12) of each pose's path (the geodesic's, or the straight path's with
+/// approx="straight") split into the metric's own term and the L2 regularizer (0 for identical
+/// poses, NaN with approx="tangent", which measures no path); ``regularizer_share`` (P,), the
+/// regularizer's part of each pair's summed energy (above 0.5: the distance measures L2
+/// displacement more than the metric's geometry; lower ``lam``).
 #[pyfunction]
-#[pyo3(signature = (dataset, **options))]
+#[pyo3(signature = (dataset, *, return_details=None, **options))]
 #[pyo3(
-    text_signature = "(dataset, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
+    text_signature = "(dataset, *, return_details=False, metric='quasi-conformal', form=None, weights=None, lam=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
 pub fn similarity_matrix<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, PyAny>,
+    return_details: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let ds = dataset
         .cast::<PyDataset>()
         .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
+    let details = match return_details {
+        Some(v) if !v.is_none() => v
+            .cast::<PyBool>()
+            .map_err(|_| PyValueError::new_err("return_details: expected True or False"))?
+            .is_true(),
+        _ => false,
+    };
     let kw = PipelineKw::from_kwargs(options)?;
     let (r, _) = run_pipeline(py, ds.get(), &kw)?;
     let n = r.matrix.len();
-    matrix_out(py, r.matrix.values().to_vec(), n, n)
+    let d = matrix_out(py, r.matrix.values().to_vec(), n, n)?;
+    if !details {
+        return Ok(d);
+    }
+    let out = PyDict::new(py);
+    for (key, value) in pair_details(py, &r.pairs)? {
+        out.set_item(key, value)?;
+    }
+    Ok(PyTuple::new(py, [d, out.into_any()])?.into_any())
+}
+
+/// The arrays of ``similarity_matrix(..., return_details=True)``'s dict for `pairs` (row order,
+/// every pair with the same pose count K): `pairs` (P, 2) int64, `distance`,
+/// `geometric_energy`, `regularizer_energy` (P, K) and `regularizer_share` (P,) float64, NaN
+/// where the energy split is unknown.
+fn pair_details<'py>(
+    py: Python<'py>,
+    pairs: &[qcshape::similarity::PairDistance],
+) -> PyResult<Vec<(&'static str, Bound<'py, PyAny>)>> {
+    use numpy::PyArrayMethods;
+    let p = pairs.len();
+    let k = pairs.first().map_or(0, |x| x.per_pose.len());
+    let ij: Vec<i64> = pairs.iter().flat_map(|x| [x.i as i64, x.j as i64]).collect();
+    let part = |which: usize| -> Vec<f64> {
+        pairs
+            .iter()
+            .flat_map(|x| match &x.per_pose_energy {
+                Some(e) => e.iter().map(|v| v[which]).collect::<Vec<f64>>(),
+                None => vec![f64::NAN; x.per_pose.len()],
+            })
+            .collect()
+    };
+    let distance: Vec<f64> = pairs.iter().flat_map(|x| x.per_pose.iter().copied()).collect();
+    let share: Vec<f64> = pairs
+        .iter()
+        .map(|x| x.regularizer_share().unwrap_or(f64::NAN))
+        .collect();
+    Ok(vec![
+        (
+            "pairs",
+            numpy::PyArray1::from_vec(py, ij).reshape([p, 2])?.into_any(),
+        ),
+        ("distance", matrix_out(py, distance, p, k)?),
+        ("geometric_energy", matrix_out(py, part(0), p, k)?),
+        ("regularizer_energy", matrix_out(py, part(1), p, k)?),
+        (
+            "regularizer_share",
+            numpy::PyArray1::from_vec(py, share).into_any(),
+        ),
+    ])
 }
 
 /// pair_contributions(dataset, a, b, **options) -> ndarray (nV,): the per-vertex split of the

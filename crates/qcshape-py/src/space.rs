@@ -17,7 +17,11 @@ use crate::run::{detached, Progress};
 ///
 /// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
 /// ``length`` = dis(A, B) and ``energy`` (eq. 12) in normalized units (coordinates times
-/// ``scale``), ``initial_energy`` (the straight line's), ``segment_lengths`` (steps,),
+/// ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
+/// ``regularizer_energy`` (the energy's split into the metric's own term and the L2
+/// regularizer; they sum to ``energy``), ``regularizer_share`` (the regularizer's part, in
+/// [0, 1]: above 0.5 the distance measures L2 displacement more than the metric's geometry),
+/// ``segment_lengths`` (steps,),
 /// ``iterations``, ``converged``, ``stop`` (why the solver stopped), ``gradient_norm``,
 /// ``scale``, ``seconds``.
 #[pyclass(name = "Geodesic", module = "qcshape", frozen)]
@@ -46,6 +50,22 @@ impl PyGeodesic {
     #[getter]
     fn initial_energy(&self) -> f64 {
         self.g.initial_energy
+    }
+    /// The part of ``energy`` carried by the metric's geometric term (normalized units).
+    #[getter]
+    fn geometric_energy(&self) -> f64 {
+        self.g.geometric_energy
+    }
+    /// The part of ``energy`` carried by the L2 regularizer (0 without one).
+    #[getter]
+    fn regularizer_energy(&self) -> f64 {
+        self.g.regularizer_energy
+    }
+    /// regularizer_energy / (geometric_energy + regularizer_energy), in [0, 1] (0 for a path
+    /// of zero energy).
+    #[getter]
+    fn regularizer_share(&self) -> f64 {
+        self.g.regularizer_share()
     }
     /// Length of each segment, (steps,) list.
     #[getter]

@@ -52,6 +52,12 @@ fn reproduction_table1_is_far_above_chance() {
     assert!(
         md.contains("## Table 1") && md.contains("## Table 3") && md.contains("](fig6_mds_isometric.png)")
     );
+    let shares = &row.shares;
+    assert_eq!((shares.pairs, shares.unknown), (48 * 47 / 2, 0));
+    assert!(
+        0.0 <= shares.min && shares.min <= shares.median && shares.median <= shares.max && shares.max <= 1.0
+    );
+    assert!(md.contains("Energy share of the L2 regularizer"), "{md}");
 }
 
 #[test]
@@ -111,10 +117,12 @@ fn analysis_of_two_motions_recovers_the_classes() {
         steps: 2,
         prepare_seconds: 0.0,
         similarity_seconds: 0.0,
+        shares: c.shares,
         k: 2,
         analysis: a,
     };
-    assert!(report
-        .to_markdown()
-        .contains("| sensitivity (eq. 15) | 100.0 % |"));
+    let md = report.to_markdown();
+    assert!(md.contains("| sensitivity (eq. 15) | 100.0 % |"));
+    assert_eq!(c.shares.pairs, 28);
+    assert!(md.contains("Energy share of the L2 regularizer"), "{md}");
 }

@@ -8,6 +8,8 @@ A Python layer over the qcshape Rust library (numpy arrays in and out):
     g = space.geodesic(VA, VB, steps=8)                  # g.length, g.path (9, nV, 3), ...
     ds = qs.Dataset.from_manifest("syn/manifest.csv")
     D = qs.similarity_matrix(ds, metric="quasi-conformal")   # (n, n), as `qcshape similarity`
+    D, details = qs.similarity_matrix(ds, return_details=True)  # + per-pair, per-pose distances
+                                                         # and energy split (regularizer_share)
     labels = qs.KMedoids(n_clusters=8, n_init=20, random_state=0).fit(D).labels_
     X, stress = qs.mds(D, n_components=2, random_state=0)
     qs.scores(ds.labels, labels)                         # sensitivity, specificity, ari, accuracy

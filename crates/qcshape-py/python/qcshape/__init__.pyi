@@ -2,7 +2,7 @@
 nV vertices, nF faces, K + 1 poses, n items."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 from typing_extensions import TypedDict, Unpack
 
@@ -63,6 +63,16 @@ class Geodesic:
     def energy(self) -> float: ...
     @property
     def initial_energy(self) -> float: ...
+    @property
+    def geometric_energy(self) -> float:
+        """The part of `energy` carried by the metric's geometric term."""
+    @property
+    def regularizer_energy(self) -> float:
+        """The part of `energy` carried by the L2 regularizer (0 without one)."""
+    @property
+    def regularizer_share(self) -> float:
+        """regularizer_energy / energy in [0, 1]; above 0.5 the distance measures L2 more
+        than the metric's geometry."""
     @property
     def segment_lengths(self) -> List[float]: ...
     @property
@@ -161,14 +171,37 @@ class Dataset:
     @property
     def n_vertices(self) -> int: ...
 
+class SimilarityDetails(TypedDict):
+    """The per-pair details of `similarity_matrix(..., return_details=True)`, over the
+    P = n (n - 1) / 2 pairs i < j in row order and the K poses."""
+
+    pairs: _I64  # (P, 2): (i, j)
+    distance: _F64  # (P, K): dis(M_k, N_k)
+    geometric_energy: _F64  # (P, K): the metric's own part of each pose path's energy
+    regularizer_energy: _F64  # (P, K): the L2 regularizer's part (NaN with approx="tangent")
+    regularizer_share: _F64  # (P,): regularizer / total energy of each pair, in [0, 1]
+
+@overload
 def similarity_matrix(
     dataset: Dataset,
     *,
+    return_details: Literal[False] = False,
     approx: Optional[str] = None,
     **options: Unpack[PipelineOptions],
 ) -> _F64:
     """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
     approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
+
+@overload
+def similarity_matrix(
+    dataset: Dataset,
+    *,
+    return_details: Literal[True],
+    approx: Optional[str] = None,
+    **options: Unpack[PipelineOptions],
+) -> Tuple[_F64, SimilarityDetails]:
+    """(D, details): the matrix and the per-pair, per-pose distances and energy split
+    (`SimilarityDetails`)."""
 
 def motion_maps(
     dataset: Dataset,

@@ -22,7 +22,7 @@ use crate::dataset::Deformation;
 use crate::embed::{smacof, MdsError, MdsOptions};
 use crate::io::{write_atomically, IoError};
 use crate::plot::PlotError;
-use crate::similarity::{DistanceMatrix, PipelineOptions, Prepared};
+use crate::similarity::{DistanceMatrix, PipelineOptions, Prepared, ShareSummary};
 
 /// Why the analysis failed.
 #[derive(Debug, Error)]
@@ -200,6 +200,9 @@ pub struct AnalysisReport {
     pub prepare_seconds: f64,
     /// Elapsed seconds of the similarity matrix.
     pub similarity_seconds: f64,
+    /// The L2 regularizer's share of the pairs' energy ([`ShareSummary::of`] the matrix's
+    /// pairs).
+    pub shares: ShareSummary,
     /// Number of classes.
     pub k: usize,
     /// The analysis.
@@ -246,6 +249,8 @@ impl AnalysisReport {
             "| clustering ({} intrinsic rounds) | {:.2} |",
             a.clustering.iterations, a.cluster_seconds
         )?;
+        writeln!(md, "\n## Regularizer\n")?;
+        md.push_str(&self.shares.markdown(&format!("`{}`", self.metric)));
         writeln!(md, "\n## Classification (k = {})\n", self.k)?;
         match &a.scores {
             Some(s) => {

@@ -23,7 +23,7 @@ use crate::io::{write_atomically, IoError};
 use crate::path::{GeodesicError, GeodesicSolver};
 use crate::similarity::{
     assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,
-    MatrixError, PipelineError, PipelineOptions, Prepared, Stage,
+    MatrixError, PipelineError, PipelineOptions, Prepared, ShareSummary, Stage,
 };
 
 /// Why a classification or its scoring failed.
@@ -193,6 +193,8 @@ pub struct Classified {
     pub wall: [f64; 4],
     /// Pairs whose similarity geodesic stopped at the iteration limit.
     pub unconverged: usize,
+    /// The L2 regularizer's share of the pairs' energy, over the pairs of the matrix.
+    pub shares: ShareSummary,
 }
 
 /// Interpolation, transfer, similarity (eq. 13), kernel k-means (the best of `restarts` seeded
@@ -228,6 +230,7 @@ pub fn classify_set(
     let share = if ti + tt > 0.0 { ti / (ti + tt) } else { 0.5 };
     Ok(Classified {
         unconverged: pairs.iter().filter(|p| !p.converged).count(),
+        shares: ShareSummary::of(&pairs),
         pair_seconds: pairs.iter().map(|p| p.seconds).collect(),
         wall: [t_prepare * share, t_prepare * (1.0 - share), t_sim, t_kmeans],
         prepared,

@@ -26,7 +26,7 @@ use crate::io::{write_atomically, IoError};
 use crate::metric::{MetricKind, MetricSpec};
 use crate::path::GeodesicOptions;
 use crate::plot::PlotError;
-use crate::similarity::{IntrinsicOptions, MatrixFileError, PipelineOptions, Stage};
+use crate::similarity::{IntrinsicOptions, MatrixFileError, PipelineOptions, ShareSummary, Stage};
 use crate::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
 use crate::transport::{Alignment, Transport};
 
@@ -386,6 +386,8 @@ pub struct Table1Row {
     pub nn_accuracy: f64,
     /// Adjusted Rand index of the intrinsic k-means partition.
     pub ari: f64,
+    /// The L2 regularizer's share of the energy over the similarity matrix's pairs.
+    pub shares: ShareSummary,
 }
 
 /// A row of Table 2 (seconds).
@@ -502,6 +504,7 @@ impl ReproduceReport {
                 kernel_sensitivity: r.kernel_scores.eq15.sensitivity,
                 nn_accuracy: r.scores.nn_accuracy,
                 ari: r.scores.ari,
+                shares: r.classified.shares,
             })
             .collect();
         let table2 = runs
@@ -681,6 +684,38 @@ impl ReproduceReport {
                 "\nWarning: {} pair(s) had a similarity geodesic that stopped at the iteration limit.",
                 self.unconverged
             )?;
+        }
+        self.write_shares(md)
+    }
+
+    /// The L2 regularizer's share of the energy of each metric's matrix, and a warning for
+    /// each metric whose matrix it dominates.
+    fn write_shares(&self, md: &mut String) -> std::fmt::Result {
+        writeln!(
+            md,
+            "\nEnergy share of the L2 regularizer (lambda = {}; its part of each pair's path energy, eq. 11, \
+             summed over the poses):\n",
+            self.lambda
+        )?;
+        writeln!(md, "| metric | min / median / max (%) | pairs above 50 % |")?;
+        writeln!(md, "|---|---|---|")?;
+        for r in &self.table1 {
+            let s = &r.shares;
+            writeln!(
+                md,
+                "| {} | {:.1} / {:.1} / {:.1} | {} of {} |",
+                r.metric,
+                100.0 * s.min,
+                100.0 * s.median,
+                100.0 * s.max,
+                s.above_half,
+                s.pairs
+            )?;
+        }
+        for r in &self.table1 {
+            if let Some(w) = r.shares.warning(&r.metric) {
+                writeln!(md, "\n**Warning:** {w}.")?;
+            }
         }
         Ok(())
     }

@@ -25,7 +25,7 @@ use crate::path::{GeodesicError, GeodesicSolver, InterpolationError};
 use crate::plot::PlotError;
 use crate::similarity::{
     assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,
-    MatrixError, MatrixFileError, PipelineError, PipelineOptions, Prepared, Stage,
+    MatrixError, MatrixFileError, PipelineError, PipelineOptions, Prepared, ShareSummary, Stage,
 };
 
 /// Why a study step failed. Messages name the subject, file or option.
@@ -269,6 +269,8 @@ pub struct Analysis {
     pub wall: [f64; 3],
     /// Geodesic solves that stopped at the iteration limit.
     pub unconverged: usize,
+    /// The L2 regularizer's share of the energy over the similarity pairs.
+    pub shares: ShareSummary,
 }
 
 /// The class label of every deformation (an error names the first one without).
@@ -338,6 +340,7 @@ pub fn analyse(
     let scores = binary_scores(&matrix, &clustering.assignments, 2, &labels)?;
     Ok(Analysis {
         unconverged: pairs.iter().filter(|p| !p.converged).count() + usize::from(!prepared.converged),
+        shares: ShareSummary::of(&pairs),
         pair_seconds: pairs.iter().map(|p| (p.i, p.j, p.seconds)).collect(),
         wall: [t_prep, t_sim, t2.elapsed().as_secs_f64()],
         prepared,

@@ -300,6 +300,8 @@ pub fn run_report(
          class information the distances hold, whatever 2-means does with it).\n",
         main.scores.positive, main.scores.positive, main.scores.negative
     )?;
+    md.push_str(&main.shares.markdown(common.metric.kind.label()));
+    md.push('\n');
     writeln!(
         md,
         "![Subjects by the similarity of their cycles: SMACOF MDS of the eq. 13 matrix, colour and \

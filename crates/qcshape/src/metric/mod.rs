@@ -338,6 +338,21 @@ pub trait Metric: Send + Sync + Debug {
         let [g0, g1] = self.segment_squared_norms(topo, pattern, segs);
         [g0 + g1, 0.0]
     }
+
+    /// [`Metric::segment_squared_norms`] and [`Metric::segment_energy_parts`] of one segment
+    /// in one pass, bit for bit the values of the two calls (the straight-path length and its
+    /// energy split, `similarity --approx straight`, without evaluating the metric twice). The
+    /// default is right for metrics that keep the default [`Metric::segment_energy_parts`]
+    /// (everything geometric); a metric that overrides that one overrides this one too.
+    fn segment_norms_and_parts(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+    ) -> ([f64; 2], [f64; 2]) {
+        let [g0, g1] = self.segment_squared_norms(topo, pattern, segs);
+        ([g0, g1], [g0 + g1, 0.0])
+    }
 }
 
 /// `|r|^2` of one segment term from [`Metric::residuals`] (with the optimal auxiliary

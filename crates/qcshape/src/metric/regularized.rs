@@ -253,6 +253,20 @@ impl Metric for Regularized {
         [v_in[0] + v_in[1], v_l2[0] + v_l2[1]]
     }
 
+    /// Both of the above from one pass over the two parts.
+    fn segment_norms_and_parts(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+    ) -> ([f64; 2], [f64; 2]) {
+        let (v_in, v_l2) = self.parts_values(topo, pattern, segs);
+        (
+            [v_in[0] + v_l2[0], v_in[1] + v_l2[1]],
+            [v_in[0] + v_in[1], v_l2[0] + v_l2[1]],
+        )
+    }
+
     /// The inner metric's part (its residuals are the first rows); the frozen L2 part adds
     /// nothing (linear residuals). Not provided with per-pose areas.
     fn add_second_order(

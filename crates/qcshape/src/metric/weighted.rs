@@ -167,6 +167,16 @@ impl Metric for Weighted {
             .segment_energy_parts(topo, pattern, segs)
             .map(|v| self.weight * v)
     }
+
+    fn segment_norms_and_parts(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+    ) -> ([f64; 2], [f64; 2]) {
+        let (norms, parts) = self.inner.segment_norms_and_parts(topo, pattern, segs);
+        (norms.map(|v| self.weight * v), parts.map(|v| self.weight * v))
+    }
 }
 
 #[cfg(test)]

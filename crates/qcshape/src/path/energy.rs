@@ -185,6 +185,27 @@ impl<'m> PathEnergy<'m> {
             .fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]])
     }
 
+    /// [`Self::segment_norms`] and [`Self::energy_parts`] from one evaluation of each segment
+    /// ([`Metric::segment_norms_and_parts`]): the same values, bit for bit.
+    pub fn segment_norms_and_energy_parts(&self, x: &[f64], ends: &Ends) -> (Vec<(f64, f64)>, [f64; 2]) {
+        let both: Vec<([f64; 2], [f64; 2])> = (0..self.steps)
+            .into_par_iter()
+            .map(|s| {
+                let (s0, s1) = (
+                    self.segment(x, ends, s, At::Start),
+                    self.segment(x, ends, s, At::End),
+                );
+                self.metric
+                    .segment_norms_and_parts(&self.topo, self.pattern.as_ref(), [&s0, &s1])
+            })
+            .collect();
+        let norms = both.iter().map(|(g, _)| (g[0], g[1])).collect();
+        let parts = both
+            .iter()
+            .fold([0.0, 0.0], |acc, (_, p)| [acc[0] + p[0], acc[1] + p[1]]);
+        (norms, parts)
+    }
+
     /// The energy and its exact gradient `2 J^T r` (written to `grad`, length [`Self::n_vars`]).
     pub fn energy_gradient(&self, x: &[f64], ends: &Ends, grad: &mut [f64]) -> f64 {
         self.energy_gradient_segments(x, ends, grad, None)

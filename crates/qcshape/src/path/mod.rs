@@ -106,6 +106,19 @@ impl Geodesic {
     }
 }
 
+/// The straight (linear) path between two poses, measured without optimization
+/// ([`GeodesicSolver::straight_path_with`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StraightPath {
+    /// Its length (eq. 12's discretization with the solver's N segments), an upper bound of
+    /// `dis(a, b)`; in the metric's units.
+    pub length: f64,
+    /// The geometric term's part of its energy (eq. 12 with `G` alone).
+    pub geometric_energy: f64,
+    /// The L2 regularizer's part of its energy (0 without regularizer).
+    pub regularizer_energy: f64,
+}
+
 /// `regularizer / (geometric + regularizer)`, 0 when both are 0 (a path of zero energy).
 pub fn share(geometric: f64, regularizer: f64) -> f64 {
     let total = geometric + regularizer;
@@ -362,7 +375,20 @@ impl<'m> GeodesicSolver<'m> {
         b: &[[f64; 3]],
         summaries: Option<[&[f64]; 2]>,
     ) -> Result<f64, GeodesicError> {
-        let length: f64 = if self.energy.steps() == 1 {
+        self.straight_path_with(a, b, summaries).map(|s| s.length)
+    }
+
+    /// [`Self::straight_length_with`] with the straight path's energy (eq. 12 on the linear
+    /// path) split into the geometric term and the L2 regularizer, from the same metric
+    /// evaluations ([`Metric::segment_norms_and_parts`]): the length is the same, bit for bit,
+    /// and the parts are those [`PathEnergy::energy_parts`] gives on the linear path.
+    pub fn straight_path_with(
+        &self,
+        a: &[[f64; 3]],
+        b: &[[f64; 3]],
+        summaries: Option<[&[f64]; 2]>,
+    ) -> Result<StraightPath, GeodesicError> {
+        let (length, [geometric_energy, regularizer_energy]) = if self.energy.steps() == 1 {
             // One segment from `a` to `b`: no path to build, no copy of the poses (a cohort
             // matrix measures millions of such pairs).
             self.check_ends(a, b)?;
@@ -376,23 +402,25 @@ impl<'m> GeodesicSolver<'m> {
             };
             let (s0, s1) = (seg(At::Start), seg(At::End));
             let pe = &self.energy;
-            let [g0, g1] = pe
-                .metric
-                .segment_squared_norms(&pe.topo, pe.pattern.as_ref(), [&s0, &s1]);
-            segment_length(g0 + g1)
+            let ([g0, g1], parts) =
+                pe.metric
+                    .segment_norms_and_parts(&pe.topo, pe.pattern.as_ref(), [&s0, &s1]);
+            (segment_length(g0 + g1), parts)
         } else {
             let ends = self.ends_with(a, b, summaries)?;
             let x0 = self.energy.linear_start(&ends);
-            self.energy
-                .segment_norms(&x0, &ends)
-                .iter()
-                .map(|&(g0, g1)| segment_length(g0 + g1))
-                .sum()
+            let (norms, parts) = self.energy.segment_norms_and_energy_parts(&x0, &ends);
+            let length: f64 = norms.iter().map(|&(g0, g1)| segment_length(g0 + g1)).sum();
+            (length, parts)
         };
         if !length.is_finite() {
             return Err(GeodesicError::NonFinite(format!("straight-path length {length}")));
         }
-        Ok(length)
+        Ok(StraightPath {
+            length,
+            geometric_energy,
+            regularizer_energy,
+        })
     }
 
     /// Geodesic from `a` to `b` started from the given interior poses `P_1 .. P_{N-1}`.

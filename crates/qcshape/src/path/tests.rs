@@ -207,3 +207,88 @@ fn gauss_newton_and_lbfgs_agree_on_small_problems() {
         assert_eq!(gn.poses[4], b.positions);
     }
 }
+
+/// For every metric (calibrated on the scaled reference, with its default and with a large
+/// regularizer): a geodesic's energy split sums to its energy, the straight path's split to
+/// the linear path's energy, and the one-pass split of a segment
+/// ([`Metric::segment_norms_and_parts`]) is bit for bit the two separate calls.
+#[test]
+fn energy_parts_sum_to_the_energy_for_every_metric() {
+    use crate::metric::{MetricKind, MetricSpec};
+    let a = icosphere(2);
+    let f = 1.0 / geometry::mean_edge_length(&a.topology, &a.positions);
+    let scaled = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
+    let (pa, pb) = (scaled(&a.positions), scaled(&bent(&a).positions));
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs().max(f64::MIN_POSITIVE);
+    for kind in MetricKind::all() {
+        for (lambda, frozen_areas) in [(None, true), (Some(2.0), true), (Some(0.5), false)] {
+            let mut spec = MetricSpec::new(kind);
+            if let Some(l) = lambda {
+                spec.lambda = l;
+            }
+            spec.frozen_areas = frozen_areas;
+            let cal = spec.calibrate(&a.topology, &[&pa]).unwrap();
+            let m = spec.build(&cal);
+            let what = format!("{} (lambda {})", spec.label(), spec.lambda);
+            let options = GeodesicOptions {
+                steps: 3,
+                ..Default::default()
+            };
+            let solver = GeodesicSolver::new(m.as_ref(), a.topology.clone(), options).unwrap();
+            let g = solver.solve(&pa, &pb).unwrap();
+            let sum = g.geometric_energy + g.regularizer_energy;
+            assert!(close(sum, g.energy), "{what}: {sum} vs {}", g.energy);
+            assert!(g.geometric_energy > 0.0, "{what}");
+            assert_eq!(g.regularizer_energy > 0.0, kind != MetricKind::L2, "{what}");
+            assert!((0.0..=1.0).contains(&g.regularizer_share()), "{what}");
+
+            // The straight path: its split is the linear path's, and sums to its energy.
+            let ends = solver.ends(&pa, &pb).unwrap();
+            let pe = solver.path_energy();
+            let x0 = pe.linear_start(&ends);
+            let line = solver.straight_path_with(&pa, &pb, None).unwrap();
+            assert_eq!(
+                [line.geometric_energy, line.regularizer_energy],
+                pe.energy_parts(&x0, &ends),
+                "{what}"
+            );
+            let e0 = pe.energy(&x0, &ends);
+            let sum = line.geometric_energy + line.regularizer_energy;
+            assert!(close(sum, e0), "{what}: straight {sum} vs {e0}");
+            assert_eq!(
+                line.length.to_bits(),
+                solver.straight_length(&pa, &pb).unwrap().to_bits()
+            );
+            let one = GeodesicSolver::new(
+                m.as_ref(),
+                a.topology.clone(),
+                GeodesicOptions {
+                    steps: 1,
+                    ..Default::default()
+                },
+            )
+            .unwrap()
+            .straight_path_with(&pa, &pb, None)
+            .unwrap();
+            let e1 = one.geometric_energy + one.regularizer_energy;
+            assert!(
+                close(e1, 2.0 * one.length * one.length),
+                "{what}: one segment {e1}"
+            );
+
+            // One pass, the same bits as the two calls, on every segment of the linear path.
+            for s in 0..pe.steps() {
+                let (s0, s1) = (
+                    pe.segment(&x0, &ends, s, At::Start),
+                    pe.segment(&x0, &ends, s, At::End),
+                );
+                let p = pe.pattern.as_ref();
+                let both = m.segment_norms_and_parts(&a.topology, p, [&s0, &s1]);
+                let norms = m.segment_squared_norms(&a.topology, p, [&s0, &s1]);
+                let parts = m.segment_energy_parts(&a.topology, p, [&s0, &s1]);
+                assert_eq!(both.0.map(f64::to_bits), norms.map(f64::to_bits), "{what}");
+                assert_eq!(both.1.map(f64::to_bits), parts.map(f64::to_bits), "{what}");
+            }
+        }
+    }
+}

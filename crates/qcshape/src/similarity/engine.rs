@@ -55,6 +55,14 @@ pub struct PairDistance {
     pub distance: f64,
     /// `dis(M_k, N_k)` for every pose `k`.
     pub per_pose: Vec<f64>,
+    /// For every pose `k`, the energy (eq. 12) of the path whose length is `dis(M_k, N_k)`
+    /// split as `[geometric, regularizer]` (the geometric term `c_G G` and the L2 regularizer
+    /// `lambda c_L L2` of eq. 11, in the metric's units; [`crate::path::Geodesic`]): the
+    /// geodesic's for [`Approx::Exact`], the straight path's for [`Approx::Straight`], `[0, 0]`
+    /// for identical poses. `None` when unknown: [`Approx::Tangent`] measures no path, and
+    /// pairs read from journals or shard files written before the parts were recorded have
+    /// none.
+    pub per_pose_energy: Option<Vec<[f64; 2]>>,
     /// Whether every geodesic converged.
     pub converged: bool,
     /// Solver iterations, summed over the poses.
@@ -63,9 +71,31 @@ pub struct PairDistance {
     pub seconds: f64,
 }
 
-/// The per-pose distances of `pairs` as CSV: header `a,b,pose,distance,converged`, one row per
-/// pair and pose `k` with `dis(M_k, N_k)` at full precision; `names` (n) name the deformations
-/// (quoted when they hold a comma, a quote or a line break).
+impl PairDistance {
+    /// The pair's energy split `[geometric, regularizer]`, each summed over the poses (in the
+    /// metric's units); `None` when the parts are unknown ([`PairDistance::per_pose_energy`]).
+    pub fn energy_parts(&self) -> Option<[f64; 2]> {
+        self.per_pose_energy
+            .as_ref()
+            .map(|e| e.iter().fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]]))
+    }
+
+    /// The L2 regularizer's share of the pair's energy, `sum_k regularizer_k / sum_k
+    /// (geometric_k + regularizer_k)` in [0, 1] (0 for a pair of zero energy,
+    /// [`crate::path::share`]); above 0.5 the pair's distance measures L2 displacement more
+    /// than the metric's geometry. `None` when the parts are unknown.
+    pub fn regularizer_share(&self) -> Option<f64> {
+        self.energy_parts().map(|[g, r]| crate::path::share(g, r))
+    }
+}
+
+/// The per-pose distances of `pairs` as CSV: header
+/// `a,b,pose,distance,converged,geometric_energy,regularizer_energy,regularizer_share`, one
+/// row per pair and pose `k` with `dis(M_k, N_k)` at full precision, the energy split of its
+/// path ([`PairDistance::per_pose_energy`]) and the pair's regularizer share
+/// ([`PairDistance::regularizer_share`], the same on every row of a pair); the three energy
+/// fields are empty when the parts are unknown (tangent mode, old journals). `names` (n) name
+/// the deformations (quoted when they hold a comma, a quote or a line break).
 pub fn details_csv(names: &[String], pairs: &[PairDistance]) -> String {
     fn field(s: &str) -> String {
         if s.contains([',', '"', '\n']) {
@@ -74,11 +104,17 @@ pub fn details_csv(names: &[String], pairs: &[PairDistance]) -> String {
             s.to_string()
         }
     }
-    let mut text = String::from("a,b,pose,distance,converged\n");
+    let mut text =
+        String::from("a,b,pose,distance,converged,geometric_energy,regularizer_energy,regularizer_share\n");
     for p in pairs {
+        let share = p.regularizer_share();
         for (k, d) in p.per_pose.iter().enumerate() {
+            let parts = match (p.per_pose_energy.as_ref().and_then(|e| e.get(k)), share) {
+                (Some([g, r]), Some(s)) => format!("{g:?},{r:?},{s:?}"),
+                _ => ",,".to_string(),
+            };
             text.push_str(&format!(
-                "{},{},{k},{d:?},{}\n",
+                "{},{},{k},{d:?},{},{parts}\n",
                 field(&names[p.i]),
                 field(&names[p.j]),
                 p.converged
@@ -96,12 +132,14 @@ pub enum Approx {
     Exact,
     /// The length of the straight path with the same N segments, no optimization
     /// ([`GeodesicSolver::straight_length`]): an upper bound of the geodesic length, 2N metric
-    /// evaluations per pose instead of a solve. Its error against the exact matrix is measured
-    /// by `qcshape experiment approx` (docs/scale.md).
+    /// evaluations per pose instead of a solve (the energy split is the straight path's). Its
+    /// error against the exact matrix is measured by `qcshape experiment approx`
+    /// (docs/scale.md).
     Straight,
     /// The metric linearized at the common base: `|J_B (M_k - N_k)|` with `J_B` the residual
     /// Jacobian at the base ([`super::tangent`]): one sparse product per pose, then one
-    /// Euclidean distance per pair and pose. For l2, isometric and conformal only.
+    /// Euclidean distance per pair and pose. For l2, isometric and conformal only. No path is
+    /// measured, so the energy split of [`PairDistance::per_pose_energy`] is unknown (`None`).
     Tangent,
 }
 
@@ -141,22 +179,33 @@ pub fn pose_distances(
     n: &[Pose],
     approx: Approx,
 ) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
-    pose_distances_with(solver, m, n, approx, None)
+    pose_distances_with(solver, m, n, approx, None).map(|p| (p.lengths, p.converged, p.iterations))
 }
 
 /// Per pose of one deformation, the metric's [`crate::metric::Metric::pose_summary`].
 type PoseSummaries = Vec<Vec<f64>>;
 
+/// What [`pose_distances_with`] measures for the poses of one pair.
+struct PoseDistances {
+    /// `dis(M_k, N_k)` per pose.
+    lengths: Vec<f64>,
+    /// `[geometric, regularizer]` energy of each pose's path.
+    parts: Vec<[f64; 2]>,
+    converged: bool,
+    iterations: usize,
+}
+
 /// [`pose_distances`] with the poses' summaries computed beforehand (exact and straight modes;
-/// the same lengths, bit for bit).
+/// the same lengths, bit for bit), and the energy split of every pose's path.
 fn pose_distances_with(
     solver: &GeodesicSolver,
     m: &[Pose],
     n: &[Pose],
     approx: Approx,
     summaries: Option<(&PoseSummaries, &PoseSummaries)>,
-) -> Result<(Vec<f64>, bool, usize), (usize, GeodesicError)> {
+) -> Result<PoseDistances, (usize, GeodesicError)> {
     let mut out = Vec::with_capacity(m.len());
+    let mut parts = Vec::with_capacity(m.len());
     let mut converged = true;
     let mut iterations = 0;
     // One preconditioner fit for the pair's poses (consecutive poses are close), and each
@@ -166,12 +215,15 @@ fn pose_distances_with(
     for (k, (a, b)) in m.iter().zip(n).enumerate() {
         if a == b {
             out.push(0.0);
+            parts.push([0.0, 0.0]);
             continue;
         }
         let s = summaries.map(|(sm, sn)| [sm[k].as_slice(), sn[k].as_slice()]);
         if approx != Approx::Exact {
             // Straight (the tangent mode never gets here: it has no per-pose solve).
-            out.push(solver.straight_length_with(a, b, s).map_err(|e| (k, e))?);
+            let line = solver.straight_path_with(a, b, s).map_err(|e| (k, e))?;
+            out.push(line.length);
+            parts.push([line.geometric_energy, line.regularizer_energy]);
             continue;
         }
         let g = solver
@@ -180,9 +232,15 @@ fn pose_distances_with(
         converged &= g.converged;
         iterations += g.iterations;
         out.push(g.length);
+        parts.push([g.geometric_energy, g.regularizer_energy]);
         previous = Some(g);
     }
-    Ok((out, converged, iterations))
+    Ok(PoseDistances {
+        lengths: out,
+        parts,
+        converged,
+        iterations,
+    })
 }
 
 /// All pairs `(i, j)`, `i < j`, of `n` items, in row order.
@@ -283,33 +341,36 @@ where
                 return Err(SimilarityError::Cancelled);
             }
             let t0 = Instant::now();
-            let (per_pose, converged, iterations) = match &features {
+            let (per_pose, per_pose_energy, converged, iterations) = match &features {
                 Some(y) => {
                     let d = y[i]
                         .iter()
                         .zip(&y[j])
                         .map(|(a, b)| super::tangent::distance(a, b));
-                    (d.collect(), true, 0)
+                    // No path: the energy split is unknown.
+                    (d.collect(), None, true, 0)
                 }
                 None => {
                     let s = match (summaries.get(i), summaries.get(j)) {
                         (Some(Some(a)), Some(Some(b))) => Some((a, b)),
                         _ => None,
                     };
-                    pose_distances_with(solver, &deformations[i], &deformations[j], approx, s)
+                    let p = pose_distances_with(solver, &deformations[i], &deformations[j], approx, s)
+                        .map_err(|(pose, error)| SimilarityError::Geodesic {
+                            a: names[i].clone(),
+                            b: names[j].clone(),
+                            pose,
+                            error,
+                        })?;
+                    (p.lengths, Some(p.parts), p.converged, p.iterations)
                 }
-                .map_err(|(pose, error)| SimilarityError::Geodesic {
-                    a: names[i].clone(),
-                    b: names[j].clone(),
-                    pose,
-                    error,
-                })?,
             };
             let pair = PairDistance {
                 i,
                 j,
                 distance: per_pose.iter().sum(),
                 per_pose,
+                per_pose_energy,
                 converged,
                 iterations,
                 seconds: t0.elapsed().as_secs_f64(),
@@ -486,6 +547,102 @@ mod tests {
                     }
                     assert!(p.distance > 0.0);
                 }
+            }
+        }
+    }
+
+    /// Every pose of a pair carries the energy split of its path, for every metric: in the
+    /// exact mode the geodesic's (the same solves, bit for bit), summing to its energy; in the
+    /// straight mode the linear path's, summing to its energy; none in the tangent mode. The
+    /// pair's share is the regularizer's part of the summed energy.
+    #[test]
+    fn pairs_carry_the_energy_split_of_every_pose() {
+        use crate::metric::{MetricKind, MetricSpec};
+        use crate::path::Ends;
+        let s = icosphere(2);
+        let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
+        let base: Pose = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
+        let bumpy = |amp: f64| -> Pose {
+            base.iter()
+                .map(|p| [p[0] * (1.0 + amp * p[1] / f), p[1], p[2] * (1.0 - 0.5 * amp)])
+                .collect()
+        };
+        let defs: Vec<Vec<Pose>> = [0.1, 0.3]
+            .iter()
+            .map(|&amp| vec![base.clone(), bumpy(amp), bumpy(1.5 * amp)])
+            .collect();
+        let names: Vec<String> = ["a", "b"].iter().map(|n| n.to_string()).collect();
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y;
+        for kind in MetricKind::all() {
+            let spec = MetricSpec::new(kind);
+            let cal = spec.calibrate(&s.topology, &[&base]).unwrap();
+            let metric = spec.build(&cal);
+            let opts = GeodesicOptions {
+                steps: 3,
+                ..Default::default()
+            };
+            let solver = GeodesicSolver::new(metric.as_ref(), s.topology.clone(), opts).unwrap();
+            let run = |approx| {
+                let mut p =
+                    compute_pairs(&solver, approx, &names, &defs, &HashSet::new(), None, |_| Ok(())).unwrap();
+                assert_eq!(p.len(), 1);
+                p.remove(0)
+            };
+            let exact = run(Approx::Exact);
+            let parts = exact.per_pose_energy.clone().unwrap();
+            assert_eq!(parts.len(), 3);
+            assert_eq!(parts[0], [0.0, 0.0], "{kind:?}: identical poses");
+            // The same sequence of solves as the pair's (each started from the previous).
+            let mut ctx = SolveContext::default();
+            let mut previous = None;
+            for k in 1..3 {
+                let (a, b) = (&defs[0][k], &defs[1][k]);
+                let g = solver
+                    .distance_near_with(&mut ctx, a, b, previous.as_ref(), None)
+                    .unwrap();
+                assert_eq!(
+                    g.length.to_bits(),
+                    exact.per_pose[k].to_bits(),
+                    "{kind:?} pose {k}"
+                );
+                assert_eq!(
+                    parts[k],
+                    [g.geometric_energy, g.regularizer_energy],
+                    "{kind:?} pose {k}"
+                );
+                let sum = parts[k][0] + parts[k][1];
+                assert!(close(sum, g.energy), "{kind:?} pose {k}: {sum} vs {}", g.energy);
+                previous = Some(g);
+            }
+            let [geo, reg] = exact.energy_parts().unwrap();
+            assert_eq!(exact.regularizer_share(), Some(crate::path::share(geo, reg)));
+            assert_eq!(reg > 0.0, kind != MetricKind::L2, "{kind:?}");
+
+            let straight = run(Approx::Straight);
+            let parts = straight.per_pose_energy.clone().unwrap();
+            assert_eq!(parts[0], [0.0, 0.0]);
+            let pe = solver.path_energy();
+            for k in 1..3 {
+                let (a, b) = (&defs[0][k], &defs[1][k]);
+                let ends = Ends {
+                    start: a.clone(),
+                    end: b.clone(),
+                    frozen: metric.frozen_weights(&s.topology, a, b),
+                };
+                let x0 = pe.linear_start(&ends);
+                let e0 = pe.energy(&x0, &ends);
+                let sum = parts[k][0] + parts[k][1];
+                assert!(close(sum, e0), "{kind:?} straight pose {k}: {sum} vs {e0}");
+                // The straight path is no shorter in energy than the geodesic.
+                assert!(sum >= exact.per_pose_energy.as_ref().unwrap()[k].iter().sum::<f64>() * (1.0 - 1e-9));
+            }
+            if matches!(
+                kind,
+                MetricKind::L2 | MetricKind::Isometric | MetricKind::Conformal
+            ) {
+                let tangent = run(Approx::Tangent);
+                assert_eq!(tangent.per_pose_energy, None);
+                assert_eq!(tangent.regularizer_share(), None);
             }
         }
     }

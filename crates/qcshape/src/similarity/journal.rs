@@ -9,6 +9,15 @@
 //! disk, or changed on disk, fails its check and is dropped (and recomputed) on resume, with
 //! the count in [`Journal::dropped`]. A journal whose key differs from the current run's is
 //! never reused.
+//!
+//! A pair line is `pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE,ENERGY,#CHECK`:
+//! `PER_POSE` the pose distances separated by `;`, `ENERGY` the energy split of every pose's
+//! path ([`PairDistance::per_pose_energy`]) as `geometric:regularizer` separated by `;`, or
+//! empty when unknown (tangent mode). Floats are written with Rust's shortest round-trip
+//! formatting, so they read back bit for bit. Version 3 (this one) added the `ENERGY` field;
+//! journals and shard files of version 2 (header `# qcshape similarity journal v2`, pair lines
+//! without it) still load, their pairs without an energy split (`None`), and are rewritten as
+//! version 3 when resumed. Earlier qcshape releases refuse version 3 files.
 
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -18,7 +27,10 @@ use std::sync::Mutex;
 use super::engine::{PairDistance, Pose, SimilarityError};
 use super::shard::Shard;
 
-const HEADER: &str = "# qcshape similarity journal v2";
+const HEADER: &str = "# qcshape similarity journal v3";
+
+/// The header of version 2 (pair lines without the energy split), still read.
+const HEADER_V2: &str = "# qcshape similarity journal v2";
 
 /// FNV-1a 64-bit hash of the names, every coordinate's bits and a settings string (metric,
 /// solver options, scale): identical inputs give the same key on every machine and version.
@@ -208,15 +220,22 @@ impl Journal {
 
 fn line(p: &PairDistance) -> String {
     let per: Vec<String> = p.per_pose.iter().map(|d| format!("{d:?}")).collect();
+    let energy: Vec<String> = p
+        .per_pose_energy
+        .iter()
+        .flatten()
+        .map(|[g, r]| format!("{g:?}:{r:?}"))
+        .collect();
     let body = format!(
-        "pair,{},{},{:?},{},{},{:?},{}",
+        "pair,{},{},{:?},{},{},{:?},{},{}",
         p.i,
         p.j,
         p.distance,
         p.converged,
         p.iterations,
         p.seconds,
-        per.join(";")
+        per.join(";"),
+        energy.join(";")
     );
     let check = checksum(&body);
     format!("{body},#{check:016x}\n")
@@ -229,7 +248,8 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
         return None;
     }
     let f: Vec<&str> = body.split(',').collect();
-    if f.len() != 8 || f[0] != "pair" {
+    // Version 2 records have 8 fields (no energy split), version 3 records 9.
+    if !(f.len() == 8 || f.len() == 9) || f[0] != "pair" {
         return None;
     }
     let i: usize = f[1].parse().ok()?;
@@ -242,11 +262,28 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
     if !distance.is_finite() || per_pose.iter().any(|d| !d.is_finite()) {
         return None;
     }
+    let per_pose_energy = match f.get(8) {
+        None | Some(&"") => None,
+        Some(text) => {
+            let parts: Vec<[f64; 2]> = text
+                .split(';')
+                .map(|gr| {
+                    let (g, r) = gr.split_once(':')?;
+                    Some([g.parse().ok()?, r.parse().ok()?])
+                })
+                .collect::<Option<_>>()?;
+            if parts.len() != per_pose.len() || parts.iter().flatten().any(|v| !v.is_finite()) {
+                return None;
+            }
+            Some(parts)
+        }
+    };
     Some(PairDistance {
         i,
         j,
         distance,
         per_pose,
+        per_pose_energy,
         converged: f[4].parse().ok()?,
         iterations: f[5].parse().ok()?,
         seconds: f[6].parse().ok()?,
@@ -293,9 +330,9 @@ impl JournalFile {
             .split(|&b| b == b'\n')
             .map(|l| String::from_utf8_lossy(l).into_owned())
             .collect();
-        if lines.len() < 4 || lines[0] != HEADER {
+        if lines.len() < 4 || !(lines[0] == HEADER || lines[0] == HEADER_V2) {
             return Err(err(format!(
-                "not a qcshape similarity journal of this version (expected the first line {HEADER:?})"
+                "not a qcshape similarity journal of this version (expected the first line {HEADER:?} or {HEADER_V2:?})"
             )));
         }
         let key = lines[1]
@@ -417,6 +454,7 @@ mod tests {
             j,
             distance: d,
             per_pose: vec![0.0, d / 3.0, 2.0 * d / 3.0],
+            per_pose_energy: Some(vec![[0.0, 0.0], [d / 7.0, d * 1e-3], [0.1 + d, 1.0 / 3.0]]),
             converged: true,
             iterations: 7,
             seconds: 0.25,
@@ -472,6 +510,7 @@ mod tests {
         let a = pair(0, 1, 1.164056);
         let b = PairDistance {
             per_pose: vec![0.0, 1.164056789, 2.5],
+            per_pose_energy: None,
             ..pair(0, 2, 3.664056789)
         };
         j.record(&a).unwrap();
@@ -500,6 +539,96 @@ mod tests {
         let (j, done) = Journal::open(&path, 7, "x", 3, true).unwrap();
         assert_eq!(done, vec![b]);
         assert_eq!(j.dropped(), 1);
+    }
+
+    /// The energy split survives a resume bit for bit (known, unknown, extreme values), and a
+    /// split that does not match the pose count or is not a number drops the record.
+    #[test]
+    fn energy_parts_round_trip_and_bad_parts_are_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.journal");
+        let (j, _) = Journal::open(&path, 9, "s", 4, false).unwrap();
+        let a = PairDistance {
+            per_pose_energy: Some(vec![
+                [0.0, 0.0],
+                [f64::MIN_POSITIVE, 1e300],
+                [0.1 + 0.2, std::f64::consts::E],
+            ]),
+            ..pair(0, 1, 0.7)
+        };
+        let tangent = PairDistance {
+            per_pose_energy: None,
+            ..pair(1, 2, 0.9)
+        };
+        j.record(&a).unwrap();
+        j.record(&tangent).unwrap();
+        drop(j);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("# qcshape similarity journal v3\n"), "{text}");
+        assert!(
+            text.contains(";0.30000000000000004:2.718281828459045,#"),
+            "{text}"
+        );
+        let (j, done) = Journal::open(&path, 9, "s", 4, true).unwrap();
+        assert_eq!(done, vec![a.clone(), tangent.clone()]);
+        assert_eq!(done[0].regularizer_share(), a.regularizer_share());
+        assert_eq!(done[1].regularizer_share(), None);
+        assert_eq!(j.dropped(), 0);
+        // Records with a well-formed check but a bad split: two parts for three poses, a
+        // missing regularizer, a NaN.
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        for energy in [
+            "0.0:0.0;1.0:2.0",
+            "0.0:0.0;1.0;2.0:3.0",
+            "0.0:0.0;NaN:1.0;1.0:1.0",
+        ] {
+            let body = format!("pair,2,3,1.5,true,3,0.5,0.0;0.5;1.0,{energy}");
+            writeln!(f, "{body},#{:016x}", checksum(&body)).unwrap();
+        }
+        drop((f, j));
+        let (j, done) = Journal::open(&path, 9, "s", 4, true).unwrap();
+        assert_eq!(done, vec![a, tangent]);
+        assert_eq!(j.dropped(), 3);
+    }
+
+    /// A journal of version 2 (no energy field) still resumes: its pairs come back without
+    /// an energy split, and the rewritten journal is version 3.
+    #[test]
+    fn version_2_journals_still_load() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.journal");
+        let body = "pair,0,2,1.25,true,11,0.5,0.0;0.5;0.75";
+        let text = format!(
+            "# qcshape similarity journal v2\nkey,{:016x}\nn,3\nsettings,m=a\n{body},#{:016x}\n",
+            77,
+            checksum(body)
+        );
+        std::fs::write(&path, text).unwrap();
+        let file = JournalFile::read(&path).unwrap();
+        let want = PairDistance {
+            i: 0,
+            j: 2,
+            distance: 1.25,
+            per_pose: vec![0.0, 0.5, 0.75],
+            per_pose_energy: None,
+            converged: true,
+            iterations: 11,
+            seconds: 0.5,
+        };
+        assert_eq!((file.pairs.clone(), file.dropped), (vec![want.clone()], 0));
+        let (j, done) = Journal::open(&path, 77, "m=a", 3, true).unwrap();
+        assert_eq!(done, vec![want.clone()]);
+        let b = pair(0, 1, 2.0);
+        j.record(&b).unwrap();
+        drop(j);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("# qcshape similarity journal v3\n"), "{text}");
+        let (_, done) = Journal::open(&path, 77, "m=a", 3, true).unwrap();
+        assert_eq!(done, vec![want, b]);
+        // Another first line is still refused.
+        std::fs::write(&path, "# qcshape similarity journal v1\nkey,0\nn,3\nsettings,\n").unwrap();
+        let e = Journal::open(&path, 77, "m=a", 3, true).unwrap_err().to_string();
+        assert!(e.contains("v3") && e.contains("v2"), "{e}");
     }
 
     #[test]

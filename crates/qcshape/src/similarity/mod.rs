@@ -9,6 +9,7 @@ pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
 pub mod shard;
+pub mod shares;
 pub mod tangent;
 
 pub use engine::{
@@ -21,3 +22,4 @@ pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use matrix::*;
 pub use pipeline::{prepare, settings_key, similarities, PipelineError, PipelineOptions, Prepared, Stage};
 pub use shard::{merge as merge_shards, Merged, Shard};
+pub use shares::ShareSummary;

@@ -222,6 +222,7 @@ mod tests {
             j,
             distance: d,
             per_pose: vec![0.0, d],
+            per_pose_energy: Some(vec![[0.0, 0.0], [0.9 * d, 0.1 * d]]),
             converged: true,
             iterations: 3,
             seconds: 0.5,
@@ -316,6 +317,51 @@ mod tests {
         Journal::open(&whole, 99, "m=a", n, false).unwrap();
         let e = merge(&[whole]).unwrap_err().to_string();
         assert!(e.contains("not of a shard"), "{e}");
+    }
+
+    /// Shard files of version 2 (no energy field) still merge; their pairs have no energy
+    /// split, and shards of both versions merge together.
+    #[test]
+    fn version_2_shards_still_merge() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 4;
+        let names: Vec<String> = (0..n).map(|k| format!("d{k}")).collect();
+        let paths = write_shards(dir.path(), n, 2, &names, "m=a");
+        // Rewrite shard 1 as version 2: the old header, the pair lines without their last
+        // field (each with its own check).
+        let text = std::fs::read_to_string(&paths[0]).unwrap();
+        let old: Vec<String> = text
+            .lines()
+            .map(|l| {
+                if let Some(first) = l.strip_prefix("# qcshape similarity journal v3") {
+                    format!("# qcshape similarity journal v2{first}")
+                } else if l.starts_with("pair,") {
+                    let body = l.rsplit_once(",#").unwrap().0;
+                    let body = body.rsplit_once(',').unwrap().0;
+                    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+                    for b in body.bytes() {
+                        h ^= b as u64;
+                        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+                    }
+                    format!("{body},#{h:016x}")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect();
+        std::fs::write(&paths[0], old.join("\n") + "\n").unwrap();
+        let m = merge(&paths).unwrap();
+        let s1 = Shard::new(1, 2).unwrap();
+        for p in &m.pairs {
+            let want = pair(p.i, p.j);
+            assert_eq!((p.distance, &p.per_pose), (want.distance, &want.per_pose));
+            if s1.pairs(n).contains(&(p.i, p.j)) {
+                assert_eq!(p.per_pose_energy, None);
+            } else {
+                assert_eq!(p.per_pose_energy, want.per_pose_energy);
+            }
+        }
+        assert_eq!(m.pairs.len(), 6);
     }
 
     #[test]

@@ -167,6 +167,10 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
         100.0 * main.scores.specificity,
         main.wall.iter().sum::<f64>()
     );
+    eprintln!("{}", main.shares.line());
+    if let Some(w) = main.shares.warning(opts.metric.kind.label()) {
+        eprintln!("warning: {w}");
+    }
     let base = baselines(&defs, &axes, a.common.open, &split)?;
     for b in &base.rows {
         eprintln!(

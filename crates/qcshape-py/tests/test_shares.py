@@ -1,0 +1,89 @@
+"""The L2 regularizer's share of the energy: the Geodesic attributes and
+similarity_matrix(..., return_details=True)."""
+
+import numpy as np
+import pytest
+
+import qcshape as qs
+
+
+def small(synthetic):
+    """Six deformations of the synthetic set: three twists, three bends."""
+    twist = [i for i, l in enumerate(synthetic.labels) if l == "twist"]
+    bend = [i for i, l in enumerate(synthetic.labels) if l == "bend"]
+    keep = twist[:3] + bend[:3]
+    return qs.Dataset(
+        poses=[synthetic[i] for i in keep],
+        faces=synthetic.faces,
+        names=[synthetic.names[i] for i in keep],
+    )
+
+
+def test_geodesic_energy_split_sums_to_its_energy(pair):
+    V, B, F = pair
+    shares = {}
+    for metric, lam in [("isometric", 0.001), ("isometric", 100.0), ("quasi-conformal", None), ("l2", None)]:
+        g = qs.ShapeSpace(F, metric=metric, lam=lam).geodesic(V, B, steps=3)
+        assert g.geometric_energy > 0.0
+        assert g.regularizer_energy >= 0.0
+        assert g.geometric_energy + g.regularizer_energy == pytest.approx(g.energy, rel=1e-12)
+        assert g.regularizer_share == pytest.approx(g.regularizer_energy / g.energy, rel=1e-12)
+        assert 0.0 <= g.regularizer_share <= 1.0
+        shares[metric, lam] = g.regularizer_share
+    assert shares["l2", None] == 0.0
+    assert shares["isometric", 0.001] < 0.5 < shares["isometric", 100.0]
+
+
+@pytest.mark.parametrize("approx", ["exact", "straight"])
+def test_details_hold_the_pose_distances_and_the_energy_split(synthetic, approx):
+    ds = small(synthetic)
+    n = len(ds)
+    opts = dict(metric="isometric", steps=2, approx=approx, progress=False)
+    D = qs.similarity_matrix(ds, **opts)
+    D2, det = qs.similarity_matrix(ds, return_details=True, **opts)
+    np.testing.assert_array_equal(D, D2)
+    P, K = n * (n - 1) // 2, len(ds[0])
+    assert set(det) == {"pairs", "distance", "geometric_energy", "regularizer_energy", "regularizer_share"}
+    assert det["pairs"].shape == (P, 2) and det["pairs"].dtype == np.int64
+    for key in ["distance", "geometric_energy", "regularizer_energy"]:
+        assert det[key].shape == (P, K) and det[key].dtype == np.float64, key
+    assert det["regularizer_share"].shape == (P,)
+    i, j = det["pairs"].T
+    assert np.all(i < j)
+    # The distances are the matrix's, split per pose.
+    np.testing.assert_allclose(det["distance"].sum(axis=1), D[i, j], rtol=1e-14, atol=0)
+    # Pose 0 is the common base: no path, no energy.
+    assert np.all(det["distance"][:, 0] == 0.0)
+    assert np.all(det["geometric_energy"][:, 0] == 0.0) and np.all(det["regularizer_energy"][:, 0] == 0.0)
+    geo, reg = det["geometric_energy"], det["regularizer_energy"]
+    assert np.all(geo[:, 1:] > 0.0) and np.all(reg[:, 1:] > 0.0)
+    share = det["regularizer_share"]
+    np.testing.assert_allclose(share, reg.sum(axis=1) / (geo + reg).sum(axis=1), rtol=1e-14)
+    assert np.all((share >= 0.0) & (share <= 1.0))
+
+
+def test_a_large_lambda_gives_shares_above_one_half(synthetic):
+    ds = small(synthetic)
+    shares = {}
+    for lam in [0.001, 100.0]:
+        _, det = qs.similarity_matrix(ds, metric="isometric", steps=2, lam=lam, progress=False, return_details=True)
+        shares[lam] = det["regularizer_share"]
+    assert np.all(shares[0.001] < 0.5)
+    assert np.all(shares[100.0] > 0.5)
+
+
+def test_tangent_details_have_no_energy_split(synthetic):
+    ds = small(synthetic)
+    D, det = qs.similarity_matrix(
+        ds, metric="isometric", steps=2, approx="tangent", progress=False, return_details=True
+    )
+    assert np.all(np.isfinite(det["distance"]))
+    assert np.all(np.isnan(det["geometric_energy"])) and np.all(np.isnan(det["regularizer_share"]))
+
+
+def test_return_details_must_be_a_bool(synthetic):
+    ds = small(synthetic)
+    with pytest.raises(ValueError, match="^return_details"):
+        qs.similarity_matrix(ds, return_details="yes", progress=False)
+    D = qs.similarity_matrix(ds, return_details=False, metric="l2", steps=1, progress=False)
+    assert isinstance(D, np.ndarray) and D.shape == (len(ds), len(ds))
