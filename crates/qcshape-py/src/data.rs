@@ -296,7 +296,7 @@ pub fn run_pipeline(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, return_details=None, **options))]
 #[pyo3(
-    text_signature = "(dataset, *, return_details=False, metric='quasi-conformal', form=None, weights=None, lam=None, \
+    text_signature = "(dataset, *, return_details=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
@@ -381,7 +381,7 @@ fn pair_details<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, a, b, **options))]
 #[pyo3(
-    text_signature = "(dataset, a, b, *, metric='quasi-conformal', form=None, weights=None, lam=None, \
+    text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
@@ -442,7 +442,7 @@ pub fn pair_contributions<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
 #[pyo3(
-    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='quasi-conformal', form=None, \
+    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, \
 weights=None, lam=None, l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, \
 insert=0, levels=None, transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]

@@ -5,12 +5,13 @@
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
+use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
 use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
 
-/// The metric keywords (the CLI's `--metric --form --weights --lambda --l2-areas`).
+/// The metric keywords (the CLI's `--metric --form --weights --lambda --l2-areas --scale
+/// --qc-weights --qc-floor --qc-smooth`; `--scale` is `metric_scale`).
 #[derive(Debug, Clone, Default)]
 pub struct MetricKw {
     pub metric: Option<String>,
@@ -18,10 +19,14 @@ pub struct MetricKw {
     pub weights: Option<String>,
     pub lam: Option<f64>,
     pub l2_areas: Option<String>,
+    pub metric_scale: Option<String>,
+    pub qc_weights: Option<String>,
+    pub qc_floor: Option<f64>,
+    pub qc_smooth: Option<usize>,
 }
 
 impl MetricKw {
-    /// The metric specification (default metric: the pipeline's, quasi-conformal).
+    /// The metric specification (default metric: the pipeline's, isometric).
     pub fn spec(&self) -> PyResult<MetricSpec> {
         let kind = match &self.metric {
             None => PipelineOptions::default().metric.kind,
@@ -71,6 +76,41 @@ impl MetricKw {
                 }
             };
         }
+        if let Some(s) = &self.metric_scale {
+            spec.scale = s
+                .parse::<MetricScale>()
+                .map_err(|e| PyValueError::new_err(format!("metric_scale: {e}")))?;
+        }
+        let mut qc = spec.qc_normalize.unwrap_or(QcNormalize {
+            floor: 0.0,
+            smooth: 0,
+        });
+        if let Some(f) = self.qc_floor {
+            if !(f.is_finite() && f >= 0.0) {
+                return Err(PyValueError::new_err(format!(
+                    "qc_floor: must be a finite number >= 0, got {f}"
+                )));
+            }
+            qc.floor = f;
+        }
+        if let Some(n) = self.qc_smooth {
+            if n > 1000 {
+                return Err(PyValueError::new_err(format!(
+                    "qc_smooth: must be at most 1000, got {n}"
+                )));
+            }
+            qc.smooth = n;
+        }
+        spec.qc_normalize = match self.qc_weights.as_deref() {
+            None if spec.qc_normalize.is_none() => None,
+            None | Some("rms") => Some(qc),
+            Some("raw") => None,
+            Some(w) => {
+                return Err(PyValueError::new_err(format!(
+                    "qc_weights: expected 'rms' or 'raw', got {w:?}"
+                )))
+            }
+        };
         Ok(spec)
     }
 }
@@ -158,7 +198,8 @@ pub struct PipelineKw {
 }
 
 /// The keywords of the pipeline, for the docstrings and the error on an unknown one.
-pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, steps, solver, tolerance, \
+pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, metric_scale, qc_weights, \
+qc_floor, qc_smooth, steps, solver, tolerance, \
 energy_tolerance, length_tolerance, insert, levels, transport, align, smooth, base, approx, threads, progress";
 
 impl PipelineKw {
@@ -180,6 +221,10 @@ impl PipelineKw {
                 "weights" => k.metric.weights = Some(value.extract().map_err(bad)?),
                 "lam" | "lambda_" => k.metric.lam = Some(value.extract().map_err(bad)?),
                 "l2_areas" => k.metric.l2_areas = Some(value.extract().map_err(bad)?),
+                "metric_scale" => k.metric.metric_scale = Some(value.extract().map_err(bad)?),
+                "qc_weights" => k.metric.qc_weights = Some(value.extract().map_err(bad)?),
+                "qc_floor" => k.metric.qc_floor = Some(value.extract().map_err(bad)?),
+                "qc_smooth" => k.metric.qc_smooth = Some(value.extract().map_err(bad)?),
                 "steps" => k.solver.steps = Some(value.extract().map_err(bad)?),
                 "solver" => k.solver.solver = Some(value.extract().map_err(bad)?),
                 "tolerance" => k.solver.tolerance = Some(value.extract().map_err(bad)?),

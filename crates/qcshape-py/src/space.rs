@@ -116,11 +116,15 @@ impl PyGeodesic {
 
 /// The shape space of one triangle connectivity with one metric (paper section 2).
 ///
-/// ``ShapeSpace(F, metric="quasi-conformal", lam=0.1)``: F is the (nF, 3) integer face array
+/// ``ShapeSpace(F, metric="isometric", lam=0.01)``: F is the (nF, 3) integer face array
 /// shared by every shape; shapes are (nV, 3) float64 arrays, tangent vectors (nV, 3)
 /// displacements. Keywords (None keeps the library default, the CLI's): ``metric`` l2 | rigid
-/// | isometric | conformal | quasi-conformal; ``form`` quadratic | paper; ``weights`` endpoints
-/// | segment; ``lam`` L2 weight lambda (eq. 11, default 0.1); ``l2_areas`` frozen | pose;
+/// | isometric (default) | conformal | quasi-conformal; ``form`` quadratic | paper; ``weights``
+/// endpoints | segment; ``lam`` L2 weight lambda (eq. 11, default 0.01 on the calibrated
+/// scale); ``metric_scale`` calibrated (default: every term over its own resolution-consistent
+/// scale, docs/geometry.md) | raw (the paper's sums in mean-edge units, the previous releases'
+/// with ``lam=0.1``); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5), ``qc_smooth``
+/// (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
 /// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
 /// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
@@ -128,9 +132,11 @@ impl PyGeodesic {
 /// ``n_vertices`` (default max index + 1).
 ///
 /// Coordinates are normalized before solving, as ``qcshape geodesic`` does: divided by the mean
-/// edge length of the first shape of each call; ``reference=V0`` fixes that to V0's for every
-/// call (then ``dist`` is symmetric for any pair), ``scale=f`` multiplies by f. Lengths and
-/// energies are in the normalized units, poses and vectors in the input's units.
+/// edge length of the call's reference shapes (both ends for ``geodesic``, ``dist`` and
+/// ``log``, so ``dist(a, b) == dist(b, a)``; the first shape or the base otherwise), and the
+/// metric is calibrated on them; ``reference=V0`` fixes both to V0's for every call,
+/// ``scale=f`` multiplies by f. Lengths and energies are in the metric's units, poses and
+/// vectors in the input's units.
 ///
 /// Methods release the GIL and stop at Ctrl-C; the object is immutable and may be shared
 /// between threads.
@@ -167,6 +173,7 @@ impl PyShapeSpace {
 impl PyShapeSpace {
     #[new]
     #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
+        metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None,
         steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None,
         reference=None, scale=None, n_vertices=None))]
     #[allow(clippy::too_many_arguments)]
@@ -177,6 +184,10 @@ impl PyShapeSpace {
         weights: Option<String>,
         lam: Option<f64>,
         l2_areas: Option<String>,
+        metric_scale: Option<String>,
+        qc_weights: Option<String>,
+        qc_floor: Option<f64>,
+        qc_smooth: Option<usize>,
         steps: Option<usize>,
         solver: Option<String>,
         tolerance: Option<f64>,
@@ -196,6 +207,10 @@ impl PyShapeSpace {
             weights,
             lam,
             l2_areas,
+            metric_scale,
+            qc_weights,
+            qc_floor,
+            qc_smooth,
         }
         .spec()?;
         let geo = SolverKw {
@@ -238,7 +253,7 @@ impl PyShapeSpace {
         crate::convert::faces_out(py, self.space.topology().faces())
     }
 
-    /// The metric's name with its variants, e.g. "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen)".
+    /// The metric's name with its variants, e.g. "isometric+0.01*l2(frozen),calibrated".
     #[getter]
     fn metric(&self) -> String {
         self.space.metric_label()

@@ -35,10 +35,18 @@ def test_geodesic_is_symmetric(pair):
 def test_defaults_are_the_librarys(pair):
     V, B, F = pair
     space = qs.ShapeSpace(F)
-    assert space.metric == "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen)"
+    assert space.metric == "isometric+0.01*l2(frozen),calibrated"
     assert space.steps == 8
-    explicit = qs.ShapeSpace(F, metric="quasi-conformal", lam=0.1, steps=8, solver="preconditioned")
+    explicit = qs.ShapeSpace(F, metric="isometric", lam=0.01, metric_scale="calibrated", steps=8, solver="preconditioned")
     assert space.dist(V, B) == explicit.dist(V, B)
+    previous = qs.ShapeSpace(F, metric="quasi-conformal", lam=0.1, metric_scale="raw", qc_weights="raw")
+    assert previous.metric == "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen),raw"
+    qc = qs.ShapeSpace(F, metric="quasi-conformal", qc_floor=0.25, qc_smooth=2)
+    assert "rms,floor=0.25,smooth=2" in qc.metric
+    with pytest.raises(ValueError, match="metric_scale"):
+        qs.ShapeSpace(F, metric_scale="size")
+    with pytest.raises(ValueError, match="qc_floor"):
+        qs.ShapeSpace(F, qc_floor=-1.0)
 
 
 def test_dist_stops_when_the_length_settles_and_length_tolerance_switches_it_off(pair):

@@ -4,10 +4,10 @@ A Python layer over the qcshape Rust library (numpy arrays in and out):
 
     import qcshape as qs
     V, F = qs.read_mesh("pose0.ply")                     # float64 (nV, 3), int64 (nF, 3)
-    space = qs.ShapeSpace(F, metric="quasi-conformal", lam=0.1)
+    space = qs.ShapeSpace(F, metric="isometric", lam=0.01)
     g = space.geodesic(VA, VB, steps=8)                  # g.length, g.path (9, nV, 3), ...
     ds = qs.Dataset.from_manifest("syn/manifest.csv")
-    D = qs.similarity_matrix(ds, metric="quasi-conformal")   # (n, n), as `qcshape similarity`
+    D = qs.similarity_matrix(ds, metric="isometric")   # (n, n), as `qcshape similarity`
     D, details = qs.similarity_matrix(ds, return_details=True)  # + per-pair, per-pose distances
                                                          # and energy split (regularizer_share)
     labels = qs.KMedoids(n_clusters=8, n_init=20, random_state=0).fit(D).labels_

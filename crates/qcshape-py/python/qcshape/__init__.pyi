@@ -27,6 +27,10 @@ class PipelineOptions(TypedDict, total=False):
     form: Optional[str]
     weights: Optional[str]
     lam: Optional[float]
+    metric_scale: Optional[str]
+    qc_weights: Optional[str]
+    qc_floor: Optional[float]
+    qc_smooth: Optional[int]
     l2_areas: Optional[str]
     steps: Optional[int]
     solver: Optional[str]
@@ -98,6 +102,10 @@ class ShapeSpace:
         weights: Optional[str] = None,
         lam: Optional[float] = None,
         l2_areas: Optional[str] = None,
+        metric_scale: Optional[str] = None,
+        qc_weights: Optional[str] = None,
+        qc_floor: Optional[float] = None,
+        qc_smooth: Optional[int] = None,
         steps: Optional[int] = None,
         solver: Optional[str] = None,
         tolerance: Optional[float] = None,
