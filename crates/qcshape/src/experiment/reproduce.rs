@@ -89,6 +89,10 @@ pub struct Reproduction {
     pub smoothing: usize,
     /// Seed of the synthetic amplitudes, k-means and noise.
     pub seed: u64,
+    /// Also run Table 1 with the previous configuration ([`MetricSpec::previous`]: the raw
+    /// scale in mean-edge units, `lambda` 0.1, the paper's raw quasi-conformal weights), the
+    /// one the README's earlier tables and the paper comparison used, beside the default.
+    pub previous: bool,
 }
 
 impl Reproduction {
@@ -116,6 +120,7 @@ impl Reproduction {
             align: defaults::ALIGN,
             smoothing: defaults::SMOOTH,
             seed: defaults::SEED,
+            previous: true,
         }
     }
 
@@ -187,7 +192,34 @@ impl Reproduction {
         kind: MetricKind,
         progress: &(dyn Fn(Stage) + Sync),
     ) -> Result<MetricRun, ReproduceError> {
-        let opts = self.pipeline(kind);
+        self.run_options(defs, labels, kind, self.pipeline(kind), progress)
+    }
+
+    /// [`Reproduction::run_metric`] with the previous configuration of the metric
+    /// ([`MetricSpec::previous`]: raw scale, `lambda` [`defaults::RAW_LAMBDA`], raw
+    /// quasi-conformal weights), everything else as in [`Reproduction::pipeline`].
+    pub fn run_previous(
+        &self,
+        defs: &[Deformation],
+        labels: &[String],
+        kind: MetricKind,
+        progress: &(dyn Fn(Stage) + Sync),
+    ) -> Result<MetricRun, ReproduceError> {
+        let opts = PipelineOptions {
+            metric: MetricSpec::previous(kind),
+            ..self.pipeline(kind)
+        };
+        self.run_options(defs, labels, kind, opts, progress)
+    }
+
+    fn run_options(
+        &self,
+        defs: &[Deformation],
+        labels: &[String],
+        kind: MetricKind,
+        opts: PipelineOptions,
+        progress: &(dyn Fn(Stage) + Sync),
+    ) -> Result<MetricRun, ReproduceError> {
         let c = classify_set(defs, &opts, CLASSES, self.restarts, self.seed, progress)?;
         Ok(MetricRun {
             kind,
@@ -367,6 +399,23 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
     (m, v.sqrt())
 }
 
+/// The Table 1 rows of `runs`, one per metric.
+fn table1_rows(runs: &[MetricRun]) -> Vec<Table1Row> {
+    runs.iter()
+        .map(|r| Table1Row {
+            metric: r.kind.label().to_string(),
+            specificity: r.scores.eq15.specificity,
+            sensitivity: r.scores.eq15.sensitivity,
+            paper: paper_table1(r.kind),
+            kernel_specificity: r.kernel_scores.eq15.specificity,
+            kernel_sensitivity: r.kernel_scores.eq15.sensitivity,
+            nn_accuracy: r.scores.nn_accuracy,
+            ari: r.scores.ari,
+            shares: r.classified.shares,
+        })
+        .collect()
+}
+
 /// A row of Table 1 (shares in [0, 1]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Table1Row {
@@ -451,6 +500,11 @@ pub struct ReproduceReport {
     pub restarts: usize,
     /// Table 1, one row per metric.
     pub table1: Vec<Table1Row>,
+    /// Table 1 with the previous configuration ([`Reproduction::previous`]; empty when not
+    /// run), and the metric names as built.
+    pub previous: Vec<Table1Row>,
+    /// The metric names of [`ReproduceReport::previous`] as built.
+    pub previous_names: Vec<String>,
     /// The metric names as built, one per metric.
     pub metric_names: Vec<String>,
     /// Rounds of the intrinsic k-means at most.
@@ -493,20 +547,7 @@ impl ReproduceReport {
                 "a report needs at least one metric run".into(),
             ));
         }
-        let table1 = runs
-            .iter()
-            .map(|r| Table1Row {
-                metric: r.kind.label().to_string(),
-                specificity: r.scores.eq15.specificity,
-                sensitivity: r.scores.eq15.sensitivity,
-                paper: paper_table1(r.kind),
-                kernel_specificity: r.kernel_scores.eq15.specificity,
-                kernel_sensitivity: r.kernel_scores.eq15.sensitivity,
-                nn_accuracy: r.scores.nn_accuracy,
-                ari: r.scores.ari,
-                shares: r.classified.shares,
-            })
-            .collect();
+        let table1 = table1_rows(runs);
         let table2 = runs
             .iter()
             .map(|r| {
@@ -545,6 +586,8 @@ impl ReproduceReport {
             base: defs[0].name.clone(),
             restarts: settings.restarts,
             table1,
+            previous: Vec::new(),
+            previous_names: Vec::new(),
             metric_names: runs.iter().map(|r| r.metric.clone()).collect(),
             max_rounds: IntrinsicOptions::default().max_iterations,
             unconverged: runs.iter().map(|r| r.classified.unconverged).sum(),
@@ -557,6 +600,14 @@ impl ReproduceReport {
             figures: runs.iter().map(|r| r.kind.label().to_string()).collect(),
             partial: None,
         })
+    }
+
+    /// The report with the Table 1 rows of the previous configuration
+    /// ([`Reproduction::run_previous`], one run per metric).
+    pub fn with_previous(mut self, runs: &[MetricRun]) -> ReproduceReport {
+        self.previous = table1_rows(runs);
+        self.previous_names = runs.iter().map(|r| r.metric.clone()).collect();
+        self
     }
 
     /// The report marked as partial: its first lines say "Partial report: still running
@@ -685,7 +736,61 @@ impl ReproduceReport {
                 self.unconverged
             )?;
         }
-        self.write_shares(md)
+        self.write_shares(md)?;
+        self.write_previous(md)
+    }
+
+    /// Table 1 with the previous configuration beside the default's, when it was run.
+    fn write_previous(&self, md: &mut String) -> std::fmt::Result {
+        if self.previous.is_empty() {
+            return Ok(());
+        }
+        writeln!(
+            md,
+            "\n### Table 1 with the previous configuration\n\nThe same pipeline with every metric on the \
+             raw scale of the releases before 2026-12-04 (the paper's sums in mean-edge units, lambda {}, \
+             the paper's raw quasi-conformal weights), where the L2 regularizer carried almost all of \
+             the energy, beside the default (calibrated) rows above. The paper's literal setting, \
+             lambda = 0 (section 2.1), collapses the conformal metrics (docs/geometry.md).\n",
+            defaults::RAW_LAMBDA
+        )?;
+        writeln!(
+            md,
+            "| metric | default spec. / sens. (%) | previous spec. / sens. (%) | default 1-NN (%) | previous 1-NN (%) | previous: regularizer share, median (%) | paper spec. / sens. |"
+        )?;
+        writeln!(md, "|---|---|---|---|---|---|---|")?;
+        for p in &self.previous {
+            let d = self.table1.iter().find(|r| r.metric == p.metric);
+            writeln!(
+                md,
+                "| {} | {} | {:.1} / {:.1} | {} | {:.1} | {} | {} |",
+                p.metric,
+                d.map_or("-".into(), |d| format!(
+                    "{:.1} / {:.1}",
+                    100.0 * d.specificity,
+                    100.0 * d.sensitivity
+                )),
+                100.0 * p.specificity,
+                100.0 * p.sensitivity,
+                d.map_or("-".into(), |d| format!("{:.1}", 100.0 * d.nn_accuracy)),
+                100.0 * p.nn_accuracy,
+                if p.shares.pairs > 0 {
+                    format!("{:.1}", 100.0 * p.shares.median)
+                } else {
+                    "-".into()
+                },
+                p.paper.map_or("-".into(), |(s, e)| format!("{s:.1} / {e:.1}")),
+            )?;
+        }
+        writeln!(
+            md,
+            "\nMetric names as computed: {}.",
+            self.previous_names
+                .iter()
+                .map(|m| format!("`{m}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
     }
 
     /// The L2 regularizer's share of the energy of each metric's matrix, and a warning for

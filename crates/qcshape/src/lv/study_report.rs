@@ -154,7 +154,8 @@ pub fn run_report(
     write(&out.join("subjects.csv"), &csv)?;
     let mut t4 =
         String::from("method,sensitivity,specificity,paper_sensitivity,paper_specificity,tp,fn,fp,tn\n");
-    let rows: Vec<(&str, &Binary)> = std::iter::once(("quasi-conformal similarity (eq. 13)", &main.scores))
+    let main_name = format!("{} similarity (eq. 13)", common.metric.kind.label());
+    let rows: Vec<(&str, &Binary)> = std::iter::once((main_name.as_str(), &main.scores))
         .chain(base.iter().map(|b| (b.name, &b.scores)))
         .collect();
     for (k, (name, b)) in rows.iter().enumerate() {
