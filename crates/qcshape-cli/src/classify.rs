@@ -94,7 +94,8 @@ pub fn run(args: &Args) -> Result<()> {
         seed: args.seed,
         max_iterations: args.max_iterations,
     };
-    let (d, c, data_labels) = if is_matrix(&args.matrix)? {
+    let from_matrix = is_matrix(&args.matrix)?;
+    let (d, c, data_labels) = if from_matrix {
         let d = load_matrix(&args.matrix)?;
         let c = match args.method.as_str() {
             "kmedoids" => kmedoids(&d, &opts),
@@ -194,10 +195,11 @@ pub fn run(args: &Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
-    let method = if args.method == "kmedoids" {
-        "k-medoids (PAM)"
-    } else {
-        "k-means (kernel, squared distances)"
+    let method = match (args.method.as_str(), from_matrix) {
+        ("kmedoids", _) => "k-medoids (PAM)",
+        (_, true) => "k-means (kernel, squared distances)",
+        // classify_set's assignment step uses intrinsic means (eq. 14), seeded by kernel k-means.
+        (_, false) => "k-means (intrinsic means, eq. 14; seeded by kernel k-means)",
     };
     println!(
         "method       {method}, k = {}, {} deformations, {} restarts, seed {}",

@@ -32,22 +32,32 @@ fn line_interval() -> Duration {
         .map_or(Duration::from_secs(10), Duration::from_secs_f64)
 }
 
-/// A draw target for logs: each redraw of a bar becomes one plain line, at most one per interval.
+/// A draw target for logs: each redraw of a bar becomes one plain line, at most one per interval,
+/// the first one interval after the bar was made, and none while nothing is done yet (a run
+/// shorter than the interval prints no progress line).
 #[derive(Debug)]
 struct LogLines {
     every: Duration,
-    last: Mutex<Option<Instant>>,
+    last: Mutex<Instant>,
+}
+
+/// Whether a rendered line (`{msg} {bar} {pos}/{len} [...]`) reports no finished step yet.
+fn nothing_done(line: &str) -> bool {
+    line.split_whitespace().any(|w| {
+        w.split_once('/')
+            .is_some_and(|(pos, len)| pos == "0" && !len.is_empty() && len.bytes().all(|b| b.is_ascii_digit()))
+    })
 }
 
 impl LogLines {
     fn emit(&self, s: &str) -> std::io::Result<()> {
         let s = s.trim();
-        if s.is_empty() {
+        if s.is_empty() || nothing_done(s) {
             return Ok(());
         }
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
-        if last.is_none_or(|t| t.elapsed() >= self.every) {
-            *last = Some(Instant::now());
+        if last.elapsed() >= self.every {
+            *last = Instant::now();
             let mut err = std::io::stderr().lock();
             writeln!(err, "{s}")?;
             err.flush()?;
@@ -97,7 +107,7 @@ pub(crate) fn new_bar(len: usize) -> ProgressBar {
     let target = ProgressDrawTarget::term_like_with_hz(
         Box::new(LogLines {
             every: line_interval(),
-            last: Mutex::new(None),
+            last: Mutex::new(Instant::now()),
         }),
         4,
     );
@@ -194,5 +204,18 @@ impl PipelineBars {
     /// Clears every bar.
     pub(crate) fn finish(&self) {
         self.state.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nothing_done;
+
+    #[test]
+    fn lines_without_progress_are_recognized() {
+        assert!(nothing_done("pairs ░░░░ 0/1128 [00:00:00, ETA 0s]"));
+        assert!(!nothing_done("pairs ██░░ 307/1128 [00:00:10, ETA 27s]"));
+        assert!(!nothing_done("pairs ██░░ 10/1128 [00:00:10, ETA 27s]"));
+        assert!(!nothing_done("a 0/b path"));
     }
 }

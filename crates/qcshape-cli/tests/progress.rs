@@ -41,8 +41,9 @@ fn a_log_gets_progress_lines_and_quiet_silences_them() {
     let dir = tempfile::tempdir().unwrap();
     let log = noise_run(&dir.path().join("a"), "0", false);
     let lines = progress_lines(&log);
-    // Every stage of both runs (noise-free and noisy: interpolation, transfer, pairs) reports.
-    assert!(lines.len() >= 6, "{log}");
+    // The stages of both runs (noise-free and noisy: interpolation, transfer, pairs) report once
+    // they have done something (a stage that ends between two redraws may not).
+    assert!(lines.len() >= 3, "{log}");
     assert!(
         lines
             .iter()
@@ -53,13 +54,16 @@ fn a_log_gets_progress_lines_and_quiet_silences_them() {
         lines.iter().all(|l| !l.contains('\u{1b}')),
         "no terminal escapes in a log: {log}"
     );
-    // With the default 10 s interval a run this short prints at most one line per bar.
-    let sparse = progress_lines(&noise_run(&dir.path().join("b"), "10", false)).len();
+    // No line before anything is done (no `0/N [00:00:00, ETA 0s]`).
     assert!(
-        sparse < lines.len(),
-        "{sparse} lines at 10 s against {} at 0 s",
-        lines.len()
+        lines.iter().all(|l| !l.split_whitespace().any(|w| w.starts_with("0/"))),
+        "{log}"
     );
+    // A run shorter than the interval prints no progress line: the first comes one interval after
+    // the bar starts.
+    let sparse_log = noise_run(&dir.path().join("b"), "1000", false);
+    let sparse = progress_lines(&sparse_log);
+    assert!(sparse.is_empty(), "{sparse:?}");
     let quiet = noise_run(&dir.path().join("c"), "0", true);
     assert!(progress_lines(&quiet).is_empty(), "{quiet}");
 }
