@@ -194,8 +194,30 @@ impl PyDataset {
         self.defs.len()
     }
 
-    /// The poses of deformation i, (K, nV, 3) float64.
-    fn __getitem__<'py>(&self, py: Python<'py>, i: isize) -> PyResult<Bound<'py, PyAny>> {
+    /// ``ds[i]``: the poses of deformation i, (K, nV, 3) float64 (negative i counts from the
+    /// end); ``ds[a:b:c]``: a Dataset of those deformations (names and labels kept).
+    fn __getitem__<'py>(&self, py: Python<'py>, index: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        if let Ok(slice) = index.cast::<pyo3::types::PySlice>() {
+            let ids = slice.indices(self.defs.len() as isize)?;
+            let (mut i, mut picked) = (ids.start, Vec::with_capacity(ids.slicelength));
+            for _ in 0..ids.slicelength {
+                picked.push(self.defs[i as usize].clone());
+                i += ids.step;
+            }
+            if picked.is_empty() {
+                return Err(PyValueError::new_err("index: the slice selects no deformation"));
+            }
+            return Ok(Bound::new(
+                py,
+                PyDataset {
+                    defs: Arc::new(picked),
+                },
+            )?
+            .into_any());
+        }
+        let i: isize = index
+            .extract()
+            .map_err(|_| pyo3::exceptions::PyTypeError::new_err("index: expected an integer or a slice"))?;
         let n = self.defs.len() as isize;
         let j = if i < 0 { i + n } else { i };
         if !(0..n).contains(&j) {
@@ -204,6 +226,28 @@ impl PyDataset {
             )));
         }
         sequence_out(py, &self.defs[j as usize].poses)
+    }
+
+    /// Pickle support (e.g. to send a data set to Dask workers): rebuilt from its poses, faces,
+    /// names and labels.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {
+        let py = slf.py();
+        let me = slf.get();
+        let poses = me
+            .defs
+            .iter()
+            .map(|d| sequence_out(py, &d.poses))
+            .collect::<PyResult<Vec<_>>>()?;
+        let args = (
+            pyo3::types::PyList::new(py, poses)?,
+            faces_out(py, me.defs[0].topology.faces())?,
+            me.defs.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
+            me.defs.iter().map(|d| d.label.clone()).collect::<Vec<_>>(),
+        );
+        PyTuple::new(
+            py,
+            [slf.get_type().into_any(), args.into_pyobject(py)?.into_any()],
+        )
     }
 
     /// Names of the deformations, in order.

@@ -2,6 +2,7 @@
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
 use qcshape::mesh::Topology;
 use qcshape::path::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::similarity::{KarcherOptions, Stage};
@@ -143,6 +144,8 @@ impl PyGeodesic {
 #[pyclass(name = "ShapeSpace", module = "qcshape", frozen)]
 pub struct PyShapeSpace {
     space: ShapeSpace,
+    /// The constructor's arguments (faces first, then the keywords given), for pickling.
+    init: Py<PyTuple>,
 }
 
 impl PyShapeSpace {
@@ -166,6 +169,14 @@ impl PyShapeSpace {
                 self.space.clone().with_geodesic(g).map_err(errors::space)
             }
         }
+    }
+}
+
+/// Sets `d[name] = v` when `v` is given (the keywords a ShapeSpace was made with).
+fn put<'py, T: IntoPyObject<'py>>(d: &Bound<'py, PyDict>, name: &str, v: Option<T>) -> PyResult<()> {
+    match v {
+        Some(v) => d.set_item(name, v),
+        None => Ok(()),
     }
 }
 
@@ -197,6 +208,26 @@ impl PyShapeSpace {
         scale: Option<f64>,
         n_vertices: Option<usize>,
     ) -> PyResult<Self> {
+        let py = faces.py();
+        let kwargs = PyDict::new(py);
+        put(&kwargs, "metric", metric.clone())?;
+        put(&kwargs, "form", form.clone())?;
+        put(&kwargs, "weights", weights.clone())?;
+        put(&kwargs, "lam", lam)?;
+        put(&kwargs, "l2_areas", l2_areas.clone())?;
+        put(&kwargs, "metric_scale", metric_scale.clone())?;
+        put(&kwargs, "qc_weights", qc_weights.clone())?;
+        put(&kwargs, "qc_floor", qc_floor)?;
+        put(&kwargs, "qc_smooth", qc_smooth)?;
+        put(&kwargs, "steps", steps)?;
+        put(&kwargs, "solver", solver.clone())?;
+        put(&kwargs, "tolerance", tolerance)?;
+        put(&kwargs, "energy_tolerance", energy_tolerance)?;
+        put(&kwargs, "length_tolerance", length_tolerance)?;
+        put(&kwargs, "reference", reference)?;
+        put(&kwargs, "scale", scale)?;
+        put(&kwargs, "n_vertices", n_vertices)?;
+        let init = PyTuple::new(py, [faces.clone(), kwargs.into_any()])?.unbind();
         let f = crate::convert::faces(faces, "faces")?;
         let max = f.iter().flatten().copied().max().unwrap_or(0) as usize;
         let nv = n_vertices.unwrap_or(max + 1);
@@ -238,7 +269,20 @@ impl PyShapeSpace {
             }
             (None, None) => {}
         }
-        Ok(PyShapeSpace { space })
+        Ok(PyShapeSpace { space, init })
+    }
+
+    /// Pickle support (e.g. ``client.map(space.dist, ...)`` on Dask): rebuilt from the
+    /// constructor's arguments by ``qcshape._pickle.rebuild``.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {
+        let py = slf.py();
+        let rebuild = py.import("qcshape._pickle")?.getattr("rebuild")?;
+        let init = slf.get().init.bind(py);
+        let args = PyTuple::new(
+            py,
+            [slf.get_type().into_any(), init.get_item(0)?, init.get_item(1)?],
+        )?;
+        PyTuple::new(py, [rebuild, args.into_any()])
     }
 
     /// Number of vertices nV of every shape.

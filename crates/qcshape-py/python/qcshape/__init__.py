@@ -22,8 +22,6 @@ the argument; unreadable files OSError, invalid files ValueError with the file n
 from ._qcshape import (
     Dataset,
     Geodesic,
-    KMeans,
-    KMedoids,
     ShapeSpace,
     icosphere,
     mds,
@@ -34,6 +32,7 @@ from ._qcshape import (
     similarity_matrix,
     write_mesh,
 )
+from .cluster import KMeans, KMedoids
 
 __all__ = [
     "Dataset",

@@ -6,20 +6,20 @@ from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, o
 
 from typing_extensions import TypedDict, Unpack
 
-import numpy as np
-import numpy.typing as npt
+import numpy as _np
+import numpy.typing as _npt
 
-_Points = npt.ArrayLike  # (nV, 3) float
-_Faces = npt.ArrayLike  # (nF, 3) int
-_Poses = npt.ArrayLike  # (K, nV, 3) float
-_Matrix = npt.ArrayLike  # (n, n) float
+_Points = _npt.ArrayLike  # (nV, 3) float
+_Faces = _npt.ArrayLike  # (nF, 3) int
+_Poses = _npt.ArrayLike  # (K, nV, 3) float
+_Matrix = _npt.ArrayLike  # (n, n) float
 _Path = Union[str, "PathLike[str]"]
-_F64 = npt.NDArray[np.float64]
-_I64 = npt.NDArray[np.int64]
+_F64 = _npt.NDArray[_np.float64]
+_I64 = _npt.NDArray[_np.int64]
 
 __version__: str
 
-class PipelineOptions(TypedDict, total=False):
+class _PipelineOptions(TypedDict, total=False):
     """The keyword options of the data-set functions (`similarity_matrix`, `motion_maps`,
     `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
 
@@ -50,7 +50,7 @@ def read_mesh(path: _Path) -> Tuple[_F64, _I64]:
     """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk file."""
 
 def write_mesh(
-    path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, npt.ArrayLike]] = None
+    path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, _npt.ArrayLike]] = None
 ) -> None:
     """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp)."""
 
@@ -168,6 +168,9 @@ class Dataset:
         level: int = 1, poses: Optional[int] = None, seed: Optional[int] = None, jitter: Optional[float] = None
     ) -> "Dataset": ...
     def __len__(self) -> int: ...
+    @overload
+    def __getitem__(self, i: slice) -> "Dataset": ...
+    @overload
     def __getitem__(self, i: int) -> _F64:
         """(K, nV, 3) poses of deformation i."""
     @property
@@ -195,7 +198,7 @@ def similarity_matrix(
     *,
     return_details: Literal[False] = False,
     approx: Optional[str] = None,
-    **options: Unpack[PipelineOptions],
+    **options: Unpack[_PipelineOptions],
 ) -> _F64:
     """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
     approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
@@ -206,7 +209,7 @@ def similarity_matrix(
     *,
     return_details: Literal[True],
     approx: Optional[str] = None,
-    **options: Unpack[PipelineOptions],
+    **options: Unpack[_PipelineOptions],
 ) -> Tuple[_F64, SimilarityDetails]:
     """(D, details): the matrix and the per-pair, per-pose distances and energy split
     (`SimilarityDetails`)."""
@@ -216,7 +219,7 @@ def motion_maps(
     *,
     measure: str = "normal",
     scale: str = "absolute",
-    **options: Unpack[PipelineOptions],
+    **options: Unpack[_PipelineOptions],
 ) -> _F64:
     """(n, nV) per-vertex motion of every deformation after the similarity preparation.
     measure: "normal" (normal excursion times vertex area) or "metric" (per-vertex metric length);
@@ -226,49 +229,65 @@ def pair_contributions(
     dataset: Dataset,
     a: Union[int, str],
     b: Union[int, str],
-    **options: Unpack[PipelineOptions],
+    **options: Unpack[_PipelineOptions],
 ) -> _F64:
     """(nV,) per-vertex split of similarity(a, b) (index or name); sums to the matrix entry
     of `similarity_matrix` with the same options (normalized length units)."""
 
 class KMedoids:
+    """PAM k-medoids on a precomputed (n, n) distance matrix (scikit-learn estimator API)."""
+    n_clusters: int
+    metric: str
+    n_init: int
+    random_state: Union[None, int, _np.random.RandomState, _np.random.Generator]
+    max_iter: int
+    labels_: _I64
+    medoid_indices_: _I64
+    inertia_: float
+    n_iter_: int
     def __init__(
         self,
-        n_clusters: Optional[int] = None,
-        n_init: Optional[int] = None,
-        random_state: Optional[int] = None,
-        max_iter: Optional[int] = None,
+        n_clusters: int = 8,
+        *,
+        metric: str = "precomputed",
+        n_init: int = 10,
+        random_state: Union[None, int, _np.random.RandomState, _np.random.Generator] = None,
+        max_iter: int = 100,
     ) -> None: ...
-    def fit(self, d: _Matrix) -> "KMedoids": ...
-    def fit_predict(self, d: _Matrix) -> _I64: ...
-    @property
-    def labels_(self) -> _I64: ...
-    @property
-    def medoid_indices_(self) -> _I64: ...
-    @property
-    def inertia_(self) -> float: ...
-    @property
-    def n_iter_(self) -> int: ...
+    def fit(self, X: _Matrix, y: Any = None) -> "KMedoids": ...
+    def fit_predict(self, X: _Matrix, y: Any = None) -> _I64: ...
+    def predict(self, X: _npt.ArrayLike) -> _I64:
+        """X (m, n): distances of new items to the fitted ones -> nearest medoid (m,)."""
+    def get_params(self, deep: bool = True) -> Dict[str, Any]: ...
+    def set_params(self, **params: Any) -> "KMedoids": ...
 
 class KMeans:
+    """Kernel k-means on a distance matrix, or intrinsic k-means (eq. 14) on a Dataset."""
+    n_clusters: int
+    metric: str
+    n_init: int
+    random_state: Union[None, int, _np.random.RandomState, _np.random.Generator]
+    max_iter: int
+    labels_: _I64
+    inertia_: float
+    n_iter_: int
+    kernel_labels_: Optional[_I64]
+    distances_: Optional[_F64]
     def __init__(
         self,
-        n_clusters: Optional[int] = None,
-        n_init: Optional[int] = None,
-        random_state: Optional[int] = None,
-        max_iter: Optional[int] = None,
+        n_clusters: int = 8,
+        *,
+        metric: str = "precomputed",
+        n_init: int = 10,
+        random_state: Union[None, int, _np.random.RandomState, _np.random.Generator] = None,
+        max_iter: int = 100,
     ) -> None: ...
-    def fit(self, x: Union[_Matrix, Dataset], **options: Any) -> "KMeans": ...
-    @property
-    def labels_(self) -> _I64: ...
-    @property
-    def inertia_(self) -> float: ...
-    @property
-    def n_iter_(self) -> int: ...
-    @property
-    def kernel_labels_(self) -> Optional[_I64]: ...
-    @property
-    def distances_(self) -> Optional[_F64]: ...
+    def fit(self, X: Union[_Matrix, Dataset], y: Any = None, **options: Any) -> "KMeans": ...
+    def fit_predict(self, X: Union[_Matrix, Dataset], y: Any = None, **options: Any) -> _I64: ...
+    def predict(self, X: _npt.ArrayLike) -> _I64:
+        """X (m, n): distances of new items to the fitted ones -> nearest cluster (m,)."""
+    def get_params(self, deep: bool = True) -> Dict[str, Any]: ...
+    def set_params(self, **params: Any) -> "KMeans": ...
 
 def mds(d: _Matrix, n_components: Optional[int] = None, random_state: Optional[int] = None) -> Tuple[_F64, float]:
     """(X (n, n_components), raw stress (eq. 16))."""
