@@ -44,8 +44,9 @@ struct LogLines {
 /// Whether a rendered line (`{msg} {bar} {pos}/{len} [...]`) reports no finished step yet.
 fn nothing_done(line: &str) -> bool {
     line.split_whitespace().any(|w| {
-        w.split_once('/')
-            .is_some_and(|(pos, len)| pos == "0" && !len.is_empty() && len.bytes().all(|b| b.is_ascii_digit()))
+        w.split_once('/').is_some_and(|(pos, len)| {
+            pos == "0" && !len.is_empty() && len.bytes().all(|b| b.is_ascii_digit())
+        })
     })
 }
 

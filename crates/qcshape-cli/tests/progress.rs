@@ -56,7 +56,9 @@ fn a_log_gets_progress_lines_and_quiet_silences_them() {
     );
     // No line before anything is done (no `0/N [00:00:00, ETA 0s]`).
     assert!(
-        lines.iter().all(|l| !l.split_whitespace().any(|w| w.starts_with("0/"))),
+        lines
+            .iter()
+            .all(|l| !l.split_whitespace().any(|w| w.starts_with("0/"))),
         "{log}"
     );
     // A run shorter than the interval prints no progress line: the first comes one interval after

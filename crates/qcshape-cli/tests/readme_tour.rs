@@ -11,7 +11,10 @@ fn tour_lines(readme: &str) -> Vec<String> {
         .find("<!-- tour -->")
         .expect("README.md has no `<!-- tour -->` marker");
     let rest = &readme[start..];
-    let open = rest.find("```sh\n").expect("no ```sh block after the tour marker") + "```sh\n".len();
+    let open = rest
+        .find("```sh\n")
+        .expect("no ```sh block after the tour marker")
+        + "```sh\n".len();
     let close = rest[open..].find("```").expect("the tour's block is not closed") + open;
     rest[open..close]
         .lines()

@@ -50,17 +50,14 @@ fn solve(spec: &MetricSpec, a: &Shape, b: &Shape, steps: usize, levels: usize) -
         let t = Instant::now();
         let level = h.level(l);
         let (la, lb) = (level.restrict(&sa), level.restrict(&sb));
-        let metric = spec
-            .build_for(&level.topology, &[&la, &lb])
-            .expect("calibration");
-        let solver = GeodesicSolver::new(metric.as_ref(), level.topology.clone(), opts.clone()).expect("solver");
+        let metric = spec.build_for(&level.topology, &[&la, &lb]).expect("calibration");
+        let solver =
+            GeodesicSolver::new(metric.as_ref(), level.topology.clone(), opts.clone()).expect("solver");
         let g = match &prev {
             None => solver.solve(&la, &lb).expect("solve"),
             Some((cg, ca, cb)) => {
                 let n = cg.poses.len() - 1;
-                let start = h
-                    .prolongation(l)
-                    .prolong_path(&la, &lb, ca, cb, &cg.poses[1..n]);
+                let start = h.prolongation(l).prolong_path(&la, &lb, ca, cb, &cg.poses[1..n]);
                 solver.solve_with_start(&la, &lb, &start).expect("solve")
             }
         };
