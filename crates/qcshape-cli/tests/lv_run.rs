@@ -286,8 +286,14 @@ fn real_lv_cycle_map_from_a_few_frames() {
     ];
     args.extend_from_slice(&cheap);
     ok(&qcshape(&args));
-    // Open: 5 frames + 4 interpolated.
+    // Open: 5 frames + 4 interpolated, named by their original frame numbers.
     check_fig9(&out, 9, 5);
+    let keys: Vec<String> = rows(&out.join("fig9_mds.csv"))
+        .into_iter()
+        .filter(|r| r[2] == "key")
+        .map(|r| r[1].clone())
+        .collect();
+    assert_eq!(keys, ["0", "5", "10", "15", "20"]);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("coarsened from 1572"), "{report}");
 

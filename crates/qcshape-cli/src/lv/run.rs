@@ -207,7 +207,7 @@ pub struct CycleArgs {
 }
 
 /// The library's cycle settings of the command line.
-fn cycle_settings(c: &CycleCommon) -> Result<CycleSettings> {
+fn cycle_settings(c: &CycleCommon, frame_stride: usize) -> Result<CycleSettings> {
     if c.steps == 0 {
         bail!("--steps must be at least 1");
     }
@@ -220,6 +220,7 @@ fn cycle_settings(c: &CycleCommon) -> Result<CycleSettings> {
         insert: c.insert,
         vertices: c.vertices,
         open: c.open,
+        frame_stride,
     })
 }
 
@@ -229,10 +230,31 @@ fn args_line() -> String {
 }
 
 /// Interpolates one sequence and maps it (the single-subject path of `lv run`, and `lv cycle`).
-fn run_cycle(def: Deformation, out: &Path, common: &CycleCommon, seed: u64, source: &str) -> Result<()> {
+fn run_cycle(
+    def: Deformation,
+    out: &Path,
+    common: &CycleCommon,
+    frame_stride: usize,
+    seed: u64,
+    source: &str,
+) -> Result<()> {
     let t_all = Instant::now();
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let settings = cycle_settings(common)?;
+    let settings = cycle_settings(common, frame_stride)?;
+    let nv = def.topology.n_vertices();
+    eprintln!(
+        "{}: {} frames of {nv} vertices{}",
+        def.name,
+        def.poses.len(),
+        if common.vertices > 0 && nv > common.vertices {
+            format!(
+                "; coarsened to about {} vertices first (--vertices; 0 keeps every vertex)",
+                common.vertices
+            )
+        } else {
+            String::new()
+        }
+    );
     let bars = Bars::default();
     let c = study_cycle(def, &settings, seed, &|t| bars.tick(t)).with_context(|| source.to_string())?;
     c.map.write_files(out, &cycle_title(&c.name, c.frames))?;
@@ -295,12 +317,17 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             files.len(),
             files[0].parent().unwrap_or(Path::new(".")).display(),
             if a.every > 1 {
-                format!(", every {}th", a.every)
+                format!(
+                    ", one frame in {} (frames 0, {}, {}, ...)",
+                    a.every,
+                    a.every,
+                    2 * a.every
+                )
             } else {
                 String::new()
             }
         );
-        run_cycle(def, &a.out, &a.common, a.seed, &source)
+        run_cycle(def, &a.out, &a.common, a.every, a.seed, &source)
     })
 }
 

@@ -33,12 +33,16 @@ pub struct CycleSettings {
     pub vertices: usize,
     /// Leave the cycle open (no gap last frame -> frame 0).
     pub open: bool,
+    /// Frame number step between consecutive input poses (1; `k` when every k-th frame of a
+    /// sequence was kept): pose names carry the original frame numbers (`9`, `9.75`).
+    pub frame_stride: usize,
 }
 
 /// Fig. 9 of one interpolated sequence.
 #[derive(Debug, Clone, Serialize)]
 pub struct CycleMap {
-    /// Pose names: their position in frames (`3`, `3.25`).
+    /// Pose names: their position in the original frame numbers (`3`, `3.25`; see
+    /// [`CycleSettings::frame_stride`]).
     pub names: Vec<String>,
     /// `key` (a frame) or `interpolated`, per pose.
     pub kinds: Vec<String>,
@@ -95,9 +99,10 @@ pub fn cycle_map(
         })
     })?;
     progress(Tick::DONE);
+    let stride = settings.frame_stride.max(1) as f64;
     let names: Vec<String> = (0..n)
         .map(|k| {
-            let t = k as f64 / per_gap as f64;
+            let t = stride * k as f64 / per_gap as f64;
             if is_key[k] {
                 format!("{t:.0}")
             } else {

@@ -25,7 +25,7 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
     if a.restarts == 0 {
         bail!("--restarts must be at least 1");
     }
-    let settings = cycle_settings(&a.common)?;
+    let settings = cycle_settings(&a.common, 1)?;
     let opts = PipelineOptions {
         metric: settings.metric,
         geodesic: settings.geodesic.clone(),
@@ -133,13 +133,13 @@ pub(super) fn run(a: &RunArgs) -> Result<()> {
                     files.len()
                 );
                 let source = format!("{} files from {}", files.len(), a.dir.display());
-                return run_cycle(def, &a.out, &a.common, a.seed, &source);
+                return run_cycle(def, &a.out, &a.common, 1, a.seed, &source);
             }
             let t0 = Instant::now();
             let mut data = Dataset::load(&a.dir)?;
             if data.deformations.len() == 1 {
                 let def = data.deformations.pop().expect("one");
-                return run_cycle(def, &a.out, &a.common, a.seed, &a.dir.display().to_string());
+                return run_cycle(def, &a.out, &a.common, 1, a.seed, &a.dir.display().to_string());
             }
             let note = coarsen(&mut data.deformations, a.common.vertices)?;
             let axes = data
