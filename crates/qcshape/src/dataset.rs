@@ -327,9 +327,12 @@ impl Dataset {
     pub fn from_folder(dir: &Path) -> Result<Dataset, DatasetError> {
         let (subdirs, files) = list_dir(dir)?;
         let mut groups = Vec::new();
+        let mut empty = Vec::new();
         for sub in subdirs {
             let meshes = mesh_files(&sub)?;
-            if !meshes.is_empty() {
+            if meshes.is_empty() {
+                empty.push(sub);
+            } else {
                 groups.push((folder_name(&sub), meshes));
             }
         }
@@ -337,6 +340,16 @@ impl Dataset {
             path: dir.into(),
             message,
         };
+        // Every sub-folder is a deformation: one without poses among others is a mistake (a
+        // failed export, a typo), not something to drop silently.
+        if let (false, Some(sub)) = (groups.is_empty(), empty.first()) {
+            return Err(layout(format!(
+                "sub-folder {} holds no mesh files ({}), while {} other sub-folder(s) do; every                  sub-folder is a deformation: add its poses or move it out",
+                folder_name(sub),
+                known_extensions(),
+                groups.len()
+            )));
+        }
         match (groups.is_empty(), files.is_empty()) {
             (true, true) => Err(layout(format!(
                 "contains no mesh files ({}) and no sub-folders with mesh files",
@@ -828,7 +841,11 @@ mod tests {
             }
             std::fs::write(d.path().join(def).join("notes.txt"), "not a mesh").unwrap();
         }
+        // An empty sub-folder among deformations is refused by name, not dropped.
         std::fs::create_dir(d.path().join("empty")).unwrap();
+        let e = Dataset::load(d.path()).unwrap_err().to_string();
+        assert!(e.contains("sub-folder empty holds no mesh files"), "{e}");
+        std::fs::remove_dir(d.path().join("empty")).unwrap();
         let ds = Dataset::load(d.path()).unwrap();
         let names: Vec<&str> = ds.deformations.iter().map(|d| d.name.as_str()).collect();
         assert_eq!(names, ["a_def", "b_def"]);
