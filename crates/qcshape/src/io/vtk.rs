@@ -8,7 +8,11 @@
 //! layout (`POLYGONS n size` followed by `k i1 .. ik` records) or the VTK 5.1 layout
 //! (`OFFSETS` and `CONNECTIVITY` arrays). `POINT_DATA` is read into named arrays: `SCALARS`
 //! (with or without `LOOKUP_TABLE`), `VECTORS`, `NORMALS`, `TEXTURE_COORDINATES`, `TENSORS`,
-//! `COLOR_SCALARS` and `FIELD` arrays; reading stops at `CELL_DATA` or `METADATA`.
+//! `COLOR_SCALARS` and `FIELD` arrays (`CELL_DATA` is read the same way and dropped, in
+//! either order). A `METADATA` block (what VTK writes after an array with information keys,
+//! e.g. once it has computed the points' range, ending at an empty line) is skipped wherever
+//! it comes, as are dataset-level `FIELD` data and any unknown section (up to the next line
+//! that starts with a known keyword, with a warning).
 //! Writes ASCII UNSTRUCTURED_GRID triangles (version 4.2 layout, readable by ParaView, pyvista
 //! and meshio), with `POINT_DATA` `SCALARS`, `VECTORS` and `COLOR_SCALARS`.
 
@@ -127,7 +131,9 @@ impl<'a> Reader<'a> {
                 });
             }
             let raw = self.c.take(needed as usize).unwrap_or_default();
-            Ok(raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect())
+            let out = raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect();
+            self.skip_metadata();
+            Ok(out)
         } else {
             // Each value takes at least one character and one separator.
             if n > (self.c.remaining() as u64).div_ceil(2) {
@@ -146,13 +152,90 @@ impl<'a> Reader<'a> {
                     message: format!("cannot read value {k} of {what} from {}", text::show(tok)),
                 })?);
             }
+            self.skip_metadata();
             Ok(out)
+        }
+    }
+
+    /// Skips a `METADATA` block if one comes next: VTK writes one after an array that carries
+    /// information keys (a computed range, component names) and ends it with an empty line.
+    fn skip_metadata(&mut self) {
+        let mut peek = self.c.clone();
+        if peek
+            .next_token()
+            .is_some_and(|t| t.eq_ignore_ascii_case(b"METADATA"))
+        {
+            self.c = peek;
+            self.c.skip_line();
+            while self.c.remaining() > 0 && !self.c.rest_of_line().trim_ascii().is_empty() {}
+        }
+    }
+
+    /// Skips an unknown section: moves to the next line that starts with a keyword this reader
+    /// knows (without consuming it), or to the end.
+    fn skip_unknown(&mut self) {
+        loop {
+            self.c.skip_line();
+            let mut peek = self.c.clone();
+            match peek.next_token() {
+                None => {
+                    self.c = peek;
+                    return;
+                }
+                Some(t) if is_known(t) => return,
+                Some(_) => {}
+            }
         }
     }
 
     fn line(&self) -> Option<usize> {
         (!self.binary).then(|| self.c.line())
     }
+}
+
+/// Dataset-level section keywords of POLYDATA and UNSTRUCTURED_GRID files.
+const SECTIONS: &[&[u8]] = &[
+    b"POINTS",
+    b"CELLS",
+    b"CELL_TYPES",
+    b"POLYGONS",
+    b"TRIANGLE_STRIPS",
+    b"VERTICES",
+    b"LINES",
+    b"POINT_DATA",
+    b"CELL_DATA",
+    b"FIELD",
+    b"METADATA",
+];
+
+/// Keywords inside `POINT_DATA` and `CELL_DATA`.
+const ATTRIBUTES: &[&[u8]] = &[
+    b"SCALARS",
+    b"COLOR_SCALARS",
+    b"LOOKUP_TABLE",
+    b"VECTORS",
+    b"NORMALS",
+    b"TEXTURE_COORDINATES",
+    b"TENSORS",
+    b"FIELD",
+    b"GLOBAL_IDS",
+    b"PEDIGREE_IDS",
+    b"EDGE_FLAGS",
+    b"METADATA",
+];
+
+fn is_known(tok: &[u8]) -> bool {
+    let up = tok.to_ascii_uppercase();
+    SECTIONS.contains(&up.as_slice()) || ATTRIBUTES.contains(&up.as_slice())
+}
+
+/// Whether a token looks like a legacy VTK keyword (upper-case letters, digits, `_`), so that
+/// an unknown one is a section to skip rather than garbage.
+fn is_keyword_like(tok: &[u8]) -> bool {
+    tok.first().is_some_and(u8::is_ascii_uppercase)
+        && tok
+            .iter()
+            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || *c == b'_')
 }
 
 fn as_int(v: f64) -> Option<i64> {
@@ -365,10 +448,29 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                         message: format!("POINT_DATA {n} for {n_points} points"),
                     });
                 }
-                read_point_data(&mut r, n_points, &mut point_data, &mut warnings)?;
-                break;
+                read_attributes(&mut r, n, Some(&mut point_data), &mut warnings)?;
             }
-            b"CELL_DATA" | b"FIELD" | b"METADATA" => break,
+            b"CELL_DATA" => {
+                // Read to stay in step with the file, then dropped: qcshape has no use for
+                // per-cell values (and triangulation would change the cells).
+                let n = r.count("the CELL_DATA count")?;
+                read_attributes(&mut r, n, None, &mut warnings)?;
+            }
+            b"FIELD" => {
+                // Dataset-level field data (e.g. TIME): arrays of any length, dropped.
+                read_field(&mut r, None)?;
+            }
+            b"METADATA" => {
+                r.c.skip_line();
+                while r.c.remaining() > 0 && !r.c.rest_of_line().trim_ascii().is_empty() {}
+            }
+            _ if is_keyword_like(tok) => {
+                warnings.push(format!(
+                    "skipped the unknown section {} (line {line})",
+                    text::show(tok)
+                ));
+                r.skip_unknown();
+            }
             _ => {
                 return Err(ParseError::Syntax {
                     line,
@@ -460,7 +562,11 @@ fn grid_faces(
 }
 
 /// Adds the triangles of a strip (alternating orientation, as VTK defines it).
-fn push_strip(faces: &mut FaceBuilder, idx: &[u32], line: Option<usize>) -> Result<(), ParseError> {
+pub(super) fn push_strip(
+    faces: &mut FaceBuilder,
+    idx: &[u32],
+    line: Option<usize>,
+) -> Result<(), ParseError> {
     if idx.len() < 3 {
         return Err(ParseError::BadFace {
             face: faces.n_polygons(),
@@ -479,24 +585,41 @@ fn push_strip(faces: &mut FaceBuilder, idx: &[u32], line: Option<usize>) -> Resu
     Ok(())
 }
 
-/// Reads the arrays of a `POINT_DATA` section (`n` points) until its end, `CELL_DATA` or
-/// `METADATA`.
-fn read_point_data(
+/// Reads the arrays of a `POINT_DATA` or `CELL_DATA` section (`n` tuples each) up to the next
+/// keyword that is not one of its own (left for the caller). Arrays go to `out` (`None`:
+/// read and dropped, for `CELL_DATA`); an unknown keyword is skipped with a warning.
+fn read_attributes(
     r: &mut Reader,
-    n: usize,
-    out: &mut Vec<PointArray>,
+    n: u64,
+    mut out: Option<&mut Vec<PointArray>>,
     warnings: &mut Vec<String>,
 ) -> Result<(), ParseError> {
-    let n64 = n as u64;
     loop {
-        let Some(tok) = r.c.next_token() else {
+        let mut peek = r.c.clone();
+        let Some(tok) = peek.next_token() else {
             return Ok(());
         };
-        let line = r.c.line();
         let kw = tok.to_ascii_uppercase();
+        if SECTIONS.contains(&kw.as_slice()) && !matches!(kw.as_slice(), b"FIELD" | b"METADATA") {
+            return Ok(());
+        }
+        r.c = peek;
+        let line = r.c.line();
         let name = |r: &mut Reader| -> Result<String, ParseError> {
             let t = r.token(&|| "an array name".into())?;
             Ok(String::from_utf8_lossy(t).into_owned())
+        };
+        let values = |r: &mut Reader, comps: u64, ty: Num, what: &str| {
+            let count = n.checked_mul(comps).ok_or_else(|| ParseError::Syntax {
+                line,
+                message: format!("{what}: {n} x {comps} values are too many"),
+            })?;
+            r.numbers(count, ty, what)
+        };
+        let mut keep = |a: PointArray| {
+            if let Some(out) = out.as_deref_mut() {
+                out.push(a);
+            }
         };
         match kw.as_slice() {
             b"SCALARS" => {
@@ -527,20 +650,16 @@ fn read_point_data(
                     r.c = peek;
                     r.token(&|| "the lookup table name".into())?;
                 }
-                let values = r.numbers(n64 * comps, ty, &format!("SCALARS {name}"))?;
-                out.push(array(name, comps as usize, values));
+                let v = values(r, comps, ty, &format!("SCALARS {name}"))?;
+                keep(array(name, comps as usize, v));
             }
-            b"VECTORS" | b"NORMALS" => {
+            b"VECTORS" | b"NORMALS" | b"TENSORS" => {
+                let comps = if kw.as_slice() == b"TENSORS" { 9 } else { 3 };
                 let name = name(r)?;
-                let ty = r.num_type(&format!("VECTORS {name}"))?;
-                let values = r.numbers(n64 * 3, ty, &format!("VECTORS {name}"))?;
-                out.push(array(name, 3, values));
-            }
-            b"TENSORS" => {
-                let name = name(r)?;
-                let ty = r.num_type(&format!("TENSORS {name}"))?;
-                let values = r.numbers(n64 * 9, ty, &format!("TENSORS {name}"))?;
-                out.push(array(name, 9, values));
+                let what = format!("{} {name}", String::from_utf8_lossy(&kw));
+                let ty = r.num_type(&what)?;
+                let v = values(r, comps, ty, &what)?;
+                keep(array(name, comps as usize, v));
             }
             b"TEXTURE_COORDINATES" => {
                 let name = name(r)?;
@@ -552,8 +671,8 @@ fn read_point_data(
                     });
                 }
                 let ty = r.num_type(&format!("TEXTURE_COORDINATES {name}"))?;
-                let values = r.numbers(n64 * dim, ty, &format!("TEXTURE_COORDINATES {name}"))?;
-                out.push(array(name, dim as usize, values));
+                let v = values(r, dim, ty, &format!("TEXTURE_COORDINATES {name}"))?;
+                keep(array(name, dim as usize, v));
             }
             b"COLOR_SCALARS" => {
                 let name = name(r)?;
@@ -566,8 +685,8 @@ fn read_point_data(
                 }
                 // ASCII colours are floats in 0..1; binary ones unsigned chars.
                 let ty = if r.binary { Num::U8 } else { Num::F64 };
-                let values = r.numbers(n64 * comps, ty, &format!("COLOR_SCALARS {name}"))?;
-                out.push(array(name, comps as usize, values));
+                let v = values(r, comps, ty, &format!("COLOR_SCALARS {name}"))?;
+                keep(array(name, comps as usize, v));
             }
             b"LOOKUP_TABLE" => {
                 let name = name(r)?;
@@ -575,40 +694,86 @@ fn read_point_data(
                 let ty = if r.binary { Num::U8 } else { Num::F64 };
                 r.numbers(size.saturating_mul(4), ty, &format!("LOOKUP_TABLE {name}"))?;
             }
+            b"GLOBAL_IDS" | b"PEDIGREE_IDS" | b"EDGE_FLAGS" => {
+                // Ids, not fields: read and dropped.
+                let name = name(r)?;
+                let what = format!("{} {name}", String::from_utf8_lossy(&kw));
+                let ty = r.num_type(&what)?;
+                values(r, 1, ty, &what)?;
+            }
             b"FIELD" => {
-                let _field = name(r)?;
-                let k = r.count("the FIELD array count")?;
-                for _ in 0..k {
-                    let name = name(r)?;
-                    let comps = r.count(&format!("the component count of {name}"))?;
-                    let tuples = r.count(&format!("the tuple count of {name}"))?;
-                    let ty = r.num_type(&name)?;
-                    if tuples != n64 {
-                        return Err(ParseError::Syntax {
-                            line: r.c.line(),
-                            message: format!("FIELD array {name} has {tuples} tuples for {n} points"),
-                        });
-                    }
-                    if comps == 0 || comps > 1 << 20 {
-                        return Err(ParseError::Syntax {
-                            line: r.c.line(),
-                            message: format!("FIELD array {name} has {comps} components"),
-                        });
-                    }
-                    let values = r.numbers(n64.saturating_mul(comps), ty, &name)?;
-                    out.push(array(name, comps as usize, values));
+                let arrays = read_field(r, Some(n))?;
+                for a in arrays {
+                    keep(a);
                 }
             }
-            b"CELL_DATA" | b"METADATA" => return Ok(()),
+            b"METADATA" => {
+                r.c.skip_line();
+                while r.c.remaining() > 0 && !r.c.rest_of_line().trim_ascii().is_empty() {}
+            }
             _ => {
                 warnings.push(format!(
-                    "stopped reading POINT_DATA at the unknown keyword {} (line {line})",
+                    "skipped the unknown data section {} (line {line})",
                     text::show(tok)
                 ));
-                return Ok(());
+                r.skip_unknown();
             }
         }
     }
+}
+
+/// Reads a `FIELD name k` block (after its keyword): `k` arrays `NAME components tuples type`.
+/// With `tuples = Some(n)` each array must have `n` tuples (point data); `None` accepts any
+/// count (dataset field data, whose arrays are then dropped: the result is empty).
+fn read_field(r: &mut Reader, tuples: Option<u64>) -> Result<Vec<PointArray>, ParseError> {
+    let _field = r.token(&|| "the FIELD name".into())?;
+    let k = r.count("the FIELD array count")?;
+    let mut out = Vec::new();
+    for _ in 0..k {
+        let name = String::from_utf8_lossy(r.token(&|| "a FIELD array name".into())?).into_owned();
+        let comps = r.count(&format!("the component count of {name}"))?;
+        let n = r.count(&format!("the tuple count of {name}"))?;
+        let ty_tok = r.token(&|| format!("the data type of {name}"))?;
+        let at = r.c.line();
+        if comps == 0 || comps > 1 << 20 {
+            return Err(ParseError::Syntax {
+                line: at,
+                message: format!("FIELD array {name} has {comps} components"),
+            });
+        }
+        if tuples.is_some_and(|t| t != n) {
+            return Err(ParseError::Syntax {
+                line: at,
+                message: format!(
+                    "FIELD array {name} has {n} tuples for {} points",
+                    tuples.unwrap_or_default()
+                ),
+            });
+        }
+        let count = n.checked_mul(comps).ok_or_else(|| ParseError::Syntax {
+            line: at,
+            message: format!("FIELD array {name}: {n} x {comps} values are too many"),
+        })?;
+        let Some(ty) = Num::parse(ty_tok) else {
+            // String arrays (ASCII: one token per value) are skipped; anything else is an error.
+            if ty_tok.eq_ignore_ascii_case(b"string") && !r.binary {
+                for _ in 0..count {
+                    r.token(&|| format!("{count} strings of {name}"))?;
+                }
+                r.skip_metadata();
+                continue;
+            }
+            return Err(ParseError::Syntax {
+                line: at,
+                message: format!("unknown data type {} for FIELD array {name}", text::show(ty_tok)),
+            });
+        };
+        let values = r.numbers(count, ty, &name)?;
+        if tuples.is_some() {
+            out.push(array(name, comps as usize, values));
+        }
+    }
+    Ok(out)
 }
 
 fn array(name: String, components: usize, values: Vec<f64>) -> PointArray {
