@@ -233,3 +233,9 @@ def test_read_mesh_refuses_a_mesh_without_faces(tmp_path, name, text):
     path.write_text(text)
     with pytest.raises(ValueError, match=f"{name}.*no faces"):
         qs.read_mesh(path)
+
+
+def test_read_mesh_docstring_names_every_format():
+    for ext in [".obj", ".ply", ".off", ".stl", ".vtk", ".vtp", ".vtu"]:
+        assert ext in qs.read_mesh.__doc__, ext
+    assert "point_data" in qs.read_mesh.__doc__
