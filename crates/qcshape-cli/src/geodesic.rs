@@ -29,7 +29,7 @@ use crate::args::{MetricArgs, SolverArgs};
 #[derive(Debug, clap::Args)]
 #[command(about = "Discrete geodesic and distance between two poses", long_about)]
 pub struct Args {
-    /// First mesh (OBJ, PLY, OFF, STL, VTK).
+    /// First mesh (OBJ, PLY, OFF, STL, VTK, VTP, VTU).
     #[arg(required_unless_present = "demo")]
     a: Option<PathBuf>,
     /// Second mesh, same connectivity as A.

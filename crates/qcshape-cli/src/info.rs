@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use qcshape::io::{self, Format, IoError, DEGENERATE_REL_TOL};
-use qcshape::mesh::inspect::{inspect, write_text};
+use qcshape::mesh::inspect::{inspect, write_text, PointDataSummary};
 use qcshape::mesh::{Shape, Topology};
 
 /// Arguments of `qcshape info`.
@@ -14,7 +14,8 @@ use qcshape::mesh::{Shape, Topology};
     about = "Summarize a mesh: counts, boundary, components, genus, size and quality warnings",
     long_about = "Summarize a mesh file: vertex, face and edge counts, boundary loops (count and \
 lengths), connected components, Euler characteristic and genus, bounding box, mean edge length, \
-total area and smallest angle, with quality warnings (near-zero-area faces, isolated vertices, \
+total area and smallest angle, the file's named per-vertex arrays (point data: PLY extra vertex \
+properties, VTK POINT_DATA, VTP/VTU PointData; name, components and range), with quality warnings (near-zero-area faces, isolated vertices, \
 sliver triangles, fan-triangulated polygons and other reader remarks).\n\n\
 The file is checked exactly as every other command loads it: it must parse, its faces must form \
 a consistently oriented manifold, and no face may have zero area. If a face has zero area the \
@@ -23,8 +24,9 @@ not (with the reason on stderr), 2 for bad arguments.",
     after_help = "Examples:\n  qcshape info horse-01.ply\n  qcshape info --json scan.obj | jq .genus"
 )]
 pub struct Args {
-    /// Mesh file: .obj, .ply (ASCII or binary), .off, .stl (ASCII or binary) or .vtk (legacy
-    /// POLYDATA); the format is taken from the extension.
+    /// Mesh file: .obj, .ply (ASCII or binary), .off, .stl (ASCII or binary), .vtk (legacy
+    /// POLYDATA or UNSTRUCTURED_GRID), .vtp (VTK XML PolyData) or .vtu (VTK XML
+    /// UnstructuredGrid); the format is taken from the extension.
     pub file: PathBuf,
     /// Print the report as one JSON object instead of text.
     #[arg(long)]
@@ -39,6 +41,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let path = &args.file;
     let data = io::read_mesh(path)?;
+    let point_data: Vec<PointDataSummary> = data.point_data.iter().map(PointDataSummary::of).collect();
     let format = Format::from_path(path).map_or_else(|| "?".into(), |f| f.to_string());
     let mesh_err = |error| IoError::Mesh {
         path: path.clone(),
@@ -67,7 +70,8 @@ pub fn run(args: &Args) -> Result<()> {
         ));
     }
     let shape = Shape::new(topo, data.positions).map_err(mesh_err)?;
-    let (report, first_degenerate) = inspect(path, format, &shape, warnings);
+    let (mut report, first_degenerate) = inspect(path, format, &shape, warnings);
+    report.point_data = point_data;
 
     let mut out = std::io::stdout().lock();
     if args.json {

@@ -33,8 +33,9 @@ mod transfer;
 
 /// Deformation similarity in quasi-conformal shape space.
 ///
-/// Meshes are read from OBJ, PLY (ASCII or binary), OFF, STL (ASCII or binary) and legacy VTK
-/// files; polygons are fan-triangulated. Run `qcshape help <command>` for a command's options.
+/// Meshes are read from OBJ, PLY (ASCII or binary), OFF, STL (ASCII or binary), legacy VTK
+/// (.vtk), VTK XML PolyData (.vtp) and VTK XML UnstructuredGrid (.vtu) files; polygons are
+/// triangulated. Run `qcshape help <command>` for a command's options.
 #[derive(Debug, Parser)]
 #[command(name = "qcshape", version, propagate_version = true)]
 struct Cli {

@@ -223,3 +223,61 @@ fn help_and_usage_errors() {
     assert_eq!(o.status.code(), Some(2));
     assert!(!stderr(&o).contains("panicked"));
 }
+
+#[test]
+fn point_fields_are_listed_and_help_names_every_format() {
+    let d = tempfile::tempdir().unwrap();
+    let s = synth::icosphere(1);
+    let h: Vec<f64> = s.positions.iter().map(|p| p[2] + 0.5).collect();
+    let v: Vec<[f64; 3]> = s.positions.iter().map(|p| p.map(|c| 0.1 * c)).collect();
+    let fields = [
+        qcshape::io::Field::scalar("height", &h),
+        qcshape::io::Field::vector("disp", &v),
+    ];
+    for ext in ["vtu", "vtp", "vtk", "ply"] {
+        let p = d.path().join(format!("m.{ext}"));
+        qcshape::io::write_mesh_fields(&p, &s.positions, s.topology.faces(), &fields).unwrap();
+        let o = info(&p, false);
+        assert!(o.status.success(), "{ext}: {}", stderr(&o));
+        let text = stdout(&o);
+        assert!(
+            text.contains("  - height (scalar): -0.5 .. 1.5\n"),
+            "{ext}:\n{text}"
+        );
+        assert!(
+            text.contains("  - disp (3 components): -0.1 .. 0.1\n"),
+            "{ext}:\n{text}"
+        );
+        let o = info(&p, true);
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let names: Vec<&str> = j["point_data"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["name"].as_str().unwrap())
+            .collect();
+        assert!(
+            names.contains(&"height") && names.contains(&"disp"),
+            "{ext}: {names:?}"
+        );
+        assert_eq!(
+            j["point_data"][names.iter().position(|n| *n == "disp").unwrap()]["components"],
+            3
+        );
+    }
+    for (args, formats) in [
+        (
+            &["--help"][..],
+            ["OBJ", "PLY", "OFF", "STL", ".vtk", ".vtp", ".vtu"],
+        ),
+        (
+            &["info", "--help"],
+            [".obj", ".ply", ".off", ".stl", ".vtk", ".vtp", ".vtu"],
+        ),
+    ] {
+        let help = stdout(&qcshape(args));
+        for f in formats {
+            assert!(help.contains(f), "{args:?} should name {f}:\n{help}");
+        }
+    }
+}

@@ -19,19 +19,46 @@ use crate::options::PipelineKw;
 use crate::run::{detached, Progress};
 use crate::space::topology_from;
 
-/// read_mesh(path) -> (V, F): a mesh file (.obj, .ply, .off, .stl, .vtk) as V (nV, 3) float64
-/// and F (nF, 3) int64. Raises OSError if the file cannot be read, ValueError (with the file
-/// name and line) if it is not a valid mesh.
+/// read_mesh(path, point_data=False) -> (V, F), or (V, F, fields) with point_data=True: a
+/// mesh file (.obj, .ply, .off, .stl, .vtk, .vtp, .vtu) as V (nV, 3) float64 and F (nF, 3)
+/// int64 (polygons triangulated). fields is a dict of the file's named per-vertex arrays (PLY
+/// extra vertex properties, VTK POINT_DATA, VTP/VTU PointData), each float64 (nV,) for one
+/// component or (nV, k) for k components (vectors: k = 3). Raises OSError if the file cannot
+/// be read, ValueError (with the file name and line) if it is not a valid mesh or has no
+/// faces.
 #[pyfunction]
-pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+#[pyo3(signature = (path, point_data=false))]
+pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf, point_data: bool) -> PyResult<Bound<'py, PyTuple>> {
     let m = py.detach(|| io::read_mesh(&path)).map_err(errors::io)?;
-    Ok((points_out(py, &m.positions)?, faces_out(py, &m.faces)?))
+    if m.faces.is_empty() {
+        return Err(errors::io(io::IoError::Mesh {
+            path,
+            error: qcshape::mesh::MeshError::NoFaces,
+        }));
+    }
+    let v = points_out(py, &m.positions)?;
+    let f = faces_out(py, &m.faces)?;
+    if !point_data {
+        return PyTuple::new(py, [v, f]);
+    }
+    let fields = PyDict::new(py);
+    for a in m.point_data {
+        let n = m.positions.len();
+        let arr = numpy::PyArray1::from_vec(py, a.values);
+        let arr = if a.components == 1 {
+            arr.into_any()
+        } else {
+            numpy::PyArrayMethods::reshape(&arr, [n, a.components])?.into_any()
+        };
+        fields.set_item(a.name, arr)?;
+    }
+    PyTuple::new(py, [v, f, fields.into_any()])
 }
 
 /// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) in the format of
 /// the file name's extension, atomically (complete or absent). point_data = {"name": values}
-/// adds named per-vertex fields, each a scalar (nV,) or a vector (nV, 3) (.ply, .vtk and .vtp
-/// only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`).
+/// adds named per-vertex fields, each a scalar (nV,) or a vector (nV, 3) (.ply, .vtk, .vtp and
+/// .vtu only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`).
 #[pyfunction]
 #[pyo3(signature = (path, vertices, faces, point_data=None))]
 pub fn write_mesh(

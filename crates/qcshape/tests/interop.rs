@@ -58,6 +58,11 @@ fn meshio_and_pyvista_fixtures_read_with_points_faces_and_arrays() {
         "octa_vtk_binary_raw.vtp",
         "octa_vtk_appended_zlib.vtp",
         "octa_vtk_appended_base64_zlib.vtp",
+        "octa_meshio.vtu",
+        "octa_meshio_ascii.vtu",
+        "octa_vtk_appended_zlib.vtu",
+        "octa_pyvista_metadata_ascii.vtk",
+        "octa_pyvista_metadata_binary.vtk",
     ] {
         let d = io::read_mesh(&fixture(name)).unwrap_or_else(|e| panic!("{e}"));
         check_octahedron(&d, name);

@@ -46,13 +46,19 @@ class _PipelineOptions(TypedDict, total=False):
     threads: Optional[int]
     progress: Optional[bool]
 
-def read_mesh(path: _Path) -> Tuple[_F64, _I64]:
-    """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk file."""
+@overload
+def read_mesh(path: _Path, point_data: Literal[False] = False) -> Tuple[_F64, _I64]: ...
+@overload
+def read_mesh(path: _Path, point_data: Literal[True]) -> Tuple[_F64, _I64, Dict[str, _F64]]: ...
+def read_mesh(path: _Path, point_data: bool = False) -> Union[Tuple[_F64, _I64], Tuple[_F64, _I64, Dict[str, _F64]]]:
+    """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk/.vtp/.vtu file;
+    with point_data=True also a dict of its named per-vertex arrays, each (nV,) or (nV, k)
+    float64. ValueError for an invalid file or one with no faces."""
 
 def write_mesh(
     path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, _npt.ArrayLike]] = None
 ) -> None:
-    """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp)."""
+    """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp, .vtu)."""
 
 def icosphere(level: int = 1) -> Tuple[_F64, _I64]:
     """The unit icosphere, 10 * 4**level + 2 vertices."""

@@ -1,6 +1,8 @@
-//! Mesh files: reading OBJ, PLY, OFF, STL, legacy VTK (POLYDATA and UNSTRUCTURED_GRID) and
-//! VTK XML PolyData (`.vtp`) into a triangle soup ([`MeshData`], with the VTK files' named
-//! point data) or a validated [`Shape`], and writing OBJ, PLY, OFF, STL, VTK and VTP with
+//! Mesh files: reading OBJ, PLY, OFF, STL, legacy VTK (POLYDATA and UNSTRUCTURED_GRID), VTK
+//! XML PolyData (`.vtp`) and VTK XML UnstructuredGrid (`.vtu`) into a triangle soup
+//! ([`MeshData`], with the files' named point data: PLY extra vertex properties, VTK
+//! `POINT_DATA`, VTP/VTU `PointData`) or a validated [`Shape`], and writing OBJ, PLY, OFF, STL,
+//! VTK, VTP and VTU with
 //! optional per-vertex values (heat maps) or several named scalar and vector fields
 //! ([`Field`], [`write_mesh_fields`]); [`npy`] writes matrices for NumPy.
 //!
@@ -30,6 +32,8 @@
 
 mod color;
 mod fields;
+#[cfg(test)]
+mod interop_tests;
 pub mod npy;
 mod obj;
 mod off;
@@ -43,6 +47,8 @@ mod tests;
 mod text;
 mod vtk;
 mod vtp;
+mod vtu;
+mod xml;
 
 use std::fmt;
 use std::io::Write;
@@ -72,8 +78,9 @@ pub struct MeshData {
     /// Non-fatal remarks from the reader (fan-triangulated polygons, ignored trailing data,
     /// welded STL corners), each one sentence.
     pub warnings: Vec<String>,
-    /// Named per-vertex arrays of the file (VTK `POINT_DATA`, VTP `PointData`), in file
-    /// order; empty for the other formats.
+    /// Named per-vertex arrays of the file (PLY extra vertex properties, VTK `POINT_DATA`,
+    /// VTP and VTU `PointData`), each #V x components, in file order; empty for OBJ, OFF and
+    /// STL.
     pub point_data: Vec<PointArray>,
 }
 
@@ -99,21 +106,24 @@ pub enum Format {
     Vtk,
     /// VTK XML PolyData (`.vtp`: ascii, inline base64 or appended data, optionally zlib).
     Vtp,
+    /// VTK XML UnstructuredGrid (`.vtu`, same encodings as `.vtp`) of surface cells.
+    Vtu,
 }
 
 impl Format {
     /// Every format, in a fixed order.
-    pub const ALL: [Format; 6] = [
+    pub const ALL: [Format; 7] = [
         Format::Obj,
         Format::Ply,
         Format::Off,
         Format::Stl,
         Format::Vtk,
         Format::Vtp,
+        Format::Vtu,
     ];
 
-    /// The format for a file name extension (`obj`, `ply`, `off`, `stl`, `vtk`, `vtp`; any
-    /// case).
+    /// The format for a file name extension (`obj`, `ply`, `off`, `stl`, `vtk`, `vtp`,
+    /// `vtu`; any case).
     pub fn from_extension(ext: &str) -> Option<Format> {
         Format::ALL
             .into_iter()
@@ -134,6 +144,7 @@ impl Format {
             Format::Stl => "stl",
             Format::Vtk => "vtk",
             Format::Vtp => "vtp",
+            Format::Vtu => "vtu",
         }
     }
 }
@@ -147,6 +158,7 @@ impl fmt::Display for Format {
             Format::Stl => "STL",
             Format::Vtk => "VTK",
             Format::Vtp => "VTP",
+            Format::Vtu => "VTU",
         })
     }
 }
@@ -273,7 +285,7 @@ pub enum WriteError {
         message: String,
     },
     /// The format cannot store the given per-vertex attribute.
-    #[error("the {format} format cannot store {what}; write .ply, .vtk or .vtp instead")]
+    #[error("the {format} format cannot store {what}; write .ply, .vtk, .vtp or .vtu instead")]
     Unsupported {
         /// Target format.
         format: Format,
@@ -302,7 +314,7 @@ pub enum IoError {
         error: std::io::Error,
     },
     /// The extension names no known format.
-    #[error("{}: unknown mesh format: the file name must end in .obj, .ply, .off, .stl, .vtk or .vtp", path.display())]
+    #[error("{}: unknown mesh format: the file name must end in .obj, .ply, .off, .stl, .vtk, .vtp or .vtu", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -355,7 +367,9 @@ pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> 
     }
     // A UTF-8 byte order mark before a text format (not STL, whose binary header is free-form).
     let bytes = match (format, bytes.strip_prefix(b"\xEF\xBB\xBF")) {
-        (Format::Obj | Format::Off | Format::Ply | Format::Vtk | Format::Vtp, Some(rest)) => rest,
+        (Format::Obj | Format::Off | Format::Ply | Format::Vtk | Format::Vtp | Format::Vtu, Some(rest)) => {
+            rest
+        }
         _ => bytes,
     };
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
@@ -368,6 +382,7 @@ pub fn parse_mesh(bytes: &[u8], format: Format) -> Result<MeshData, ParseError> 
         Format::Stl => stl::parse(bytes),
         Format::Vtk => vtk::parse(bytes),
         Format::Vtp => vtp::parse(bytes),
+        Format::Vtu => vtu::parse(bytes),
     }?;
     debug_assert!(data
         .point_data
@@ -530,7 +545,7 @@ fn validate(
                 expected: n,
             });
         }
-        if matches!(format, Format::Off | Format::Stl | Format::Vtp) {
+        if matches!(format, Format::Off | Format::Stl | Format::Vtp | Format::Vtu) {
             return Err(WriteError::Unsupported {
                 format,
                 what: "per-vertex colors",
@@ -554,7 +569,8 @@ fn encode_to(
         Format::Off => off::write(w, positions, faces),
         Format::Stl => stl::write(w, positions, faces),
         Format::Vtk => vtk::write(w, positions, faces, payload),
-        Format::Vtp => vtp::write(w, positions, faces, &payload.fields),
+        Format::Vtp => vtp::write(w, positions, faces, &payload.fields, false),
+        Format::Vtu => vtp::write(w, positions, faces, &payload.fields, true),
     }
 }
 

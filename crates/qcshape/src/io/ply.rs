@@ -1,8 +1,10 @@
 //! Stanford PLY: ASCII, binary little endian and binary big endian.
 //!
 //! Reads the `vertex` element's `x`, `y`, `z` (any scalar type) and the `face` element's
-//! `vertex_indices` (or `vertex_index`) list (any count and index type). Every other element
-//! and property is skipped; polygons are triangulated (a fan, or ear clipping when not
+//! `vertex_indices` (or `vertex_index`) list (any count and index type). The vertex element's
+//! other scalar properties become named point fields (`NAME_x`/`_y`/`_z` and `nx`/`ny`/`nz`
+//! triples as vectors; `quality`, colours and the rest as scalars). Every other element and
+//! property is skipped; polygons are triangulated (a fan, or ear clipping when not
 //! convex). In ASCII files every element is one line, and the counts of the header are exact
 //! (a line with more or fewer values, or data after the last element, is an error naming the
 //! line and both numbers). Writes `double` coordinates, named `double` properties per vertex
@@ -13,7 +15,7 @@
 use std::io::Write;
 
 use super::text::{self, Cursor, Float};
-use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, Payload};
+use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, Payload, PointArray};
 
 /// How a PLY file stores its data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -444,6 +446,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         )));
     }
     let n_vertices = n_vertices as usize;
+    let (extra, slots) = vertex_fields(&header.elements[vertex_el].props, &xyz);
+    let mut field_values: Vec<Vec<f64>> = vec![Vec::new(); extra.len()];
 
     let face_el = header.elements.iter().position(|e| e.name == b"face");
     let mut face_list = usize::MAX;
@@ -504,6 +508,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                         if ei == vertex_el {
                             if let Some(axis) = xyz.iter().position(|&k| k == pi) {
                                 p[axis] = v;
+                            } else if let Some((f, _)) = slots[pi] {
+                                field_values[f].push(v);
                             }
                         }
                     }
@@ -560,12 +566,72 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         )));
     }
     let faces = faces.finish(&positions, &mut warnings)?;
+    // Values were pushed in property order within each vertex; vector fields interleave.
+    let point_data = extra
+        .into_iter()
+        .zip(field_values)
+        .map(|((name, components), values)| PointArray {
+            name,
+            components,
+            values,
+        })
+        .collect();
     Ok(MeshData {
         positions,
         faces,
         warnings,
-        point_data: Vec::new(),
+        point_data,
     })
+}
+
+/// The per-vertex fields of the vertex element's other scalar properties (not `x`, `y`, `z`,
+/// not lists): `NAME_x`, `NAME_y`, `NAME_z` in a row become one vector field `NAME` (how
+/// qcshape writes vectors), `nx`, `ny`, `nz` in a row the vector field `normals`, every other
+/// property a scalar field of its name. Returns the fields (name, components) and, for each
+/// property, its (field, component) slot.
+#[allow(clippy::type_complexity)]
+fn vertex_fields(
+    props: &[(Vec<u8>, Property)],
+    xyz: &[usize; 3],
+) -> (Vec<(String, usize)>, Vec<Option<(usize, usize)>>) {
+    let mut fields = Vec::new();
+    let mut slots = vec![None; props.len()];
+    let scalar = |k: usize| !xyz.contains(&k) && matches!(props.get(k), Some((_, Property::Scalar(_))));
+    let name = |k: usize| String::from_utf8_lossy(&props[k].0).into_owned();
+    let mut k = 0;
+    while k < props.len() {
+        if !scalar(k) {
+            k += 1;
+            continue;
+        }
+        let n0 = name(k);
+        let triple = (k + 2 < props.len() && scalar(k + 1) && scalar(k + 2))
+            .then(|| [n0.clone(), name(k + 1), name(k + 2)]);
+        let vector = triple.and_then(|[a, b, c]| {
+            if [&a, &b, &c] == ["nx", "ny", "nz"] {
+                return Some("normals".to_string());
+            }
+            let base = a.strip_suffix("_x")?;
+            (!base.is_empty() && b.strip_suffix("_y") == Some(base) && c.strip_suffix("_z") == Some(base))
+                .then(|| base.to_string())
+        });
+        let f = fields.len();
+        match vector {
+            Some(base) => {
+                fields.push((base, 3));
+                for c in 0..3 {
+                    slots[k + c] = Some((f, c));
+                }
+                k += 3;
+            }
+            None => {
+                fields.push((n0, 1));
+                slots[k] = Some((f, 0));
+                k += 1;
+            }
+        }
+    }
+    (fields, slots)
 }
 
 /// A property name: ASCII letters, digits and `_` only (PLY names cannot hold spaces).

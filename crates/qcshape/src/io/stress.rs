@@ -97,7 +97,19 @@ fn seeds() -> Vec<(Format, Vec<u8>)> {
           TRIANGLE_STRIPS 2 4\nOFFSETS vtktypeint64\n0 4\nCONNECTIVITY vtktypeint64\n0 1 3 2\n"
             .to_vec(),
     ));
-    // qcshape's VTP, and the meshio / pyvista fixtures (UNSTRUCTURED_GRID, every VTP layout).
+    // qcshape's VTP and VTU, and the meshio / pyvista fixtures (UNSTRUCTURED_GRID, METADATA,
+    // every VTP layout, VTU).
+    out.push((
+        Format::Vtu,
+        super::encode_mesh_with_fields(
+            Format::Vtu,
+            &pos,
+            &faces,
+            &[super::Field::scalar("v", &vals)],
+            &WriteOptions::default(),
+        )
+        .unwrap(),
+    ));
     out.push((
         Format::Vtp,
         super::encode_mesh_with_fields(
@@ -119,6 +131,11 @@ fn seeds() -> Vec<(Format, Vec<u8>)> {
         "octa_vtk_binary_raw.vtp",
         "octa_vtk_appended_zlib.vtp",
         "octa_vtk_appended_base64_zlib.vtp",
+        "octa_meshio.vtu",
+        "octa_meshio_ascii.vtu",
+        "octa_vtk_appended_zlib.vtu",
+        "octa_pyvista_metadata_ascii.vtk",
+        "octa_pyvista_metadata_binary.vtk",
     ] {
         let f = Format::from_path(std::path::Path::new(name)).unwrap();
         out.push((f, std::fs::read(dir.join(name)).unwrap()));

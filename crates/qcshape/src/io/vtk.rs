@@ -8,14 +8,22 @@
 //! layout (`POLYGONS n size` followed by `k i1 .. ik` records) or the VTK 5.1 layout
 //! (`OFFSETS` and `CONNECTIVITY` arrays). `POINT_DATA` is read into named arrays: `SCALARS`
 //! (with or without `LOOKUP_TABLE`), `VECTORS`, `NORMALS`, `TEXTURE_COORDINATES`, `TENSORS`,
-//! `COLOR_SCALARS` and `FIELD` arrays; reading stops at `CELL_DATA` or `METADATA`.
+//! `COLOR_SCALARS` and `FIELD` arrays (`CELL_DATA` is read the same way and dropped, in
+//! either order). A `METADATA` block (what VTK writes after an array with information keys,
+//! e.g. once it has computed the points' range, ending at an empty line) is skipped wherever
+//! it comes, as are dataset-level `FIELD` data and any unknown section (up to the next line
+//! that starts with a known keyword, with a warning).
 //! Writes ASCII UNSTRUCTURED_GRID triangles (version 4.2 layout, readable by ParaView, pyvista
 //! and meshio), with `POINT_DATA` `SCALARS`, `VECTORS` and `COLOR_SCALARS`.
 
 use std::io::Write;
 
+mod attributes;
+
+use attributes::{read_attributes, read_field};
+
 use super::text::{self, Cursor, Float};
-use super::{check_finite, check_index, FaceBuilder, FieldValues, MeshData, ParseError, Payload, PointArray};
+use super::{check_finite, check_index, FaceBuilder, FieldValues, MeshData, ParseError, Payload};
 
 #[derive(Debug, Clone, Copy)]
 enum Num {
@@ -127,7 +135,9 @@ impl<'a> Reader<'a> {
                 });
             }
             let raw = self.c.take(needed as usize).unwrap_or_default();
-            Ok(raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect())
+            let out = raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect();
+            self.skip_metadata();
+            Ok(out)
         } else {
             // Each value takes at least one character and one separator.
             if n > (self.c.remaining() as u64).div_ceil(2) {
@@ -146,13 +156,90 @@ impl<'a> Reader<'a> {
                     message: format!("cannot read value {k} of {what} from {}", text::show(tok)),
                 })?);
             }
+            self.skip_metadata();
             Ok(out)
+        }
+    }
+
+    /// Skips a `METADATA` block if one comes next: VTK writes one after an array that carries
+    /// information keys (a computed range, component names) and ends it with an empty line.
+    fn skip_metadata(&mut self) {
+        let mut peek = self.c.clone();
+        if peek
+            .next_token()
+            .is_some_and(|t| t.eq_ignore_ascii_case(b"METADATA"))
+        {
+            self.c = peek;
+            self.c.skip_line();
+            while self.c.remaining() > 0 && !self.c.rest_of_line().trim_ascii().is_empty() {}
+        }
+    }
+
+    /// Skips an unknown section: moves to the next line that starts with a keyword this reader
+    /// knows (without consuming it), or to the end.
+    fn skip_unknown(&mut self) {
+        loop {
+            self.c.skip_line();
+            let mut peek = self.c.clone();
+            match peek.next_token() {
+                None => {
+                    self.c = peek;
+                    return;
+                }
+                Some(t) if is_known(t) => return,
+                Some(_) => {}
+            }
         }
     }
 
     fn line(&self) -> Option<usize> {
         (!self.binary).then(|| self.c.line())
     }
+}
+
+/// Dataset-level section keywords of POLYDATA and UNSTRUCTURED_GRID files.
+const SECTIONS: &[&[u8]] = &[
+    b"POINTS",
+    b"CELLS",
+    b"CELL_TYPES",
+    b"POLYGONS",
+    b"TRIANGLE_STRIPS",
+    b"VERTICES",
+    b"LINES",
+    b"POINT_DATA",
+    b"CELL_DATA",
+    b"FIELD",
+    b"METADATA",
+];
+
+/// Keywords inside `POINT_DATA` and `CELL_DATA`.
+const ATTRIBUTES: &[&[u8]] = &[
+    b"SCALARS",
+    b"COLOR_SCALARS",
+    b"LOOKUP_TABLE",
+    b"VECTORS",
+    b"NORMALS",
+    b"TEXTURE_COORDINATES",
+    b"TENSORS",
+    b"FIELD",
+    b"GLOBAL_IDS",
+    b"PEDIGREE_IDS",
+    b"EDGE_FLAGS",
+    b"METADATA",
+];
+
+fn is_known(tok: &[u8]) -> bool {
+    let up = tok.to_ascii_uppercase();
+    SECTIONS.contains(&up.as_slice()) || ATTRIBUTES.contains(&up.as_slice())
+}
+
+/// Whether a token looks like a legacy VTK keyword (upper-case letters, digits, `_`), so that
+/// an unknown one is a section to skip rather than garbage.
+fn is_keyword_like(tok: &[u8]) -> bool {
+    tok.first().is_some_and(u8::is_ascii_uppercase)
+        && tok
+            .iter()
+            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || *c == b'_')
 }
 
 fn as_int(v: f64) -> Option<i64> {
@@ -365,10 +452,29 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                         message: format!("POINT_DATA {n} for {n_points} points"),
                     });
                 }
-                read_point_data(&mut r, n_points, &mut point_data, &mut warnings)?;
-                break;
+                read_attributes(&mut r, n, Some(&mut point_data), &mut warnings)?;
             }
-            b"CELL_DATA" | b"FIELD" | b"METADATA" => break,
+            b"CELL_DATA" => {
+                // Read to stay in step with the file, then dropped: qcshape has no use for
+                // per-cell values (and triangulation would change the cells).
+                let n = r.count("the CELL_DATA count")?;
+                read_attributes(&mut r, n, None, &mut warnings)?;
+            }
+            b"FIELD" => {
+                // Dataset-level field data (e.g. TIME): arrays of any length, dropped.
+                read_field(&mut r, None)?;
+            }
+            b"METADATA" => {
+                r.c.skip_line();
+                while r.c.remaining() > 0 && !r.c.rest_of_line().trim_ascii().is_empty() {}
+            }
+            _ if is_keyword_like(tok) => {
+                warnings.push(format!(
+                    "skipped the unknown section {} (line {line})",
+                    text::show(tok)
+                ));
+                r.skip_unknown();
+            }
             _ => {
                 return Err(ParseError::Syntax {
                     line,
@@ -460,7 +566,11 @@ fn grid_faces(
 }
 
 /// Adds the triangles of a strip (alternating orientation, as VTK defines it).
-fn push_strip(faces: &mut FaceBuilder, idx: &[u32], line: Option<usize>) -> Result<(), ParseError> {
+pub(super) fn push_strip(
+    faces: &mut FaceBuilder,
+    idx: &[u32],
+    line: Option<usize>,
+) -> Result<(), ParseError> {
     if idx.len() < 3 {
         return Err(ParseError::BadFace {
             face: faces.n_polygons(),
@@ -477,146 +587,6 @@ fn push_strip(faces: &mut FaceBuilder, idx: &[u32], line: Option<usize>) -> Resu
         faces.push(&t, line)?;
     }
     Ok(())
-}
-
-/// Reads the arrays of a `POINT_DATA` section (`n` points) until its end, `CELL_DATA` or
-/// `METADATA`.
-fn read_point_data(
-    r: &mut Reader,
-    n: usize,
-    out: &mut Vec<PointArray>,
-    warnings: &mut Vec<String>,
-) -> Result<(), ParseError> {
-    let n64 = n as u64;
-    loop {
-        let Some(tok) = r.c.next_token() else {
-            return Ok(());
-        };
-        let line = r.c.line();
-        let kw = tok.to_ascii_uppercase();
-        let name = |r: &mut Reader| -> Result<String, ParseError> {
-            let t = r.token(&|| "an array name".into())?;
-            Ok(String::from_utf8_lossy(t).into_owned())
-        };
-        match kw.as_slice() {
-            b"SCALARS" => {
-                let name = name(r)?;
-                let ty = r.num_type(&format!("SCALARS {name}"))?;
-                // Optional component count on the same line, optional LOOKUP_TABLE line.
-                let mut comps = 1u64;
-                let mut peek = r.c.clone();
-                if let Some(t) = peek.next_token() {
-                    if peek.line() == line {
-                        if let Some(k) = text::parse_count(t) {
-                            comps = k;
-                            r.c = peek;
-                        }
-                    }
-                }
-                if !(1..=4).contains(&comps) {
-                    return Err(ParseError::Syntax {
-                        line,
-                        message: format!("SCALARS {name} has {comps} components (1 to 4 allowed)"),
-                    });
-                }
-                let mut peek = r.c.clone();
-                if peek
-                    .next_token()
-                    .is_some_and(|t| t.eq_ignore_ascii_case(b"LOOKUP_TABLE"))
-                {
-                    r.c = peek;
-                    r.token(&|| "the lookup table name".into())?;
-                }
-                let values = r.numbers(n64 * comps, ty, &format!("SCALARS {name}"))?;
-                out.push(array(name, comps as usize, values));
-            }
-            b"VECTORS" | b"NORMALS" => {
-                let name = name(r)?;
-                let ty = r.num_type(&format!("VECTORS {name}"))?;
-                let values = r.numbers(n64 * 3, ty, &format!("VECTORS {name}"))?;
-                out.push(array(name, 3, values));
-            }
-            b"TENSORS" => {
-                let name = name(r)?;
-                let ty = r.num_type(&format!("TENSORS {name}"))?;
-                let values = r.numbers(n64 * 9, ty, &format!("TENSORS {name}"))?;
-                out.push(array(name, 9, values));
-            }
-            b"TEXTURE_COORDINATES" => {
-                let name = name(r)?;
-                let dim = r.count("the texture coordinate dimension")?;
-                if !(1..=3).contains(&dim) {
-                    return Err(ParseError::Syntax {
-                        line,
-                        message: format!("TEXTURE_COORDINATES {name} of dimension {dim}"),
-                    });
-                }
-                let ty = r.num_type(&format!("TEXTURE_COORDINATES {name}"))?;
-                let values = r.numbers(n64 * dim, ty, &format!("TEXTURE_COORDINATES {name}"))?;
-                out.push(array(name, dim as usize, values));
-            }
-            b"COLOR_SCALARS" => {
-                let name = name(r)?;
-                let comps = r.count(&format!("the component count of COLOR_SCALARS {name}"))?;
-                if !(1..=4).contains(&comps) {
-                    return Err(ParseError::Syntax {
-                        line,
-                        message: format!("COLOR_SCALARS {name} has {comps} components"),
-                    });
-                }
-                // ASCII colours are floats in 0..1; binary ones unsigned chars.
-                let ty = if r.binary { Num::U8 } else { Num::F64 };
-                let values = r.numbers(n64 * comps, ty, &format!("COLOR_SCALARS {name}"))?;
-                out.push(array(name, comps as usize, values));
-            }
-            b"LOOKUP_TABLE" => {
-                let name = name(r)?;
-                let size = r.count(&format!("the size of LOOKUP_TABLE {name}"))?;
-                let ty = if r.binary { Num::U8 } else { Num::F64 };
-                r.numbers(size.saturating_mul(4), ty, &format!("LOOKUP_TABLE {name}"))?;
-            }
-            b"FIELD" => {
-                let _field = name(r)?;
-                let k = r.count("the FIELD array count")?;
-                for _ in 0..k {
-                    let name = name(r)?;
-                    let comps = r.count(&format!("the component count of {name}"))?;
-                    let tuples = r.count(&format!("the tuple count of {name}"))?;
-                    let ty = r.num_type(&name)?;
-                    if tuples != n64 {
-                        return Err(ParseError::Syntax {
-                            line: r.c.line(),
-                            message: format!("FIELD array {name} has {tuples} tuples for {n} points"),
-                        });
-                    }
-                    if comps == 0 || comps > 1 << 20 {
-                        return Err(ParseError::Syntax {
-                            line: r.c.line(),
-                            message: format!("FIELD array {name} has {comps} components"),
-                        });
-                    }
-                    let values = r.numbers(n64.saturating_mul(comps), ty, &name)?;
-                    out.push(array(name, comps as usize, values));
-                }
-            }
-            b"CELL_DATA" | b"METADATA" => return Ok(()),
-            _ => {
-                warnings.push(format!(
-                    "stopped reading POINT_DATA at the unknown keyword {} (line {line})",
-                    text::show(tok)
-                ));
-                return Ok(());
-            }
-        }
-    }
-}
-
-fn array(name: String, components: usize, values: Vec<f64>) -> PointArray {
-    PointArray {
-        name,
-        components,
-        values,
-    }
 }
 
 /// A VTK array name: no whitespace.

@@ -27,6 +27,32 @@ pub struct BoundingBox {
     pub size: [f64; 3],
 }
 
+/// One named per-vertex array of the file (see [`crate::io::PointArray`]).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct PointDataSummary {
+    /// The array name as written in the file.
+    pub name: String,
+    /// Components per vertex (1 for scalars, 3 for vectors).
+    pub components: usize,
+    /// Smallest finite value over all vertices and components (`None` if there is none).
+    pub min: Option<f64>,
+    /// Largest finite value over all vertices and components (`None` if there is none).
+    pub max: Option<f64>,
+}
+
+impl PointDataSummary {
+    /// The summary of one array read from a file.
+    pub fn of(a: &crate::io::PointArray) -> Self {
+        let finite = a.values.iter().copied().filter(|v| v.is_finite());
+        PointDataSummary {
+            name: a.name.clone(),
+            components: a.components,
+            min: finite.clone().reduce(f64::min),
+            max: finite.reduce(f64::max),
+        }
+    }
+}
+
 /// Everything `info` reports (the JSON schema of `qcshape info --json`).
 #[derive(Debug, Serialize)]
 pub struct MeshReport {
@@ -66,6 +92,9 @@ pub struct MeshReport {
     pub near_degenerate_faces: usize,
     /// Quality warnings, reader remarks first.
     pub warnings: Vec<String>,
+    /// The file's named per-vertex arrays, in file order (empty if none; filled by the
+    /// caller, since a [`Shape`] holds no fields).
+    pub point_data: Vec<PointDataSummary>,
 }
 
 /// The report of `shape` read from `path` (`format` its name, `reader_warnings` the reader's
@@ -165,6 +194,7 @@ pub fn inspect(
         degenerate_faces: degenerate.len(),
         near_degenerate_faces: near.len(),
         warnings,
+        point_data: Vec::new(),
     };
     (report, degenerate.first().map(|&f| (f, areas[f])))
 }
@@ -221,6 +251,20 @@ pub fn write_text(out: &mut dyn Write, r: &MeshReport) -> std::io::Result<()> {
     row(out, "mean edge length", num(r.mean_edge_length))?;
     row(out, "total area", num(r.total_area))?;
     row(out, "min angle", format!("{} deg", num(r.min_angle_degrees)))?;
+    if !r.point_data.is_empty() {
+        row(out, "point data", r.point_data.len().to_string())?;
+        for a in &r.point_data {
+            let range = match (a.min, a.max) {
+                (Some(lo), Some(hi)) => format!("{} .. {}", num(lo), num(hi)),
+                _ => "no finite values".into(),
+            };
+            let kind = match a.components {
+                1 => "scalar".to_string(),
+                k => format!("{k} components"),
+            };
+            writeln!(out, "  - {} ({kind}): {range}", a.name)?;
+        }
+    }
     if r.warnings.is_empty() {
         row(out, "warnings", "none".into())?;
     } else {
