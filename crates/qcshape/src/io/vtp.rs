@@ -412,14 +412,14 @@ impl Decoder<'_> {
                     self.what
                 )));
             }
-            let all = self.take(at, h + n)?;
+            let all = self.take(at, h.checked_add(n).ok_or_else(|| self.truncated(n, at))?)?;
             return Ok(all[h as usize..].to_vec());
         }
         // Compressed: [nblocks, block size, last block size, compressed sizes...], then the
         // blocks; base64 encodes the header and the blocks separately.
         let first = self.take(at, h)?;
         let nb = self.word(&first);
-        let head_len = (3 + nb).saturating_mul(h);
+        let head_len = nb.saturating_add(3).saturating_mul(h);
         let avail = if self.base64 {
             (self.bytes.len() as u64).saturating_sub(at) / 4 * 3
         } else {
@@ -454,7 +454,7 @@ impl Decoder<'_> {
                 self.what
             )));
         }
-        let data_at = at + if self.base64 { b64_len(head_len) } else { head_len };
+        let data_at = at.saturating_add(if self.base64 { b64_len(head_len) } else { head_len });
         let comp = self.take(data_at, comp_total)?;
         let mut out = Vec::new();
         let mut pos = 0usize;
