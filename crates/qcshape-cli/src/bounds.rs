@@ -67,14 +67,23 @@ where
         let v: u128 = text.parse().map_err(|_| {
             error(
                 cmd,
-                format!("{name} must be a whole number from {} to {} (got {text:?})", self.min, self.max),
+                format!(
+                    "{name} must be a whole number from {} to {} (got {text:?})",
+                    self.min, self.max
+                ),
             )
         })?;
         if v > self.max as u128 {
-            return Err(error(cmd, format!("{name} must be at most {} (got {text})", self.max)));
+            return Err(error(
+                cmd,
+                format!("{name} must be at most {} (got {text})", self.max),
+            ));
         }
         if v < self.min as u128 {
-            return Err(error(cmd, format!("{name} must be at least {} (got {text})", self.min)));
+            return Err(error(
+                cmd,
+                format!("{name} must be at least {} (got {text})", self.min),
+            ));
         }
         T::try_from(v as u64).map_err(|_| error(cmd, format!("{name}: {text} is out of range")))
     }
@@ -160,6 +169,9 @@ mod tests {
         }
         let mut bad = Vec::new();
         walk(&crate::Cli::command(), "qcshape", &mut bad);
-        assert!(bad.is_empty(), "unbounded or undocumented integer options: {bad:#?}");
+        assert!(
+            bad.is_empty(),
+            "unbounded or undocumented integer options: {bad:#?}"
+        );
     }
 }

@@ -97,7 +97,10 @@ pub fn run(args: &Args) -> Result<()> {
     let given: Vec<&std::path::Path> = std::iter::once(args.matrix.as_path())
         .chain(args.labels.as_deref())
         .collect();
-    let outputs = [(args.out.as_deref(), "-o"), (args.confusion.as_deref(), "--confusion")];
+    let outputs = [
+        (args.out.as_deref(), "-o"),
+        (args.confusion.as_deref(), "--confusion"),
+    ];
     crate::input::refuse_outputs(&given, &outputs)?;
     let opts = ClusterOptions {
         k: args.k,
@@ -245,11 +248,13 @@ pub fn run(args: &Args) -> Result<()> {
         }
         outln!(
             "sensitivity  {:.4}  (eq. 15 on the mean one-vs-rest matrix; mean per class {:.4})",
-            s.eq15.sensitivity, s.eq15.macro_sensitivity
+            s.eq15.sensitivity,
+            s.eq15.macro_sensitivity
         );
         outln!(
             "specificity  {:.4}  (eq. 15 on the mean one-vs-rest matrix; mean per class {:.4})",
-            s.eq15.specificity, s.eq15.macro_specificity
+            s.eq15.specificity,
+            s.eq15.macro_specificity
         );
         outln!("accuracy     {:.4}  (matched)", s.confusion.accuracy());
         outln!(

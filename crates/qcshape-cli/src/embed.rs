@@ -156,7 +156,9 @@ pub fn run(args: &Args) -> Result<()> {
         outln!("dimensions   {}", opts.dims);
         outln!(
             "stress       {:.6e} raw, {:.6} normalized (stress-1); classical start {:.6e}",
-            e.raw_stress, e.normalized_stress, e.history[0]
+            e.raw_stress,
+            e.normalized_stress,
+            e.history[0]
         );
         outln!(
             "iterations   {} ({})",

@@ -62,6 +62,10 @@ pub(crate) fn all_inputs<'a>(given: &'a [PathBuf], data: &'a qcshape::dataset::D
     given
         .iter()
         .map(PathBuf::as_path)
-        .chain(data.deformations.iter().flat_map(|d| d.paths.iter().map(PathBuf::as_path)))
+        .chain(
+            data.deformations
+                .iter()
+                .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+        )
         .collect()
 }

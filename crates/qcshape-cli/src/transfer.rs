@@ -105,7 +105,11 @@ pub fn run(args: &Args) -> Result<()> {
     let deformations = load_input(&args.input)?;
     let mut inputs: Vec<&std::path::Path> = args.input.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.to);
-    inputs.extend(deformations.iter().flat_map(|d| d.paths.iter().map(PathBuf::as_path)));
+    inputs.extend(
+        deformations
+            .iter()
+            .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+    );
     crate::input::refuse_out_folder(&inputs, &args.out, "--out")?;
     let mut names = std::collections::HashSet::new();
     for d in &deformations {
@@ -229,8 +233,8 @@ pub fn run(args: &Args) -> Result<()> {
                     },
                     out.seconds
                 );
-            Ok(())
-        })?;
+                Ok(())
+            })?;
         }
         summaries.push(summary);
         pb.inc(1);

@@ -484,7 +484,11 @@ fn dataset_cases() -> Vec<Case> {
         ("--tolerance", "inf", vec!["--tolerance must be at most"]),
         ("--tolerance", "-1e-3", vec!["--tolerance must be >= 0"]),
         ("--energy-tolerance", "nan", vec!["--energy-tolerance"]),
-        ("--length-tolerance", "-1e-8", vec!["--length-tolerance must be >= 0"]),
+        (
+            "--length-tolerance",
+            "-1e-8",
+            vec!["--length-tolerance must be >= 0"],
+        ),
         ("--steps", "0", vec!["--steps", "at least 1"]),
         ("--threads", "0", vec!["--threads", "at least 1"]),
         ("--levels", "0", vec!["--levels", "at least 1"]),

@@ -285,8 +285,16 @@ fn a_closed_stdout_pipe_ends_quietly() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("D.csv"), MATRIX).unwrap();
     for args in [
-        vec!["embed".to_string(), dir.path().join("D.csv").to_str().unwrap().to_string()],
-        vec!["geodesic".into(), "--demo".into(), "--demo-level".into(), "1".into()],
+        vec![
+            "embed".to_string(),
+            dir.path().join("D.csv").to_str().unwrap().to_string(),
+        ],
+        vec![
+            "geodesic".into(),
+            "--demo".into(),
+            "--demo-level".into(),
+            "1".into(),
+        ],
     ] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_qcshape"))
             .args(&args)

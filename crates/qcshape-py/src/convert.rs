@@ -266,7 +266,9 @@ pub fn count(name: &str, v: AnyInt, min: usize, max: usize) -> PyResult<usize> {
             "{name}: must be at least {min}, got {x}"
         ))),
         Some(x) if x <= max as i128 => Ok(x as usize),
-        Some(x) => Err(PyValueError::new_err(format!("{name}: must be at most {max}, got {x}"))),
+        Some(x) => Err(PyValueError::new_err(format!(
+            "{name}: must be at most {max}, got {x}"
+        ))),
         None => Err(PyValueError::new_err(format!(
             "{name}: must be at most {max}, got a number beyond 2**127 in size"
         ))),

@@ -13,7 +13,9 @@ use qcshape::similarity::{PipelineOptions, Stage};
 use qcshape::space::{ShapeSpace, SimilarityResult};
 use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
 
-use crate::convert::{count, opt_count, AnyInt, faces_out, matrix_out, points, points_out, sequence, sequence_out, vector};
+use crate::convert::{
+    count, faces_out, matrix_out, opt_count, points, points_out, sequence, sequence_out, vector, AnyInt,
+};
 use crate::errors;
 use crate::options::PipelineKw;
 use crate::run::{detached, Progress};
@@ -180,7 +182,12 @@ impl PyDataset {
     /// makes it (defaults from the library).
     #[staticmethod]
     #[pyo3(signature = (level=AnyInt::new(1), poses=None, seed=None, jitter=None), text_signature = "(level=1, poses=None, seed=None, jitter=None)")]
-    fn synthetic(level: AnyInt, poses: Option<AnyInt>, seed: Option<u64>, jitter: Option<f64>) -> PyResult<Self> {
+    fn synthetic(
+        level: AnyInt,
+        poses: Option<AnyInt>,
+        seed: Option<u64>,
+        jitter: Option<f64>,
+    ) -> PyResult<Self> {
         let level = count("level", level, 0, qcshape::limits::MAX_ICOSPHERE_LEVEL as usize)? as u32;
         let poses = opt_count("poses", poses, 0, qcshape::limits::MAX_POSES)?;
         let d = SynthOptions::default();

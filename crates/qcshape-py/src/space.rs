@@ -408,8 +408,13 @@ impl PyShapeSpace {
         let i = init.map(|x| points(x, "init", Some(self.nv()))).transpose()?;
         let d = KarcherOptions::default();
         let opts = KarcherOptions {
-            max_iterations: opt_count("max_iterations", max_iterations, 0, qcshape::limits::MAX_ITERATIONS)?
-                .unwrap_or(d.max_iterations),
+            max_iterations: opt_count(
+                "max_iterations",
+                max_iterations,
+                0,
+                qcshape::limits::MAX_ITERATIONS,
+            )?
+            .unwrap_or(d.max_iterations),
             tolerance: tolerance.unwrap_or(d.tolerance),
             ..d
         };

@@ -252,7 +252,11 @@ impl Dataset {
     /// [`crate::outputs::refuse_folder_overlap`].
     pub fn input_paths<'a>(&'a self, source: &'a Path) -> Vec<&'a Path> {
         std::iter::once(source)
-            .chain(self.deformations.iter().flat_map(|d| d.paths.iter().map(PathBuf::as_path)))
+            .chain(
+                self.deformations
+                    .iter()
+                    .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+            )
             .collect()
     }
 
@@ -464,10 +468,13 @@ pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"]
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| DatasetError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
+            DatasetError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     let bad = |line: u64, message: String| DatasetError::Manifest {
         path: path.into(),
         line,

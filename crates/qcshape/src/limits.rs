@@ -211,7 +211,10 @@ mod tests {
         let f = dir.path().join("a.txt");
         std::fs::write(&f, b"0123456789").unwrap();
         assert_eq!(read_regular_file(&f, 10).unwrap(), b"0123456789");
-        assert!(read_regular_file(&f, 9).unwrap_err().to_string().contains("limit"));
+        assert!(read_regular_file(&f, 9)
+            .unwrap_err()
+            .to_string()
+            .contains("limit"));
         assert!(read_regular_file(dir.path(), 9).is_err());
         #[cfg(unix)]
         {

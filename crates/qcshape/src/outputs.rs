@@ -194,7 +194,11 @@ impl RunLock {
     pub fn acquire(path: &Path) -> Result<RunLock, OutputError> {
         let lock = lock_path(path);
         for _ in 0..3 {
-            match std::fs::OpenOptions::new().write(true).create_new(true).open(&lock) {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&lock)
+            {
                 Ok(mut f) => {
                     let me = std::process::id();
                     f.write_all(format!("{me}\n").as_bytes())

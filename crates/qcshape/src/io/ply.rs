@@ -529,7 +529,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                             for _ in 0..n {
                                 let v = src.scalar(ity, &what)?;
                                 if v.fract() != 0.0 || !v.is_finite() {
-                                    let message = format!("face {item} has the vertex index {v}, not an integer");
+                                    let message =
+                                        format!("face {item} has the vertex index {v}, not an integer");
                                     return Err(match src.line() {
                                         Some(line) => ParseError::Syntax { line, message },
                                         None => ParseError::Invalid(message),
