@@ -48,7 +48,7 @@ pub struct Args {
     #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     levels: usize,
     /// Share of vertices kept by each coarsening step.
-    #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO)]
+    #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO, allow_negative_numbers = true)]
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,

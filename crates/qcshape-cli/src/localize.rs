@@ -77,7 +77,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// False discovery rate (Benjamini-Hochberg).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
     alpha: f64,
     /// Worker threads (default: all cores).
     /// At most 1,024.

@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: Option<usize>,
     /// Noise variances in percent for Table 3 (default 1,2.5,5,10,20; 1 with --quick).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     noise_levels: Option<Vec<f64>>,
     /// Skip Table 3.
     #[arg(long)]

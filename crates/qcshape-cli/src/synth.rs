@@ -42,7 +42,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     pub poses: usize,
     /// Relative amplitude variation per deformation instance, 0 to 0.5 (0: exact nominal motions).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub jitter: f64,
     /// Which set: 0 (the 48 genus-0 deformations), 1 (24 on tori, in DIR/genus1), or all.
     #[arg(long, default_value = "0", value_parser = ["0", "1", "all"])]

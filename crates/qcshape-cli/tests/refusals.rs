@@ -119,6 +119,7 @@ fn cases() -> Vec<Case> {
         case("smooth -1", "similarity {d}/S/manifest.csv -o {d}/o.csv --smooth -1", &["--smooth must be >= 0"]),
         case("threads -2", "similarity {d}/S/manifest.csv -o {d}/o.csv --threads -2", &["--threads must be >= 0"]),
         case("k -3", "classify {d}/D.csv --k -3", &["--k must be >= 0"]),
+        case("jitter -0.1", "synth --out {d}/o --jitter -0.1", &["jitter must be between 0 and 0.5"]),
         // ---- messages ----
         case("a PLY face index 2.5", "info {d}/f.ply", &["f.ply", "line 14", "vertex index 2.5, not an integer"])
             .file("f.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2.5 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"),

@@ -48,7 +48,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Relative amplitude jitter of the built-in benchmark.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     jitter: f64,
     /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(

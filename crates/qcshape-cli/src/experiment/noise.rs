@@ -36,7 +36,12 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Noise variances in percent.
-    #[arg(long, value_delimiter = ',', default_value = "1,2.5,5,10,20")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,2.5,5,10,20",
+        allow_negative_numbers = true
+    )]
     levels: Vec<f64>,
     /// Noise distributions.
     #[arg(long, value_delimiter = ',', default_value = "uniform,gaussian")]

@@ -22,7 +22,7 @@ pub(crate) struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Cavity threshold (image units); default: upper two-level Otsu threshold of frame 0.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threshold: Option<f64>,
     /// Target vertex count of the whole surface after decimation (0: no decimation).
     /// At most 100,000,000.
@@ -55,13 +55,19 @@ pub(crate) struct Args {
     #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
     refine: super::Refine,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, allow_negative_numbers = true)]
     sector_centre: f64,
     /// Free-wall sector width (degrees).
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, allow_negative_numbers = true)]
     sector_width: f64,
     /// Free-wall height band LO,HI (0 apex, 1 base centre).
-    #[arg(long, default_value = "0.15,0.9", value_delimiter = ',', num_args = 2)]
+    #[arg(
+        long,
+        default_value = "0.15,0.9",
+        value_delimiter = ',',
+        num_args = 2,
+        allow_negative_numbers = true
+    )]
     heights: Vec<f64>,
 }
 

@@ -69,7 +69,7 @@ struct PhantomArgs {
     #[arg(long, default_value_t = 48, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_IMAGE_SIZE as u64), allow_negative_numbers = true)]
     size: usize,
     /// Standard deviation of the Gaussian image noise (HU).
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, default_value_t = 25.0, allow_negative_numbers = true)]
     noise: f64,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 1)]
@@ -84,7 +84,7 @@ struct PhantomArgs {
     overlap: bool,
     /// Standard deviation (mm) of the Gaussian noise on every landmark coordinate of every
     /// frame (default: 1 with --overlap, else 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     landmark_noise: Option<f64>,
 }
 

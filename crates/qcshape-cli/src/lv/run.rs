@@ -65,7 +65,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub(crate) no_sweep: bool,
     /// Cavity threshold (default: upper two-level Otsu threshold of each frame 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub(crate) threshold: Option<f64>,
     /// Taubin smoothing iterations of the surfaces.
     /// At most 1,000.
