@@ -136,7 +136,9 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let data = Dataset::load(&args.input)?;
-    data.refuse_overwrite(&args.input, &args.output, "-o")?;
+    for (file, what) in matrix_files(&args.output) {
+        data.refuse_overwrite(&args.input, &file, what)?;
+    }
     data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
     if let Some(shard) = args.shard {
         data.refuse_overwrite(&args.input, &shard.file_for(&args.output), "the shard file of -o")?;
@@ -244,10 +246,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
 /// Runs `similarity-merge`.
 pub fn run_merge(args: &MergeArgs) -> Result<()> {
     let shards: Vec<&std::path::Path> = args.shards.iter().map(PathBuf::as_path).collect();
-    crate::input::refuse_outputs(
-        &shards,
-        &[(Some(&args.output), "-o"), (args.details.as_deref(), "--details")],
-    )?;
+    for (file, what) in matrix_files(&args.output) {
+        crate::input::refuse_outputs(&shards, &[(Some(&file), what)])?;
+    }
+    crate::input::refuse_outputs(&shards, &[(args.details.as_deref(), "--details")])?;
     let merged = merge_shards(&args.shards)?;
     let n = merged.names.len();
     let matrix = DistanceMatrix::new(
@@ -302,6 +304,15 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
 
 /// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
 /// (the names, which .npy cannot hold, go to NAME.names.txt).
+/// The files `write_matrix` writes for output `path`: the matrix, and for `.npy` the names.
+fn matrix_files(path: &Path) -> Vec<(PathBuf, &'static str)> {
+    let mut out = vec![(path.to_path_buf(), "-o")];
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
+        out.push((path.with_extension("names.txt"), "the names file of -o"));
+    }
+    out
+}
+
 fn write_matrix(path: &Path, matrix: &DistanceMatrix) -> Result<()> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
         let n = matrix.len();

@@ -75,6 +75,8 @@ fn cases() -> Vec<Case> {
         case("embed --plot is the matrix", "embed {d}/D.csv --plot {d}/D.csv", &["--plot", "would overwrite"]),
         case("classify -o an existing folder", "classify {d}/D.csv --k 2 -o {d}/S", &["-o", "is a folder"]),
         case("similarity -o an existing folder", "similarity {d}/S/manifest.csv -o {d}/S", &["-o", "is a folder"]),
+        case("similarity -o .npy whose names file is an input", "similarity {d}/S/x.names.txt -o {d}/S/x.npy", &["names file of -o", "would overwrite the input file"])
+            .setup(|d| std::fs::copy(d.join("S/manifest.csv"), d.join("S/x.names.txt")).map(|_| ()).unwrap()),
         case("similarity -o is the manifest", "similarity {d}/S/manifest.csv -o {d}/S/manifest.csv", &["would overwrite the input file"]),
         case("interpolate --out holds the manifest", "interpolate {d}/S/manifest.csv --insert 1 --out {d}/S", &["--out", "holds the input file"]),
         case("interpolate --out holds the key poses", "interpolate {d}/S/sphere-twist/pose0.ply {d}/S/sphere-twist/pose1.ply --insert 1 --out {d}/S", &["--out", "holds the input file", "pose0.ply"]),
