@@ -35,7 +35,8 @@ pub struct VariantArgs {
     /// Weight of the L2 regularizer (eq. 11); 0 disables it. On the calibrated scale a ratio of
     /// two dimensionless terms; on the raw scale the previous releases' weight (their default
     /// was 0.1).
-    #[arg(long, default_value_t = defaults::LAMBDA)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     pub lambda: f64,
     /// How the metric's terms are scaled: calibrated (each term divided by its own
     /// resolution-consistent scale at the reference pose, so distances and lambda do not depend
@@ -48,10 +49,12 @@ pub struct VariantArgs {
     #[arg(long, default_value = if defaults::QC_NORMALIZE.is_some() { "rms" } else { "raw" }, value_parser = ["rms", "raw"])]
     pub qc_weights: String,
     /// Floor of the rms quasi-conformal weights, sqrt(floor^2 + w^2): no vertex moves for free.
-    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0.0, |n| n.floor))]
+    /// At most 1e6.
+    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0.0, |n| n.floor), value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     pub qc_floor: f64,
     /// One-ring smoothing passes of the curvature-change density before the rms weights.
-    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0, |n| n.smooth))]
+    /// At most 1,000.
+    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0, |n| n.smooth), value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     pub qc_smooth: usize,
     /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
     #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
@@ -108,7 +111,8 @@ impl VariantArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct SolverArgs {
     /// Number of path segments N of each geodesic.
-    #[arg(long, default_value_t = defaults::STEPS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = defaults::STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     pub steps: usize,
     /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
     /// preconditioner), newton
@@ -120,20 +124,23 @@ pub struct SolverArgs {
     pub solver: Solver,
     /// Relative gradient tolerance: converged when the gradient norm falls below this fraction
     /// of its value at the start.
-    #[arg(long, default_value_t = defaults::TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     pub tolerance: f64,
     /// Relative energy tolerance: also converged when an accepted step lowers the path energy by
     /// less than this fraction. On flat energies (conformal, isometric on fine meshes) this test
     /// stops first, with the energy converged but the gradient above --tolerance; 0 disables it,
     /// so that the gradient test decides (more iterations).
-    #[arg(long, default_value_t = defaults::ENERGY_TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     pub energy_tolerance: f64,
     /// Relative length tolerance of the distances (similarity matrices, the intrinsic k-means
     /// assignment): also converged when two consecutive steps each change a geodesic's length
     /// by less than this fraction. The length settles long before the path; 0 disables the
     /// test (every distance solved to --tolerance / --energy-tolerance, slower). Paths
     /// (interpolation, transfer, means) never use it.
-    #[arg(long, default_value_t = defaults::LENGTH_TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = defaults::LENGTH_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     pub length_tolerance: f64,
 }
 

@@ -40,10 +40,12 @@ pub struct Args {
     #[command(flatten)]
     metric: MetricArgs,
     /// Data set input only: segments N of every geodesic.
-    #[arg(long, default_value_t = qcshape::defaults::STEPS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     steps: usize,
     /// Data set input only: poses inserted between consecutive key poses.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Data set input only: transport to the common base (euclidean, parallel or schild).
     #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
@@ -55,22 +57,26 @@ pub struct Args {
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Number of clusters.
-    #[arg(long)]
+    /// At most 10,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
     k: usize,
     /// Clustering method.
     #[arg(long, default_value = "kmeans", value_parser = ["kmeans", "kmedoids"])]
     method: String,
     /// Number of seeded runs; the best objective is kept.
-    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the random choices.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Maximum Lloyd iterations (k-means) or swaps (k-medoids) per run.
-    #[arg(long, default_value_t = 100)]
+    /// At most 1,000,000.
+    #[arg(long, default_value_t = 100, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: usize,
     /// Class labels: a data set manifest (deformation,label,pose,path) or a name,label CSV.
     #[arg(long)]
@@ -88,6 +94,14 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    let given: Vec<&std::path::Path> = std::iter::once(args.matrix.as_path())
+        .chain(args.labels.as_deref())
+        .collect();
+    let outputs = [
+        (args.out.as_deref(), "-o"),
+        (args.confusion.as_deref(), "--confusion"),
+    ];
+    crate::input::refuse_outputs(&given, &outputs)?;
     let opts = ClusterOptions {
         k: args.k,
         restarts: args.restarts,
@@ -105,6 +119,9 @@ pub fn run(args: &Args) -> Result<()> {
         (d, c, None)
     } else {
         let data = Dataset::load(&args.matrix)?;
+        let mut inputs = data.input_paths(&args.matrix);
+        inputs.extend(args.labels.as_deref());
+        crate::input::refuse_outputs(&inputs, &outputs)?;
         if args.labels.is_none() {
             // Scoring needs a label on every deformation once any has one.
             data.refuse_partial_labels(&args.matrix, "classify")?;
@@ -192,7 +209,7 @@ pub fn run(args: &Args) -> Result<()> {
             v["nn_accuracy"] = serde_json::json!(s.nn_accuracy);
             v["ari"] = serde_json::json!(s.ari);
         }
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
     let method = match (args.method.as_str(), from_matrix) {
@@ -201,50 +218,52 @@ pub fn run(args: &Args) -> Result<()> {
         // classify_set's assignment step uses intrinsic means (eq. 14), seeded by kernel k-means.
         (_, false) => "k-means (intrinsic means, eq. 14; seeded by kernel k-means)",
     };
-    println!(
+    outln!(
         "method       {method}, k = {}, {} deformations, {} restarts, seed {}",
         c.k,
         d.len(),
         args.restarts,
         args.seed
     );
-    println!(
+    outln!(
         "objective    {:.6e}  (restart {}, {} iterations, {})",
         c.objective,
         c.restart,
         c.iterations,
         if c.converged { "converged" } else { "not converged" }
     );
-    println!("sizes        {sizes:?}");
+    outln!("sizes        {sizes:?}");
     if let Some(s) = &scores {
-        println!("confusion    rows: actual class; columns: class matched to the cluster");
+        outln!("confusion    rows: actual class; columns: class matched to the cluster");
         let width = s.classes.iter().map(|c| c.len()).max().unwrap_or(0).max(9);
-        print!("  {:width$}", "");
+        out!("  {:width$}", "");
         for name in &s.classes {
-            print!(" {name:>width$}");
+            out!(" {name:>width$}");
         }
-        println!(" {:>width$}", "unmatched");
+        outln!(" {:>width$}", "unmatched");
         for (k, row) in s.confusion.counts.iter().enumerate() {
-            print!("  {:width$}", s.classes[k]);
+            out!("  {:width$}", s.classes[k]);
             for v in row {
-                print!(" {v:>width$}");
+                out!(" {v:>width$}");
             }
-            println!();
+            outln!();
         }
-        println!(
+        outln!(
             "sensitivity  {:.4}  (eq. 15 on the mean one-vs-rest matrix; mean per class {:.4})",
-            s.eq15.sensitivity, s.eq15.macro_sensitivity
+            s.eq15.sensitivity,
+            s.eq15.macro_sensitivity
         );
-        println!(
+        outln!(
             "specificity  {:.4}  (eq. 15 on the mean one-vs-rest matrix; mean per class {:.4})",
-            s.eq15.specificity, s.eq15.macro_specificity
+            s.eq15.specificity,
+            s.eq15.macro_specificity
         );
-        println!("accuracy     {:.4}  (matched)", s.confusion.accuracy());
-        println!(
+        outln!("accuracy     {:.4}  (matched)", s.confusion.accuracy());
+        outln!(
             "1-NN         {:.4}  (leave-one-out accuracy on the matrix)",
             s.nn_accuracy
         );
-        println!("ARI          {:.4}", s.ari);
+        outln!("ARI          {:.4}", s.ari);
     }
     Ok(())
 }

@@ -24,8 +24,8 @@ use crate::input::{load_labels, load_matrix};
 pub struct Args {
     /// Distance matrix CSV (name,<name_1>,...,<name_n>).
     matrix: PathBuf,
-    /// Embedding dimension.
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+    /// Embedding dimension: 2 or 3. At most 3.
+    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u8>(2, 3), allow_negative_numbers = true)]
     dims: u8,
     /// Class labels: a data set manifest (deformation,label,pose,path) or a name,label CSV.
     #[arg(long)]
@@ -46,10 +46,12 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Maximum SMACOF iterations.
-    #[arg(long, default_value_t = 1000)]
+    /// At most 1,000,000.
+    #[arg(long, default_value_t = 1000, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: usize,
     /// Stop when the stress decreases by less than this fraction in one iteration.
-    #[arg(long, default_value_t = 1e-10)]
+    /// At most 1.
+    #[arg(long, default_value_t = 1e-10, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
     /// Print the result as JSON.
     #[arg(long)]
@@ -58,6 +60,17 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    let given: Vec<&std::path::Path> = std::iter::once(args.matrix.as_path())
+        .chain(args.labels.as_deref())
+        .collect();
+    crate::input::refuse_outputs(
+        &given,
+        &[
+            (args.out.as_deref(), "-o"),
+            (args.plot.as_deref(), "--plot"),
+            (args.heatmap.as_deref(), "--heatmap"),
+        ],
+    )?;
     if args.tolerance.is_nan() || args.tolerance < 0.0 {
         bail!("--tolerance must be non-negative");
     }
@@ -137,15 +150,17 @@ pub fn run(args: &Args) -> Result<()> {
             "coords": d.names().iter().zip(&e.coords)
                 .map(|(n, c)| serde_json::json!({"name": n, "coords": c})).collect::<Vec<_>>(),
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("deformations {}", d.len());
-        println!("dimensions   {}", opts.dims);
-        println!(
+        outln!("deformations {}", d.len());
+        outln!("dimensions   {}", opts.dims);
+        outln!(
             "stress       {:.6e} raw, {:.6} normalized (stress-1); classical start {:.6e}",
-            e.raw_stress, e.normalized_stress, e.history[0]
+            e.raw_stress,
+            e.normalized_stress,
+            e.history[0]
         );
-        println!(
+        outln!(
             "iterations   {} ({})",
             e.iterations,
             if e.converged { "converged" } else { "not converged" }

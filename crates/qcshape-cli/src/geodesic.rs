@@ -40,7 +40,8 @@ pub struct Args {
     #[arg(long)]
     demo: bool,
     /// Subdivision level of the demo icosphere: 2 = 162, 3 = 642, 4 = 2,562 vertices.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=6))]
+    /// At most 6.
+    #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<u32>(0, 6), allow_negative_numbers = true)]
     demo_level: u32,
     #[command(flatten)]
     metric: MetricArgs,
@@ -126,6 +127,10 @@ fn load(p: &Path) -> Result<Shape> {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    if let Some(dir) = &args.out {
+        let inputs: Vec<&std::path::Path> = args.a.iter().chain(&args.b).map(PathBuf::as_path).collect();
+        crate::input::refuse_out_folder(&inputs, dir, "--out")?;
+    }
     let (a, b) = match (&args.a, &args.b) {
         (Some(pa), Some(pb)) => (load(pa)?, load(pb)?),
         _ if args.demo => demo_pair(args.demo_level),
@@ -192,30 +197,30 @@ pub fn run(args: &Args) -> Result<()> {
             "normalization": "coordinates x scale, scale = 1 / mean of the mean edge lengths of A and B",
             "seconds": g.seconds,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("metric      {}", metric.name());
+        outln!("metric      {}", metric.name());
         // Six significant digits, fixed-point or engineering notation (--json has every digit).
         let num = |x: f64| qcshape::numfmt::significant(x, 6);
-        println!(
+        outln!(
             "distance    {}  (normalized units: coordinates x {})",
             num(g.length),
             num(g.scale)
         );
-        println!(
+        outln!(
             "energy      {}  (linear path {})",
             num(g.energy),
             num(g.initial_energy)
         );
-        println!(
+        outln!(
             "terms       geometric {}, L2 regularizer {} ({:.1} % of the energy)",
             num(g.geometric_energy),
             num(g.regularizer_energy),
             100.0 * share
         );
-        println!("iterations  {}", g.iterations);
-        println!("converged   {} ({:?})", g.converged, g.stop);
-        println!("seconds     {:.3}", g.seconds);
+        outln!("iterations  {}", g.iterations);
+        outln!("converged   {} ({:?})", g.converged, g.stop);
+        outln!("seconds     {:.3}", g.seconds);
     }
     Ok(())
 }

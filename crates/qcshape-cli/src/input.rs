@@ -1,6 +1,6 @@
 //! Reading the inputs of the commands that start from a distance matrix.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use qcshape::similarity::{read_labels, DistanceMatrix};
@@ -10,6 +10,10 @@ use qcshape::similarity::{read_labels, DistanceMatrix};
 pub(crate) fn is_matrix(path: &Path) -> Result<bool> {
     if path.is_dir() {
         return Ok(false);
+    }
+    // A FIFO or device is never opened here (it could block); the matrix reader refuses it.
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return Ok(true);
     }
     // An unreadable file is left to the matrix reader, whose error names the file.
     let Ok(file) = std::fs::File::open(path) else {
@@ -33,4 +37,35 @@ pub(crate) fn load_labels(path: &Path, d: &DistanceMatrix) -> Result<Vec<String>
     let pairs = read_labels(path)?;
     d.labels_for(&pairs)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// Refuses, before anything is computed, every output file in `outputs` (`(path, option)`,
+/// absent ones skipped) that is one of `inputs` or an existing folder
+/// ([`qcshape::outputs::refuse_input_overlap`]).
+pub(crate) fn refuse_outputs(inputs: &[&Path], outputs: &[(Option<&Path>, &str)]) -> Result<()> {
+    for (out, what) in outputs {
+        if let Some(out) = out {
+            qcshape::outputs::refuse_input_overlap(inputs, out, what)?;
+        }
+    }
+    Ok(())
+}
+
+/// Refuses, before anything is computed, an output folder that holds (or is) one of `inputs`
+/// ([`qcshape::outputs::refuse_folder_overlap`]).
+pub(crate) fn refuse_out_folder(inputs: &[&Path], folder: &Path, what: &str) -> Result<()> {
+    Ok(qcshape::outputs::refuse_folder_overlap(inputs, folder, what)?)
+}
+
+/// The given input paths and every pose file of `data`.
+pub(crate) fn all_inputs<'a>(given: &'a [PathBuf], data: &'a qcshape::dataset::Dataset) -> Vec<&'a Path> {
+    given
+        .iter()
+        .map(PathBuf::as_path)
+        .chain(
+            data.deformations
+                .iter()
+                .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+        )
+        .collect()
 }

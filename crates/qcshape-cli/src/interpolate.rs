@@ -40,13 +40,15 @@ pub struct Args {
     #[arg(required = true)]
     input: Vec<PathBuf>,
     /// Number of poses inserted between two consecutive poses.
-    #[arg(long)]
+    /// At most 1,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Spatial resolution levels (1 = no multiresolution).
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
+    /// At most 16.
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     levels: usize,
     /// Share of vertices kept by each coarsening step.
-    #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO)]
+    #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO, allow_negative_numbers = true)]
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,
@@ -54,14 +56,17 @@ pub struct Args {
     #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.
-    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
     /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
-    #[arg(long)]
+    /// At most 1,000,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: Option<usize>,
     /// Output folder.
     #[arg(long)]
@@ -88,6 +93,7 @@ pub fn run(args: &Args) -> Result<()> {
             deformations: vec![load_sequence(&args.input)?],
         }
     };
+    crate::input::refuse_out_folder(&crate::input::all_inputs(&args.input, &data), &args.out, "--out")?;
     let Some(first) = data.deformations.first() else {
         bail!("the input has no deformations");
     };
@@ -160,9 +166,9 @@ pub fn run(args: &Args) -> Result<()> {
     }
     bar.finish_and_clear();
     write_outputs(args, &data, &results, metric.as_ref(), factor)?;
-    println!("deformation,key_poses,poses,length,energy,converged_pairs,seconds");
+    outln!("deformation,key_poses,poses,length,energy,converged_pairs,seconds");
     for (d, r) in data.deformations.iter().zip(&results) {
-        println!(
+        outln!(
             "{},{},{},{:.9e},{:.9e},{}/{},{:.3}",
             d.name,
             d.n_poses(),

@@ -62,22 +62,26 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses inserted between consecutive key poses before transfer.
-    #[arg(long, default_value_t = 0)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 0, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Taubin smoothing iterations applied to every pose first (0 = none).
-    #[arg(long, default_value_t = 10)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 10, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smoothing: usize,
     /// Random relabellings per contrast.
-    #[arg(long, default_value_t = 999)]
+    /// At most 1,000,000.
+    #[arg(long, default_value_t = 999, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_PERMUTATIONS as u64), allow_negative_numbers = true)]
     permutations: usize,
     /// Seed of the relabellings.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// False discovery rate (Benjamini-Hochberg).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
     alpha: f64,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
     /// A vertex mask on the base mesh (CSV with `vertex` and `region` columns, e.g. the LV
     /// phantom's meshes/abnormal_region.csv): reports each contrast's positive mass share in
@@ -118,6 +122,9 @@ fn file_part(s: &str) -> String {
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
     let data = Dataset::load(&args.input)?;
+    let mut inputs = data.input_paths(&args.input);
+    inputs.extend(args.region.as_deref());
+    crate::input::refuse_out_folder(&inputs, &args.out, "--out")?;
     let defs = data.deformations;
     let mut labels = Vec::with_capacity(defs.len());
     for d in &defs {
@@ -281,7 +288,7 @@ impl Output<'_> {
             &["vtk", "ply"],
             picture,
         )?;
-        println!(
+        outln!(
             "{title}: {n_sig} of {} vertices significant (FDR {}), max {:.4e}, min p {:.4}",
             map.values.len(),
             self.alpha,
@@ -315,7 +322,7 @@ impl Output<'_> {
             share.significant_in_region,
             share.significant
         )?;
-        println!("{map} {a} over {b}: {share}");
+        outln!("{map} {a} over {b}: {share}");
         Ok(())
     }
 }

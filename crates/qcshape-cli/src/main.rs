@@ -11,9 +11,27 @@
 
 use std::process::ExitCode;
 
+/// `println!` that returns the write error (`?` into `anyhow`) instead of panicking, so that a
+/// closed pipe (`qcshape ... | head`) ends the command quietly (see `main`).
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*)?
+    }};
+}
+
+/// `print!` that returns the write error instead of panicking (see [`outln!`]).
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*)?
+    }};
+}
+
 use clap::{Parser, Subcommand};
 
 mod args;
+mod bounds;
 mod classify;
 mod embed;
 mod experiment;

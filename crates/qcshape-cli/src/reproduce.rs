@@ -38,21 +38,25 @@ pub struct Args {
     #[arg(long)]
     quick: bool,
     /// Icosphere level of the synthetic meshes (default 2 = 162 vertices; 1 with --quick).
-    #[arg(long)]
+    /// At most 8.
+    #[arg(long, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: Option<u32>,
     /// Poses inserted between consecutive key poses (default 3 as in section 3.3, not the other
     /// commands' 0; 1 with --quick).
-    #[arg(long)]
+    /// At most 1,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: Option<usize>,
     /// Segments N of every geodesic (default 4, not the other commands' 8: the setting of the
     /// README's Table 1; 2 with --quick).
-    #[arg(long)]
+    /// At most 10,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     steps: Option<usize>,
     /// k-means restarts (default 20; 5 with --quick).
-    #[arg(long)]
+    /// At most 10,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: Option<usize>,
     /// Noise variances in percent for Table 3 (default 1,2.5,5,10,20; 1 with --quick).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     noise_levels: Option<Vec<f64>>,
     /// Skip Table 3.
     #[arg(long)]
@@ -65,7 +69,8 @@ pub struct Args {
     )]
     metrics: Vec<MetricKind>,
     /// Weight of the L2 regularizer of every metric (eq. 11).
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
@@ -78,7 +83,8 @@ pub struct Args {
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Seed of the synthetic amplitudes, k-means and noise.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
@@ -88,7 +94,8 @@ pub struct Args {
     #[arg(long)]
     no_previous: bool,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
 }
 

@@ -36,7 +36,8 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses inserted between consecutive key poses (section 2.2.1).
-    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
@@ -49,7 +50,8 @@ pub struct Args {
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
     /// (the straight-path length with the same steps, no optimization: an upper bound, much
@@ -61,10 +63,12 @@ pub struct Args {
     #[arg(long)]
     base: Option<String>,
     /// Number of classes (default: the number of distinct labels).
-    #[arg(long)]
+    /// At most 10,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
     k: Option<usize>,
     /// Kernel k-means restarts (the start of the intrinsic k-means).
-    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the clustering.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
@@ -73,7 +77,8 @@ pub struct Args {
     #[arg(long)]
     resume: bool,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
 }
 
@@ -85,6 +90,7 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let data = Dataset::load(&args.input)?;
+    crate::input::refuse_out_folder(&data.input_paths(&args.input), &args.out, "--out")?;
     let n = data.deformations.len();
     if n < 2 {
         bail!(
@@ -119,13 +125,15 @@ fn run_in_pool(args: &Args) -> Result<()> {
         ..opts
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // One run at a time on OUT's journal (taken before anything is computed; released on exit).
+    let matrix_path = args.out.join("similarity.csv");
+    let _lock = qcshape::outputs::RunLock::acquire(&crate::pipeline::journal_path(&matrix_path))?;
 
     let tp = Instant::now();
     let prepared = prepare_with_progress(&data, &opts)?;
     let prepare_seconds = tp.elapsed().as_secs_f64();
 
     let ts = Instant::now();
-    let matrix_path = args.out.join("similarity.csv");
     let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &matrix_path, args.resume)?;
     matrix.write_csv(&matrix_path)?;
     journal.remove()?;

@@ -43,10 +43,12 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses inserted between consecutive key poses before comparing (section 2.2.1).
-    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Spatial levels of the interpolation (1 = single level, the measured fastest).
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
+    /// At most 16.
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     levels: usize,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
@@ -59,14 +61,16 @@ pub struct Args {
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     base: Option<String>,
     /// Worker threads (default: all cores). The results are bit-identical for any count, so a run
     /// can be resumed with another one.
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
     /// Reuse the pairs recorded in OUTPUT.journal by an interrupted run with the same inputs and settings.
     #[arg(long)]
@@ -132,7 +136,9 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let data = Dataset::load(&args.input)?;
-    data.refuse_overwrite(&args.input, &args.output, "-o")?;
+    for (file, what) in matrix_files(&args.output) {
+        data.refuse_overwrite(&args.input, &file, what)?;
+    }
     data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
     if let Some(shard) = args.shard {
         data.refuse_overwrite(&args.input, &shard.file_for(&args.output), "the shard file of -o")?;
@@ -146,6 +152,13 @@ fn run_in_pool(args: &Args) -> Result<()> {
             bail!("--details {} is the same file as -o", details.display());
         }
     }
+    // One run at a time on the journal (or shard file): a second run must not discard the
+    // live journal of the first. Taken before anything is computed, released on exit.
+    let claimed = match args.shard {
+        Some(shard) => shard.file_for(&args.output),
+        None => journal_path(&args.output),
+    };
+    let _lock = qcshape::outputs::RunLock::acquire(&claimed)?;
     let n = data.deformations.len();
     if n < 2 {
         bail!(
@@ -232,9 +245,11 @@ fn run_in_pool(args: &Args) -> Result<()> {
 
 /// Runs `similarity-merge`.
 pub fn run_merge(args: &MergeArgs) -> Result<()> {
-    if args.shards.contains(&args.output) || args.details.as_ref().is_some_and(|d| args.shards.contains(d)) {
-        bail!("an output file is one of the shard files");
+    let shards: Vec<&std::path::Path> = args.shards.iter().map(PathBuf::as_path).collect();
+    for (file, what) in matrix_files(&args.output) {
+        crate::input::refuse_outputs(&shards, &[(Some(&file), what)])?;
     }
+    crate::input::refuse_outputs(&shards, &[(args.details.as_deref(), "--details")])?;
     let merged = merge_shards(&args.shards)?;
     let n = merged.names.len();
     let matrix = DistanceMatrix::new(
@@ -289,6 +304,15 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
 
 /// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
 /// (the names, which .npy cannot hold, go to NAME.names.txt).
+/// The files `write_matrix` writes for output `path`: the matrix, and for `.npy` the names.
+fn matrix_files(path: &Path) -> Vec<(PathBuf, &'static str)> {
+    let mut out = vec![(path.to_path_buf(), "-o")];
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
+        out.push((path.with_extension("names.txt"), "the names file of -o"));
+    }
+    out
+}
+
 fn write_matrix(path: &Path, matrix: &DistanceMatrix) -> Result<()> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
         let n = matrix.len();

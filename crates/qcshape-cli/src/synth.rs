@@ -31,16 +31,18 @@ pub struct Args {
     pub out: PathBuf,
     /// Template resolution: icosphere level (10 * 4^L + 2 vertices: 1: 42, 2: 162, 3: 642,
     /// 4: 2,562); the torus has 6 * 2^L x 3 * 2^L vertices.
-    #[arg(long, default_value_t = 3)]
+    /// At most 8.
+    #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     pub level: u32,
     /// Seed of the amplitude jitter.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Poses per deformation (at least 2).
-    #[arg(long, default_value_t = 3)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     pub poses: usize,
     /// Relative amplitude variation per deformation instance, 0 to 0.5 (0: exact nominal motions).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub jitter: f64,
     /// Which set: 0 (the 48 genus-0 deformations), 1 (24 on tori, in DIR/genus1), or all.
     #[arg(long, default_value = "0", value_parser = ["0", "1", "all"])]
@@ -54,7 +56,7 @@ pub struct Args {
 fn write_set(dir: &Path, defs: &[Deformation], format: Format, genus: u32) -> Result<()> {
     let manifest = write_benchmark(dir, defs, format)?;
     let labels: std::collections::BTreeSet<_> = defs.iter().filter_map(|d| d.label.as_deref()).collect();
-    println!(
+    outln!(
         "wrote {} genus-{genus} deformations ({} classes) x {} poses, {} vertices each, to {}; manifest {}",
         defs.len(),
         labels.len(),

@@ -103,6 +103,14 @@ pub fn run(args: &Args) -> Result<()> {
     let geodesic = args.solver.options()?;
     let base = io::load_shape(&args.to)?;
     let deformations = load_input(&args.input)?;
+    let mut inputs: Vec<&std::path::Path> = args.input.iter().map(PathBuf::as_path).collect();
+    inputs.push(&args.to);
+    inputs.extend(
+        deformations
+            .iter()
+            .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+    );
+    crate::input::refuse_out_folder(&inputs, &args.out, "--out")?;
     let mut names = std::collections::HashSet::new();
     for d in &deformations {
         let probe = d.shape(0);
@@ -208,9 +216,9 @@ pub fn run(args: &Args) -> Result<()> {
             "seconds": out.seconds,
         });
         if !args.json {
-            pb.suspend(|| {
+            pb.suspend(|| -> anyhow::Result<()> {
                 let num = |x: f64| qcshape::numfmt::significant(x, 3);
-                println!(
+                outln!(
                     "{:<20} poses {:>3}  max geodesic {}  norm change {}  residuals {}/{}  {}  {:.2}s",
                     d.name,
                     out.poses.len(),
@@ -224,8 +232,9 @@ pub fn run(args: &Args) -> Result<()> {
                         "NOT converged"
                     },
                     out.seconds
-                )
-            });
+                );
+                Ok(())
+            })?;
         }
         summaries.push(summary);
         pb.inc(1);
@@ -242,9 +251,9 @@ pub fn run(args: &Args) -> Result<()> {
             "manifest": manifest,
             "deformations": summaries,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("wrote {} pose(s) and {}", rows.len(), manifest.display());
+        outln!("wrote {} pose(s) and {}", rows.len(), manifest.display());
     }
     Ok(())
 }

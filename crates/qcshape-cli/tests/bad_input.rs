@@ -23,6 +23,9 @@ struct Case {
     expect: Vec<String>,
     /// Paths (relative to the folder) that must not exist after the run.
     no_output: Vec<String>,
+    /// The exit status: 1 (an error of the command), or 2 for an option value that the
+    /// argument parser refuses (a usage error).
+    status: i32,
 }
 
 fn case(name: &str, args: &str, expect: &[&str]) -> Case {
@@ -34,6 +37,7 @@ fn case(name: &str, args: &str, expect: &[&str]) -> Case {
         args: args.split_whitespace().map(String::from).collect(),
         expect: expect.iter().map(|s| s.to_string()).collect(),
         no_output: Vec::new(),
+        status: 1,
     }
 }
 
@@ -48,6 +52,10 @@ impl Case {
     }
     fn edit(mut self, old: &str, new: &str) -> Self {
         self.manifest_edits.push((old.into(), new.into()));
+        self
+    }
+    fn usage_error(mut self) -> Self {
+        self.status = 2;
         self
     }
     fn no_output(mut self, path: &str) -> Self {
@@ -469,16 +477,17 @@ fn dataset_cases() -> Vec<Case> {
         case("resume with another deformation count", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --resume", &["D.csv.journal", "another run", "n = 5"]).dataset().file("D.csv.journal", "# qcshape similarity journal v2\nkey,0000000000000001\nn,5\nsettings,x\n").no_output("D.csv"),
     ];
     for (opt, value, words) in [
-        ("--lambda", "inf", vec!["--lambda", "finite"]),
-        ("--lambda", "-1", vec!["--lambda", "non-negative"]),
+        // Bounded options are refused by the argument parser (status 2), naming the bound.
+        ("--lambda", "inf", vec!["--lambda must be at most"]),
+        ("--lambda", "-1", vec!["--lambda must be >= 0"]),
         ("--lambda", "nan", vec!["--lambda"]),
-        ("--tolerance", "inf", vec!["--tolerance", "finite"]),
-        ("--tolerance", "-1e-3", vec!["--tolerance", "non-negative"]),
+        ("--tolerance", "inf", vec!["--tolerance must be at most"]),
+        ("--tolerance", "-1e-3", vec!["--tolerance must be >= 0"]),
         ("--energy-tolerance", "nan", vec!["--energy-tolerance"]),
         (
             "--length-tolerance",
             "-1e-8",
-            vec!["--length-tolerance", "non-negative"],
+            vec!["--length-tolerance must be >= 0"],
         ),
         ("--steps", "0", vec!["--steps", "at least 1"]),
         ("--threads", "0", vec!["--threads", "at least 1"]),
@@ -492,6 +501,7 @@ fn dataset_cases() -> Vec<Case> {
                 &w,
             )
             .dataset()
+            .usage_error()
             .no_output("D.csv"),
         );
         c.push(
@@ -500,6 +510,7 @@ fn dataset_cases() -> Vec<Case> {
                 &format!("geodesic --demo --demo-level 0 {opt}={value} --out {{d}}/path"),
                 &w,
             )
+            .usage_error()
             .no_output("path"),
         );
     }
@@ -565,7 +576,7 @@ fn run(c: &Case, data: &Path) {
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(
         r.status.code(),
-        Some(1),
+        Some(c.status),
         "{}: exit status {:?}\n{stderr}",
         c.name,
         r.status

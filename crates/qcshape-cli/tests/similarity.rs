@@ -239,15 +239,15 @@ fn a_torn_last_journal_record_is_recomputed() {
     let r = base(&full, &full_details, "1").output().unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 
-    // A run whose output cannot be written (a folder stands in its place) leaves a complete
-    // journal behind.
+    // A run whose details cannot be written (their folder is missing) leaves a complete
+    // journal behind. (An output path naming a folder is refused before computing.)
     let out = dir.path().join("D.csv");
     let details = dir.path().join("poses.csv");
-    std::fs::create_dir(&out).unwrap();
-    std::fs::write(out.join("keep"), "x").unwrap();
-    let r = base(&out, &details, "1").output().unwrap();
+    let r = base(&out, &dir.path().join("missing/poses.csv"), "1")
+        .output()
+        .unwrap();
     assert!(!r.status.success());
-    std::fs::remove_dir_all(&out).unwrap();
+    let _ = std::fs::remove_file(&out);
     let journal = dir.path().join("D.csv.journal");
     let whole = std::fs::read(&journal).unwrap();
     let text = String::from_utf8(whole.clone()).unwrap();

@@ -98,15 +98,17 @@ fn bad_options_are_clean_errors() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().join("x");
     let d = d.to_str().unwrap();
-    for (args, want) in [
-        (vec!["--level", "9"], "level 9 is out of range"),
-        (vec!["--poses", "1"], "poses must be between 2"),
-        (vec!["--jitter", "0.9"], "jitter must be between 0 and 0.5"),
+    for (args, want, status) in [
+        // Above the option's bound: refused by the argument parser (a usage error).
+        (vec!["--level", "9"], "--level must be at most 8", 2),
+        (vec!["--level", "7"], "level 7 is out of range", 1),
+        (vec!["--poses", "1"], "poses must be between 2", 1),
+        (vec!["--jitter", "0.9"], "jitter must be between 0 and 0.5", 1),
     ] {
         let mut all = vec!["synth", "--out", d];
         all.extend(args);
         let out = qcshape(&all);
-        assert_eq!(out.status.code(), Some(1));
+        assert_eq!(out.status.code(), Some(status));
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
             err.starts_with("error: ") && err.contains(want) && !err.contains("panicked"),

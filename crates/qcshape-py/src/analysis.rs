@@ -10,7 +10,7 @@ use qcshape::eval::{adjusted_rand_index, encode_labels, matched_confusion, one_v
 use qcshape::similarity::{DistanceMatrix, IntrinsicOptions};
 use qcshape::space::ShapeSpace;
 
-use crate::convert::{labels_out, matrix_out, square};
+use crate::convert::{labels_out, matrix_out, opt_count, square, AnyInt};
 use crate::data::{run_pipeline, PyDataset};
 use crate::errors;
 use crate::options::PipelineKw;
@@ -24,18 +24,21 @@ fn distance_matrix(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DistanceMatri
 }
 
 fn cluster_options(
-    k: Option<usize>,
-    n_init: Option<usize>,
+    k: Option<AnyInt>,
+    n_init: Option<AnyInt>,
     seed: Option<u64>,
-    max_iter: Option<usize>,
-) -> ClusterOptions {
+    max_iter: Option<AnyInt>,
+) -> PyResult<ClusterOptions> {
     let d = ClusterOptions::default();
-    ClusterOptions {
+    let k = opt_count("n_clusters", k, 1, qcshape::limits::MAX_CLUSTERS)?;
+    let n_init = opt_count("n_init", n_init, 1, qcshape::limits::MAX_RESTARTS)?;
+    let max_iter = opt_count("max_iter", max_iter, 1, qcshape::limits::MAX_ITERATIONS)?;
+    Ok(ClusterOptions {
         k: k.unwrap_or(d.k),
         restarts: n_init.unwrap_or(d.restarts),
         seed: seed.unwrap_or(d.seed),
         max_iterations: max_iter.unwrap_or(d.max_iterations),
-    }
+    })
 }
 
 /// PAM k-medoids on a precomputed distance matrix, the best of ``n_init`` seeded runs.
@@ -54,15 +57,15 @@ impl PyKMedoids {
     #[new]
     #[pyo3(signature = (n_clusters=None, n_init=None, random_state=None, max_iter=None))]
     fn new(
-        n_clusters: Option<usize>,
-        n_init: Option<usize>,
+        n_clusters: Option<AnyInt>,
+        n_init: Option<AnyInt>,
         random_state: Option<u64>,
-        max_iter: Option<usize>,
-    ) -> Self {
-        PyKMedoids {
-            opts: cluster_options(n_clusters, n_init, random_state, max_iter),
+        max_iter: Option<AnyInt>,
+    ) -> PyResult<Self> {
+        Ok(PyKMedoids {
+            opts: cluster_options(n_clusters, n_init, random_state, max_iter)?,
             fitted: None,
-        }
+        })
     }
 
     /// fit(D) -> self: clusters the items of the distance matrix D (n, n).
@@ -139,17 +142,17 @@ impl PyKMeans {
     #[new]
     #[pyo3(signature = (n_clusters=None, n_init=None, random_state=None, max_iter=None))]
     fn new(
-        n_clusters: Option<usize>,
-        n_init: Option<usize>,
+        n_clusters: Option<AnyInt>,
+        n_init: Option<AnyInt>,
         random_state: Option<u64>,
-        max_iter: Option<usize>,
-    ) -> Self {
-        PyKMeans {
-            opts: cluster_options(n_clusters, n_init, random_state, max_iter),
+        max_iter: Option<AnyInt>,
+    ) -> PyResult<Self> {
+        Ok(PyKMeans {
+            opts: cluster_options(n_clusters, n_init, random_state, max_iter)?,
             fitted: None,
             kernel: None,
             matrix: None,
-        }
+        })
     }
 
     /// fit(X, **options) -> self: X a distance matrix (n, n) (kernel k-means) or a Dataset
@@ -254,13 +257,13 @@ impl PyKMeans {
 pub fn mds<'py>(
     py: Python<'py>,
     d: &Bound<'py, PyAny>,
-    n_components: Option<usize>,
+    n_components: Option<AnyInt>,
     random_state: Option<u64>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let m = distance_matrix(d, "D")?;
     let def = MdsOptions::default();
     let opts = MdsOptions {
-        dims: n_components.unwrap_or(def.dims),
+        dims: opt_count("n_components", n_components, 1, 3)?.unwrap_or(def.dims),
         seed: random_state.unwrap_or(def.seed),
         ..def
     };

@@ -154,12 +154,13 @@ pub fn faces(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[u32; 3]>> {
     }
     if let Some(i) = data
         .iter()
-        .position(|&x| !(x >= 0.0 && x.fract() == 0.0 && x <= u32::MAX as f64))
+        .position(|&x| !(x >= 0.0 && x.fract() == 0.0 && x < qcshape::limits::MAX_VERTICES as f64))
     {
         return Err(PyValueError::new_err(format!(
-            "{name}: face {} has the index {}, not a non-negative integer",
+            "{name}: face {} has the index {}, not a non-negative integer below {} (the vertex limit)",
             i / 3,
-            data[i]
+            data[i],
+            qcshape::limits::MAX_VERTICES
         )));
     }
     Ok(data
@@ -229,4 +230,52 @@ pub fn matrix_out<'py>(
 /// A 1-D int64 array.
 pub fn labels_out<'py>(py: Python<'py>, v: &[usize]) -> Bound<'py, PyAny> {
     PyArray1::from_vec(py, v.iter().map(|&x| x as i64).collect()).into_any()
+}
+
+/// A Python `int` of any size (or anything with `__index__`), kept as it is so that the bounds
+/// check ([`count`]) can name the argument: `steps=-1` or `insert=10**30` give a `ValueError`
+/// "steps: must be >= 0" instead of a bare `OverflowError`. `None` inside: beyond `i128`.
+#[derive(Debug, Clone, Copy)]
+pub struct AnyInt(Option<i128>);
+
+impl AnyInt {
+    /// The value `v` (for signature defaults).
+    pub const fn new(v: i128) -> AnyInt {
+        AnyInt(Some(v))
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for AnyInt {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        match obj.extract::<i128>() {
+            Ok(v) => Ok(AnyInt(Some(v))),
+            Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => Ok(AnyInt(None)),
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// `v` as a count in `min..=max` (the bounds of [`qcshape::limits`]), else a `ValueError`
+/// naming `name`.
+pub fn count(name: &str, v: AnyInt, min: usize, max: usize) -> PyResult<usize> {
+    match v.0 {
+        Some(x) if x < 0 => Err(PyValueError::new_err(format!("{name}: must be >= 0, got {x}"))),
+        Some(x) if x < min as i128 => Err(PyValueError::new_err(format!(
+            "{name}: must be at least {min}, got {x}"
+        ))),
+        Some(x) if x <= max as i128 => Ok(x as usize),
+        Some(x) => Err(PyValueError::new_err(format!(
+            "{name}: must be at most {max}, got {x}"
+        ))),
+        None => Err(PyValueError::new_err(format!(
+            "{name}: must be at most {max}, got a number beyond 2**127 in size"
+        ))),
+    }
+}
+
+/// [`count`] of an optional argument.
+pub fn opt_count(name: &str, v: Option<AnyInt>, min: usize, max: usize) -> PyResult<Option<usize>> {
+    v.map(|v| count(name, v, min, max)).transpose()
 }

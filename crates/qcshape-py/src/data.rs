@@ -13,7 +13,9 @@ use qcshape::similarity::{PipelineOptions, Stage};
 use qcshape::space::{ShapeSpace, SimilarityResult};
 use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
 
-use crate::convert::{faces_out, matrix_out, points, points_out, sequence, sequence_out, vector};
+use crate::convert::{
+    count, faces_out, matrix_out, opt_count, points, points_out, sequence, sequence_out, vector, AnyInt,
+};
 use crate::errors;
 use crate::options::PipelineKw;
 use crate::run::{detached, Progress};
@@ -58,7 +60,8 @@ pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf, point_data: bool) -> PyRes
 /// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) in the format of
 /// the file name's extension, atomically (complete or absent). point_data = {"name": values}
 /// adds named per-vertex fields, each a scalar (nV,) or a vector (nV, 3) (.ply, .vtk, .vtp and
-/// .vtu only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`).
+/// .vtu only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`). A path
+/// naming a folder is a ``ValueError``.
 #[pyfunction]
 #[pyo3(signature = (path, vertices, faces, point_data=None))]
 pub fn write_mesh(
@@ -68,6 +71,9 @@ pub fn write_mesh(
     faces: &Bound<'_, PyAny>,
     point_data: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
+    // The one output check of the library and the CLI: here, a path naming a folder.
+    qcshape::outputs::refuse_input_overlap(&[], &path, "path")
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let v = points(vertices, "vertices", None)?;
     let f = crate::convert::faces(faces, "faces")?;
     enum Values {
@@ -111,11 +117,9 @@ pub fn write_mesh(
 /// icosphere(level=1) -> (V, F): the unit icosphere with 10 * 4**level + 2 vertices (level 1:
 /// 42), the template of the synthetic benchmark.
 #[pyfunction]
-#[pyo3(signature = (level=1))]
-pub fn icosphere<'py>(py: Python<'py>, level: u32) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    if level > 6 {
-        return Err(PyValueError::new_err(format!("level: at most 6, got {level}")));
-    }
+#[pyo3(signature = (level=AnyInt::new(1)), text_signature = "(level=1)")]
+pub fn icosphere<'py>(py: Python<'py>, level: AnyInt) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let level = count("level", level, 0, 6)? as u32;
     let s = ico(level);
     Ok((points_out(py, &s.positions)?, faces_out(py, s.topology.faces())?))
 }
@@ -204,8 +208,15 @@ impl PyDataset {
     /// benchmark (6 shapes x 8 deformations, on icosphere level ``level``), as ``qcshape synth``
     /// makes it (defaults from the library).
     #[staticmethod]
-    #[pyo3(signature = (level=1, poses=None, seed=None, jitter=None))]
-    fn synthetic(level: u32, poses: Option<usize>, seed: Option<u64>, jitter: Option<f64>) -> PyResult<Self> {
+    #[pyo3(signature = (level=AnyInt::new(1), poses=None, seed=None, jitter=None), text_signature = "(level=1, poses=None, seed=None, jitter=None)")]
+    fn synthetic(
+        level: AnyInt,
+        poses: Option<AnyInt>,
+        seed: Option<u64>,
+        jitter: Option<f64>,
+    ) -> PyResult<Self> {
+        let level = count("level", level, 0, qcshape::limits::MAX_ICOSPHERE_LEVEL as usize)? as u32;
+        let poses = opt_count("poses", poses, 0, qcshape::limits::MAX_POSES)?;
         let d = SynthOptions::default();
         let opts = SynthOptions {
             level,

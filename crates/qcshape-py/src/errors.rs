@@ -42,7 +42,11 @@ pub fn space(e: SpaceError) -> PyErr {
 }
 
 fn geodesic_input(e: &GeodesicError) -> bool {
-    matches!(e, GeodesicError::Option(_) | GeodesicError::Mesh(_))
+    // A calibration failure is a degenerate reference shape (zero size or area): bad input.
+    matches!(
+        e,
+        GeodesicError::Option(_) | GeodesicError::Mesh(_) | GeodesicError::Calibration(_)
+    )
 }
 
 fn transport_input(e: &TransportError) -> bool {

@@ -224,17 +224,52 @@ impl PipelineKw {
                 "metric_scale" => k.metric.metric_scale = Some(value.extract().map_err(bad)?),
                 "qc_weights" => k.metric.qc_weights = Some(value.extract().map_err(bad)?),
                 "qc_floor" => k.metric.qc_floor = Some(value.extract().map_err(bad)?),
-                "qc_smooth" => k.metric.qc_smooth = Some(value.extract().map_err(bad)?),
-                "steps" => k.solver.steps = Some(value.extract().map_err(bad)?),
+                "qc_smooth" => {
+                    k.metric.qc_smooth = Some(crate::convert::count(
+                        "qc_smooth",
+                        value.extract().map_err(bad)?,
+                        0,
+                        qcshape::limits::MAX_SWEEPS,
+                    )?)
+                }
+                "steps" => {
+                    k.solver.steps = Some(crate::convert::count(
+                        "steps",
+                        value.extract().map_err(bad)?,
+                        1,
+                        qcshape::limits::MAX_STEPS,
+                    )?)
+                }
                 "solver" => k.solver.solver = Some(value.extract().map_err(bad)?),
                 "tolerance" => k.solver.tolerance = Some(value.extract().map_err(bad)?),
                 "energy_tolerance" => k.solver.energy_tolerance = Some(value.extract().map_err(bad)?),
                 "length_tolerance" => k.solver.length_tolerance = Some(value.extract().map_err(bad)?),
-                "insert" => k.insert = Some(value.extract().map_err(bad)?),
-                "levels" => k.levels = Some(value.extract().map_err(bad)?),
+                "insert" => {
+                    k.insert = Some(crate::convert::count(
+                        "insert",
+                        value.extract().map_err(bad)?,
+                        0,
+                        qcshape::limits::MAX_INSERT,
+                    )?)
+                }
+                "levels" => {
+                    k.levels = Some(crate::convert::count(
+                        "levels",
+                        value.extract().map_err(bad)?,
+                        1,
+                        qcshape::limits::MAX_LEVELS,
+                    )?)
+                }
                 "transport" => k.transport = Some(value.extract().map_err(bad)?),
                 "align" => k.align = Some(value.extract().map_err(bad)?),
-                "smooth" => k.smooth = Some(value.extract().map_err(bad)?),
+                "smooth" => {
+                    k.smooth = Some(crate::convert::count(
+                        "smooth",
+                        value.extract().map_err(bad)?,
+                        0,
+                        qcshape::limits::MAX_SWEEPS,
+                    )?)
+                }
                 "base" => {
                     k.base = Some(if let Ok(i) = value.extract::<usize>() {
                         BaseKw::Index(i)
@@ -242,7 +277,14 @@ impl PipelineKw {
                         BaseKw::Name(value.extract().map_err(bad)?)
                     })
                 }
-                "threads" => k.threads = Some(value.extract().map_err(bad)?),
+                "threads" => {
+                    k.threads = Some(crate::convert::count(
+                        "threads",
+                        value.extract().map_err(bad)?,
+                        1,
+                        qcshape::limits::MAX_THREADS,
+                    )?)
+                }
                 "progress" => k.progress = Some(value.extract().map_err(bad)?),
                 "approx" => k.approx = Some(value.extract().map_err(bad)?),
                 _ => {

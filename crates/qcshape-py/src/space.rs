@@ -9,7 +9,7 @@ use qcshape::similarity::{KarcherOptions, Stage};
 use qcshape::space::ShapeSpace;
 use qcshape::transport::Transport;
 
-use crate::convert::{faces, matrix_out, points, points_out, sequence, sequence_out};
+use crate::convert::{faces, matrix_out, opt_count, points, points_out, sequence, sequence_out, AnyInt};
 use crate::errors;
 use crate::options::{transport, MetricKw, SolverKw};
 use crate::run::{detached, Progress};
@@ -198,16 +198,19 @@ impl PyShapeSpace {
         metric_scale: Option<String>,
         qc_weights: Option<String>,
         qc_floor: Option<f64>,
-        qc_smooth: Option<usize>,
-        steps: Option<usize>,
+        qc_smooth: Option<AnyInt>,
+        steps: Option<AnyInt>,
         solver: Option<String>,
         tolerance: Option<f64>,
         energy_tolerance: Option<f64>,
         length_tolerance: Option<f64>,
         reference: Option<&Bound<'_, PyAny>>,
         scale: Option<f64>,
-        n_vertices: Option<usize>,
+        n_vertices: Option<AnyInt>,
     ) -> PyResult<Self> {
+        let qc_smooth = opt_count("qc_smooth", qc_smooth, 0, qcshape::limits::MAX_SWEEPS)?;
+        let steps = opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?;
+        let n_vertices = opt_count("n_vertices", n_vertices, 1, qcshape::limits::MAX_VERTICES)?;
         let py = faces.py();
         let kwargs = PyDict::new(py);
         put(&kwargs, "metric", metric.clone())?;
@@ -368,11 +371,11 @@ impl PyShapeSpace {
         py: Python<'_>,
         a: &Bound<'_, PyAny>,
         b: &Bound<'_, PyAny>,
-        steps: Option<usize>,
+        steps: Option<AnyInt>,
     ) -> PyResult<PyGeodesic> {
         let nv = Some(self.nv());
         let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
-        let space = self.with_steps(steps)?;
+        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
         let g = detached(py, None, |_| space.geodesic(&pa, &pb).map_err(errors::space))?;
         Ok(PyGeodesic { g })
     }
@@ -385,11 +388,11 @@ impl PyShapeSpace {
         py: Python<'_>,
         a: &Bound<'_, PyAny>,
         b: &Bound<'_, PyAny>,
-        steps: Option<usize>,
+        steps: Option<AnyInt>,
     ) -> PyResult<f64> {
         let nv = Some(self.nv());
         let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
-        let space = self.with_steps(steps)?;
+        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
         detached(py, None, |_| space.dist(&pa, &pb).map_err(errors::space))
     }
 
@@ -402,11 +405,11 @@ impl PyShapeSpace {
         py: Python<'py>,
         base: &Bound<'py, PyAny>,
         p: &Bound<'py, PyAny>,
-        steps: Option<usize>,
+        steps: Option<AnyInt>,
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
         let nv = Some(self.nv());
         let (m, q) = (points(base, "base", nv)?, points(p, "p", nv)?);
-        let space = self.with_steps(steps)?;
+        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
         let (log, d) = detached(py, None, |_| space.log(&m, &q).map_err(errors::space))?;
         Ok((points_out(py, &log)?, d))
     }
@@ -442,14 +445,20 @@ impl PyShapeSpace {
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         init: Option<&Bound<'py, PyAny>>,
-        max_iterations: Option<usize>,
+        max_iterations: Option<AnyInt>,
         tolerance: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = sequence(poses, "poses", Some(self.nv()), 1)?;
         let i = init.map(|x| points(x, "init", Some(self.nv()))).transpose()?;
         let d = KarcherOptions::default();
         let opts = KarcherOptions {
-            max_iterations: max_iterations.unwrap_or(d.max_iterations),
+            max_iterations: opt_count(
+                "max_iterations",
+                max_iterations,
+                0,
+                qcshape::limits::MAX_ITERATIONS,
+            )?
+            .unwrap_or(d.max_iterations),
             tolerance: tolerance.unwrap_or(d.tolerance),
             ..d
         };
@@ -470,16 +479,16 @@ impl PyShapeSpace {
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
-        insert: Option<usize>,
-        levels: Option<usize>,
+        insert: Option<AnyInt>,
+        levels: Option<AnyInt>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = sequence(poses, "poses", Some(self.nv()), 1)?;
         let d = InterpolationOptions::default();
-        let levels = levels.unwrap_or(d.levels);
+        let levels = opt_count("levels", levels, 1, qcshape::limits::MAX_LEVELS)?.unwrap_or(d.levels);
         if levels == 0 {
             return Err(PyValueError::new_err("levels: must be at least 1"));
         }
-        let insert = insert.unwrap_or(d.insert);
+        let insert = opt_count("insert", insert, 0, qcshape::limits::MAX_INSERT)?.unwrap_or(d.insert);
         let r = detached(py, None, |_| {
             self.space
                 .interpolate(&p, insert, levels, &|| {})
@@ -517,13 +526,14 @@ impl PyShapeSpace {
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
-        threads: Option<usize>,
+        threads: Option<AnyInt>,
         progress: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = sequence(poses, "poses", Some(self.nv()), 1)?;
         let n = p.len();
         let singles: Vec<Vec<Vec<[f64; 3]>>> = p.into_iter().map(|x| vec![x]).collect();
         let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let d = detached(py, threads, |cancel| {
             self.space
                 .similarity(&singles, Some(cancel), &|_| bar.tick(Stage::Similarity))
@@ -541,7 +551,7 @@ impl PyShapeSpace {
         &self,
         py: Python<'py>,
         deformations: &Bound<'py, PyAny>,
-        threads: Option<usize>,
+        threads: Option<AnyInt>,
         progress: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let list: Vec<Bound<'py, PyAny>> = deformations.try_iter()?.collect::<PyResult<_>>()?;
@@ -552,6 +562,7 @@ impl PyShapeSpace {
             .collect::<PyResult<_>>()?;
         let n = defs.len();
         let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let d = detached(py, threads, |cancel| {
             self.space
                 .similarity(&defs, Some(cancel), &|_| bar.tick(Stage::Similarity))

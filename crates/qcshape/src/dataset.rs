@@ -43,6 +43,9 @@ pub const MANIFEST_NAME: &str = "manifest.csv";
 /// it is about.
 #[derive(Debug, Error)]
 pub enum DatasetError {
+    /// An output would overwrite one of the data set's files.
+    #[error(transparent)]
+    Output(#[from] crate::outputs::OutputError),
     /// A mesh file failed to read, parse or validate (the message names the file).
     #[error(transparent)]
     Io(#[from] IoError),
@@ -244,34 +247,24 @@ impl Dataset {
         Ok(Dataset { deformations })
     }
 
+    /// Every file this data set was read from: `source` (the manifest or folder) and each
+    /// pose file, for [`crate::outputs::refuse_input_overlap`] and
+    /// [`crate::outputs::refuse_folder_overlap`].
+    pub fn input_paths<'a>(&'a self, source: &'a Path) -> Vec<&'a Path> {
+        std::iter::once(source)
+            .chain(
+                self.deformations
+                    .iter()
+                    .flat_map(|d| d.paths.iter().map(PathBuf::as_path)),
+            )
+            .collect()
+    }
+
     /// Errors unless `output` is a file other than the data set `input` (manifest or folder)
-    /// and every pose file: writing it must not overwrite an input.
+    /// and every pose file: writing it must not overwrite an input
+    /// ([`crate::outputs::refuse_input_overlap`]).
     pub fn refuse_overwrite(&self, input: &Path, output: &Path, what: &str) -> Result<(), DatasetError> {
-        let canon = |p: &Path| -> Option<PathBuf> {
-            std::fs::canonicalize(p).ok().or_else(|| {
-                let parent = p
-                    .parent()
-                    .filter(|q| !q.as_os_str().is_empty())
-                    .unwrap_or(Path::new("."));
-                Some(std::fs::canonicalize(parent).ok()?.join(p.file_name()?))
-            })
-        };
-        let Some(out) = canon(output) else {
-            return Ok(());
-        };
-        let inputs = std::iter::once(input.to_path_buf())
-            .chain(self.deformations.iter().flat_map(|d| d.paths.iter().cloned()));
-        for file in inputs {
-            if canon(&file).as_deref() == Some(out.as_path()) {
-                return Err(DatasetError::Layout {
-                    path: output.to_path_buf(),
-                    message: format!(
-                        "{what} would overwrite the input file {}; choose another output path",
-                        file.display()
-                    ),
-                });
-            }
-        }
+        crate::outputs::refuse_input_overlap(&self.input_paths(input), output, what)?;
         Ok(())
     }
 
@@ -488,10 +481,13 @@ pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"]
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bytes = std::fs::read(path).map_err(|error| DatasetError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
+            DatasetError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     let bad = |line: u64, message: String| DatasetError::Manifest {
         path: path.into(),
         line,

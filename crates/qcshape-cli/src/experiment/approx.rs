@@ -34,7 +34,8 @@ pub struct Args {
     /// A labelled data set (manifest CSV or folder); default: the synthetic benchmark.
     input: Option<PathBuf>,
     /// Icosphere level of the synthetic benchmark (1 = 42, 2 = 162, 3 = 642 vertices).
-    #[arg(long, default_value_t = 2)]
+    /// At most 8.
+    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Instead of the paper's benchmark, the robustness benchmark (6 shapes x 10 kinds, 4 poses)
     /// under this scenario of `qcshape experiment robustness` (clean, rigid, noise-var-1, ...,
@@ -54,16 +55,19 @@ pub struct Args {
     )]
     modes: Vec<String>,
     /// Taubin smoothing iterations of every pose (the pipeline's default).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Clustering restarts of the k-means whose agreement (ARI) is measured.
-    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the clusterings.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
     /// Output folder.
     #[arg(long)]
@@ -76,6 +80,9 @@ pub fn run(args: &Args) -> Result<()> {
 }
 
 fn run_in_pool(args: &Args) -> Result<()> {
+    if let Some(input) = &args.input {
+        crate::input::refuse_out_folder(&[input], &args.out, "--out")?;
+    }
     let defs = match (&args.input, &args.scenario) {
         (Some(path), _) => Dataset::load(path)?.deformations,
         (None, Some(name)) => {
@@ -163,6 +170,6 @@ fn run_in_pool(args: &Args) -> Result<()> {
         qcshape::io::write_atomically(&path, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    println!("{md}");
+    outln!("{md}");
     Ok(())
 }

@@ -31,11 +31,13 @@ pub struct Args {
     )]
     metrics: Vec<MetricKind>,
     /// Values of --lambda, each run with every metric (comma-separated; default: --lambda).
-    #[arg(long, value_delimiter = ',')]
+    /// At most 1e6.
+    #[arg(long, value_delimiter = ',', value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambdas: Vec<f64>,
     /// Icosphere levels of the resolution study (2 = 162, 3 = 642, 4 = 2,562, 5 = 10,242
     /// vertices; at most 6).
-    #[arg(long, value_delimiter = ',', default_value = "2,3,4")]
+    /// At most 8.
+    #[arg(long, value_delimiter = ',', default_value = "2,3,4", value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     levels: Vec<u32>,
     /// Skip the bent tube.
     #[arg(long)]
@@ -45,7 +47,8 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     threads: Option<usize>,
     /// Output folder.
     #[arg(long)]
@@ -99,6 +102,6 @@ pub fn run(args: &Args) -> Result<()> {
         qcshape::io::write_atomically(&path, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    println!("{md}");
+    outln!("{md}");
     Ok(())
 }

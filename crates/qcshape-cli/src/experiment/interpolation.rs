@@ -41,13 +41,14 @@ pub struct Args {
     /// A data set (manifest CSV or folder); default: the built-in genus-0 benchmark.
     input: Option<PathBuf>,
     /// Icosphere level of the built-in benchmark (10 * 4^level + 2 vertices: 2 gives 162).
-    #[arg(long, default_value_t = 2)]
+    /// At most 8.
+    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Seed of the built-in benchmark's amplitude jitter.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Relative amplitude jitter of the built-in benchmark.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     jitter: f64,
     /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(
@@ -59,23 +60,28 @@ pub struct Args {
     #[command(flatten)]
     variants: VariantArgs,
     /// Poses inserted between the two known poses (odd; the middle one is compared).
-    #[arg(long, default_value_t = 1)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Spatial resolution levels of the interpolation (1 = no multiresolution).
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS)]
+    /// At most 16.
+    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     levels: usize,
     /// Optimizer: preconditioned, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
     #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.
-    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
     /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE)]
+    /// At most 1.
+    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
-    #[arg(long)]
+    /// At most 1,000,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: Option<usize>,
     /// Deformation whose predicted poses are written as error maps (default: the first `bend`).
     #[arg(long)]
@@ -88,7 +94,8 @@ pub struct Args {
     #[arg(long, default_value = "ENDO")]
     real_pattern: String,
     /// Predict at most this many interior frames of --real, evenly spaced (0 = all).
-    #[arg(long, default_value_t = 8)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 8, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     real_frames: usize,
     /// Output folder.
     #[arg(long)]
@@ -137,6 +144,8 @@ fn load_real(dir: &Path, pattern: &str) -> Result<Deformation> {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    let given: Vec<&std::path::Path> = args.input.iter().chain(&args.real).map(|p| p.as_path()).collect();
+    crate::input::refuse_out_folder(&given, &args.out, "--out")?;
     let t0 = Instant::now();
     let metrics = args
         .metrics
@@ -187,7 +196,7 @@ pub fn run(args: &Args) -> Result<()> {
         eprintln!("note: skipped {s}");
     }
     report.write(&args.out)?;
-    println!("{}", report.to_markdown());
+    outln!("{}", report.to_markdown());
     eprintln!("synthetic experiment: {:.1} s", t0.elapsed().as_secs_f64());
 
     if let Some(seq) = real {
@@ -204,7 +213,7 @@ pub fn run(args: &Args) -> Result<()> {
         bar.finish_and_clear();
         let loo = loo?;
         loo.write(&args.out)?;
-        println!("{}", loo.to_markdown());
+        outln!("{}", loo.to_markdown());
         eprintln!("leave-one-out: {:.1} s", t1.elapsed().as_secs_f64());
     }
     eprintln!("wrote {}", args.out.display());

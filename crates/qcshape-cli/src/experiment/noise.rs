@@ -32,10 +32,16 @@ pub struct Args {
     /// A data set (manifest CSV or folder); default: the built-in synthetic set at --level.
     input: Option<PathBuf>,
     /// Icosphere level of the built-in synthetic set.
-    #[arg(long, default_value_t = 1)]
+    /// At most 8.
+    #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Noise variances in percent.
-    #[arg(long, value_delimiter = ',', default_value = "1,2.5,5,10,20")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,2.5,5,10,20",
+        allow_negative_numbers = true
+    )]
     levels: Vec<f64>,
     /// Noise distributions.
     #[arg(long, value_delimiter = ',', default_value = "uniform,gaussian")]
@@ -44,10 +50,12 @@ pub struct Args {
     metric: MetricArgs,
     /// Segments N of every geodesic. Default 4, not the other commands' 8: the setting the
     /// README's Table 3 was measured with (the experiment classifies the set twice per level).
-    #[arg(long, default_value_t = qcshape::defaults::NOISE_STEPS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::NOISE_STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     steps: usize,
     /// Poses inserted between consecutive key poses.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
     /// Transport to the common base: euclidean (the measured best), parallel or schild.
     #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
@@ -59,14 +67,17 @@ pub struct Args {
     align: Alignment,
     /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
     /// takes vertex noise out of real data; 0 = none).
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Number of classes (default: the number of distinct labels).
-    #[arg(long)]
+    /// At most 10,000.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
     k: Option<usize>,
     /// Kernel k-means restarts. Default 10, not the other commands' 20: the setting the README's
     /// Table 3 was measured with.
-    #[arg(long, default_value_t = qcshape::defaults::NOISE_RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::NOISE_RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the noise and the clustering.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
@@ -78,6 +89,9 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    if let Some(input) = &args.input {
+        crate::input::refuse_out_folder(&[input], &args.out, "--out")?;
+    }
     let defs: Vec<Deformation> = match &args.input {
         Some(p) => Dataset::load(p)?.deformations,
         None => genus0_benchmark(&SynthOptions {
@@ -137,6 +151,6 @@ pub fn run(args: &Args) -> Result<()> {
     report
         .write(&args.out)
         .with_context(|| format!("writing the report to {}", args.out.display()))?;
-    print!("{}", report.to_markdown());
+    out!("{}", report.to_markdown());
     Ok(())
 }

@@ -35,7 +35,8 @@ use crate::args::SolverArgs;
 )]
 pub struct Args {
     /// Icosphere level (2 = 162 vertices, 3 = 642).
-    #[arg(long, default_value_t = 2)]
+    /// At most 8.
+    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(
@@ -46,7 +47,8 @@ pub struct Args {
     metrics: Vec<MetricKind>,
     /// Taubin smoothing iterations of the pipeline's poses (comma-separated: every metric is run
     /// with each value; the library's default when not given).
-    #[arg(long, value_delimiter = ',')]
+    /// At most 1,000.
+    #[arg(long, value_delimiter = ',', value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: Vec<usize>,
     /// Shapes of the benchmark (comma-separated; default all six).
     #[arg(long, value_delimiter = ',')]
@@ -59,15 +61,18 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     scenarios: Vec<String>,
     /// Weight of the L2 regularizer of every metric (eq. 11).
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses per deformation.
-    #[arg(long, default_value_t = 4)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 4, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     poses: usize,
     /// Clustering restarts.
-    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the data and the clusterings.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
@@ -164,6 +169,6 @@ pub fn run_command(args: &Args) -> Result<()> {
         qcshape::io::write_atomically(&path, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    println!("{md}");
+    outln!("{md}");
     Ok(())
 }

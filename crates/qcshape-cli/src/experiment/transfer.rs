@@ -23,7 +23,8 @@ use crate::args::SolverArgs;
 #[command(about = "Deformation-transfer experiment (paper Fig. 5)", long_about)]
 pub struct Args {
     /// Icosphere level of the shapes (10 * 4^level + 2 vertices).
-    #[arg(long, default_value_t = 2)]
+    /// At most 8.
+    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
     /// Metrics, comma-separated: l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(
@@ -53,16 +54,19 @@ pub struct Args {
     )]
     bases: Vec<InitialShape>,
     /// Poses per deformation (t = k / (poses - 1)).
-    #[arg(long, default_value_t = 3)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     poses: usize,
     /// Weight of the L2 regularizer (eq. 11) of every metric; 0 disables it.
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     /// Conformal triangle term: quadratic or paper.
     #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
     form: String,
     /// Fixed-point corrections of each Schild rung's doubling.
-    #[arg(long, default_value_t = SchildOptions::default().doubling_iterations)]
+    /// At most 1,000,000.
+    #[arg(long, default_value_t = SchildOptions::default().doubling_iterations, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     doubling_iterations: usize,
     /// Geodesics (N = number of transport steps per segment).
     #[command(flatten)]
@@ -128,7 +132,7 @@ pub fn run(args: &Args) -> Result<()> {
     let files = report
         .write(&args.out)
         .with_context(|| format!("writing the report to {}", args.out.display()))?;
-    print!("{}", report.to_markdown());
+    out!("{}", report.to_markdown());
     eprintln!("wrote {} files to {}", files.len(), args.out.display());
     Ok(())
 }

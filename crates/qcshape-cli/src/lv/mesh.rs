@@ -22,22 +22,27 @@ pub(crate) struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Cavity threshold (image units); default: upper two-level Otsu threshold of frame 0.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threshold: Option<f64>,
     /// Target vertex count of the whole surface after decimation (0: no decimation).
-    #[arg(long, default_value_t = 1000)]
+    /// At most 100,000,000.
+    #[arg(long, default_value_t = 1000, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_VERTICES as u64), allow_negative_numbers = true)]
     vertices: usize,
     /// Taubin smoothing iterations before decimation.
-    #[arg(long, default_value_t = 10)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 10, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: usize,
     /// Tangential relaxation sweeps after decimation (more regular triangles).
-    #[arg(long, default_value_t = 5)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 5, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     relax: usize,
     /// Number of landmarks for the registration (uses DIR/<subject>/tps_nNN.json if present).
-    #[arg(long, default_value_t = 16)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 16, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_LANDMARKS as u64), allow_negative_numbers = true)]
     landmarks: usize,
     /// Thin-plate-spline regularization when fitting here.
-    #[arg(long, default_value_t = 0.0)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = 0.0, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     /// Region written: the free-wall submesh (the sector below), the wall (every angle from the
     /// apex to height 0.9, no valve-plane cap; the sector options are ignored) or the whole
@@ -50,13 +55,19 @@ pub(crate) struct Args {
     #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
     refine: super::Refine,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, allow_negative_numbers = true)]
     sector_centre: f64,
     /// Free-wall sector width (degrees).
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, allow_negative_numbers = true)]
     sector_width: f64,
     /// Free-wall height band LO,HI (0 apex, 1 base centre).
-    #[arg(long, default_value = "0.15,0.9", value_delimiter = ',', num_args = 2)]
+    #[arg(
+        long,
+        default_value = "0.15,0.9",
+        value_delimiter = ',',
+        num_args = 2,
+        allow_negative_numbers = true
+    )]
     heights: Vec<f64>,
 }
 
@@ -65,6 +76,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
     if a.heights.len() != 2 {
         bail!("--heights takes two numbers LO,HI");
     }
+    crate::input::refuse_out_folder(&[&a.dir], &a.out, "--out")?;
     let subs = subjects(&a.dir)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
     let opts = SurfaceOptions {
@@ -104,8 +116,8 @@ pub(crate) fn run(a: &Args) -> Result<()> {
                 path: Path::new(&s.name).join(name),
             });
         }
-        bar.suspend(|| {
-            println!(
+        bar.suspend(|| -> anyhow::Result<()> {
+            outln!(
                 "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses ({} refined on their images), {} landmarks{}, {:.2} s",
                 s.name,
                 m.threshold,
@@ -118,13 +130,14 @@ pub(crate) fn run(a: &Args) -> Result<()> {
                 m.landmarks,
                 if m.saved_maps { " (saved maps)" } else { "" },
                 t0.elapsed().as_secs_f64()
-            )
-        });
+            );
+            Ok(())
+        })?;
         bar.inc(1);
     }
     bar.finish_and_clear();
     write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
-    println!(
+    outln!(
         "wrote {} deformations to {}",
         subs.len(),
         a.out.join(MANIFEST_NAME).display()

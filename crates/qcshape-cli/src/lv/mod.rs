@@ -53,19 +53,23 @@ struct PhantomArgs {
     #[arg(long)]
     out: PathBuf,
     /// Number of control subjects.
-    #[arg(long, default_value_t = 14)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 14, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SUBJECTS as u64), allow_negative_numbers = true)]
     controls: usize,
     /// Number of HCM subjects.
-    #[arg(long, default_value_t = 9)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 9, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SUBJECTS as u64), allow_negative_numbers = true)]
     hcm: usize,
     /// Frames per cycle (end-systole near frame 3/8, end-diastole near 7/8 of the cycle).
-    #[arg(long, default_value_t = 8)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 8, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     frames: usize,
     /// Voxels per side of the cubic volume (field of view 104 x 104 x 130 mm).
-    #[arg(long, default_value_t = 48)]
+    /// At most 1,024.
+    #[arg(long, default_value_t = 48, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_IMAGE_SIZE as u64), allow_negative_numbers = true)]
     size: usize,
     /// Standard deviation of the Gaussian image noise (HU).
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, default_value_t = 25.0, allow_negative_numbers = true)]
     noise: f64,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 1)]
@@ -80,7 +84,7 @@ struct PhantomArgs {
     overlap: bool,
     /// Standard deviation (mm) of the Gaussian noise on every landmark coordinate of every
     /// frame (default: 1 with --overlap, else 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     landmark_noise: Option<f64>,
 }
 
@@ -89,10 +93,12 @@ struct RegisterArgs {
     /// Cohort folder.
     dir: PathBuf,
     /// Number of landmarks used (the first N of each frame; the paper uses 16, Table 5 8-32).
-    #[arg(long, default_value_t = 16)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 16, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_LANDMARKS as u64), allow_negative_numbers = true)]
     landmarks: usize,
     /// Thin-plate-spline regularization (0: exact at the landmarks).
-    #[arg(long, default_value_t = 0.0)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = 0.0, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
 }
 
@@ -230,7 +236,7 @@ fn phantom(a: &PhantomArgs) -> Result<()> {
     write_labels(&a.out.join(cohort::LABELS_NAME), &labels)?;
     io::write_atomically(&a.out.join("phantom.csv"), |w| w.write_all(summary.as_bytes()))?;
     write_abnormal(&a.out.join(ABNORMAL_NAME), &sectors)?;
-    println!(
+    outln!(
         "wrote {} subjects ({} control, {} hcm{}), {} frames of {}^3 voxels, to {}",
         names.len(),
         a.controls,
@@ -257,15 +263,16 @@ fn register(a: &RegisterArgs) -> Result<()> {
         reg.write(&out)?;
         // Largest landmark residual over frames (0 up to rounding when lambda = 0).
         let worst = reg.max_landmark_residual(&lm).context("landmark subset")?;
-        bar.suspend(|| {
-            println!(
+        bar.suspend(|| -> anyhow::Result<()> {
+            outln!(
                 "{}: {} frames, {} landmarks, max landmark residual {worst:.3e} mm -> {}",
                 s.name,
                 reg.maps.len(),
                 a.landmarks,
                 out.display()
-            )
-        });
+            );
+            Ok(())
+        })?;
         bar.inc(1);
     }
     bar.finish_and_clear();

@@ -47,7 +47,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub(crate) out: PathBuf,
     /// Landmarks of the registrations (the first N of each frame; paper: 16).
-    #[arg(long, default_value_t = 16)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 16, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_LANDMARKS as u64), allow_negative_numbers = true)]
     pub(crate) landmarks: usize,
     #[command(flatten)]
     pub(crate) common: CycleCommon,
@@ -57,20 +58,23 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value = "free-wall")]
     pub(crate) region: super::Region,
     /// Landmark counts of Table 5 (the whole pipeline once per count).
-    #[arg(long, value_delimiter = ',', default_value = "8,16,24,32")]
+    /// At most 10,000.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,24,32", value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_LANDMARKS as u64), allow_negative_numbers = true)]
     pub(crate) landmark_sweep: Vec<usize>,
     /// Skip Table 5.
     #[arg(long)]
     pub(crate) no_sweep: bool,
     /// Cavity threshold (default: upper two-level Otsu threshold of each frame 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub(crate) threshold: Option<f64>,
     /// Taubin smoothing iterations of the surfaces.
-    #[arg(long, default_value_t = 10)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = 10, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     pub(crate) smooth: usize,
     /// Regularization of the frame-0 -> frame-k landmark thin-plate splines (normalized units;
     /// 0: exact at the landmarks, the paper's).
-    #[arg(long, default_value_t = 0.0)]
+    /// At most 1e6.
+    #[arg(long, default_value_t = 0.0, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     pub(crate) tps_lambda: f64,
     /// Low-pass filter of the landmark trajectories before registration: keep the Fourier
     /// harmonics 0..H of the cycle (the frames must cover one whole cycle), which removes
@@ -112,7 +116,8 @@ pub struct RunArgs {
     #[arg(long, default_value = qcshape::defaults::LV_TRANSPORT.label())]
     pub(crate) transport: Transport,
     /// Clustering restarts.
-    #[arg(long, default_value_t = qcshape::defaults::RESTARTS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     pub(crate) restarts: usize,
     /// Seed of the clustering and MDS.
     #[arg(long, default_value_t = 0)]
@@ -156,21 +161,25 @@ pub struct CycleCommon {
     pub metric: MetricArgs,
     /// Poses inserted between consecutive frames (default 3, the paper's section 4 setting, not
     /// the other commands' 0).
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT)]
+    /// At most 1,000.
+    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     pub insert: usize,
     /// Segments N of every geodesic (default 4, the setting the README's LV tables were measured
     /// with, not the other commands' 8).
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_STEPS)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::defaults::PAPER_STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     pub steps: usize,
     /// Vertex budget: the cohort template's whole surface, or meshes given as input are coarsened
     /// (a vertex subset, multires hierarchy) when larger.
-    #[arg(long, default_value_t = 600)]
+    /// At most 100,000,000.
+    #[arg(long, default_value_t = 600, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_VERTICES as u64), allow_negative_numbers = true)]
     pub vertices: usize,
     /// Do not close the cycle (no gap last frame -> frame 0).
     #[arg(long)]
     pub open: bool,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
     pub threads: Option<usize>,
 }
 
@@ -197,7 +206,8 @@ pub struct CycleArgs {
     #[arg(long)]
     pattern: Option<String>,
     /// Keep every K-th frame (1: all).
-    #[arg(long, default_value_t = 1)]
+    /// At most 10,000.
+    #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_EVERY as u64), allow_negative_numbers = true)]
     every: usize,
     #[command(flatten)]
     common: CycleCommon,
@@ -310,6 +320,8 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             }
             files => files.to_vec(),
         };
+        let given: Vec<&Path> = a.files.iter().chain(&files).map(PathBuf::as_path).collect();
+        crate::input::refuse_out_folder(&given, &a.out, "--out")?;
         let files: Vec<PathBuf> = files.into_iter().step_by(a.every).collect();
         let def = load_sequence(&files)?;
         let source = format!(
@@ -333,5 +345,6 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
 
 /// `qcshape lv run`.
 pub fn run(a: &RunArgs) -> Result<()> {
+    crate::input::refuse_out_folder(&[&a.dir], &a.out, "--out")?;
     in_pool(a.common.threads, || cohort::run(a))
 }

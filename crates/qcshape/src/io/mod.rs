@@ -416,10 +416,13 @@ pub fn read_mesh(path: &Path) -> Result<MeshData, IoError> {
         Ok(_) => {}
     }
     let format = Format::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.into() })?;
-    let bytes = std::fs::read(path).map_err(|error| IoError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_MESH_FILE_BYTES).map_err(|error| {
+            IoError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     parse_mesh(&bytes, format).map_err(|error| IoError::Parse {
         path: path.into(),
         error,

@@ -534,8 +534,15 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                             poly.clear();
                             for _ in 0..n {
                                 let v = src.scalar(ity, &what)?;
-                                let index = if v.fract() == 0.0 { v as i64 } else { -1 };
-                                poly.push(check_index(item, index, n_vertices, src.line())?);
+                                if v.fract() != 0.0 || !v.is_finite() {
+                                    let message =
+                                        format!("face {item} has the vertex index {v}, not an integer");
+                                    return Err(match src.line() {
+                                        Some(line) => ParseError::Syntax { line, message },
+                                        None => ParseError::Invalid(message),
+                                    });
+                                }
+                                poly.push(check_index(item, v as i64, n_vertices, src.line())?);
                             }
                             faces.push(&poly, src.line())?;
                         } else {

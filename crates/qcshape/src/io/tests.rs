@@ -660,3 +660,37 @@ fn huge_declared_counts_fail_fast() {
     let e = parse_mesh(&stl, Format::Stl).unwrap_err();
     assert!(matches!(e, ParseError::Truncated { .. }), "{e}");
 }
+
+/// A `.vtp` triangle whose Polys connectivity is an inline base64 array with `conn` as its
+/// (already encoded) payload, and whose last offset is `last_offset`.
+fn vtp_with_connectivity(conn: &str, last_offset: u64, compressed: bool) -> Vec<u8> {
+    format!(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\"{}>\n\
+         <PolyData><Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n\
+         <Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0</DataArray></Points>\n\
+         <Polys><DataArray type=\"Int64\" Name=\"connectivity\" format=\"binary\">{conn}</DataArray>\n\
+         <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">{last_offset}</DataArray></Polys>\n\
+         </Piece></PolyData></VTKFile>\n",
+        if compressed { " compressor=\"vtkZLibDataCompressor\"" } else { "" }
+    )
+    .into_bytes()
+}
+
+/// Issue 40's VTP seeds: a base64 header word of 2^64 - 1 (with a last offset of 2^61, so
+/// that the expected byte count saturates to the same value) and a zlib block count of
+/// 2^64 - 3 are errors, not arithmetic overflows.
+#[test]
+fn vtp_header_words_near_u64_max_are_refused() {
+    let mut word = u64::MAX.to_le_bytes().to_vec();
+    word.extend([0u8; 16]);
+    let bytes = vtp_with_connectivity(&super::vtp::b64_encode(&word), 1 << 61, false);
+    let e = parse_mesh(&bytes, Format::Vtp).unwrap_err();
+    assert!(e.to_string().contains("connectivity"), "{e}");
+
+    let mut head = (u64::MAX - 2).to_le_bytes().to_vec();
+    head.extend(8u64.to_le_bytes());
+    head.extend(8u64.to_le_bytes());
+    let bytes = vtp_with_connectivity(&super::vtp::b64_encode(&head), 3, true);
+    let e = parse_mesh(&bytes, Format::Vtp).unwrap_err();
+    assert!(e.to_string().contains("connectivity"), "{e}");
+}

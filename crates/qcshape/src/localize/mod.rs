@@ -407,7 +407,8 @@ pub fn region_share(
 /// phantom's `abnormal_region.csv`). Vertices not listed are outside.
 pub fn read_vertex_mask(path: &std::path::Path, n_vertices: usize) -> Result<Vec<bool>, LocalizeError> {
     let bad = |m: String| LocalizeError::Input(format!("{}: {m}", path.display()));
-    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let text = crate::limits::read_regular_text(path, crate::limits::MAX_TABLE_FILE_BYTES)
+        .map_err(|e| bad(format!("cannot read: {e}")))?;
     let mut lines = text.lines().enumerate();
     let header: Vec<String> = lines
         .next()

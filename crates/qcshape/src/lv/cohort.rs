@@ -97,7 +97,8 @@ pub struct SubjectDir {
 
 /// Reads `labels.csv` (`subject,label`, `#` comments): the subjects in file order.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, Option<String>)>, LvError> {
-    let bytes = std::fs::read(path).map_err(|e| layout(path, format!("cannot read: {e}")))?;
+    let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
+        .map_err(|e| layout(path, format!("cannot read: {e}")))?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
@@ -337,7 +338,8 @@ impl Registration {
 
     /// Reads a registration written by [`Registration::write`].
     pub fn read(path: &Path) -> Result<Registration, LvError> {
-        let text = std::fs::read_to_string(path).map_err(|e| layout(path, format!("cannot read: {e}")))?;
+        let text = crate::limits::read_regular_text(path, crate::limits::MAX_TABLE_FILE_BYTES)
+            .map_err(|e| layout(path, format!("cannot read: {e}")))?;
         let r: Registration =
             serde_json::from_str(&text).map_err(|e| layout(path, format!("bad JSON: {e}")))?;
         if r.maps.is_empty() || r.maps.iter().any(|m| m.centres.len() != m.weights.len()) {

@@ -130,10 +130,13 @@ impl Landmarks {
 
 /// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
 pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
-    let bytes = std::fs::read(path).map_err(|error| LandmarkError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
+            LandmarkError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     let row_err = |line: u64, message: String| LandmarkError::Row {
         path: path.into(),
         line,

@@ -597,10 +597,13 @@ fn is_gz(path: &Path) -> bool {
 /// Reads every frame of a 3D or 4D NIfTI-1 file (`.nii` or `.nii.gz`; gzip is recognized
 /// by its magic bytes).
 pub fn read_series(path: &Path) -> Result<Vec<Volume>, NiftiError> {
-    let bytes = std::fs::read(path).map_err(|error| NiftiError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_MESH_FILE_BYTES).map_err(|error| {
+            NiftiError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     parse_nifti(&bytes).map_err(|error| NiftiError::Parse {
         path: path.into(),
         error,

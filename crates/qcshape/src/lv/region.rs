@@ -80,7 +80,8 @@ pub fn read_abnormal(path: &Path) -> Result<Vec<AbnormalSector>, LvError> {
         path: path.into(),
         message: m,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let text = crate::limits::read_regular_text(path, crate::limits::MAX_TABLE_FILE_BYTES)
+        .map_err(|e| bad(format!("cannot read: {e}")))?;
     let mut lines = text.lines();
     if lines.next().map(str::trim) != Some(ABNORMAL_HEADER) {
         return Err(bad(format!("the header must be {ABNORMAL_HEADER:?}")));

@@ -213,6 +213,14 @@ impl<'m> Interpolator<'m> {
         hierarchy: Hierarchy,
         options: InterpolationOptions,
     ) -> Result<Self, InterpolationError> {
+        // Before the insertion schedule is built: `insert + 1` must not wrap.
+        if options.insert > crate::limits::MAX_INSERT {
+            return Err(InterpolationError::Option(format!(
+                "insert must be at most {} (got {})",
+                crate::limits::MAX_INSERT,
+                options.insert
+            )));
+        }
         let top = hierarchy.n_levels() - 1;
         let solver = |level: usize, steps: usize| {
             GeodesicSolver::new(

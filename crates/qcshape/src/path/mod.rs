@@ -199,6 +199,13 @@ impl<'m> GeodesicSolver<'m> {
         if options.steps == 0 {
             return Err(GeodesicError::Option("steps must be at least 1".into()));
         }
+        if options.steps > crate::limits::MAX_STEPS {
+            return Err(GeodesicError::Option(format!(
+                "steps must be at most {} (got {})",
+                crate::limits::MAX_STEPS,
+                options.steps
+            )));
+        }
         if !(options.gradient_tolerance >= 0.0
             && options.energy_tolerance >= 0.0
             && options.length_tolerance >= 0.0)

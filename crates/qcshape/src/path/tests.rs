@@ -292,3 +292,32 @@ fn energy_parts_sum_to_the_energy_for_every_metric() {
         }
     }
 }
+
+/// Issue 40: a step count or an insertion count above [`crate::limits`] is an option error
+/// before anything is allocated (`--insert 18446744073709551615` once wrapped to 1).
+#[test]
+fn steps_and_insert_above_their_limits_are_option_errors() {
+    let a = icosphere(0);
+    let spec = crate::metric::MetricSpec::new(crate::metric::MetricKind::L2);
+    let m = spec.build(&crate::metric::Calibration::RAW);
+    for steps in [crate::limits::MAX_STEPS + 1, usize::MAX] {
+        let opts = GeodesicOptions {
+            steps,
+            ..Default::default()
+        };
+        let e = GeodesicSolver::new(m.as_ref(), a.topology.clone(), opts)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("steps must be at most"), "{e}");
+    }
+    for insert in [crate::limits::MAX_INSERT + 1, usize::MAX] {
+        let opts = InterpolationOptions {
+            insert,
+            ..Default::default()
+        };
+        let e = Interpolator::new(m.as_ref(), &a.topology, &a.positions, opts)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("insert must be at most"), "{e}");
+    }
+}

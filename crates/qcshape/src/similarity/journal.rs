@@ -29,6 +29,10 @@ use super::shard::Shard;
 
 const HEADER: &str = "# qcshape similarity journal v3";
 
+/// [`HEADER`], for the tests of the other modules.
+#[cfg(test)]
+pub(crate) const HEADER_FOR_TESTS: &str = HEADER;
+
 /// The header of version 2 (pair lines without the energy split), still read.
 const HEADER_V2: &str = "# qcshape similarity journal v2";
 
@@ -325,7 +329,8 @@ impl JournalFile {
             path: path.to_path_buf(),
             message,
         };
-        let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
+            .map_err(|e| err(format!("cannot read: {e}")))?;
         let lines: Vec<String> = bytes
             .split(|&b| b == b'\n')
             .map(|l| String::from_utf8_lossy(l).into_owned())
@@ -431,16 +436,44 @@ fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, usize), Similari
 }
 
 /// The `|`-separated fields in which two settings strings differ, as `journal X, now Y`.
-fn settings_diff(journal: &str, now: &str) -> Vec<String> {
-    let a: Vec<&str> = journal.split('|').collect();
-    let b: Vec<&str> = now.split('|').collect();
-    if a.len() != b.len() {
-        return vec![format!("journal {journal:?}, now {now:?}")];
+pub(crate) fn settings_diff(journal: &str, now: &str) -> Vec<String> {
+    differing_settings(journal, now)
+        .into_iter()
+        .map(|(name, x, y)| format!("{name}: journal {x}, now {y}"))
+        .collect()
+}
+
+/// The settings in which two settings strings differ, as `(name, value in a, value in b)`:
+/// the `|`-separated fields, and inside a field such as the metric's `MetricSpec { kind: ..,
+/// lambda: .. }` each `name: value` part, so that a message names `lambda` rather than
+/// printing both structures.
+pub(crate) fn differing_settings(a: &str, b: &str) -> Vec<(String, String, String)> {
+    fn parts(s: &str) -> Vec<&str> {
+        s.split(['|', ',', '{', '}', '(', ')'])
+            .map(str::trim)
+            .filter(|p| !p.is_empty())
+            .collect()
     }
-    a.iter()
-        .zip(&b)
+    fn split(p: &str) -> (&str, &str) {
+        p.split_once('=')
+            .or_else(|| p.split_once(": "))
+            .map_or(("setting", p), |(n, v)| (n.trim(), v.trim()))
+    }
+    let (pa, pb) = (parts(a), parts(b));
+    if pa.len() != pb.len() {
+        return vec![("settings".into(), format!("{a:?}"), format!("{b:?}"))];
+    }
+    pa.iter()
+        .zip(&pb)
         .filter(|(x, y)| x != y)
-        .map(|(x, y)| format!("journal {x}, now {y}"))
+        .map(|(x, y)| {
+            let ((nx, vx), (ny, vy)) = (split(x), split(y));
+            if nx == ny {
+                (nx.to_string(), vx.to_string(), vy.to_string())
+            } else {
+                ("setting".to_string(), x.to_string(), y.to_string())
+            }
+        })
         .collect()
 }
 
@@ -459,6 +492,19 @@ mod tests {
             iterations: 7,
             seconds: 0.25,
         }
+    }
+
+    #[test]
+    fn differing_settings_are_named_inside_the_metric() {
+        let a = "MetricSpec { kind: Isometric, scale: Calibrated, lambda: 0.01 }|steps=8|insert=0";
+        let b = "MetricSpec { kind: Isometric, scale: Calibrated, lambda: 0.1 }|steps=8|insert=2";
+        assert_eq!(
+            differing_settings(a, b),
+            vec![
+                ("lambda".to_string(), "0.01".to_string(), "0.1".to_string()),
+                ("insert".to_string(), "0".to_string(), "2".to_string())
+            ]
+        );
     }
 
     #[test]
@@ -489,7 +535,7 @@ mod tests {
         // Another run's key or size is refused, not silently reused, naming what differs.
         let e = Journal::open(&path, 43, "m=b|s=4", 4, true).unwrap_err();
         assert!(
-            e.to_string().contains("another run") && e.to_string().contains("journal m=a, now m=b"),
+            e.to_string().contains("another run") && e.to_string().contains("m: journal a, now b"),
             "{e}"
         );
         let e = Journal::open(&path, 43, "m=a|s=4", 4, true).unwrap_err();

@@ -292,10 +292,13 @@ impl DistanceMatrix {
 
     /// Reads the CSV format of the [module docs](self). Errors name the file and line.
     pub fn read_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
-        let bytes = std::fs::read(path).map_err(|error| MatrixFileError::Read {
-            path: path.into(),
-            error,
-        })?;
+        let bytes =
+            crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
+                MatrixFileError::Read {
+                    path: path.into(),
+                    error,
+                }
+            })?;
         parse_csv(&bytes, path)
     }
 
@@ -458,10 +461,13 @@ fn parse_csv(bytes: &[u8], path: &Path) -> Result<DistanceMatrix, MatrixFileErro
 /// Errors name the file and line: no such columns, an empty name or label, a name given two
 /// different labels, or no label at all.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError> {
-    let bytes = std::fs::read(path).map_err(|error| MatrixFileError::Read {
-        path: path.into(),
-        error,
-    })?;
+    let bytes =
+        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
+            MatrixFileError::Read {
+                path: path.into(),
+                error,
+            }
+        })?;
     let bad = |line: u64, message: String| MatrixFileError::Line {
         path: path.into(),
         line,

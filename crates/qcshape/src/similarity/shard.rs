@@ -41,6 +41,13 @@ impl Shard {
         p % self.count + 1 == self.index
     }
 
+    /// How many pairs of `n` deformations this shard computes (`None` if `n (n - 1) / 2`
+    /// overflows), without listing them.
+    pub fn count_of(&self, n: usize) -> Option<usize> {
+        let total = n.checked_mul(n.saturating_sub(1))? / 2;
+        Some(total / self.count + usize::from(self.index - 1 < total % self.count))
+    }
+
     /// The pairs `(i, j)`, `i < j`, of `n` deformations that this shard computes, in row order.
     pub fn pairs(&self, n: usize) -> Vec<(usize, usize)> {
         all_pairs(n)
@@ -131,7 +138,11 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
         };
         if let Some((s0, f0)) = &first {
             let differs = if f0.settings != file.settings {
-                Some(format!("other settings ({} vs {})", f0.settings, file.settings))
+                let named: Vec<String> = super::journal::differing_settings(&f0.settings, &file.settings)
+                    .into_iter()
+                    .map(|(name, x, y)| format!("{name} {y} (not {x})"))
+                    .collect();
+                Some(format!("other settings: {}", named.join("; ")))
             } else if f0.key != file.key || f0.names.as_ref() != Some(names) {
                 Some("other data (names or coordinates of the deformations)".to_string())
             } else if s0.count != shard.count {
@@ -159,6 +170,23 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
                 format!(
                     "{} torn or corrupt record(s); rerun this shard with --resume to recompute them",
                     file.dropped
+                ),
+            ));
+        }
+        // The share's size without listing it: a forged header (n = 70,000) must not make us
+        // allocate its pairs when the file holds far fewer records.
+        let share = shard.count_of(file.n).ok_or_else(|| {
+            err(
+                path,
+                format!("n = {} deformations is more than a shard can hold", file.n),
+            )
+        })?;
+        if file.pairs.len() < share {
+            return Err(err(
+                path,
+                format!(
+                    "shard {shard} is incomplete: {} of its {share} pairs (still running or interrupted: rerun it with --resume)",
+                    file.pairs.len(),
                 ),
             ));
         }
@@ -269,6 +297,26 @@ mod tests {
             .collect()
     }
 
+    /// A forged header naming 70,000 deformations (about 2.4e9 pairs) is refused from the
+    /// record count, without listing the pairs.
+    #[test]
+    fn a_forged_shard_header_does_not_allocate_its_pairs() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 70_000;
+        let names: Vec<String> = (0..n).map(|k| format!("d{k}")).collect();
+        let p = dir.path().join("D.csv.shard-1-of-2");
+        let text = format!(
+            "{}\nkey,0000000000000001\nn,{n}\nsettings,m=a\nshard,1/2\nnames,{}\n",
+            super::super::journal::HEADER_FOR_TESTS,
+            serde_json::to_string(&names).unwrap()
+        );
+        std::fs::write(&p, text).unwrap();
+        let t = std::time::Instant::now();
+        let e = merge(std::slice::from_ref(&p)).unwrap_err().to_string();
+        assert!(e.contains("incomplete") && e.contains("0 of its"), "{e}");
+        assert!(t.elapsed().as_secs_f64() < 5.0);
+    }
+
     #[test]
     fn merge_assembles_complete_shards_and_refuses_the_rest() {
         let dir = tempfile::tempdir().unwrap();
@@ -301,7 +349,7 @@ mod tests {
         let e = merge(&[paths[0].clone(), paths[1].clone(), p2[2].clone()])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("another run") && e.contains("m=a"), "{e}");
+        assert!(e.contains("another run") && e.contains("m b (not a)"), "{e}");
         // An incomplete shard: one record cut off.
         let text = std::fs::read_to_string(&paths[1]).unwrap();
         let cut: Vec<&str> = text.lines().collect();
