@@ -23,6 +23,9 @@ fn arg<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
         .map(String::as_str)
 }
 
+/// A level's geodesic with its two ends (that level's vertices).
+type Solved = (Geodesic, Vec<[f64; 3]>, Vec<[f64; 3]>);
+
 struct Run {
     geodesic: Geodesic,
     seconds: f64,
@@ -44,7 +47,7 @@ fn solve(spec: &MetricSpec, a: &Shape, b: &Shape, steps: usize, levels: usize) -
         ..GeodesicOptions::default()
     };
     let top = h.n_levels() - 1;
-    let mut prev: Option<(Geodesic, Vec<[f64; 3]>, Vec<[f64; 3]>)> = None;
+    let mut prev: Option<Solved> = None;
     let mut per_level = Vec::new();
     for l in (0..=top).rev() {
         let t = Instant::now();

@@ -683,14 +683,14 @@ fn vtp_with_connectivity(conn: &str, last_offset: u64, compressed: bool) -> Vec<
 fn vtp_header_words_near_u64_max_are_refused() {
     let mut word = u64::MAX.to_le_bytes().to_vec();
     word.extend([0u8; 16]);
-    let bytes = vtp_with_connectivity(&super::vtp::b64_encode(&word), 1 << 61, false);
+    let bytes = vtp_with_connectivity(&super::xml::b64_encode(&word), 1 << 61, false);
     let e = parse_mesh(&bytes, Format::Vtp).unwrap_err();
     assert!(e.to_string().contains("connectivity"), "{e}");
 
     let mut head = (u64::MAX - 2).to_le_bytes().to_vec();
     head.extend(8u64.to_le_bytes());
     head.extend(8u64.to_le_bytes());
-    let bytes = vtp_with_connectivity(&super::vtp::b64_encode(&head), 3, true);
+    let bytes = vtp_with_connectivity(&super::xml::b64_encode(&head), 3, true);
     let e = parse_mesh(&bytes, Format::Vtp).unwrap_err();
     assert!(e.to_string().contains("connectivity"), "{e}");
 }

@@ -140,7 +140,7 @@ fn b64_decode(t: &[u8]) -> Result<Vec<u8>, usize> {
 }
 
 /// Base64 of `data` with `=` padding.
-fn b64_encode(data: &[u8]) -> String {
+pub(crate) fn b64_encode(data: &[u8]) -> String {
     let mut s = String::with_capacity(data.len().div_ceil(3) * 4);
     for c in data.chunks(3) {
         let v = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;

@@ -13,6 +13,8 @@ mod scan;
 use data::{read_values, Settings, Source, Ty};
 use scan::{line_of, syntax, Event, Scanner, Tag};
 
+#[cfg(test)]
+pub(super) use data::b64_encode;
 pub(super) use data::{b64_array, Array};
 
 use super::{check_finite, check_index, ParseError, PointArray};
