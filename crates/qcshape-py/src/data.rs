@@ -161,6 +161,14 @@ impl PyDataset {
                 names.len()
             )));
         }
+        let mut seen = std::collections::HashMap::new();
+        for (i, name) in names.iter().enumerate() {
+            if let Some(j) = seen.insert(name.as_str(), i) {
+                return Err(PyValueError::new_err(format!(
+                    "names: {name:?} names deformations {j} and {i}; names must be unique"
+                )));
+            }
+        }
         let labels = labels.unwrap_or_else(|| vec![None; n]);
         if labels.len() != n {
             return Err(PyValueError::new_err(format!(
@@ -170,11 +178,17 @@ impl PyDataset {
         }
         let mut defs = Vec::with_capacity(n);
         for (i, ((d, name), label)) in list.iter().zip(names).zip(labels).enumerate() {
+            let poses = sequence(d, &format!("poses[{i}]"), Some(nv), 1)?;
+            // The checks the mesh readers make on every pose file (zero-area faces included).
+            for (k, p) in poses.iter().enumerate() {
+                qcshape::mesh::Shape::new_checked(topo.clone(), p.clone(), io::DEGENERATE_REL_TOL)
+                    .map_err(|e| PyValueError::new_err(format!("poses[{i}], pose {k}: {e}")))?;
+            }
             defs.push(Deformation {
                 name,
                 label,
                 topology: topo.clone(),
-                poses: sequence(d, &format!("poses[{i}]"), Some(nv), 1)?,
+                poses,
                 paths: Vec::new(),
                 warnings: Vec::new(),
             });

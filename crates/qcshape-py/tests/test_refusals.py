@@ -51,3 +51,22 @@ def test_a_zero_reference_is_a_value_error(sphere):
     V, F = sphere
     with pytest.raises(ValueError):
         qs.ShapeSpace(F, reference=np.zeros_like(V))
+
+
+def test_arrays_get_the_mesh_readers_checks(pair):
+    V, B, F = pair
+    space = qs.ShapeSpace(F, steps=2)
+    with pytest.raises(ValueError, match="second shape: .*degenerate"):
+        space.geodesic(V, np.zeros_like(V))
+    with pytest.raises(ValueError, match="first shape: .*degenerate"):
+        space.dist(np.zeros_like(V), B)
+    # A zero tangent vector is still a vector.
+    assert space.squared_norm(V, np.zeros_like(V)) == 0.0
+    with pytest.raises(ValueError, match=r"poses\[1\], pose 1: .*degenerate"):
+        qs.Dataset(poses=[np.stack([V, B]), np.stack([V, np.zeros_like(V)])], faces=F)
+
+
+def test_duplicate_deformation_names_are_refused(pair):
+    V, B, F = pair
+    with pytest.raises(ValueError, match='names: "a" names deformations 0 and 2'):
+        qs.Dataset(poses=[np.stack([V, B])] * 3, faces=F, names=["a", "b", "a"])

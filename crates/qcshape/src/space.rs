@@ -581,15 +581,26 @@ impl ShapeSpace {
         Ok(intrinsic_kmeans(&solver, &prepared.scaled(), start, k, opts)?)
     }
 
+    /// `p` as a shape of this space, with the checks the mesh readers make (finite, bounded
+    /// coordinates, no zero-area face: [`crate::io::DEGENERATE_REL_TOL`]), so arrays and files
+    /// are held to one standard.
     fn shape(&self, what: &str, p: &[[f64; 3]]) -> Result<Shape, SpaceError> {
-        Shape::new(self.topology.clone(), p.to_vec()).map_err(|error| SpaceError::Shape {
-            what: what.to_string(),
-            error,
-        })
+        Shape::new_checked(self.topology.clone(), p.to_vec(), crate::io::DEGENERATE_REL_TOL).map_err(
+            |error| SpaceError::Shape {
+                what: what.to_string(),
+                error,
+            },
+        )
     }
 
+    /// `v` as a tangent vector (#V x 3, finite and bounded; zero is a valid vector).
     fn vector(&self, what: &str, v: &[[f64; 3]]) -> Result<(), SpaceError> {
-        self.shape(what, v).map(|_| ())
+        Shape::new(self.topology.clone(), v.to_vec())
+            .map(|_| ())
+            .map_err(|error| SpaceError::Shape {
+                what: what.to_string(),
+                error,
+            })
     }
 }
 
