@@ -54,7 +54,7 @@ def read_ply(path):
     f = np.frombuffer(body[nv * 24:], dtype=np.dtype([('n', 'u1'), ('i', '<i4', 3)]), count=nf)['i']
     return v.copy(), f.copy()
 
-a, faces = read_ply("$work/path/pose_000.ply")
+a, faces = read_ply("$work/path/pose000.ply")
 b, _ = read_ply("$work/path/$last")
 space = DiscreteSurfaces(faces=gs.array(faces.astype(np.int64)))
 space.equip_with_metric(ElasticMetric, a0=1, a1=1, b1=1, c1=1, d1=1, a2=1)

@@ -19,7 +19,7 @@ use crate::args::{MetricArgs, SolverArgs};
 /// energy are in the metric's units (calibrated: dimensionless; raw: the scaled coordinates';
 /// the JSON's `scale` is the factor). The energy is split into the geometric term and the L2
 /// regularizer; a warning says when the regularizer carries more than half of it. With --out, the N + 1 poses of
-/// the path are written as pose_000.ply ... in the input's units, together with maps of where
+/// the path are written as pose000.ply ... in the input's units, together with maps of where
 /// the two shapes differ (docs/maps.md): segment_000.vtk ... (on pose i: `energy`, the
 /// per-vertex energy contribution of segment i, `length`, its length contribution, and
 /// `displacement`, P_{i+1} - P_i as vectors in the input's units) and contribution.vtk plus
@@ -165,7 +165,7 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (i, p) in g.poses.iter().enumerate() {
-            let path = dir.join(format!("pose_{i:03}.ply"));
+            let path = dir.join(format!("pose{i:03}.ply"));
             io::write_mesh(&path, p, a.topology.faces(), &Default::default())?;
         }
         write_maps(dir, &args.maps_format, metric.as_ref(), &a, &g)?;

@@ -445,31 +445,31 @@ fn dataset_cases() -> Vec<Case> {
     let mut c = vec![
         case("manifest missing", "similarity {d}/nope.csv -o {d}/D.csv", &["nope.csv", "cannot read"]).no_output("D.csv"),
         case("manifest without pose column", sim, &["manifest.csv", "missing column \"pose\""]).dataset().edit("deformation,label,pose,path", "deformation,label,frame,path"),
-        case("pose not a number", sim, &["manifest.csv", "line 2", "\"zero\""]).dataset().edit(",0,sphere-twist/pose0.ply", ",zero,sphere-twist/pose0.ply"),
-        case("negative pose", sim, &["manifest.csv", "line 2", "negative pose index -1"]).dataset().edit(",0,sphere-twist/pose0.ply", ",-1,sphere-twist/pose0.ply"),
-        case("pose gap", sim, &["manifest.csv", "sphere-twist", "no pose 2"]).dataset().edit(",2,sphere-twist/pose2.ply", ",5,sphere-twist/pose2.ply"),
-        case("pose starting at 1", sim, &["manifest.csv", "sphere-twist", "no pose 0"]).dataset().edit(",0,sphere-twist/pose0.ply", ",3,sphere-twist/pose0.ply"),
-        case("duplicate pose", sim, &["manifest.csv", "pose 1 twice"]).dataset().edit(",2,sphere-twist/pose2.ply", ",1,sphere-twist/pose2.ply"),
-        case("missing pose file", sim, &["manifest.csv", "line 3", "does not exist"]).dataset().edit("sphere-twist/pose1.ply", "sphere-twist/none.ply"),
+        case("pose not a number", sim, &["manifest.csv", "line 2", "\"zero\""]).dataset().edit(",0,sphere-twist/pose000.ply", ",zero,sphere-twist/pose000.ply"),
+        case("negative pose", sim, &["manifest.csv", "line 2", "negative pose index -1"]).dataset().edit(",0,sphere-twist/pose000.ply", ",-1,sphere-twist/pose000.ply"),
+        case("pose gap", sim, &["manifest.csv", "sphere-twist", "no pose 2"]).dataset().edit(",2,sphere-twist/pose002.ply", ",5,sphere-twist/pose002.ply"),
+        case("pose starting at 1", sim, &["manifest.csv", "sphere-twist", "no pose 0"]).dataset().edit(",0,sphere-twist/pose000.ply", ",3,sphere-twist/pose000.ply"),
+        case("duplicate pose", sim, &["manifest.csv", "pose 1 twice"]).dataset().edit(",2,sphere-twist/pose002.ply", ",1,sphere-twist/pose002.ply"),
+        case("missing pose file", sim, &["manifest.csv", "line 3", "does not exist"]).dataset().edit("sphere-twist/pose001.ply", "sphere-twist/none.ply"),
         case("classify: one deformation without a label", "classify {d}/S/manifest.csv --k 2 --steps 2", &["manifest.csv", "needs a label for every deformation", "\"sphere-twist\""]).dataset()
             .edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,"),
         case("run: one deformation without a label", "run {d}/S/manifest.csv --steps 2 --out {d}/R", &["manifest.csv", "needs a label for every deformation", "\"sphere-twist\""]).dataset()
             .edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").no_output("R"),
         case("label differs within a deformation", sim, &["manifest.csv", "line 3", "label"]).dataset().edit("sphere-twist,twist,1", "sphere-twist,bulge,1"),
-        case("pose with another vertex count", sim, &["odd.ply", "vertices", "manifest", "line 3"]).dataset().edit("sphere-twist/pose1.ply", "odd.ply").file("S/odd.ply", {
+        case("pose with another vertex count", sim, &["odd.ply", "vertices", "manifest", "line 3"]).dataset().edit("sphere-twist/pose001.ply", "odd.ply").file("S/odd.ply", {
             let (p, f) = octahedron();
             ply(&p, &f)
         }),
         case("only one deformation", sim, &["manifest.csv", "at least two deformations"]).dataset().file(
             "S/manifest.csv",
-            "deformation,label,pose,path\nsphere-twist,twist,0,sphere-twist/pose0.ply\nsphere-twist,twist,1,sphere-twist/pose1.ply\nsphere-twist,twist,2,sphere-twist/pose2.ply\n",
+            "deformation,label,pose,path\nsphere-twist,twist,0,sphere-twist/pose000.ply\nsphere-twist,twist,1,sphere-twist/pose001.ply\nsphere-twist,twist,2,sphere-twist/pose002.ply\n",
         ),
-        case("a broken pose file", sim, &["pose1.ply"]).dataset().file("S/sphere-twist/pose1.ply", "ply\nformat ascii 1.0\nend_header\n"),
+        case("a broken pose file", sim, &["pose001.ply"]).dataset().file("S/sphere-twist/pose001.ply", "ply\nformat ascii 1.0\nend_header\n"),
         case("header only", sim, &["manifest.csv"]).file("S/manifest.csv", "deformation,label,pose,path\n"),
         case("-o is the manifest", "similarity {d}/S/manifest.csv --steps 2 -o {d}/S/manifest.csv", &["-o", "overwrite the input", "manifest.csv"]).dataset(),
-        case("-o is a pose file", "similarity {d}/S/manifest.csv --steps 2 -o {d}/S/sphere-twist/pose0.ply", &["-o", "overwrite the input", "pose0.ply"]).dataset(),
-        case("-o names a pose file by another path", "similarity {d}/S/manifest.csv --steps 2 -o {d}/S/../S/sphere-twist/pose1.ply", &["-o", "overwrite the input"]).dataset(),
-        case("--details is a pose file", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --details {d}/S/sphere-twist/pose2.ply", &["--details", "overwrite the input"]).dataset().no_output("D.csv"),
+        case("-o is a pose file", "similarity {d}/S/manifest.csv --steps 2 -o {d}/S/sphere-twist/pose000.ply", &["-o", "overwrite the input", "pose000.ply"]).dataset(),
+        case("-o names a pose file by another path", "similarity {d}/S/manifest.csv --steps 2 -o {d}/S/../S/sphere-twist/pose001.ply", &["-o", "overwrite the input"]).dataset(),
+        case("--details is a pose file", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --details {d}/S/sphere-twist/pose002.ply", &["--details", "overwrite the input"]).dataset().no_output("D.csv"),
         case("--details is -o", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --details {d}/D.csv", &["--details", "same file as -o"]).dataset().no_output("D.csv"),
         case("unknown --base", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --base nope", &["--base \"nope\""]).dataset().no_output("D.csv"),
         case("resume from a garbage journal", "similarity {d}/S/manifest.csv --steps 2 -o {d}/D.csv --resume", &["D.csv.journal", "not a qcshape similarity journal"]).dataset().file("D.csv.journal", "hello\nworld\n").no_output("D.csv"),

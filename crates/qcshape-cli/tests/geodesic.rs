@@ -51,7 +51,7 @@ fn files_in_poses_out() {
         "{stdout}"
     );
     for i in 0..=4 {
-        let p = out_dir.join(format!("pose_{i:03}.ply"));
+        let p = out_dir.join(format!("pose{i:03}.ply"));
         let s = qcshape::io::load_shape(&p).unwrap();
         assert_eq!(s.n_vertices(), 162);
     }

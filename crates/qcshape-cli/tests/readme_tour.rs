@@ -71,8 +71,8 @@ fn the_readme_tour_runs_as_written() {
     // What the lines promise, and what the README's Python example reads.
     for f in [
         "syn/manifest.csv",
-        "syn/sphere-twist/pose0.ply",
-        "syn/sphere-twist/pose2.ply",
+        "syn/sphere-twist/pose000.ply",
+        "syn/sphere-twist/pose002.ply",
         "D.csv",
         "pairs.csv",
         "map.svg",

@@ -36,7 +36,7 @@ fn writes_48_deformations_that_load_and_that_info_reads() {
     assert!(!out_dir.join("genus1").exists());
 
     // `info` reads a file the manifest lists.
-    let pose = out_dir.join("peanut-ripple").join("pose2.ply");
+    let pose = out_dir.join("peanut-ripple").join("pose002.ply");
     let info = qcshape(&["info", "--json", pose.to_str().unwrap()]);
     assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
@@ -50,8 +50,8 @@ fn writes_48_deformations_that_load_and_that_info_reads() {
     assert!(out.status.success());
     for rel in [
         "manifest.csv",
-        "peanut-ripple/pose2.ply",
-        "sphere-twist/pose1.ply",
+        "peanut-ripple/pose002.ply",
+        "sphere-twist/pose001.ply",
     ] {
         assert_eq!(
             std::fs::read(out_dir.join(rel)).unwrap(),
@@ -84,7 +84,7 @@ fn genus_one_and_other_formats() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(stdout.lines().count(), 2, "{stdout}");
     assert!(stdout.contains("24 genus-1 deformations"), "{stdout}");
-    assert!(out_dir.join("sphere-bend/pose3.obj").is_file());
+    assert!(out_dir.join("sphere-bend/pose003.obj").is_file());
     let ds = Dataset::load(&out_dir.join("genus1")).unwrap();
     assert_eq!(ds.deformations.len(), 24);
     assert_eq!(ds.deformations[0].n_poses(), 4);

@@ -107,7 +107,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         let dir = a.out.join(&s.name);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (k, p) in poses.iter().enumerate() {
-            let name = format!("pose{k:02}.ply");
+            let name = format!("pose{k:03}.ply");
             io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
             rows.push(ManifestRow {
                 deformation: s.name.clone(),

@@ -3,7 +3,7 @@
 A Python layer over the qcshape Rust library (numpy arrays in and out):
 
     import qcshape as qs
-    V, F = qs.read_mesh("pose0.ply")                     # float64 (nV, 3), int64 (nF, 3)
+    V, F = qs.read_mesh("pose000.ply")                     # float64 (nV, 3), int64 (nF, 3)
     V, F, fields = qs.read_mesh("scan.vtu", point_data=True)  # + {"name": (nV,) or (nV, k)}
     space = qs.ShapeSpace(F, metric="isometric", lam=0.01)
     g = space.geodesic(VA, VB, steps=8)                  # g.length, g.path (9, nV, 3), ...

@@ -288,7 +288,7 @@ pub fn write_meshes(out: &Path, defs: &[Deformation]) -> Result<PathBuf, StudyEr
             source,
         })?;
         for (k, p) in d.poses.iter().enumerate() {
-            let name = format!("pose{k:02}.ply");
+            let name = format!("pose{k:03}.ply");
             crate::io::write_mesh(&dir.join(&name), p, d.topology.faces(), &Default::default())?;
             rows.push(ManifestRow {
                 deformation: d.name.clone(),

@@ -239,7 +239,7 @@ pub fn write_benchmark(dir: &Path, defs: &[Deformation], format: Format) -> Resu
     for d in defs {
         create_dir(&dir.join(&d.name))?;
         for (k, pose) in d.poses.iter().enumerate() {
-            let rel = PathBuf::from(&d.name).join(format!("pose{k}.{}", format.extension()));
+            let rel = PathBuf::from(&d.name).join(format!("pose{k:03}.{}", format.extension()));
             io::write_mesh_with(
                 &dir.join(&rel),
                 format,
@@ -423,7 +423,7 @@ mod tests {
             let ext = format.extension();
             assert!(
                 text.starts_with(&format!(
-                    "deformation,label,pose,path\nsphere-twist,twist,0,sphere-twist/pose0.{ext}\n"
+                    "deformation,label,pose,path\nsphere-twist,twist,0,sphere-twist/pose000.{ext}\n"
                 )),
                 "{text}"
             );
@@ -465,7 +465,7 @@ mod tests {
             for d in &defs[..8] {
                 for k in 0..3 {
                     bytes.extend(
-                        std::fs::read(dir.path().join(name).join(&d.name).join(format!("pose{k}.ply")))
+                        std::fs::read(dir.path().join(name).join(&d.name).join(format!("pose{k:03}.ply")))
                             .unwrap(),
                     );
                 }
