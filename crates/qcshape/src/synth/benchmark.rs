@@ -465,8 +465,13 @@ mod tests {
             for d in &defs[..8] {
                 for k in 0..3 {
                     bytes.extend(
-                        std::fs::read(dir.path().join(name).join(&d.name).join(format!("pose{k:03}.ply")))
-                            .unwrap(),
+                        std::fs::read(
+                            dir.path()
+                                .join(name)
+                                .join(&d.name)
+                                .join(format!("pose{k:03}.ply")),
+                        )
+                        .unwrap(),
                     );
                 }
             }
