@@ -3,8 +3,8 @@
 
 use anyhow::{bail, Context, Result};
 use qcshape::defaults;
+use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
-use qcshape::path::{GeodesicOptions, Solver};
 
 /// The metric (METHOD.md) and its variants.
 #[derive(Debug, Clone, clap::Args)]

@@ -8,7 +8,7 @@ use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions};
 use qcshape::dataset::Dataset;
 use qcshape::experiment::analysis::dataset_labels;
 use qcshape::experiment::classification::{classify_set, score, write_assignments, write_confusion};
-use qcshape::path::GeodesicOptions;
+use qcshape::geodesic::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::{Alignment, Transport};
 

@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use qcshape::contribution::path_contributions;
+use qcshape::geodesic::{geodesic, pair_metric, Normalization};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
-use qcshape::path::{geodesic, pair_metric, Normalization};
 
 use crate::args::{MetricArgs, SolverArgs};
 
@@ -90,7 +90,7 @@ fn write_maps(
     ext: &str,
     metric: &dyn qcshape::metric::Metric,
     a: &Shape,
-    g: &qcshape::path::Geodesic,
+    g: &qcshape::geodesic::Geodesic,
 ) -> Result<()> {
     let c = path_contributions(metric, &a.topology, &g.poses, g.scale)?;
     let faces = a.topology.faces();
@@ -177,7 +177,7 @@ pub fn run(args: &Args) -> Result<()> {
             "steps": opts.steps,
             // The name before `Solver::LevenbergMarquardt` was renamed, kept for compatibility.
             "solver": match opts.solver {
-                qcshape::path::Solver::LevenbergMarquardt => "GaussNewtonDirect".to_string(),
+                qcshape::geodesic::Solver::LevenbergMarquardt => "GaussNewtonDirect".to_string(),
                 s => format!("{s:?}"),
             },
             "distance": g.length,

@@ -7,12 +7,12 @@ use std::sync::Arc;
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressStyle;
 use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
-use qcshape::io;
-use qcshape::mesh::Topology;
-use qcshape::path::{
+use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
     Solver,
 };
+use qcshape::io;
+use qcshape::mesh::Topology;
 
 use crate::args::{non_negative, MetricArgs};
 

@@ -5,12 +5,12 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
+use qcshape::geodesic::GeodesicSolver;
 use qcshape::io::{self, Field};
 use qcshape::localize::{
     contrasts, motion_contrasts, motion_maps, pair_maps, read_vertex_mask, region_share, write_map,
     LocalizeOptions, MotionMeasure, MotionScale, VertexMap,
 };
-use qcshape::path::GeodesicSolver;
 use qcshape::render::RenderOptions;
 use qcshape::similarity::{prepare, PipelineOptions};
 

@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{self, Dataset, Deformation, ManifestRow};
+use qcshape::geodesic::{normalization_factor, Normalization};
 use qcshape::io;
-use qcshape::path::{normalization_factor, Normalization};
 use qcshape::transport::{TransferOptions, TransferSetup, Transport};
 
 use crate::args::{MetricArgs, SolverArgs};

@@ -6,7 +6,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use qcshape::path::GeodesicSolver;
+use qcshape::geodesic::GeodesicSolver;
 use qcshape::similarity::{compute_listed_pairs, prepare};
 use qcshape::space::ShapeSpace;
 
@@ -83,7 +83,7 @@ pub fn pair_distances<'py>(
         let metric = opts
             .metric
             .build_for(&topo, &[&defs[0][0]])
-            .map_err(|e| errors::space(qcshape::path::GeodesicError::from(e).into()))?;
+            .map_err(|e| errors::space(qcshape::geodesic::GeodesicError::from(e).into()))?;
         let solver = GeodesicSolver::new(metric.as_ref(), topo, opts.geodesic.clone())
             .map_err(|e| errors::space(e.into()))?;
         compute_listed_pairs(&solver, opts.approx, &names, &defs, &todo, Some(cancel), |_| {

@@ -5,8 +5,8 @@
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::PyErr;
 use qcshape::dataset::DatasetError;
+use qcshape::geodesic::{GeodesicError, InterpolationError};
 use qcshape::io::IoError;
-use qcshape::path::{GeodesicError, InterpolationError};
 use qcshape::similarity::{PipelineError, SimilarityError};
 use qcshape::space::SpaceError;
 use qcshape::transport::TransportError;

@@ -5,8 +5,8 @@
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
-use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
 

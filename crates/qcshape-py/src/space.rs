@@ -3,8 +3,8 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use qcshape::geodesic::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::mesh::Topology;
-use qcshape::path::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::similarity::{KarcherOptions, Stage};
 use qcshape::space::ShapeSpace;
 use qcshape::transport::Transport;
@@ -162,7 +162,7 @@ impl PyShapeSpace {
                     ..Default::default()
                 }
                 .options()?;
-                let g = qcshape::path::GeodesicOptions {
+                let g = qcshape::geodesic::GeodesicOptions {
                     steps: g.steps,
                     ..self.space.geodesic_options().clone()
                 };

@@ -15,12 +15,12 @@
 
 use std::time::Instant;
 
+use qcshape::geodesic::{geodesic, GeodesicOptions, Normalization, Solver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{
     Conformal, ConformalForm, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid,
     L2,
 };
-use qcshape::path::{geodesic, GeodesicOptions, Normalization, Solver};
 use qcshape::synth::icosphere;
 
 fn twist_stretch(s: &Shape) -> Shape {

@@ -11,10 +11,10 @@
 use std::time::Instant;
 
 use qcshape::experiment::geometry::{sphere_pair, tube_pair};
+use qcshape::geodesic::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
-use qcshape::path::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver};
 
 fn arg<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
     args.iter()

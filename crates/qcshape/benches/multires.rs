@@ -9,9 +9,9 @@
 
 use std::time::Instant;
 
+use qcshape::geodesic::{GeodesicOptions, GeodesicSolver, InterpolationOptions, Interpolator};
 use qcshape::mesh::Shape;
 use qcshape::metric::{MetricKind, MetricSpec};
-use qcshape::path::{GeodesicOptions, GeodesicSolver, InterpolationOptions, Interpolator};
 use qcshape::synth::icosphere;
 
 fn twist_stretch(s: &Shape) -> Vec<[f64; 3]> {

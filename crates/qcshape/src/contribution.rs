@@ -19,7 +19,7 @@
 //! (the rigid motion) are taken at their optimum ([`Metric::best_aux`]), as for the lengths
 //! the solvers report, so for the rigid metric the energy split sums to
 //! `sum_i (G_{P_i} + G_{P_{i+1}})` at the optimal motion, which can differ slightly from
-//! [`crate::path::Geodesic::energy`] (taken at the solver's motions).
+//! [`crate::geodesic::Geodesic::energy`] (taken at the solver's motions).
 //!
 //! The similarity of two deformations `M`, `N` is `sum_k dis(M_k, N_k)` (eq. 13); its split is
 //! `s_v = sum_k l_v(geodesic M_k -> N_k)` ([`pair_contributions`]).
@@ -27,9 +27,9 @@
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::mesh::Topology;
 use crate::metric::{At, Metric, Pattern, Segment};
-use crate::path::{GeodesicError, GeodesicSolver};
 use crate::similarity::Pose;
 
 /// Why contributions cannot be computed.
@@ -116,7 +116,7 @@ pub struct PathContributions {
 
 /// The per-vertex energy and length split (module docs) of the path `poses` (`P_0 .. P_N`,
 /// each #V x 3, N >= 1) for `metric` on `topo`, after multiplying all coordinates by `scale`
-/// (the solvers' normalization: [`crate::path::Geodesic::scale`]; 1 for poses that are
+/// (the solvers' normalization: [`crate::geodesic::Geodesic::scale`]; 1 for poses that are
 /// already scaled). Frozen weights ([`Metric::frozen_weights`]) come from the path's ends, as
 /// in the solvers. Segments are evaluated in parallel and gathered in order (deterministic).
 pub fn path_contributions(
@@ -277,11 +277,11 @@ pub fn mass_fraction(values: &[f64], mask: &[bool]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::{GeodesicOptions, Normalization};
     use crate::metric::{
         Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, MetricKind, MetricSpec, QcWeights,
         QuasiConformal, Regularized, Rigid, L2,
     };
-    use crate::path::{GeodesicOptions, Normalization};
     use crate::synth::icosphere;
 
     fn metrics() -> Vec<Box<dyn Metric>> {
@@ -334,7 +334,8 @@ mod tests {
             ..Default::default()
         };
         for m in metrics() {
-            let g = crate::path::geodesic(m.as_ref(), &s, &b, &opts, Normalization::MeanEdgeOfBoth).unwrap();
+            let g =
+                crate::geodesic::geodesic(m.as_ref(), &s, &b, &opts, Normalization::MeanEdgeOfBoth).unwrap();
             let c = path_contributions(m.as_ref(), &s.topology, &g.poses, g.scale).unwrap();
             let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
             let e: f64 = c.energy.iter().sum();

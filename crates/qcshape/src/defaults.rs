@@ -1,5 +1,5 @@
 //! The default settings, defined once: the library's option structs
-//! ([`crate::path::GeodesicOptions`], [`crate::path::InterpolationOptions`],
+//! ([`crate::geodesic::GeodesicOptions`], [`crate::geodesic::InterpolationOptions`],
 //! [`crate::metric::MetricSpec::new`], [`crate::similarity::PipelineOptions`], the experiments)
 //! and every `qcshape` command's `--help` take their defaults from here, so that the same
 //! option means the same method in every command.
@@ -8,8 +8,8 @@
 //! command that keeps a different value does so through one of the named exceptions at the end
 //! of this module, each with the reason, and says so in its `--help`.
 
+use crate::geodesic::Solver;
 use crate::metric::{MetricKind, MetricScale, QcNormalize};
-use crate::path::Solver;
 use crate::transport::{Alignment, Transport};
 
 /// The metric: isometric. On the calibrated scale it is the metric whose geometry carries its
@@ -97,7 +97,7 @@ pub const SEED: u64 = 0;
 
 /// Poses inserted between key poses in the paper's experiments (section 3.3: 3 key poses + 3
 /// inserted between each pair; section 4: 8 frames + 24 inserted poses per cycle). Used by
-/// `reproduce`, `lv run`, `lv cycle` and [`crate::path::InterpolationOptions`]'s default (an
+/// `reproduce`, `lv run`, `lv cycle` and [`crate::geodesic::InterpolationOptions`]'s default (an
 /// interpolator that inserts nothing does nothing).
 pub const PAPER_INSERT: usize = 3;
 
@@ -139,7 +139,7 @@ pub const LV_TRANSPORT: Transport = Transport::Parallel;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path::{GeodesicOptions, InterpolationOptions};
+    use crate::geodesic::{GeodesicOptions, InterpolationOptions};
     use crate::similarity::PipelineOptions;
 
     #[test]

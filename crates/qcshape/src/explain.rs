@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::contribution::{pair_contributions, ContributionError, PairContributions};
+use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::io::{self, Field, IoError};
-use crate::path::{GeodesicError, GeodesicSolver};
 use crate::render::{render_png, RenderError, RenderOptions};
 use crate::similarity::{PipelineOptions, Prepared};
 

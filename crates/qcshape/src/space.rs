@@ -1,7 +1,7 @@
 //! The shape space as one value: a [`ShapeSpace`] owns its topology, its metric and the geodesic
 //! options, and offers the operations a geomstats user expects (`squared_norm`, `inner`,
 //! `geodesic`, `dist`, `log`, `transport`, `karcher_mean`, `interpolate`, `transfer`, pairwise
-//! distances), each a thin call into [`crate::path`], [`crate::transport`] and
+//! distances), each a thin call into [`crate::geodesic`], [`crate::transport`] and
 //! [`crate::similarity`]. It holds no borrowed lifetimes (the metric is an `Arc`), so a binding
 //! (Python) can keep it, clone it cheaply and share it between threads.
 //!
@@ -22,12 +22,12 @@ use std::sync::Arc;
 use thiserror::Error;
 
 use crate::dataset::Deformation;
-use crate::mesh::{MeshError, Shape, Topology};
-use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
-use crate::path::{
+use crate::geodesic::{
     self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
     InterpolationError, InterpolationOptions, Interpolator, Normalization, SolveContext,
 };
+use crate::mesh::{MeshError, Shape, Topology};
+use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::similarity::{
     assemble, compute_pairs, intrinsic_kmeans, karcher_mean, log_map, prepare, similarities, DistanceMatrix,
     IntrinsicClustering, IntrinsicError, IntrinsicOptions, KarcherMean, KarcherOptions, MatrixError,
@@ -312,7 +312,7 @@ impl ShapeSpace {
     /// The discrete geodesic from `a` to `b` (each #V x 3) with `N` = `steps` segments (eq.
     /// 12): poses `(N + 1) x #V x 3` in input units (ends bit-exact), length = `dis(a, b)`,
     /// energy (with its geometric and regularizer parts), iterations, convergence, in the units
-    /// of both ends ([`ShapeSpace::units`]; the same geodesic as [`path::geodesic_between`]).
+    /// of both ends ([`ShapeSpace::units`]; the same geodesic as [`geodesic::geodesic_between`]).
     pub fn geodesic(&self, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<Geodesic, SpaceError> {
         let (sa, sb) = (
             self.shape("the first shape", a)?,
@@ -320,7 +320,7 @@ impl ShapeSpace {
         );
         let u = self.units(&[a, b])?;
         let metric = self.metric(&u);
-        Ok(path::geodesic(
+        Ok(geodesic::geodesic(
             metric.as_ref(),
             &sa,
             &sb,

@@ -6,8 +6,8 @@ use qcshape::experiment::analysis::{analyse, class_count, dataset_labels, Analys
 use qcshape::experiment::classification::classify_set;
 use qcshape::experiment::provenance::Provenance;
 use qcshape::experiment::reproduce::{ReproduceReport, Reproduction};
+use qcshape::geodesic::GeodesicOptions;
 use qcshape::metric::{MetricKind, MetricSpec};
-use qcshape::path::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 

@@ -1,11 +1,11 @@
 //! Geodesic properties required by the engine issue, on small generated meshes.
 
+use qcshape::geodesic::{geodesic, Ends, GeodesicOptions, GeodesicSolver, Normalization, PathEnergy, Solver};
 use qcshape::mesh::{geometry, Shape};
 use qcshape::metric::{
     Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal,
     Regularized, Rigid, L2,
 };
-use qcshape::path::{geodesic, Ends, GeodesicOptions, GeodesicSolver, Normalization, PathEnergy, Solver};
 use qcshape::synth::icosphere;
 
 /// A twisted and stretched copy of `s` (twist `k` radians per unit height about z, stretch in z).

@@ -4,8 +4,8 @@
 //! mean-edge units), which is checked too.
 
 use qcshape::experiment::geometry::{centre_line_length, sphere_pair, tube_pair, TUBE_LENGTH};
+use qcshape::geodesic::{geodesic_between, GeodesicOptions};
 use qcshape::metric::{MetricKind, MetricSpec};
-use qcshape::path::{geodesic_between, GeodesicOptions};
 
 fn opts(steps: usize) -> GeodesicOptions {
     GeodesicOptions {

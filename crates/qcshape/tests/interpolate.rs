@@ -1,12 +1,12 @@
 //! Temporal interpolation with spatial multiresolution (paper section 2.2.1).
 
-use qcshape::mesh::{geometry, Shape};
-use qcshape::metric::{FrozenL2, Isometric, Metric, Regularized};
-use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
-use qcshape::path::{
+use qcshape::geodesic::{
     interpolate_middle, interpolate_sequence, GeodesicOptions, GeodesicSolver, InterpolationOptions,
     Interpolator, Normalization,
 };
+use qcshape::mesh::{geometry, Shape};
+use qcshape::metric::{FrozenL2, Isometric, Metric, Regularized};
+use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
 use qcshape::synth::icosphere;
 
 fn map(s: &Shape, f: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {

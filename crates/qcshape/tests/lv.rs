@@ -508,11 +508,11 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
 // ---- The harder (overlapping) phantom and the cohort study (section 4.3). ----
 
 use qcshape::cluster::ClusterMethod;
+use qcshape::geodesic::GeodesicOptions;
 use qcshape::lv::cohort::{write_labels, write_subject, LABELS_NAME};
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, MeshSettings, MeshedCohort};
 use qcshape::lv::phantom::{overlap_model, roster, sample_model};
 use qcshape::lv::study::{analyse, baselines, compare_methods, labels_of, SplitOptions, Tick};
-use qcshape::path::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
 use qcshape::transport::{Alignment, Motion};

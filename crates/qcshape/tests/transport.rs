@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 
+use qcshape::geodesic::{GeodesicOptions, GeodesicSolver, Normalization};
 use qcshape::mesh::{geometry, Shape, Topology};
 use qcshape::metric::{At, Calibration, ConformalForm, MetricKind, MetricSpec, QcWeights, Segment};
-use qcshape::path::{GeodesicOptions, GeodesicSolver, Normalization};
 use qcshape::synth::icosphere;
 use qcshape::transport::{
     parallel_transport, schild_ladder, transfer, ParallelOptions, SchildOptions, TransferOptions,

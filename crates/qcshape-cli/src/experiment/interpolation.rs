@@ -8,8 +8,8 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use qcshape::dataset::{load_sequence, mesh_files, Dataset, Deformation};
 use qcshape::experiment::interpolation::{pick_frames, InterpolationExperiment};
+use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::MetricKind;
-use qcshape::path::{GeodesicOptions, Solver};
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
 use crate::args::{non_negative, VariantArgs};

@@ -13,9 +13,9 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::cluster::ClusterMethod;
 use qcshape::dataset::{load_sequence, mesh_files, Deformation};
+use qcshape::geodesic::GeodesicOptions;
 use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
 use qcshape::lv::study_report::cycle_report;
-use qcshape::path::GeodesicOptions;
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs};

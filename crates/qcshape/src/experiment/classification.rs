@@ -19,8 +19,8 @@ use crate::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
     ConfusionMatrix, EvalError, Matching, OneVsRest,
 };
+use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::io::{write_atomically, IoError};
-use crate::path::{GeodesicError, GeodesicSolver};
 use crate::similarity::{
     assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,
     MatrixError, PipelineError, PipelineOptions, Prepared, ShareSummary, Stage,
@@ -361,7 +361,7 @@ pub(crate) mod tests {
         .collect();
         assert_eq!(defs.len(), 4);
         let opts = PipelineOptions {
-            geodesic: crate::path::GeodesicOptions {
+            geodesic: crate::geodesic::GeodesicOptions {
                 steps: 2,
                 ..Default::default()
             },

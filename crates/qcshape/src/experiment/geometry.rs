@@ -15,10 +15,10 @@ use std::f64::consts::PI;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::geodesic::{geodesic_between, GeodesicError, GeodesicOptions};
 use crate::mesh::geometry::{norm, sub};
 use crate::mesh::Shape;
 use crate::metric::MetricSpec;
-use crate::path::{geodesic_between, GeodesicError, GeodesicOptions};
 use crate::synth::{bend_along_x, icosphere, tube};
 
 /// Rings and vertices per ring of the bent tube (1,440 vertices).

@@ -30,14 +30,14 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::dataset::Deformation;
+use crate::geodesic::{
+    normalization_factor, GeodesicOptions, InterpolationError, InterpolationOptions, Interpolator,
+    Normalization,
+};
 use crate::io::IoError;
 use crate::mesh::{geometry, Topology};
 use crate::metric::{Metric, MetricKind, MetricSpec};
 use crate::multires::DEFAULT_RATIO;
-use crate::path::{
-    normalization_factor, GeodesicOptions, InterpolationError, InterpolationOptions, Interpolator,
-    Normalization,
-};
 use crate::plot::PlotError;
 
 /// Name of the baseline method: the average of the two known poses (linear interpolation).
@@ -475,7 +475,7 @@ impl InterpolationExperiment {
                         deformation: t.def.name.clone(),
                         pose: t.pose,
                         method: methods[m].clone(),
-                        source: InterpolationError::from(crate::path::GeodesicError::from(e)),
+                        source: InterpolationError::from(crate::geodesic::GeodesicError::from(e)),
                     })?;
                 let r = self.predict(metric.as_ref(), t, scale, &methods[m]);
                 progress();

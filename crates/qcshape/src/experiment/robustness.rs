@@ -537,8 +537,8 @@ fn fmt(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::GeodesicOptions;
     use crate::metric::{MetricKind, MetricSpec};
-    use crate::path::GeodesicOptions;
 
     #[test]
     fn baselines_and_a_metric_on_a_small_set() {

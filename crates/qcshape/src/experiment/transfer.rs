@@ -33,10 +33,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::geodesic::{GeodesicOptions, Normalization};
 use crate::io::IoError;
 use crate::mesh::{geometry, Shape, Topology};
 use crate::metric::{MetricKind, MetricSpec};
-use crate::path::{GeodesicOptions, Normalization};
 use crate::plot::PlotError;
 use crate::synth::{deform, initial_shape, template, DeformParams, DeformationKind, InitialShape, MAX_LEVEL};
 use crate::transport::{SchildOptions, Transfer, TransferOptions, TransferSetup, Transport, TransportError};
@@ -365,7 +365,7 @@ impl TransferExperiment {
                 };
                 let calibration = spec
                     .calibrate(&topo, &[&scaled])
-                    .map_err(|e| wrap(crate::path::GeodesicError::from(e).into()))?;
+                    .map_err(|e| wrap(crate::geodesic::GeodesicError::from(e).into()))?;
                 TransferSetup::new(spec, &calibration, topo.clone(), options.clone()).map_err(wrap)
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::contribution::{pair_contributions, ContributionError};
-use crate::path::GeodesicSolver;
+use crate::geodesic::GeodesicSolver;
 use crate::similarity::{all_pairs, Pose};
 
 mod files;

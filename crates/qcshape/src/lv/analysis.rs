@@ -16,8 +16,8 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use super::tps::{Tps, TpsError};
+use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::mesh::{geometry, Topology};
-use crate::path::{GeodesicError, GeodesicSolver};
 
 /// One pose: #V x 3 positions.
 pub type Pose = Vec<[f64; 3]>;
@@ -434,8 +434,8 @@ pub fn pose_distance_matrix(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::GeodesicOptions;
     use crate::metric::{MetricKind, MetricSpec};
-    use crate::path::GeodesicOptions;
     use crate::synth::icosphere;
 
     /// An open cylinder of radius `r` about the z axis through (cx, cy), heights 0..h.

@@ -11,12 +11,12 @@ use super::analysis::{close_cycle, drop_closing_pose, pose_distance_matrix, Pose
 use super::study::{coarsen, Progress, StudyError, Tick};
 use crate::dataset::Deformation;
 use crate::embed::{smacof, MdsOptions};
-use crate::mesh::Topology;
-use crate::metric::MetricSpec;
-use crate::path::GeodesicError;
-use crate::path::{
+use crate::geodesic::GeodesicError;
+use crate::geodesic::{
     normalization_factor, GeodesicOptions, GeodesicSolver, InterpolationOptions, Interpolator, Normalization,
 };
+use crate::mesh::Topology;
+use crate::metric::MetricSpec;
 use crate::similarity::DistanceMatrix;
 
 /// Settings of a cycle's interpolation and map (shared with the cohort study).

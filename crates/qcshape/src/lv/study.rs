@@ -19,9 +19,9 @@ use crate::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
     EvalError,
 };
+use crate::geodesic::{GeodesicError, GeodesicSolver, InterpolationError};
 use crate::io::IoError;
 use crate::multires::{Hierarchy, HierarchyError};
-use crate::path::{GeodesicError, GeodesicSolver, InterpolationError};
 use crate::plot::PlotError;
 use crate::similarity::{
     assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,

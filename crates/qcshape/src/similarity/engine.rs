@@ -8,7 +8,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
+use crate::geodesic::{GeodesicError, GeodesicSolver, SolveContext};
 
 /// One pose of a deformation: #V x 3 positions.
 pub type Pose = Vec<[f64; 3]>;
@@ -57,7 +57,7 @@ pub struct PairDistance {
     pub per_pose: Vec<f64>,
     /// For every pose `k`, the energy (eq. 12) of the path whose length is `dis(M_k, N_k)`
     /// split as `[geometric, regularizer]` (the geometric term `c_G G` and the L2 regularizer
-    /// `lambda c_L L2` of eq. 11, in the metric's units; [`crate::path::Geodesic`]): the
+    /// `lambda c_L L2` of eq. 11, in the metric's units; [`crate::geodesic::Geodesic`]): the
     /// geodesic's for [`Approx::Exact`], the straight path's for [`Approx::Straight`], `[0, 0]`
     /// for identical poses. `None` when unknown: [`Approx::Tangent`] measures no path, and
     /// pairs read from journals or shard files written before the parts were recorded have
@@ -82,10 +82,10 @@ impl PairDistance {
 
     /// The L2 regularizer's share of the pair's energy, `sum_k regularizer_k / sum_k
     /// (geometric_k + regularizer_k)` in [0, 1] (0 for a pair of zero energy,
-    /// [`crate::path::share`]); above 0.5 the pair's distance measures L2 displacement more
+    /// [`crate::geodesic::share`]); above 0.5 the pair's distance measures L2 displacement more
     /// than the metric's geometry. `None` when the parts are unknown.
     pub fn regularizer_share(&self) -> Option<f64> {
-        self.energy_parts().map(|[g, r]| crate::path::share(g, r))
+        self.energy_parts().map(|[g, r]| crate::geodesic::share(g, r))
     }
 }
 
@@ -418,8 +418,8 @@ pub fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::GeodesicOptions;
     use crate::metric::{Isometric, Metric, Regularized};
-    use crate::path::GeodesicOptions;
     use crate::synth::icosphere;
 
     fn deformation(base: &[[f64; 3]], amp: f64, poses: usize) -> Vec<Pose> {
@@ -557,8 +557,8 @@ mod tests {
     /// pair's share is the regularizer's part of the summed energy.
     #[test]
     fn pairs_carry_the_energy_split_of_every_pose() {
+        use crate::geodesic::Ends;
         use crate::metric::{MetricKind, MetricSpec};
-        use crate::path::Ends;
         let s = icosphere(2);
         let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
         let base: Pose = s.positions.iter().map(|p| p.map(|c| c * f)).collect();
@@ -615,7 +615,7 @@ mod tests {
                 previous = Some(g);
             }
             let [geo, reg] = exact.energy_parts().unwrap();
-            assert_eq!(exact.regularizer_share(), Some(crate::path::share(geo, reg)));
+            assert_eq!(exact.regularizer_share(), Some(crate::geodesic::share(geo, reg)));
             assert_eq!(reg > 0.0, kind != MetricKind::L2, "{kind:?}");
 
             let straight = run(Approx::Straight);

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::path::{GeodesicError, GeodesicSolver, SolveContext};
+use crate::geodesic::{GeodesicError, GeodesicSolver, SolveContext};
 
 #[cfg(doc)]
 use super::engine::pose_distances;
@@ -260,8 +260,8 @@ fn squared_similarity(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::GeodesicOptions;
     use crate::metric::{Isometric, Regularized};
-    use crate::path::GeodesicOptions;
     use crate::synth::icosphere;
 
     /// The level-1 icosphere and its positions scaled to unit mean edge length (#V x 3).

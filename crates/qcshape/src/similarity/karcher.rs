@@ -1,7 +1,7 @@
 //! Intrinsic (Karcher) means of poses in shape space, with the discrete log map (METHOD.md,
 //! "k-means (eq. 14) with intrinsic means").
 
-use crate::path::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
+use crate::geodesic::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
 
 use super::engine::Pose;
 
@@ -149,8 +149,8 @@ pub fn karcher_mean(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geodesic::GeodesicOptions;
     use crate::metric::{FrozenL2, Isometric, Regularized};
-    use crate::path::GeodesicOptions;
     use crate::synth::icosphere;
 
     fn scaled(p: &[[f64; 3]], s: [f64; 3]) -> Pose {

@@ -9,12 +9,12 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::dataset::Deformation;
-use crate::mesh::{MeshError, Topology};
-use crate::metric::{Calibration, Metric, MetricSpec};
-use crate::path::{
+use crate::geodesic::{
     normalization_factor, GeodesicError, GeodesicOptions, GeodesicSolver, InterpolationError,
     InterpolationOptions, Interpolator, Normalization,
 };
+use crate::mesh::{MeshError, Topology};
+use crate::metric::{Calibration, Metric, MetricSpec};
 use crate::transport::{
     align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
 };

@@ -55,7 +55,7 @@ fn dist_equals_the_library_geodesic() {
     .unwrap();
     let sb = Shape::new(a.topology.clone(), b.clone()).unwrap();
     // Both ends' units, as `qcshape geodesic`: the same geodesic, in either order.
-    let direct = path::geodesic_between(
+    let direct = geodesic::geodesic_between(
         &MetricSpec::new(MetricKind::Conformal),
         &a,
         &sb,
@@ -63,7 +63,7 @@ fn dist_equals_the_library_geodesic() {
     )
     .unwrap();
     assert_eq!(s.geodesic(&a.positions, &b).unwrap().length, direct.length);
-    let back = path::geodesic_between(
+    let back = geodesic::geodesic_between(
         &MetricSpec::new(MetricKind::Conformal),
         &sb,
         &a,

@@ -11,7 +11,7 @@
 //! - [`mod@transfer`]: the transfer of a deformation `M_0 .. M_K` to a new base `N_0`.
 //!
 //! All computations run in the normalized coordinates of the geodesic solver (one common
-//! factor, see [`crate::path::Normalization`]): the forms mix different powers of length (for
+//! factor, see [`crate::geodesic::Normalization`]): the forms mix different powers of length (for
 //! example `G + lambda L2`), so the transport depends on the scale.
 
 pub mod align;
@@ -30,8 +30,8 @@ pub use transfer::{
 
 use thiserror::Error;
 
+use crate::geodesic::GeodesicError;
 use crate::mesh::MeshError;
-use crate::path::GeodesicError;
 
 /// Errors of the transport and transfer computations.
 #[derive(Debug, Error)]
@@ -69,7 +69,7 @@ pub(crate) fn unflat(v: &[f64]) -> Vec<[f64; 3]> {
 }
 
 /// Euclidean dot product of two flat vectors (the geodesic solvers' vectorized one).
-pub(crate) use crate::path::dot;
+pub(crate) use crate::geodesic::dot;
 
 /// `b - a` (#V x 3).
 pub(crate) fn difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {

@@ -16,7 +16,7 @@
 //! its own ends). A flat metric (constant quadratic form, e.g. L2 with frozen areas) has
 //! straight geodesics, and the ladder then returns `V_0` unchanged.
 
-use crate::path::{GeodesicSolver, SolveContext};
+use crate::geodesic::{GeodesicSolver, SolveContext};
 
 use super::parallel::check_curve;
 use super::TransportError;

@@ -21,9 +21,9 @@ use std::time::Instant;
 use super::parallel::{parallel_transport, ParallelOptions, StepDiagnostics};
 use super::schild::{schild_ladder, RungDiagnostics, SchildOptions};
 use super::{difference, TransportError, TransportMetric};
+use crate::geodesic::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization, SolveContext};
 use crate::mesh::{Shape, Topology};
 use crate::metric::{Calibration, Metric, MetricSpec};
-use crate::path::{normalization_factor, GeodesicOptions, GeodesicSolver, Normalization, SolveContext};
 
 /// How a deformation segment is carried to the new base. No `Default`: the pipeline's default
 /// is [`crate::defaults::TRANSPORT`] (translation), while carrying one vector along a curve
@@ -387,7 +387,7 @@ pub fn transfer(
     let scaled: Vec<[f64; 3]> = base.positions.iter().map(|p| p.map(|c| c * f)).collect();
     let calibration = spec
         .calibrate(&base.topology, &[&scaled])
-        .map_err(crate::path::GeodesicError::from)?;
+        .map_err(crate::geodesic::GeodesicError::from)?;
     let setup = TransferSetup::new(spec, &calibration, base.topology.clone(), options.clone())?;
     setup.solver()?.run_shapes(deformation, base, method)
 }

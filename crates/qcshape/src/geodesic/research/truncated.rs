@@ -14,7 +14,7 @@
 //! Auxiliary unknowns (rigid motions) are eliminated: they are reset to their optimum after
 //! every step, and the conjugate gradients run on the Schur complement of their blocks.
 //!
-//! Newton's method ([`crate::path::Solver::Newton`]) runs the same iteration on the exact Hessian:
+//! Newton's method ([`crate::geodesic::Solver::Newton`]) runs the same iteration on the exact Hessian:
 //! the metric's second-order part `sum r_i d2 r_i` is added to the blocks (the geodesic is a
 //! large-residual problem, on which the Gauss-Newton model converges only linearly). Far from
 //! the geodesic that Hessian is indefinite: conjugate gradients stop at the first direction of
@@ -31,10 +31,10 @@
 
 use rayon::prelude::*;
 
-use crate::path::energy::{Ends, PathEnergy};
-use crate::path::hessian::{SegmentBlocks, Structure};
-use crate::path::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
-use crate::path::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use crate::geodesic::energy::{Ends, PathEnergy};
+use crate::geodesic::hessian::{SegmentBlocks, Structure};
+use crate::geodesic::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
+use crate::geodesic::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
 const MAX_CG: usize = 250;
@@ -337,7 +337,7 @@ pub(crate) fn minimize(
     let g0 = 2.0 * norm(&g);
     let mut iterations = 0;
     let mut stop = StopReason::MaxIterations;
-    if crate::path::at_roundoff(g0, energy) {
+    if crate::geodesic::at_roundoff(g0, energy) {
         return Ok(SolveOutput {
             x,
             iterations,
@@ -406,7 +406,7 @@ pub(crate) fn minimize(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path::hessian::tests::{dense, for_each_problem};
+    use crate::geodesic::hessian::tests::{dense, for_each_problem};
 
     /// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
     fn dense_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {

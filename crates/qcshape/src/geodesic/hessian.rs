@@ -567,7 +567,7 @@ pub(super) mod tests {
     /// Calls `f(metric, path energy, ends, x)` for a small test problem per metric
     /// (regularized isometric and rigid, with auxiliary unknowns), `steps` segments, at a
     /// perturbed linear path.
-    pub(in crate::path) fn for_each_problem(
+    pub(in crate::geodesic) fn for_each_problem(
         steps: usize,
         mut f: impl FnMut(&dyn Metric, &PathEnergy, &Ends, &[f64]),
     ) {
@@ -598,7 +598,7 @@ pub(super) mod tests {
     }
 
     /// Dense `J^T J` and `J^T r` from the per-term Jacobians, for comparison.
-    pub(in crate::path) fn dense(pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<Vec<f64>>, Vec<f64>) {
+    pub(in crate::geodesic) fn dense(pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<Vec<f64>>, Vec<f64>) {
         let n = pe.n_vars();
         let nv3 = 3 * pe.n_vertices();
         let n_aux = pe.metric.n_aux();

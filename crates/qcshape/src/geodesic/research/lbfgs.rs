@@ -4,8 +4,8 @@ use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, T
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 
-use crate::path::energy::{Ends, PathEnergy};
-use crate::path::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
+use crate::geodesic::energy::{Ends, PathEnergy};
+use crate::geodesic::{GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 struct Problem<'a, 'm> {
     pe: &'a PathEnergy<'m>,
@@ -42,8 +42,8 @@ pub(crate) fn minimize(
     let problem = Problem { pe, ends };
     let mut g = vec![0.0; x0.len()];
     let e0 = pe.energy_gradient(&x0, ends, &mut g);
-    let g0 = crate::path::norm(&g);
-    if crate::path::at_roundoff(g0, e0) {
+    let g0 = crate::geodesic::norm(&g);
+    if crate::geodesic::at_roundoff(g0, e0) {
         return Ok(SolveOutput {
             x: x0,
             iterations: 0,
@@ -57,9 +57,9 @@ pub(crate) fn minimize(
         .map_err(err)?
         .with_tolerance_cost(opts.energy_tolerance)
         .map_err(err)?;
-    let max_iters = opts
-        .max_iterations
-        .unwrap_or_else(|| crate::path::Solver::Lbfgs.default_max_iterations()) as u64;
+    let max_iters =
+        opts.max_iterations
+            .unwrap_or_else(|| crate::geodesic::Solver::Lbfgs.default_max_iterations()) as u64;
     let target = opts.target_energy;
     let res = Executor::new(problem, solver)
         .configure(|state| {
@@ -78,7 +78,7 @@ pub(crate) fn minimize(
             let mut g = vec![0.0; pe.n_vars()];
             let x = state.get_best_param().expect("argmin keeps the best parameter");
             pe.energy_gradient(x, ends, &mut g);
-            if crate::path::norm(&g) <= opts.gradient_tolerance * g0 {
+            if crate::geodesic::norm(&g) <= opts.gradient_tolerance * g0 {
                 StopReason::GradientTolerance
             } else {
                 StopReason::EnergyTolerance

@@ -478,8 +478,8 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
+    use crate::geodesic::hessian::tests::dense;
     use crate::metric::{Conformal, ConformalForm, Isometric, Metric, Regularized, Rigid};
-    use crate::path::hessian::tests::dense;
 
     fn problem<'m>(m: &'m dyn Metric, steps: usize, seed: u64) -> (PathEnergy<'m>, Ends, Vec<f64>) {
         let base = crate::synth::icosphere(1);

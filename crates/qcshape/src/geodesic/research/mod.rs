@@ -6,11 +6,11 @@
 //! `path/vertex_blocks.rs`); small meshes may use [`Solver::LevenbergMarquardt`]
 //! (`path/levenberg_marquardt.rs`). See `docs/design.md` for what remains to be separated.
 //!
-//! [`Solver::Lbfgs`]: crate::path::Solver::Lbfgs
-//! [`Solver::GaussNewton`]: crate::path::Solver::GaussNewton
-//! [`Solver::Newton`]: crate::path::Solver::Newton
-//! [`Solver::Preconditioned`]: crate::path::Solver::Preconditioned
-//! [`Solver::LevenbergMarquardt`]: crate::path::Solver::LevenbergMarquardt
+//! [`Solver::Lbfgs`]: crate::geodesic::Solver::Lbfgs
+//! [`Solver::GaussNewton`]: crate::geodesic::Solver::GaussNewton
+//! [`Solver::Newton`]: crate::geodesic::Solver::Newton
+//! [`Solver::Preconditioned`]: crate::geodesic::Solver::Preconditioned
+//! [`Solver::LevenbergMarquardt`]: crate::geodesic::Solver::LevenbergMarquardt
 
 pub(super) mod lbfgs;
 pub(super) mod truncated;
