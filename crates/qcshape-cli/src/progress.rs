@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
-use qcshape::similarity::Stage;
+use qcshape::similarity::{Event, Stage};
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -198,6 +198,30 @@ impl PipelineBars {
                 s.pairs
                     .get_or_insert_with(|| bar(n * n.saturating_sub(1) / 2, run))
                     .inc(1)
+            }
+        }
+    }
+
+    /// Shows the library's similarity-run [`Event`] on the bars of the run `run`: preparation
+    /// stages and pairs advance their bars; a journal opened with `recorded` of `total` pairs
+    /// done starts the pairs bar there.
+    pub(crate) fn event(&self, run: &str, e: &Event<'_>) {
+        match *e {
+            Event::Prepared { stage, .. } => self.tick(run, stage),
+            Event::Pair(_) => self.tick(run, Stage::Similarity),
+            Event::Journal { recorded, total, .. } => {
+                let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+                if s.run != run {
+                    s.clear();
+                    s.run = run.to_string();
+                }
+                s.clear_prepare();
+                if let Some(b) = s.pairs.take() {
+                    b.finish_and_clear();
+                }
+                let pb = bar(total, run);
+                pb.set_position(recorded as u64);
+                s.pairs = Some(pb);
             }
         }
     }

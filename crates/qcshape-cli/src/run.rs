@@ -7,10 +7,11 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
 use qcshape::experiment::provenance::Provenance;
+use qcshape::similarity::{journal_path, Selection, Sink};
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{journaled_matrix, pipeline_options, prepare_with_progress, report_shares};
+use crate::pipeline::{matrix_with_progress, pipeline_options, prepare_with_progress, report_shares};
 
 /// Run the whole analysis of a data set: interpolation, transfer, similarity, classification,
 /// projection and a report.
@@ -127,16 +128,22 @@ fn run_in_pool(args: &Args) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     // One run at a time on OUT's journal (taken before anything is computed; released on exit).
     let matrix_path = args.out.join("similarity.csv");
-    let _lock = qcshape::outputs::RunLock::acquire(&crate::pipeline::journal_path(&matrix_path))?;
+    let _lock = qcshape::outputs::RunLock::acquire(&journal_path(&matrix_path))?;
 
     let tp = Instant::now();
     let prepared = prepare_with_progress(&data, &opts)?;
     let prepare_seconds = tp.elapsed().as_secs_f64();
 
     let ts = Instant::now();
-    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &matrix_path, args.resume)?;
+    let sink = Sink::Journal {
+        path: journal_path(&matrix_path),
+        resume: args.resume,
+    };
+    let outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
+    let matrix = outcome.matrix.clone().context("the run computed every pair")?;
     matrix.write_csv(&matrix_path)?;
-    journal.remove()?;
+    let pairs = outcome.pairs.clone();
+    outcome.finish()?;
     let similarity_seconds = ts.elapsed().as_secs_f64();
     let shares = report_shares(&pairs, opts.metric.kind.label());
 

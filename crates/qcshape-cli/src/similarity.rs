@@ -6,14 +6,13 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
-    merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Shard,
+    journal_path, merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Selection,
+    Shard, Sink,
 };
 use qcshape::transport::{Alignment, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{
-    journal_path, journaled_matrix, pipeline_options, prepare_with_progress, report_shares, sharded_pairs,
-};
+use crate::pipeline::{matrix_with_progress, pipeline_options, prepare_with_progress, report_shares};
 
 /// Compute the similarity matrix of the deformations of a data set.
 ///
@@ -205,7 +204,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let prepared = prepare_with_progress(&data, &opts)?;
     if let Some(shard) = args.shard {
         let file = shard.file_for(&args.output);
-        let pairs = sharded_pairs(&prepared, &opts, shard, &file, args.resume)?;
+        let sink = Sink::Journal {
+            path: file.clone(),
+            resume: args.resume,
+        };
+        let outcome = matrix_with_progress(&prepared, &opts, Selection::Shard(shard), sink)?;
+        let pairs = outcome.pairs;
         eprintln!(
             "wrote shard {shard} ({} of {} pairs) to {} in {:.1} s; when all {} shards are done: qcshape similarity-merge {}.shard-*-of-{} -o {}",
             pairs.len(),
@@ -219,17 +223,23 @@ fn run_in_pool(args: &Args) -> Result<()> {
         );
         return Ok(());
     }
-    let (matrix, pairs, journal) = journaled_matrix(&prepared, &opts, &args.output, args.resume)?;
-    report_shares(&pairs, opts.metric.kind.label());
-    write_matrix(&args.output, &matrix)?;
+    let sink = Sink::Journal {
+        path: journal_path(&args.output),
+        resume: args.resume,
+    };
+    let outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
+    let pairs = &outcome.pairs;
+    report_shares(pairs, opts.metric.kind.label());
+    let matrix = outcome.matrix.as_ref().context("the run computed every pair")?;
+    write_matrix(&args.output, matrix)?;
     if let Some(path) = &args.details {
-        write_details(path, &prepared.names, &pairs)?;
+        write_details(path, &prepared.names, pairs)?;
         if let Some(pair) = &args.explain {
             explain_pair(path, pair, &prepared, &opts)?;
         }
     }
-    journal.remove()?;
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
+    outcome.finish()?;
     eprintln!(
         "wrote {} ({n} x {n}) in {:.1} s{}",
         args.output.display(),
@@ -252,10 +262,7 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
     crate::input::refuse_outputs(&shards, &[(args.details.as_deref(), "--details")])?;
     let merged = merge_shards(&args.shards)?;
     let n = merged.names.len();
-    let matrix = DistanceMatrix::new(
-        merged.names.clone(),
-        qcshape::similarity::assemble(n, &merged.pairs),
-    )?;
+    let matrix = merged.matrix()?;
     write_matrix(&args.output, &matrix)?;
     if let Some(path) = &args.details {
         write_details(path, &merged.names, &merged.pairs)?;

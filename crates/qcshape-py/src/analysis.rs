@@ -167,7 +167,7 @@ impl PyKMeans {
         let opts = slf.opts;
         if let Ok(ds) = x.cast::<PyDataset>() {
             let kw = PipelineKw::from_kwargs(options)?;
-            let (r, popts) = run_pipeline(py, ds.get(), &kw)?;
+            let (r, popts) = run_pipeline(py, ds.get(), &kw, qcshape::similarity::Sink::Memory)?;
             let (kernel, intrinsic) = detached(py, kw.threads, |_| {
                 let kernel =
                     kernel_kmeans(&r.matrix, &opts).map_err(|e| PyValueError::new_err(e.to_string()))?;

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyTuple};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::io::{self, VertexAttributes};
-use qcshape::similarity::{PipelineOptions, Stage};
+use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink, Stage};
 use qcshape::space::{ShapeSpace, SimilarityResult};
 use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
 
@@ -341,6 +341,7 @@ pub fn run_pipeline(
     py: Python<'_>,
     ds: &PyDataset,
     kw: &PipelineKw,
+    sink: Sink,
 ) -> PyResult<(SimilarityResult, PipelineOptions)> {
     let names: Vec<String> = ds.defs.iter().map(|d| d.name.clone()).collect();
     let n = names.len();
@@ -356,14 +357,28 @@ pub fn run_pipeline(
     let bar = Progress::new(kw.progress.unwrap_or(true), [n, n, n * (n - 1) / 2]);
     let defs = ds.defs.clone();
     let template = opts.clone();
+    // One run at a time on a journal (released when the call returns).
+    let _lock = match &sink {
+        Sink::Journal { path, .. } => Some(
+            qcshape::outputs::RunLock::acquire(path)
+                .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("journal: {e}")))?,
+        ),
+        Sink::Memory => None,
+    };
     let r = detached(py, kw.threads, |cancel| {
+        let events = |e: Event<'_>| match e {
+            Event::Prepared { stage, .. } => bar.tick(stage),
+            Event::Pair(_) => bar.tick(Stage::Similarity),
+            Event::Journal { .. } => {}
+        };
+        let run = Run {
+            selection: Selection::All,
+            sink,
+            cancel: Some(cancel),
+            events: &events,
+        };
         space
-            .similarity_matrix(
-                &defs,
-                template,
-                &|stage: Stage, _: &str| bar.tick(stage),
-                Some(cancel),
-            )
+            .similarity_matrix(&defs, template, &run)
             .map_err(errors::space)
     })?;
     Ok((r, opts))
@@ -381,6 +396,12 @@ pub fn run_pipeline(
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md); threads (None: all cores); progress (True: counts on stderr). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
 ///
+/// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the
+/// journal of ``qcshape similarity``); if the call is interrupted (Ctrl-C, a killed kernel or
+/// job), the same call with ``resume=True`` computes only the missing pairs and returns the same
+/// matrix bit for bit. The journal is removed once the matrix is returned; an existing file that
+/// is not a qcshape journal is refused, never replaced.
+///
 /// With ``return_details=True`` the result is ``(D, details)``, details a dict of numpy arrays
 /// over the P = n (n - 1) / 2 pairs i < j in row order and the K poses: ``pairs`` (P, 2) int64
 /// (i, j); ``distance`` (P, K) dis(M_k, N_k); ``geometric_energy`` and ``regularizer_energy``
@@ -390,16 +411,19 @@ pub fn run_pipeline(
 /// regularizer's part of each pair's summed energy (above 0.5: the distance measures L2
 /// displacement more than the metric's geometry; lower ``lam``).
 #[pyfunction]
-#[pyo3(signature = (dataset, *, return_details=None, **options))]
+#[pyo3(signature = (dataset, *, return_details=None, journal=None, resume=false, **options))]
 #[pyo3(
-    text_signature = "(dataset, *, return_details=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
+    text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
 )]
+#[allow(clippy::too_many_arguments)]
 pub fn similarity_matrix<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, PyAny>,
     return_details: Option<&Bound<'py, PyAny>>,
+    journal: Option<std::path::PathBuf>,
+    resume: bool,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let ds = dataset
@@ -413,7 +437,16 @@ pub fn similarity_matrix<'py>(
         _ => false,
     };
     let kw = PipelineKw::from_kwargs(options)?;
-    let (r, _) = run_pipeline(py, ds.get(), &kw)?;
+    let sink = match journal {
+        Some(path) => Sink::Journal { path, resume },
+        None if resume => {
+            return Err(PyValueError::new_err(
+                "resume=True needs journal= (the file an earlier call recorded its pairs in)",
+            ))
+        }
+        None => Sink::Memory,
+    };
+    let (r, _) = run_pipeline(py, ds.get(), &kw, sink)?;
     let n = r.matrix.len();
     let d = matrix_out(py, r.matrix.values().to_vec(), n, n)?;
     if !details {

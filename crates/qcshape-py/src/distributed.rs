@@ -6,8 +6,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use qcshape::geodesic::GeodesicSolver;
-use qcshape::similarity::{compute_listed_pairs, prepare};
+use qcshape::similarity::{compute, prepare, Comparison, Run, Selection};
 use qcshape::space::ShapeSpace;
 
 use crate::convert::{deformations, deformations_out, faces_out, index_pairs};
@@ -80,16 +79,26 @@ pub fn pair_distances<'py>(
     let out = detached(py, kw.threads, |cancel| {
         // Every transferred deformation starts at the (scaled) base pose: the pipeline's
         // calibration, bit for bit.
-        let metric = opts
+        let calibration = opts
             .metric
-            .build_for(&topo, &[&defs[0][0]])
+            .calibrate(&topo, &[&defs[0][0]])
             .map_err(|e| errors::space(qcshape::geodesic::GeodesicError::from(e).into()))?;
-        let solver = GeodesicSolver::new(metric.as_ref(), topo, opts.geodesic.clone())
-            .map_err(|e| errors::space(e.into()))?;
-        compute_listed_pairs(&solver, opts.approx, &names, &defs, &todo, Some(cancel), |_| {
-            Ok(())
-        })
-        .map_err(|e| errors::space(e.into()))
+        // The poses are already in the solver's coordinates (factor 1).
+        let input = Comparison {
+            names: &names,
+            topology: topo,
+            calibration: &calibration,
+            factor: 1.0,
+            poses: &defs,
+        };
+        let run = Run {
+            selection: Selection::Listed(todo),
+            cancel: Some(cancel),
+            ..Default::default()
+        };
+        compute(&input, &opts, &run)
+            .map(|o| o.pairs)
+            .map_err(|e| errors::space(e.into()))
     })?;
     let converged = out.iter().all(|p| p.converged);
     let d: Vec<f64> = out.iter().map(|p| p.distance).collect();

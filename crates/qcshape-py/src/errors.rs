@@ -26,7 +26,8 @@ pub fn space(e: SpaceError) -> PyErr {
             PipelineError::Similarity(SimilarityError::Cancelled) => {
                 return PyKeyboardInterrupt::new_err(msg)
             }
-            PipelineError::Similarity(SimilarityError::Mismatch(_)) => true,
+            PipelineError::Similarity(SimilarityError::Mismatch(_)) | PipelineError::Matrix(_) => true,
+            PipelineError::Similarity(SimilarityError::Journal { .. }) => return PyOSError::new_err(msg),
             PipelineError::Geodesic(g) => geodesic_input(g),
             _ => false,
         },

@@ -214,7 +214,7 @@ pub struct PairContributions {
 
 /// Solves the geodesic between corresponding poses of `m` and `n` (each a list of poses of
 /// #V x 3, already scaled by the common factor, as for
-/// [`crate::similarity::compute_pairs`]) and splits the similarity per vertex.
+/// [`crate::similarity::compute`]) and splits the similarity per vertex.
 pub fn pair_contributions(
     solver: &GeodesicSolver,
     m: &[Pose],

@@ -15,7 +15,6 @@
 //! ([`crate::metric::MetricScale`]), poses and vectors in the caller's units.
 //! [`ShapeSpace::normalized_to`] fixes one set of units for every call.
 
-use std::collections::HashSet;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
@@ -29,9 +28,9 @@ use crate::geodesic::{
 use crate::mesh::{MeshError, Shape, Topology};
 use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::similarity::{
-    assemble, compute_pairs, intrinsic_kmeans, karcher_mean, log_map, prepare, similarities, DistanceMatrix,
+    compute, intrinsic_kmeans, karcher_mean, log_map, similarity_matrix, Comparison, DistanceMatrix, Event,
     IntrinsicClustering, IntrinsicError, IntrinsicOptions, KarcherMean, KarcherOptions, MatrixError,
-    PairDistance, PipelineError, PipelineOptions, Pose, Prepared, SimilarityError, Stage,
+    PairDistance, PipelineError, PipelineOptions, Pose, Prepared, Run, Selection, SimilarityError,
 };
 use crate::transport::{
     euclidean_transport, parallel_transport, schild_ladder, ParallelOptions, SchildOptions, TransferOptions,
@@ -498,7 +497,7 @@ impl ShapeSpace {
 
     /// Eq. 13 for deformations already at one common base: the n x n matrix (row-major) of
     /// `similarity(M, N) = sum_k dis(M_k, N_k)` of `deformations` (n x #poses x #V x 3, one pose
-    /// count), all in the factor of the first pose of the first deformation ([`compute_pairs`]).
+    /// count), all in the factor of the first pose of the first deformation ([`compute`]).
     /// `on_pair` sees each finished pair (from worker threads).
     pub fn similarity(
         &self,
@@ -515,50 +514,50 @@ impl ShapeSpace {
             }
         }
         let u = self.units(&[first])?;
-        let f = u.factor;
-        let metric = self.metric(&u);
-        let s: Vec<Vec<Pose>> = deformations
-            .iter()
-            .map(|d| d.iter().map(|p| scaled(p, f)).collect())
-            .collect();
-        let names: Vec<String> = (0..s.len()).map(|i| i.to_string()).collect();
-        let solver = self.solver(metric.as_ref(), self.geodesic.steps)?;
-        let pairs = compute_pairs(
-            &solver,
-            crate::similarity::Approx::Exact,
-            &names,
-            &s,
-            &HashSet::new(),
+        let names: Vec<String> = (0..deformations.len()).map(|i| i.to_string()).collect();
+        let input = Comparison {
+            names: &names,
+            topology: self.topology.clone(),
+            calibration: &u.calibration,
+            factor: u.factor,
+            poses: deformations,
+        };
+        let run = Run {
             cancel,
-            |p| {
-                on_pair(p);
-                Ok(())
+            events: &|e| {
+                if let Event::Pair(p) = e {
+                    on_pair(p)
+                }
             },
-        )?;
-        Ok(assemble(s.len(), &pairs))
+            ..Default::default()
+        };
+        let outcome = compute(&input, &self.pipeline_options(PipelineOptions::default()), &run)?;
+        Ok(outcome.matrix.expect("all pairs").values().to_vec())
     }
 
     /// The whole pipeline of the paper (Fig. 1, eq. 13) on raw deformations, as `qcshape
-    /// similarity` runs it: [`prepare`] (interpolation, transfer to the first pose of
-    /// `template.base`) then [`similarities`], with this space's metric and geodesic options and
-    /// every other option from `template`. The normalization is the pipeline's (mean edge of the
-    /// base pose), not the space's. `progress(stage, name)` is called per deformation and stage
-    /// and per pair; `cancel` stops between pairs.
+    /// similarity` runs it: [`similarity_matrix`] (interpolation, transfer to the first pose of
+    /// `template.base`, then every pair through the one similarity engine) with this space's
+    /// metric and geodesic options and every other option from `template`. The normalization is
+    /// the pipeline's (mean edge of the base pose), not the space's. `run` chooses the pairs'
+    /// sink (memory, or a journal that a killed run resumes from with `resume`), the cancel flag
+    /// and the progress events; a journal is removed once the matrix is returned.
     pub fn similarity_matrix(
         &self,
         deformations: &[Deformation],
         template: PipelineOptions,
-        progress: &(dyn Fn(Stage, &str) + Sync),
-        cancel: Option<&AtomicBool>,
+        run: &Run<'_>,
     ) -> Result<SimilarityResult, SpaceError> {
+        if run.selection != Selection::All {
+            return Err(SpaceError::Input(
+                "similarity_matrix computes every pair (use crate::similarity::compute for a shard)".into(),
+            ));
+        }
         let opts = self.pipeline_options(template);
-        let prepared = prepare(deformations, &opts, progress)?;
-        let mut pairs = similarities(&prepared, &opts, &HashSet::new(), cancel, |p| {
-            progress(Stage::Similarity, &prepared.names[p.i]);
-            Ok(())
-        })?;
-        pairs.sort_by_key(|p| (p.i, p.j));
-        let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(prepared.names.len(), &pairs))?;
+        let (prepared, outcome) = similarity_matrix(deformations, &opts, run)?;
+        let matrix = outcome.matrix.clone().expect("all pairs");
+        let pairs = outcome.pairs.clone();
+        outcome.finish()?;
         Ok(SimilarityResult {
             prepared,
             pairs,

@@ -5,7 +5,6 @@
 //! largest and median relative error, agreement of the leave-one-out 1-NN labels, and the
 //! adjusted Rand index between kernel k-means clusterings of the two matrices (same seed).
 
-use std::collections::HashSet;
 use std::time::Instant;
 
 use thiserror::Error;
@@ -14,8 +13,7 @@ use crate::cluster::{kernel_kmeans, ClusterError, ClusterOptions};
 use crate::dataset::Deformation;
 use crate::eval::{adjusted_rand_index, nearest_neighbour, EvalError};
 use crate::similarity::{
-    assemble, prepare, similarities, Approx, DistanceMatrix, MatrixError, PipelineError, PipelineOptions,
-    Prepared,
+    compute, prepare, Approx, DistanceMatrix, MatrixError, PipelineError, PipelineOptions, Prepared, Run,
 };
 
 /// Why the experiment failed.
@@ -237,9 +235,9 @@ pub fn compare_modes(
         o.approx = mode.approx;
         o.geodesic.steps = mode.steps;
         let t = Instant::now();
-        let pairs = similarities(&prepared, &o, &HashSet::new(), None, |_| Ok(()))?;
+        let outcome = compute(&prepared.comparison(), &o, &Run::default())?;
         let seconds = t.elapsed().as_secs_f64();
-        let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+        let matrix = outcome.matrix.expect("all pairs");
         let agreement = match out.first() {
             None => None,
             Some(reference) => Some(agreement(&reference.matrix, &matrix, classes, cluster)?),
@@ -248,7 +246,7 @@ pub fn compare_modes(
             mode,
             matrix,
             seconds,
-            converged: pairs.iter().all(|p| p.converged),
+            converged: outcome.pairs.iter().all(|p| p.converged),
             agreement,
         });
     }

@@ -22,8 +22,8 @@ use crate::eval::{
 use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::io::{write_atomically, IoError};
 use crate::similarity::{
-    assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,
-    MatrixError, PipelineError, PipelineOptions, Prepared, ShareSummary, Stage,
+    compute, intrinsic_kmeans, prepare, DistanceMatrix, Event, IntrinsicError, IntrinsicOptions, MatrixError,
+    PipelineError, PipelineOptions, Prepared, Run, ShareSummary, Stage,
 };
 
 /// Why a classification or its scoring failed.
@@ -212,14 +212,18 @@ pub fn classify_set(
     let t0 = Instant::now();
     let prepared = prepare(defs, opts, &|stage, _| progress(stage))?;
     let t_prepare = t0.elapsed().as_secs_f64();
-    let n = defs.len();
     let t1 = Instant::now();
-    let pairs = similarities(&prepared, opts, &Default::default(), None, |_| {
-        progress(Stage::Similarity);
-        Ok(())
-    })?;
+    let run = Run {
+        events: &|e| {
+            if let Event::Pair(_) = e {
+                progress(Stage::Similarity);
+            }
+        },
+        ..Default::default()
+    };
+    let outcome = compute(&prepared.comparison(), opts, &run)?;
     let t_sim = t1.elapsed().as_secs_f64();
-    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    let (pairs, matrix) = (outcome.pairs, outcome.matrix.expect("all pairs"));
     let t2 = Instant::now();
     let (kernel, clustering) = cluster_intrinsic(&matrix, &prepared, opts, k, restarts, seed)?;
     let t_kmeans = t2.elapsed().as_secs_f64();

@@ -22,7 +22,7 @@ use crate::eval::{
 };
 use crate::mesh::geometry::{edge_lengths, sub};
 use crate::similarity::{
-    assemble, prepare, similarities, DistanceMatrix, MatrixError, PipelineError, PipelineOptions,
+    similarity_matrix, DistanceMatrix, MatrixError, PipelineError, PipelineOptions, Run,
 };
 use crate::synth::{
     perturbed_benchmark, DeformationKind, InitialShape, Perturbation, SynthError, VertexNoise,
@@ -205,11 +205,9 @@ impl Method {
         match self {
             Method::Baseline(b) => Ok((b.matrix(defs)?, true)),
             Method::Pipeline { options, .. } => {
-                let prepared = prepare(defs, options, &|_, _| {})?;
-                let pairs = similarities(&prepared, options, &Default::default(), None, |_| Ok(()))?;
-                let ok = prepared.converged && pairs.iter().all(|p| p.converged);
-                let m = DistanceMatrix::new(prepared.names.clone(), assemble(defs.len(), &pairs))?;
-                Ok((m, ok))
+                let (prepared, outcome) = similarity_matrix(defs, options, &Run::default())?;
+                let ok = prepared.converged && outcome.pairs.iter().all(|p| p.converged);
+                Ok((outcome.matrix.expect("all pairs"), ok))
             }
         }
     }

@@ -24,8 +24,8 @@ use crate::io::IoError;
 use crate::multires::{Hierarchy, HierarchyError};
 use crate::plot::PlotError;
 use crate::similarity::{
-    assemble, intrinsic_kmeans, prepare, similarities, DistanceMatrix, IntrinsicError, IntrinsicOptions,
-    MatrixError, MatrixFileError, PipelineError, PipelineOptions, Prepared, ShareSummary, Stage,
+    compute, intrinsic_kmeans, prepare, DistanceMatrix, Event, IntrinsicError, IntrinsicOptions, MatrixError,
+    MatrixFileError, PipelineError, PipelineOptions, Prepared, Run, ShareSummary, Stage,
 };
 
 /// Why a study step failed. Messages name the subject, file or option.
@@ -328,13 +328,18 @@ pub fn analyse(
     let t_prep = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let total = n * (n - 1) / 2;
-    let pairs = similarities(&prepared, opts, &Default::default(), None, |_| {
-        progress(Tick { what: "pairs", total });
-        Ok(())
-    })?;
+    let run = Run {
+        events: &|e| {
+            if let Event::Pair(_) = e {
+                progress(Tick { what: "pairs", total });
+            }
+        },
+        ..Default::default()
+    };
+    let outcome = compute(&prepared.comparison(), opts, &run)?;
     progress(Tick::DONE);
     let t_sim = t1.elapsed().as_secs_f64();
-    let matrix = DistanceMatrix::new(prepared.names.clone(), assemble(n, &pairs))?;
+    let (pairs, matrix) = (outcome.pairs, outcome.matrix.expect("all pairs"));
     let t2 = Instant::now();
     let clustering = split_prepared(&prepared, opts, &matrix, split)?;
     let scores = binary_scores(&matrix, &clustering.assignments, 2, &labels)?;

@@ -1,7 +1,6 @@
 //! Pairwise deformation distances (eq. 13): `similarity(M, N) = sum_i dis(M_i, N_i)` over
 //! corresponding poses of deformations that start from one common base.
 
-use std::collections::HashSet;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -170,7 +169,7 @@ impl std::str::FromStr for Approx {
 /// already multiplied by the common normalization factor). Identical poses (bit for bit, such
 /// as the common base after transfer) have distance 0 without a solve. With
 /// [`Approx::Straight`] (and [`Approx::Tangent`], which needs every pose at once and is
-/// computed by [`compute_listed_pairs`]) each distance is the straight-path length instead of a solve.
+/// computed by [`crate::similarity::compute`]) each distance is the straight-path length instead of a solve.
 ///
 /// Returns the per-pose lengths, whether all solves converged, and the iterations used.
 pub fn pose_distances(
@@ -257,12 +256,13 @@ pub fn all_pairs(n: usize) -> Vec<(usize, usize)> {
 /// journal, advance a progress bar); an error it returns stops the run. `cancel`, when set,
 /// stops the run between poses with [`SimilarityError::Cancelled`]. Returns the new pairs in
 /// row order.
-pub fn compute_pairs<F>(
+#[cfg(test)]
+pub(crate) fn compute_pairs<F>(
     solver: &GeodesicSolver,
     approx: Approx,
     names: &[String],
     deformations: &[Vec<Pose>],
-    done: &HashSet<(usize, usize)>,
+    done: &std::collections::HashSet<(usize, usize)>,
     cancel: Option<&AtomicBool>,
     on_pair: F,
 ) -> Result<Vec<PairDistance>, SimilarityError>
@@ -279,7 +279,7 @@ where
 /// [`compute_pairs`] for the listed pairs only (each `(i, j)` with `i < j < n`), in the order
 /// given: the batches of a distributed run (`qcshape.dask`). The distances are bit-identical to
 /// those of [`compute_pairs`] for the same pairs.
-pub fn compute_listed_pairs<F>(
+pub(crate) fn compute_listed_pairs<F>(
     solver: &GeodesicSolver,
     approx: Approx,
     names: &[String],
@@ -405,22 +405,13 @@ fn check_shapes(names: &[String], deformations: &[Vec<Pose>]) -> Result<(), Simi
     Ok(())
 }
 
-/// Assembles the symmetric `n x n` matrix (row-major, zero diagonal) from pair distances.
-pub fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
-    let mut d = vec![0.0; n * n];
-    for p in pairs {
-        d[p.i * n + p.j] = p.distance;
-        d[p.j * n + p.i] = p.distance;
-    }
-    d
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geodesic::GeodesicOptions;
     use crate::metric::{Isometric, Metric, Regularized};
     use crate::synth::icosphere;
+    use std::collections::HashSet;
 
     fn deformation(base: &[[f64; 3]], amp: f64, poses: usize) -> Vec<Pose> {
         (0..poses)
@@ -466,7 +457,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(calls.load(Ordering::Relaxed), 3);
-        let d = assemble(3, &pairs);
+        let d = crate::similarity::run::assemble(3, &pairs);
         for i in 0..3 {
             assert_eq!(d[i * 3 + i], 0.0);
             for j in 0..3 {

@@ -87,6 +87,24 @@ pub struct Journal {
     dropped: usize,
 }
 
+/// Whether a journal may be written at `path`: nothing is there, an empty file, or a file that
+/// starts with a journal header (of any version). Anything else is someone's data.
+fn replaceable(path: &Path) -> bool {
+    use std::io::Read;
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return true;
+    };
+    if !meta.is_file() {
+        return false;
+    }
+    let mut head = Vec::with_capacity(64);
+    match File::open(path).and_then(|f| f.take(64).read_to_end(&mut head)) {
+        Ok(0) => true,
+        Ok(_) => head.starts_with(b"# qcshape similarity journal"),
+        Err(_) => false,
+    }
+}
+
 impl Journal {
     /// Opens the journal at `path` for a run with fingerprint `key` over `n` deformations;
     /// `settings` is the run's settings string (see [`super::settings_key`]), kept in the
@@ -148,6 +166,12 @@ impl Journal {
         };
         if head.settings.contains('\n') {
             return Err(err("the settings string has a line break".into()));
+        }
+        if !replaceable(path) {
+            return Err(err(
+                "exists and is not a qcshape similarity journal; refusing to replace it (remove it or choose another file)"
+                    .into(),
+            ));
         }
         let (mut done, mut dropped) = (Vec::new(), 0);
         if resume && path.exists() {
@@ -505,6 +529,26 @@ mod tests {
                 ("insert".to_string(), "0".to_string(), "2".to_string())
             ]
         );
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_journal_is_never_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("data.csv");
+        std::fs::write(&path, "name,value\na,1\n").unwrap();
+        for resume in [false, true] {
+            let e = Journal::open(&path, 1, "s", 3, resume).unwrap_err().to_string();
+            assert!(
+                e.contains("data.csv") && e.contains("not a qcshape similarity journal"),
+                "{e}"
+            );
+        }
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "name,value\na,1\n");
+        // A folder is refused too; an empty file and an old journal are replaced.
+        assert!(Journal::open(dir.path(), 1, "s", 3, false).is_err());
+        std::fs::write(&path, "").unwrap();
+        drop(Journal::open(&path, 1, "s", 3, false).unwrap());
+        drop(Journal::open(&path, 2, "t", 3, false).unwrap());
     }
 
     #[test]

@@ -1,8 +1,6 @@
 //! The deformation-similarity pipeline of the paper (Fig. 1, eq. 13): temporal interpolation,
 //! transfer to one common base, pairwise similarity.
 
-use std::collections::HashSet;
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use rayon::prelude::*;
@@ -10,8 +8,8 @@ use thiserror::Error;
 
 use crate::dataset::Deformation;
 use crate::geodesic::{
-    normalization_factor, GeodesicError, GeodesicOptions, GeodesicSolver, InterpolationError,
-    InterpolationOptions, Interpolator, Normalization,
+    normalization_factor, GeodesicError, GeodesicOptions, InterpolationError, InterpolationOptions,
+    Interpolator, Normalization,
 };
 use crate::mesh::{MeshError, Topology};
 use crate::metric::{Calibration, Metric, MetricSpec};
@@ -19,7 +17,7 @@ use crate::transport::{
     align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
 };
 
-use super::engine::{compute_pairs, Approx, PairDistance, Pose, SimilarityError};
+use super::engine::{Approx, Pose, SimilarityError};
 use crate::defaults;
 
 /// Options of the whole pipeline.
@@ -109,6 +107,9 @@ pub enum PipelineError {
     /// The similarity computation failed.
     #[error(transparent)]
     Similarity(#[from] SimilarityError),
+    /// The distances do not make a distance matrix (a non-finite or negative distance).
+    #[error(transparent)]
+    Matrix(#[from] super::matrix::MatrixError),
 }
 
 /// The pipeline stage a progress report is about.
@@ -346,31 +347,6 @@ pub fn prepare(
     })
 }
 
-/// The pairwise similarities (eq. 13) of prepared deformations: pairs in `done` are skipped,
-/// `on_pair` sees each new pair as it finishes (journal, progress). Returns the new pairs.
-pub fn similarities<F>(
-    prepared: &Prepared,
-    opts: &PipelineOptions,
-    done: &HashSet<(usize, usize)>,
-    cancel: Option<&AtomicBool>,
-    on_pair: F,
-) -> Result<Vec<PairDistance>, PipelineError>
-where
-    F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
-{
-    let metric = prepared.metric(&opts.metric);
-    let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-    Ok(compute_pairs(
-        &solver,
-        opts.approx,
-        &prepared.names,
-        &prepared.scaled(),
-        done,
-        cancel,
-        on_pair,
-    )?)
-}
-
 /// A settings string for [`super::fingerprint`]: everything that changes the distances.
 pub fn settings_key(opts: &PipelineOptions) -> String {
     let g = &opts.geodesic;
@@ -404,7 +380,7 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
 mod tests {
     use super::*;
     use crate::metric::MetricKind;
-    use crate::similarity::assemble;
+
     use crate::synth::{genus0_benchmark, SynthOptions};
 
     #[test]
@@ -459,8 +435,8 @@ mod tests {
                 }
             }
         }
-        let pairs = similarities(&prepared, &opts, &HashSet::new(), None, |_| Ok(())).unwrap();
-        let d = assemble(6, &pairs);
+        let outcome = super::super::run::compute(&prepared.comparison(), &opts, &Default::default()).unwrap();
+        let d = outcome.matrix.unwrap().values().to_vec();
         // Same-type pairs are closer on average than cross-type pairs.
         let label = |i: usize| pick[i].label.clone();
         let (mut same, mut ns, mut cross, mut nc) = (0.0, 0, 0.0, 0);
@@ -506,16 +482,15 @@ mod tests {
 mod alignment_tests {
     use super::*;
     use crate::metric::MetricKind;
-    use crate::similarity::assemble;
+
     use crate::synth::{genus0_benchmark, SynthOptions};
     use crate::transport::align::{rotation_about, Motion};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
     fn matrix(defs: &[Deformation], opts: &PipelineOptions) -> Vec<f64> {
-        let prepared = prepare(defs, opts, &|_, _| {}).unwrap();
-        let pairs = similarities(&prepared, opts, &HashSet::new(), None, |_| Ok(())).unwrap();
-        assemble(defs.len(), &pairs)
+        let (_, outcome) = crate::similarity::similarity_matrix(defs, opts, &Default::default()).unwrap();
+        outcome.matrix.unwrap().values().to_vec()
     }
 
     /// Every deformation but the base moved by its own random rigid motion (up to 60 degrees,

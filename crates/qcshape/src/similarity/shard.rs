@@ -107,6 +107,13 @@ pub struct Merged {
     pub count: usize,
 }
 
+impl Merged {
+    /// The n x n similarity matrix (eq. 13) of the merged pairs.
+    pub fn matrix(&self) -> Result<super::DistanceMatrix, super::MatrixError> {
+        super::run::matrix_of(&self.names, &self.pairs)
+    }
+}
+
 /// Reads the shard journals at `paths` and merges them. Refused, with the file named: a file
 /// that is not a shard journal, shards of different runs (another data fingerprint, other
 /// settings, another shard count), a shard given twice or missing, a shard whose pairs are not
