@@ -1,10 +1,14 @@
-//! Options shared by every command that measures lengths: the metric with its variants and the
-//! geodesic solver.
+//! Options shared by every command that measures lengths: the metric with its variants, the
+//! geodesic solver, and the whole pipeline of a similarity run ([`PipelineArgs`]). The values
+//! are validated by the library, once.
 
 use anyhow::{bail, Context, Result};
+use qcshape::dataset::Dataset;
 use qcshape::defaults;
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
+use qcshape::similarity::{Approx, PipelineOptions};
+use qcshape::transport::{Alignment, Transport};
 
 /// The metric (METHOD.md) and its variants.
 #[derive(Debug, Clone, clap::Args)]
@@ -64,27 +68,7 @@ pub struct VariantArgs {
 impl VariantArgs {
     /// The specification of the metric `kind` with these variants, after checking the values.
     pub fn spec(&self, kind: MetricKind) -> Result<MetricSpec> {
-        if !self.lambda.is_finite() || self.lambda < 0.0 {
-            bail!(
-                "--lambda must be a finite non-negative number (got {})",
-                self.lambda
-            );
-        }
-        if !self.qc_floor.is_finite() || self.qc_floor < 0.0 {
-            bail!("--qc-floor must be a finite number >= 0 (got {})", self.qc_floor);
-        }
-        if self.qc_smooth > 1000 {
-            bail!("--qc-smooth must be at most 1000 (got {})", self.qc_smooth);
-        }
-        if self.lambda == 0.0 && matches!(kind, MetricKind::Conformal | MetricKind::QuasiConformal) {
-            eprintln!(
-                "warning: --lambda 0 leaves the {} metric's null space free (rigid motions, scalings, \
-                 conformal fields; every normal motion of a sphere): geodesics are not unique and \
-                 distances collapse towards 0 (docs/geometry.md)",
-                kind.label()
-            );
-        }
-        Ok(MetricSpec {
+        let spec = MetricSpec {
             kind,
             scale: self.scale,
             qc_normalize: (self.qc_weights == "rms").then_some(QcNormalize {
@@ -103,7 +87,12 @@ impl VariantArgs {
             },
             lambda: self.lambda,
             frozen_areas: self.l2_areas == "frozen",
-        })
+        };
+        spec.validate().map_err(flag_error)?;
+        if let Some(w) = spec.warning() {
+            eprintln!("warning: {w}");
+        }
+        Ok(spec)
     }
 }
 
@@ -147,17 +136,16 @@ pub struct SolverArgs {
 impl SolverArgs {
     /// The geodesic options, after checking the values.
     pub fn options(&self) -> Result<GeodesicOptions> {
-        if self.steps == 0 {
-            bail!("--steps must be at least 1");
-        }
-        Ok(GeodesicOptions {
+        let g = GeodesicOptions {
             steps: self.steps,
             solver: self.solver,
-            gradient_tolerance: non_negative("--tolerance", self.tolerance)?,
-            energy_tolerance: non_negative("--energy-tolerance", self.energy_tolerance)?,
-            length_tolerance: non_negative("--length-tolerance", self.length_tolerance)?,
+            gradient_tolerance: self.tolerance,
+            energy_tolerance: self.energy_tolerance,
+            length_tolerance: self.length_tolerance,
             ..Default::default()
-        })
+        };
+        g.validate().map_err(flag_error)?;
+        Ok(g)
     }
 }
 
@@ -167,6 +155,84 @@ pub(crate) fn non_negative(option: &str, value: f64) -> Result<f64> {
         bail!("{option} must be a finite non-negative number (got {value})");
     }
     Ok(value)
+}
+
+/// A library validation error ([`qcshape::limits::LimitError`], naming a setting by its key)
+/// with the setting spelled as its flag: `--lambda must be >= 0 ...`.
+pub(crate) fn flag_error(e: qcshape::limits::LimitError) -> anyhow::Error {
+    anyhow::Error::new(e.renamed(|key| format!("--{key}")))
+}
+
+/// Every setting of a similarity run, as the library names them
+/// ([`qcshape::settings::SETTINGS`]): the metric, the geodesic solver and the rest of the
+/// pipeline of eq. 13. Every command that computes a similarity matrix from a data set takes
+/// this one group (a test walks their `--help`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct PipelineArgs {
+    #[command(flatten)]
+    pub metric: MetricArgs,
+    #[command(flatten)]
+    pub solver: SolverArgs,
+    /// Poses inserted between consecutive key poses before comparing (section 2.2.1).
+    /// At most 1,000.
+    #[arg(long, default_value_t = defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    pub insert: usize,
+    /// Spatial levels of the interpolation (1 = single level, the measured fastest).
+    /// At most 16.
+    #[arg(long, default_value_t = defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
+    pub levels: usize,
+    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
+    /// better classification in the measurements, docs/results.md), parallel (the paper's) or schild.
+    #[arg(long, default_value = defaults::TRANSPORT.label())]
+    pub transport: Transport,
+    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
+    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
+    /// a uniform scale) or none (the paper's pipeline).
+    #[arg(long, default_value = defaults::ALIGN.label())]
+    pub align: Alignment,
+    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
+    /// takes vertex noise out of real data; 0 = none).
+    /// At most 1,000.
+    #[arg(long, default_value_t = defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
+    pub smooth: usize,
+    /// Name of the reference deformation whose first pose is the common base (default: the first).
+    #[arg(long)]
+    pub base: Option<String>,
+    /// Pose distances: exact (geodesic lengths, the paper's), straight (the straight-path length
+    /// with the same steps, no optimization: an upper bound, about 20-100x cheaper) or tangent
+    /// (the metric linearized at the common base: one feature vector per pose, then Euclidean
+    /// distances; l2, isometric, conformal only). Errors against exact: docs/scale.md.
+    /// Interpolation and transfer stay exact.
+    #[arg(long, default_value = "exact")]
+    pub approx: Approx,
+}
+
+impl PipelineArgs {
+    /// The pipeline options for the data set `data` (the base by name), validated by the
+    /// library ([`PipelineOptions::validate`]).
+    pub fn options(&self, data: &Dataset) -> Result<PipelineOptions> {
+        let base = match self.base.as_deref() {
+            None => 0,
+            Some(name) => data
+                .deformations
+                .iter()
+                .position(|d| d.name == name)
+                .with_context(|| format!("--base {name:?} is not a deformation of the data set"))?,
+        };
+        let opts = PipelineOptions {
+            metric: self.metric.spec()?,
+            geodesic: self.solver.options()?,
+            insert: self.insert,
+            levels: self.levels,
+            transport: self.transport,
+            base,
+            align: self.align,
+            smoothing: self.smooth,
+            approx: self.approx,
+        };
+        opts.validate(data.deformations.len()).map_err(flag_error)?;
+        Ok(opts)
+    }
 }
 
 /// Runs `f` in a worker pool of `threads` threads (default: all cores).

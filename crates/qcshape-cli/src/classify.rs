@@ -8,11 +8,8 @@ use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions};
 use qcshape::dataset::Dataset;
 use qcshape::experiment::analysis::dataset_labels;
 use qcshape::experiment::classification::{classify_set, score, write_assignments, write_confusion};
-use qcshape::geodesic::GeodesicOptions;
-use qcshape::similarity::PipelineOptions;
-use qcshape::transport::{Alignment, Transport};
 
-use crate::args::MetricArgs;
+use crate::args::PipelineArgs;
 use crate::input::{is_matrix, load_labels, load_matrix};
 use crate::progress::PipelineBars;
 
@@ -37,29 +34,9 @@ pub struct Args {
     /// Distance matrix CSV (name,<name_1>,...,<name_n>), or a data set (manifest CSV or folder).
     #[arg(value_name = "INPUT")]
     matrix: PathBuf,
+    /// Data set input only: the settings of its similarity matrix.
     #[command(flatten)]
-    metric: MetricArgs,
-    /// Data set input only: segments N of every geodesic.
-    /// At most 10,000.
-    #[arg(long, default_value_t = qcshape::defaults::STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
-    steps: usize,
-    /// Data set input only: poses inserted between consecutive key poses.
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
-    insert: usize,
-    /// Data set input only: transport to the common base (euclidean, parallel or schild).
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
-    transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
-    align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
+    pipeline: PipelineArgs,
     /// Number of clusters.
     /// At most 10,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
@@ -126,23 +103,7 @@ pub fn run(args: &Args) -> Result<()> {
             // Scoring needs a label on every deformation once any has one.
             data.refuse_partial_labels(&args.matrix, "classify")?;
         }
-        if args.steps == 0 {
-            bail!("--steps must be at least 1");
-        }
-        let popts = PipelineOptions {
-            metric: args.metric.spec()?,
-            geodesic: GeodesicOptions {
-                steps: args.steps,
-                ..Default::default()
-            },
-            insert: args.insert,
-            levels: qcshape::defaults::LEVELS,
-            transport: args.transport,
-            align: args.align,
-            smoothing: args.smooth,
-            base: 0,
-            approx: Default::default(),
-        };
+        let popts = args.pipeline.options(&data)?;
         let bars = PipelineBars::new(data.deformations.len());
         let r = classify_set(
             &data.deformations,

@@ -2,50 +2,14 @@
 //! library's steps (interpolation and transfer, the similarity engine with its journal) with
 //! progress bars and the journal's notes.
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
-    compute, prepare, Approx, Event, Outcome, PairDistance, PipelineOptions, Prepared, Run, Selection,
-    ShareSummary, Sink,
+    compute, prepare, Event, Outcome, PairDistance, PipelineOptions, Prepared, Run, Selection, ShareSummary,
+    Sink,
 };
-use qcshape::transport::{Alignment, Transport};
 
-use crate::args::{MetricArgs, SolverArgs};
 use crate::progress::PipelineBars;
-
-/// The pipeline options of the command line.
-pub(crate) fn pipeline_options(
-    data: &Dataset,
-    metric: &MetricArgs,
-    solver: &SolverArgs,
-    insert: usize,
-    levels: usize,
-    transport: Transport,
-    base: Option<&str>,
-) -> Result<PipelineOptions> {
-    if levels == 0 {
-        bail!("--levels must be at least 1");
-    }
-    let base = match base {
-        None => 0,
-        Some(name) => data
-            .deformations
-            .iter()
-            .position(|d| d.name == name)
-            .with_context(|| format!("--base {name:?} is not a deformation of the data set"))?,
-    };
-    Ok(PipelineOptions {
-        metric: metric.spec()?,
-        geodesic: solver.options()?,
-        insert,
-        levels,
-        transport,
-        base,
-        align: Alignment::default(),
-        smoothing: PipelineOptions::default().smoothing,
-        approx: Approx::Exact,
-    })
-}
 
 /// Interpolation and transfer with progress bars.
 pub(crate) fn prepare_with_progress(data: &Dataset, opts: &PipelineOptions) -> Result<Prepared> {

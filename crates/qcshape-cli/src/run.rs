@@ -8,10 +8,9 @@ use qcshape::dataset::Dataset;
 use qcshape::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
 use qcshape::experiment::provenance::Provenance;
 use qcshape::similarity::{journal_path, Selection, Sink};
-use qcshape::transport::{Alignment, Transport};
 
-use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{matrix_with_progress, pipeline_options, prepare_with_progress, report_shares};
+use crate::args::{in_pool, PipelineArgs};
+use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares};
 
 /// Run the whole analysis of a data set: interpolation, transfer, similarity, classification,
 /// projection and a report.
@@ -33,36 +32,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     #[command(flatten)]
-    metric: MetricArgs,
-    #[command(flatten)]
-    solver: SolverArgs,
-    /// Poses inserted between consecutive key poses (section 2.2.1).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
-    insert: usize,
-    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
-    /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
-    transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
-    align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
-    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
-    /// (the straight-path length with the same steps, no optimization: an upper bound, much
-    /// cheaper) or tangent (the metric linearized at the common base; l2, isometric, conformal
-    /// only). Errors against exact: docs/scale.md. The intrinsic k-means stays exact.
-    #[arg(long, default_value = "exact")]
-    approx: qcshape::similarity::Approx,
-    /// Name of the reference deformation whose first pose is the common base (default: the first).
-    #[arg(long)]
-    base: Option<String>,
+    pipeline: PipelineArgs,
     /// Number of classes (default: the number of distinct labels).
     /// At most 10,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
@@ -110,21 +80,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     if k == 0 || k > n {
         bail!("--k must be between 1 and the number of deformations ({n})");
     }
-    let opts = pipeline_options(
-        &data,
-        &args.metric,
-        &args.solver,
-        args.insert,
-        1,
-        args.transport,
-        args.base.as_deref(),
-    )?;
-    let opts = qcshape::similarity::PipelineOptions {
-        align: args.align,
-        smoothing: args.smooth,
-        approx: args.approx,
-        ..opts
-    };
+    let opts = args.pipeline.options(&data)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     // One run at a time on OUT's journal (taken before anything is computed; released on exit).
     let matrix_path = args.out.join("similarity.csv");
@@ -166,8 +122,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
         key_poses: data.deformations[0].poses.len(),
         vertices: prepared.topology.n_vertices(),
         metric,
-        insert: args.insert,
-        transport: args.transport.label().to_string(),
+        insert: opts.insert,
+        transport: opts.transport.label().to_string(),
         base: prepared.names[opts.base].clone(),
         steps: opts.geodesic.steps,
         prepare_seconds,

@@ -6,13 +6,12 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::similarity::{
-    journal_path, merge_shards, Approx, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Selection,
-    Shard, Sink,
+    journal_path, merge_shards, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Selection, Shard,
+    Sink,
 };
-use qcshape::transport::{Alignment, Transport};
 
-use crate::args::{in_pool, MetricArgs, SolverArgs};
-use crate::pipeline::{matrix_with_progress, pipeline_options, prepare_with_progress, report_shares};
+use crate::args::{in_pool, PipelineArgs};
+use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares};
 
 /// Compute the similarity matrix of the deformations of a data set.
 ///
@@ -38,34 +37,7 @@ pub struct Args {
     /// The data set: a manifest CSV (`deformation,label,pose,path`) or a folder of deformation folders.
     input: PathBuf,
     #[command(flatten)]
-    metric: MetricArgs,
-    #[command(flatten)]
-    solver: SolverArgs,
-    /// Poses inserted between consecutive key poses before comparing (section 2.2.1).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
-    insert: usize,
-    /// Spatial levels of the interpolation (1 = single level, the measured fastest).
-    /// At most 16.
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
-    levels: usize,
-    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
-    /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
-    transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
-    align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
-    /// Name of the reference deformation whose first pose is the common base (default: the first).
-    #[arg(long)]
-    base: Option<String>,
+    pipeline: PipelineArgs,
     /// Worker threads (default: all cores). The results are bit-identical for any count, so a run
     /// can be resumed with another one.
     /// At most 1,024.
@@ -89,13 +61,6 @@ pub struct Args {
     /// to a single run. A killed shard continues with --resume.
     #[arg(long, value_name = "K/S")]
     shard: Option<Shard>,
-    /// Pose distances: exact (geodesic lengths, the paper's), straight (the straight-path length
-    /// with the same steps, no optimization: an upper bound, about 20-100x cheaper) or tangent
-    /// (the metric linearized at the common base: one feature vector per pose, then Euclidean
-    /// distances; l2, isometric, conformal only). Errors against exact: docs/scale.md.
-    /// Interpolation and transfer stay exact.
-    #[arg(long, default_value = "exact")]
-    approx: Approx,
     /// With --details: split the similarity of the pair NAME_A,NAME_B per pose and vertex and
     /// write DETAILS_STEM.explain_A_vs_B.csv (vertex,total,pose_000,...), .vtk and .ply on the
     /// base mesh (those fields as point data) and .png (the total, six views). Normalized
@@ -180,21 +145,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             bail!("--explain {pair:?}: give two different deformation names separated by a comma");
         }
     }
-    let opts = pipeline_options(
-        &data,
-        &args.metric,
-        &args.solver,
-        args.insert,
-        args.levels,
-        args.transport,
-        args.base.as_deref(),
-    )?;
-    let opts = PipelineOptions {
-        align: args.align,
-        smoothing: args.smooth,
-        approx: args.approx,
-        ..opts
-    };
+    let opts = args.pipeline.options(&data)?;
     eprintln!(
         "{n} deformations, {} poses each, {} vertices; {}",
         data.deformations[0].poses.len(),

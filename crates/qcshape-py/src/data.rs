@@ -415,7 +415,7 @@ pub fn run_pipeline(
 #[pyo3(
     text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn similarity_matrix<'py>(
@@ -512,7 +512,7 @@ fn pair_details<'py>(
 #[pyo3(
     text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]
 pub fn pair_contributions<'py>(
     py: Python<'py>,
@@ -571,9 +571,9 @@ pub fn pair_contributions<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
 #[pyo3(
-    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, \
-weights=None, lam=None, l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, \
-insert=0, levels=None, transport='euclidean', align='rigid', smooth=10, base=None, threads=None, progress=True)"
+    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
+l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]
 pub fn motion_maps<'py>(
     py: Python<'py>,

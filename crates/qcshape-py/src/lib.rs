@@ -32,5 +32,6 @@ fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::motion_maps, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::mds, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::scores, m)?)?;
+    m.add_function(wrap_pyfunction!(options::settings, m)?)?;
     Ok(())
 }

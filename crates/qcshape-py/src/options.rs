@@ -58,11 +58,6 @@ impl MetricKw {
             };
         }
         if let Some(l) = self.lam {
-            if !(l >= 0.0 && l.is_finite()) {
-                return Err(PyValueError::new_err(format!(
-                    "lam: must be a non-negative number, got {l}"
-                )));
-            }
             spec.lambda = l;
         }
         if let Some(a) = &self.l2_areas {
@@ -86,19 +81,9 @@ impl MetricKw {
             smooth: 0,
         });
         if let Some(f) = self.qc_floor {
-            if !(f.is_finite() && f >= 0.0) {
-                return Err(PyValueError::new_err(format!(
-                    "qc_floor: must be a finite number >= 0, got {f}"
-                )));
-            }
             qc.floor = f;
         }
         if let Some(n) = self.qc_smooth {
-            if n > 1000 {
-                return Err(PyValueError::new_err(format!(
-                    "qc_smooth: must be at most 1000, got {n}"
-                )));
-            }
             qc.smooth = n;
         }
         spec.qc_normalize = match self.qc_weights.as_deref() {
@@ -111,8 +96,28 @@ impl MetricKw {
                 )))
             }
         };
+        spec.validate().map_err(keyword_error)?;
+        if let Some(w) = spec.warning() {
+            Python::attach(|py| {
+                PyErr::warn(
+                    py,
+                    &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+                    &std::ffi::CString::new(w).unwrap_or_default(),
+                    2,
+                )
+            })?;
+        }
         Ok(spec)
     }
+}
+
+/// A library validation error ([`qcshape::limits::LimitError`], naming a setting by its key) as
+/// a `ValueError` naming the Python keyword: `lam must be >= 0 ...`.
+pub fn keyword_error(e: qcshape::limits::LimitError) -> PyErr {
+    PyValueError::new_err(
+        e.renamed(|k| qcshape::settings::python_name(k).to_string())
+            .to_string(),
+    )
 }
 
 /// The solver keywords (the CLI's `--steps --solver --tolerance --energy-tolerance
@@ -131,9 +136,6 @@ impl SolverKw {
     pub fn options(&self) -> PyResult<GeodesicOptions> {
         let mut g = GeodesicOptions::default();
         if let Some(s) = self.steps {
-            if s == 0 {
-                return Err(PyValueError::new_err("steps: must be at least 1"));
-            }
             g.steps = s;
         }
         if let Some(s) = &self.solver {
@@ -142,25 +144,16 @@ impl SolverKw {
                 .map_err(|e| PyValueError::new_err(format!("solver: {e}")))?;
         }
         if let Some(t) = self.tolerance {
-            g.gradient_tolerance = non_negative("tolerance", t)?;
+            g.gradient_tolerance = t;
         }
         if let Some(t) = self.energy_tolerance {
-            g.energy_tolerance = non_negative("energy_tolerance", t)?;
+            g.energy_tolerance = t;
         }
         if let Some(t) = self.length_tolerance {
-            g.length_tolerance = non_negative("length_tolerance", t)?;
+            g.length_tolerance = t;
         }
+        g.validate().map_err(keyword_error)?;
         Ok(g)
-    }
-}
-
-fn non_negative(name: &str, v: f64) -> PyResult<f64> {
-    if v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(PyValueError::new_err(format!(
-            "{name}: must be non-negative, got {v}"
-        )))
     }
 }
 
@@ -197,10 +190,13 @@ pub struct PipelineKw {
     pub approx: Option<String>,
 }
 
-/// The keywords of the pipeline, for the docstrings and the error on an unknown one.
-pub const PIPELINE_KEYS: &str = "metric, form, weights, lam, l2_areas, metric_scale, qc_weights, \
-qc_floor, qc_smooth, steps, solver, tolerance, \
-energy_tolerance, length_tolerance, insert, levels, transport, align, smooth, base, approx, threads, progress";
+/// The keywords of the pipeline (the library's settings table, then `threads` and
+/// `progress`), for the error on an unknown one.
+pub fn pipeline_keys() -> String {
+    let mut keys: Vec<&str> = qcshape::settings::SETTINGS.iter().map(|s| s.python).collect();
+    keys.extend(["threads", "progress"]);
+    keys.join(", ")
+}
 
 impl PipelineKw {
     /// Reads the keywords of a `**kwargs` dict; an unknown keyword is a `TypeError`.
@@ -289,7 +285,8 @@ impl PipelineKw {
                 "approx" => k.approx = Some(value.extract().map_err(bad)?),
                 _ => {
                     return Err(PyTypeError::new_err(format!(
-                        "unexpected keyword argument '{key}' (accepted: {PIPELINE_KEYS})"
+                        "unexpected keyword argument '{key}' (accepted: {})",
+                        pipeline_keys()
                     )))
                 }
             }
@@ -302,9 +299,6 @@ impl PipelineKw {
     pub fn options(&self, names: &[String]) -> PyResult<PipelineOptions> {
         let d = PipelineOptions::default();
         let levels = self.levels.unwrap_or(d.levels);
-        if levels == 0 {
-            return Err(PyValueError::new_err("levels: must be at least 1"));
-        }
         let base = match &self.base {
             None => d.base,
             Some(BaseKw::Index(i)) => {
@@ -322,7 +316,7 @@ impl PipelineKw {
         };
         // `..d`: options added to the pipeline later (without a keyword here) keep their defaults.
         #[allow(clippy::needless_update)]
-        Ok(PipelineOptions {
+        let opts = PipelineOptions {
             metric: self.metric.spec()?,
             geodesic: self.solver.options()?,
             insert: self.insert.unwrap_or(d.insert),
@@ -343,6 +337,34 @@ impl PipelineKw {
                     .map_err(|e| PyValueError::new_err(format!("approx: {e}")))?,
             },
             ..d
-        })
+        };
+        opts.validate(names.len()).map_err(keyword_error)?;
+        Ok(opts)
     }
+}
+
+/// settings() -> dict: every setting of a similarity run, from the library's one table (the
+/// CLI's flags follow it too): ``{keyword: {"flag": "--lambda", "group": "metric" | "solver" |
+/// "pipeline", "default": "0.01"}}``, the default as text as ``qcshape --help`` shows it (None:
+/// no default value, e.g. ``base``, the first deformation). Keywords left out (or None) take
+/// these defaults in ``similarity_matrix``, ``ShapeSpace`` and ``KMeans.fit``.
+#[pyfunction]
+pub fn settings(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    use qcshape::settings::{Group, SETTINGS};
+    let out = PyDict::new(py);
+    for s in SETTINGS {
+        let d = PyDict::new(py);
+        d.set_item("flag", format!("--{}", s.key))?;
+        d.set_item(
+            "group",
+            match s.group {
+                Group::Metric => "metric",
+                Group::Solver => "solver",
+                Group::Pipeline => "pipeline",
+            },
+        )?;
+        d.set_item("default", (s.default)())?;
+        out.set_item(s.python, d)?;
+    }
+    Ok(out)
 }

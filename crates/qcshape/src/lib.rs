@@ -33,6 +33,7 @@ pub mod numfmt;
 pub mod outputs;
 pub mod plot;
 pub mod render;
+pub mod settings;
 pub mod similarity;
 pub mod space;
 pub mod synth;

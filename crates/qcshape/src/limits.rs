@@ -113,6 +113,39 @@ pub enum LimitError {
     },
 }
 
+impl LimitError {
+    /// The same error with the setting's name spelled by `spell` (e.g. `lambda` -> `--lambda` for
+    /// the command line, `lam` for Python).
+    pub fn renamed(self, spell: impl Fn(&str) -> String) -> LimitError {
+        match self {
+            LimitError::TooLarge { what, max, value } => LimitError::TooLarge {
+                what: spell(&what),
+                max,
+                value,
+            },
+            LimitError::TooSmall { what, min, value } => LimitError::TooSmall {
+                what: spell(&what),
+                min,
+                value,
+            },
+            LimitError::OutOfRange { what, max, value } => LimitError::OutOfRange {
+                what: spell(&what),
+                max,
+                value,
+            },
+        }
+    }
+
+    /// The name of the setting or argument the error is about.
+    pub fn what(&self) -> &str {
+        match self {
+            LimitError::TooLarge { what, .. }
+            | LimitError::TooSmall { what, .. }
+            | LimitError::OutOfRange { what, .. } => what,
+        }
+    }
+}
+
 /// `value` if `min <= value <= max`, else an error naming `what`.
 pub fn count(what: &str, value: usize, min: usize, max: usize) -> Result<usize, LimitError> {
     if value < min {

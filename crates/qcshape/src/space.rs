@@ -121,15 +121,10 @@ impl ShapeSpace {
         spec: MetricSpec,
         geodesic: GeodesicOptions,
     ) -> Result<Self, SpaceError> {
-        if !(spec.lambda >= 0.0 && spec.lambda.is_finite()) {
-            return Err(SpaceError::Input(format!(
-                "lambda must be a non-negative number, got {}",
-                spec.lambda
-            )));
-        }
-        // Validates the options once, as every call will.
-        let metric = spec.build(&Calibration::RAW);
-        GeodesicSolver::new(metric.as_ref(), topology.clone(), geodesic.clone())?;
+        spec.validate().map_err(|e| SpaceError::Input(e.to_string()))?;
+        geodesic
+            .validate()
+            .map_err(|e| SpaceError::Geodesic(GeodesicError::Option(e.to_string())))?;
         Ok(ShapeSpace {
             topology,
             spec,

@@ -30,6 +30,7 @@ from ._qcshape import (
     pair_contributions,
     read_mesh,
     scores,
+    settings,
     similarity_matrix,
     write_mesh,
 )
@@ -47,6 +48,7 @@ __all__ = [
     "pair_contributions",
     "read_mesh",
     "scores",
+    "settings",
     "similarity_matrix",
     "write_mesh",
 ]

@@ -43,6 +43,7 @@ class _PipelineOptions(TypedDict, total=False):
     align: Optional[str]
     smooth: Optional[int]
     base: Optional[Union[int, str]]
+    approx: Optional[str]
     threads: Optional[int]
     progress: Optional[bool]
 
@@ -203,22 +204,29 @@ def similarity_matrix(
     dataset: Dataset,
     *,
     return_details: Literal[False] = False,
-    approx: Optional[str] = None,
+    journal: Optional[_Path] = None,
+    resume: bool = False,
     **options: Unpack[_PipelineOptions],
 ) -> _F64:
-    """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV.
-    approx: "exact" (geodesic lengths, default) or "straight" (straight-path lengths)."""
+    """(n, n) similarity matrix (eq. 13), equal to `qcshape similarity`'s CSV. journal: a file
+    that records every finished pair; after an interruption the same call with resume=True
+    computes only the missing pairs (the journal is removed once the matrix is returned)."""
 
 @overload
 def similarity_matrix(
     dataset: Dataset,
     *,
     return_details: Literal[True],
-    approx: Optional[str] = None,
+    journal: Optional[_Path] = None,
+    resume: bool = False,
     **options: Unpack[_PipelineOptions],
 ) -> Tuple[_F64, SimilarityDetails]:
     """(D, details): the matrix and the per-pair, per-pose distances and energy split
     (`SimilarityDetails`)."""
+
+def settings() -> Dict[str, Dict[str, Optional[str]]]:
+    """Every setting of a similarity run from the library's table: {keyword: {"flag", "group",
+    "default"}} (defaults as text, as `qcshape --help` shows them)."""
 
 def motion_maps(
     dataset: Dataset,

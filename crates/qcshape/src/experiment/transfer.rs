@@ -42,7 +42,7 @@ use crate::synth::{deform, initial_shape, template, DeformParams, DeformationKin
 use crate::transport::{SchildOptions, Transfer, TransferOptions, TransferSetup, Transport, TransportError};
 
 /// A pose: #V x 3 positions.
-type Pose = Vec<[f64; 3]>;
+use crate::mesh::Pose;
 
 /// The most poses per deformation the experiment accepts.
 pub const MAX_POSES: usize = 100;

@@ -196,22 +196,9 @@ impl<'m> GeodesicSolver<'m> {
         topo: Arc<Topology>,
         options: GeodesicOptions,
     ) -> Result<Self, GeodesicError> {
-        if options.steps == 0 {
-            return Err(GeodesicError::Option("steps must be at least 1".into()));
-        }
-        if options.steps > crate::limits::MAX_STEPS {
-            return Err(GeodesicError::Option(format!(
-                "steps must be at most {} (got {})",
-                crate::limits::MAX_STEPS,
-                options.steps
-            )));
-        }
-        if !(options.gradient_tolerance >= 0.0
-            && options.energy_tolerance >= 0.0
-            && options.length_tolerance >= 0.0)
-        {
-            return Err(GeodesicError::Option("tolerances must be non-negative".into()));
-        }
+        options
+            .validate()
+            .map_err(|e| GeodesicError::Option(e.to_string()))?;
         if !(options.vertex_block_weight >= 0.0 && options.vertex_block_weight.is_finite()) {
             return Err(GeodesicError::Option(format!(
                 "the vertex-block weight must be a non-negative number (got {})",

@@ -143,6 +143,23 @@ pub struct GeodesicOptions {
 }
 
 impl GeodesicOptions {
+    /// Checks the values a user sets (the one validation of the solver settings): `steps` in
+    /// 1..=[`crate::limits::MAX_STEPS`], the tolerances finite, `>= 0` and at most
+    /// [`crate::limits::MAX_TOLERANCE`], an iteration limit of at most
+    /// [`crate::limits::MAX_ITERATIONS`]. The error names the setting by its key in
+    /// [`crate::settings::SETTINGS`].
+    pub fn validate(&self) -> Result<(), crate::limits::LimitError> {
+        use crate::limits::{count, non_negative, MAX_ITERATIONS, MAX_STEPS, MAX_TOLERANCE};
+        count("steps", self.steps, 1, MAX_STEPS)?;
+        non_negative("tolerance", self.gradient_tolerance, MAX_TOLERANCE)?;
+        non_negative("energy-tolerance", self.energy_tolerance, MAX_TOLERANCE)?;
+        non_negative("length-tolerance", self.length_tolerance, MAX_TOLERANCE)?;
+        if let Some(m) = self.max_iterations {
+            count("max-iterations", m, 0, MAX_ITERATIONS)?;
+        }
+        Ok(())
+    }
+
     /// The iteration limit in force: `max_iterations`, or the solver's default.
     pub fn iteration_limit(&self) -> usize {
         self.max_iterations

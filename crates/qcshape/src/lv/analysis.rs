@@ -19,8 +19,7 @@ use super::tps::{Tps, TpsError};
 use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::mesh::{geometry, Topology};
 
-/// One pose: #V x 3 positions.
-pub type Pose = Vec<[f64; 3]>;
+pub use crate::mesh::Pose;
 
 /// Why an analysis step cannot be done.
 #[derive(Debug, Error)]

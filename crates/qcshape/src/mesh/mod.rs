@@ -14,3 +14,7 @@ mod topology;
 pub use error::MeshError;
 pub use shape::{Shape, MAX_COORDINATE};
 pub use topology::Topology;
+
+/// One pose of a deformation: #V x 3 vertex positions (the connectivity is the deformation's
+/// shared [`Topology`]). The one pose type of the library.
+pub type Pose = Vec<[f64; 3]>;

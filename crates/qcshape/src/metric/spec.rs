@@ -166,6 +166,38 @@ pub struct MetricSpec {
 }
 
 impl MetricSpec {
+    /// Checks the values a user sets (the one validation of the metric settings, used by the
+    /// command line, Python and every library entry point): `lambda` and the QC weights' floor
+    /// finite, `>= 0` and at most [`crate::limits::MAX_LAMBDA`]; the QC smoothing at most
+    /// [`crate::limits::MAX_SWEEPS`]. The error names the setting by its key in
+    /// [`crate::settings::SETTINGS`].
+    pub fn validate(&self) -> Result<(), crate::limits::LimitError> {
+        use crate::limits::{count, non_negative, MAX_LAMBDA, MAX_SWEEPS};
+        non_negative("lambda", self.lambda, MAX_LAMBDA)?;
+        if let Some(q) = self.qc_normalize {
+            non_negative("qc-floor", q.floor, MAX_LAMBDA)?;
+            count("qc-smooth", q.smooth, 0, MAX_SWEEPS)?;
+        }
+        Ok(())
+    }
+
+    /// A warning for settings that are valid but leave the metric degenerate: `lambda = 0`
+    /// with a metric whose null space holds more than rigid motions (conformal and
+    /// quasi-conformal: scalings, conformal fields, every normal motion of a sphere), where
+    /// geodesics are not unique and distances collapse towards 0 (docs/geometry.md).
+    pub fn warning(&self) -> Option<String> {
+        (self.lambda == 0.0 && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal)).then(
+            || {
+                format!(
+                    "lambda = 0 leaves the {} metric's null space free (rigid motions, scalings, \
+                 conformal fields; every normal motion of a sphere): geodesics are not unique and \
+                 distances collapse towards 0 (docs/geometry.md)",
+                    self.kind.label()
+                )
+            },
+        )
+    }
+
     /// Defaults: quadratic form, endpoint weights normalized as [`crate::defaults::QC_NORMALIZE`],
     /// `lambda` = [`crate::defaults::LAMBDA`] on the [`MetricScale::Calibrated`] scale, frozen
     /// areas.

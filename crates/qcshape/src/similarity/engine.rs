@@ -9,8 +9,7 @@ use thiserror::Error;
 
 use crate::geodesic::{GeodesicError, GeodesicSolver, SolveContext};
 
-/// One pose of a deformation: #V x 3 positions.
-pub type Pose = Vec<[f64; 3]>;
+pub use crate::mesh::Pose;
 
 /// Why a similarity computation failed.
 #[derive(Debug, Error)]

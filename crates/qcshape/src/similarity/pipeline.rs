@@ -71,6 +71,28 @@ impl Default for PipelineOptions {
     }
 }
 
+impl PipelineOptions {
+    /// Checks the values a user sets, for a data set of `n` deformations (the one validation
+    /// of the pipeline settings; [`prepare`] calls it): the metric's
+    /// ([`MetricSpec::validate`]) and the solver's ([`GeodesicOptions::validate`]) values,
+    /// `insert` at most [`crate::limits::MAX_INSERT`], `levels` in
+    /// 1..=[`crate::limits::MAX_LEVELS`], `smoothing` at most [`crate::limits::MAX_SWEEPS`], the
+    /// base one of the deformations. The error names the setting by its key in
+    /// [`crate::settings::SETTINGS`].
+    pub fn validate(&self, n: usize) -> Result<(), crate::limits::LimitError> {
+        use crate::limits::{count, MAX_INSERT, MAX_LEVELS, MAX_SWEEPS};
+        self.metric.validate()?;
+        self.geodesic.validate()?;
+        count("insert", self.insert, 0, MAX_INSERT)?;
+        count("levels", self.levels, 1, MAX_LEVELS)?;
+        count("smooth", self.smoothing, 0, MAX_SWEEPS)?;
+        if n > 0 {
+            count("base", self.base, 0, n - 1)?;
+        }
+        Ok(())
+    }
+}
+
 /// Why the pipeline failed.
 #[derive(Debug, Error)]
 pub enum PipelineError {
@@ -107,6 +129,9 @@ pub enum PipelineError {
     /// The similarity computation failed.
     #[error(transparent)]
     Similarity(#[from] SimilarityError),
+    /// A setting is out of its range ([`PipelineOptions::validate`]).
+    #[error(transparent)]
+    Setting(#[from] crate::limits::LimitError),
     /// The distances do not make a distance matrix (a non-finite or negative distance).
     #[error(transparent)]
     Matrix(#[from] super::matrix::MatrixError),
@@ -223,6 +248,7 @@ pub fn prepare(
     opts: &PipelineOptions,
     progress: &(dyn Fn(Stage, &str) + Sync),
 ) -> Result<Prepared, PipelineError> {
+    opts.validate(defs.len())?;
     let topo = check(defs, opts.base)?;
     let smoothed: Vec<Vec<Pose>> = if opts.smoothing > 0 {
         defs.par_iter()

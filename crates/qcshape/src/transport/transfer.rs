@@ -157,15 +157,9 @@ impl TransferSetup {
         topo: Arc<Topology>,
         options: TransferOptions,
     ) -> Result<Self, TransportError> {
-        if options.geodesic.steps == 0 {
-            return Err(TransportError::Input("the geodesics need at least 1 step".into()));
-        }
-        if spec.lambda.is_nan() || spec.lambda < 0.0 {
-            return Err(TransportError::Input(format!(
-                "lambda must be non-negative, got {}",
-                spec.lambda
-            )));
-        }
+        spec.validate()
+            .and_then(|_| options.geodesic.validate())
+            .map_err(|e| TransportError::Input(e.to_string()))?;
         Ok(TransferSetup {
             metric: spec.build(calibration),
             transport: TransportMetric::new(spec, calibration, topo.clone()),
