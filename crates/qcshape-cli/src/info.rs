@@ -4,8 +4,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use qcshape::io::inspect::{inspect, write_text, PointDataSummary};
 use qcshape::io::{self, Format, IoError, DEGENERATE_REL_TOL};
-use qcshape::mesh::inspect::{inspect, write_text, PointDataSummary};
 use qcshape::mesh::{Shape, Topology};
 
 /// Arguments of `qcshape info`.

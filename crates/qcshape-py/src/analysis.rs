@@ -4,10 +4,11 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use qcshape::cluster::IntrinsicOptions;
 use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions, Clustering};
 use qcshape::embed::{smacof, MdsOptions};
 use qcshape::eval::{adjusted_rand_index, encode_labels, matched_confusion, one_vs_rest};
-use qcshape::similarity::{DistanceMatrix, IntrinsicOptions};
+use qcshape::similarity::DistanceMatrix;
 use qcshape::space::ShapeSpace;
 
 use crate::convert::{labels_out, matrix_out, opt_count, square, AnyInt};

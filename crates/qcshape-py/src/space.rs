@@ -3,9 +3,10 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use qcshape::cluster::KarcherOptions;
 use qcshape::geodesic::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::mesh::Topology;
-use qcshape::similarity::{KarcherOptions, Stage};
+use qcshape::similarity::Stage;
 use qcshape::space::ShapeSpace;
 use qcshape::transport::Transport;
 

@@ -20,6 +20,10 @@ use std::sync::Arc;
 
 use thiserror::Error;
 
+use crate::cluster::{
+    intrinsic_kmeans, karcher_mean, log_map, IntrinsicClustering, IntrinsicError, IntrinsicOptions,
+    KarcherMean, KarcherOptions,
+};
 use crate::dataset::Deformation;
 use crate::geodesic::{
     self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
@@ -28,9 +32,8 @@ use crate::geodesic::{
 use crate::mesh::{MeshError, Shape, Topology};
 use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::similarity::{
-    compute, intrinsic_kmeans, karcher_mean, log_map, similarity_matrix, Comparison, DistanceMatrix, Event,
-    IntrinsicClustering, IntrinsicError, IntrinsicOptions, KarcherMean, KarcherOptions, MatrixError,
-    PairDistance, PipelineError, PipelineOptions, Pose, Prepared, Run, Selection, SimilarityError,
+    compute, similarity_matrix, Comparison, DistanceMatrix, Event, MatrixError, PairDistance, PipelineError,
+    PipelineOptions, Pose, Prepared, Run, Selection, SimilarityError,
 };
 use crate::transport::{
     euclidean_transport, parallel_transport, schild_ladder, ParallelOptions, SchildOptions, TransferOptions,

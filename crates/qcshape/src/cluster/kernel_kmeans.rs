@@ -88,7 +88,7 @@ impl CentreModel for KernelKMeans {
 ///
 /// This is eq. 14 from the matrix alone; the paper's k-means with intrinsic means (class means
 /// that are deformations, Karcher means of poses) is
-/// [`crate::similarity::intrinsic_kmeans`], which is usually started from this partition.
+/// [`crate::cluster::intrinsic_kmeans`], which is usually started from this partition.
 /// (Formerly `cluster::kmeans`.)
 pub fn kernel_kmeans(d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
     lloyd_restarts(&KernelKMeans::new(d), opts)

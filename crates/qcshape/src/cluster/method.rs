@@ -30,7 +30,7 @@ pub enum ClusterMethod {
         dims: usize,
     },
     /// k-means with intrinsic (Karcher) means of the deformations, eq. 14
-    /// ([`crate::similarity::intrinsic_kmeans`]), started from the kernel k-means partition;
+    /// ([`crate::cluster::intrinsic_kmeans`]), started from the kernel k-means partition;
     /// needs the deformations, not only the matrix.
     Intrinsic,
 }

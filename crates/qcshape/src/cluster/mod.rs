@@ -18,11 +18,15 @@
 //! assignment, then the lowest index. Clusters are renumbered in order of first appearance
 //! (item 0 is always in cluster 0).
 
+pub mod intrinsic;
+pub mod karcher;
 pub mod kernel_kmeans;
 pub mod kmedoids;
 pub mod method;
 pub mod spectral;
 
+pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
+pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use kernel_kmeans::{kernel_kmeans, KernelKMeans};
 pub use kmedoids::kmedoids;
 pub use method::ClusterMethod;

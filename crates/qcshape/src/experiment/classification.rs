@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use thiserror::Error;
 
+use crate::cluster::{intrinsic_kmeans, IntrinsicError, IntrinsicOptions};
 use crate::cluster::{kernel_kmeans, ClusterError, ClusterOptions, Clustering};
 use crate::dataset::Deformation;
 use crate::eval::{
@@ -22,8 +23,8 @@ use crate::eval::{
 use crate::geodesic::{GeodesicError, GeodesicSolver};
 use crate::io::{write_atomically, IoError};
 use crate::similarity::{
-    compute, intrinsic_kmeans, prepare, DistanceMatrix, Event, IntrinsicError, IntrinsicOptions, MatrixError,
-    PipelineError, PipelineOptions, Prepared, Run, ShareSummary, Stage,
+    compute, prepare, DistanceMatrix, Event, MatrixError, PipelineError, PipelineOptions, Prepared, Run,
+    ShareSummary, Stage,
 };
 
 /// Why a classification or its scoring failed.

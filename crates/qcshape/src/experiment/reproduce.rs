@@ -18,6 +18,7 @@ use super::classification::{classify_set, score, ClassificationError, Classified
 use super::interpolation::InterpolationExperiment;
 use super::provenance::Provenance;
 use super::transfer::TransferExperiment;
+use crate::cluster::IntrinsicOptions;
 use crate::dataset::Deformation;
 use crate::defaults;
 use crate::embed::{smacof, MdsError, MdsOptions};
@@ -26,7 +27,7 @@ use crate::geodesic::GeodesicOptions;
 use crate::io::{write_atomically, IoError};
 use crate::metric::{MetricKind, MetricSpec};
 use crate::plot::PlotError;
-use crate::similarity::{IntrinsicOptions, MatrixFileError, PipelineOptions, ShareSummary, Stage};
+use crate::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Stage};
 use crate::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
 use crate::transport::{Alignment, Transport};
 

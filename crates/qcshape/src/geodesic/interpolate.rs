@@ -16,7 +16,6 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use super::{normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Normalization};
-use crate::dataset::Deformation;
 use crate::mesh::{geometry, MeshError, Shape, Topology};
 use crate::metric::Metric;
 use crate::multires::{Hierarchy, HierarchyError, DEFAULT_RATIO};
@@ -495,15 +494,6 @@ pub fn interpolate_sequence(
     };
     Shape::new(topo.clone(), first.clone())?;
     Interpolator::new(metric, topo, first, options.clone())?.interpolate_sequence(poses, &|| {})
-}
-
-/// [`interpolate_sequence`] on a loaded deformation.
-pub fn interpolate_deformation(
-    metric: &dyn Metric,
-    deformation: &Deformation,
-    options: &InterpolationOptions,
-) -> Result<Interpolated, InterpolationError> {
-    interpolate_sequence(metric, &deformation.topology, &deformation.poses, options)
 }
 
 /// Interpolates the middle of `first` and `last` (one inserted pose, whatever

@@ -54,9 +54,8 @@ use thiserror::Error;
 
 pub use energy::{Ends, PathEnergy};
 pub use interpolate::{
-    insertion_schedule, interpolate_deformation, interpolate_middle, interpolate_sequence, Interpolated,
-    InterpolationError, InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation,
-    PairStats,
+    insertion_schedule, interpolate_middle, interpolate_sequence, Interpolated, InterpolationError,
+    InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation, PairStats,
 };
 pub use options::{GeodesicOptions, Solver, StopReason};
 

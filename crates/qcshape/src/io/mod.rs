@@ -32,6 +32,7 @@
 
 mod color;
 mod fields;
+pub mod inspect;
 #[cfg(test)]
 mod interop_tests;
 pub mod npy;

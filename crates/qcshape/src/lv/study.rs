@@ -12,6 +12,7 @@ use thiserror::Error;
 
 use super::analysis::{close_cycle, drop_closing_pose, radial_features, AnalysisError, Axis};
 use super::cohort::LvError;
+use crate::cluster::{intrinsic_kmeans, IntrinsicError, IntrinsicOptions};
 use crate::cluster::{kernel_kmeans, ClusterError, ClusterMethod, ClusterOptions, Clustering};
 use crate::dataset::{DatasetError, Deformation};
 use crate::embed::MdsError;
@@ -24,8 +25,8 @@ use crate::io::IoError;
 use crate::multires::{Hierarchy, HierarchyError};
 use crate::plot::PlotError;
 use crate::similarity::{
-    compute, intrinsic_kmeans, prepare, DistanceMatrix, Event, IntrinsicError, IntrinsicOptions, MatrixError,
-    MatrixFileError, PipelineError, PipelineOptions, Prepared, Run, ShareSummary, Stage,
+    compute, prepare, DistanceMatrix, Event, MatrixError, MatrixFileError, PipelineError, PipelineOptions,
+    Prepared, Run, ShareSummary, Stage,
 };
 
 /// Why a study step failed. Messages name the subject, file or option.

@@ -6,7 +6,7 @@
 
 mod error;
 pub mod geometry;
-pub mod inspect;
+
 mod shape;
 pub mod smooth;
 mod topology;

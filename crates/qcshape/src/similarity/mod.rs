@@ -3,9 +3,7 @@
 //! they fill.
 
 pub mod engine;
-pub mod intrinsic;
 pub mod journal;
-pub mod karcher;
 pub mod matrix;
 pub mod pipeline;
 pub mod run;
@@ -14,9 +12,7 @@ pub mod shares;
 pub mod tangent;
 
 pub use engine::{all_pairs, details_csv, pose_distances, Approx, PairDistance, Pose, SimilarityError};
-pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
 pub use journal::{fingerprint, Journal, JournalFile};
-pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use matrix::*;
 pub use pipeline::{prepare, settings_key, PipelineError, PipelineOptions, Prepared, Stage};
 pub use run::{compute, journal_path, similarity_matrix, Comparison, Event, Outcome, Run, Selection, Sink};

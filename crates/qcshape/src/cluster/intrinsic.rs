@@ -6,10 +6,10 @@ use thiserror::Error;
 
 use crate::geodesic::{GeodesicError, GeodesicSolver, SolveContext};
 
-#[cfg(doc)]
-use super::engine::pose_distances;
-use super::engine::Pose;
 use super::karcher::{karcher_mean, KarcherOptions};
+use crate::mesh::Pose;
+#[cfg(doc)]
+use crate::similarity::pose_distances;
 
 /// Options of [`intrinsic_kmeans`].
 #[derive(Debug, Clone)]

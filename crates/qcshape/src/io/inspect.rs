@@ -7,8 +7,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{geometry, Shape};
 use crate::io::DEGENERATE_REL_TOL;
+use crate::mesh::{geometry, Shape};
 
 /// Faces with area at most this times the squared mean edge length are reported as
 /// near-degenerate (a warning; at most [`DEGENERATE_REL_TOL`] they are an error).

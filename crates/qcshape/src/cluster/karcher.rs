@@ -3,7 +3,7 @@
 
 use crate::geodesic::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
 
-use super::engine::Pose;
+use crate::mesh::Pose;
 
 /// Options of the Karcher mean iteration `mu <- mu + step * mean_k log_mu(P_k)`.
 #[derive(Debug, Clone)]
