@@ -24,10 +24,10 @@ use crate::multires::{Hierarchy, HierarchyError, DEFAULT_RATIO};
 #[derive(Debug, Clone)]
 pub struct InterpolationOptions {
     /// Number `n` of poses inserted between two key poses. Default
-    /// [`crate::defaults::PAPER_INSERT`] (3, as in paper sections 3.3 and 4).
+    /// [`super::defaults::PAPER_INSERT`] (3, as in paper sections 3.3 and 4).
     pub insert: usize,
     /// Number of spatial levels, the input mesh included (1 = no multiresolution). Default
-    /// [`crate::defaults::LEVELS`] (1: the multiresolution solve was not faster, README).
+    /// [`super::defaults::LEVELS`] (1: the multiresolution solve was not faster, README).
     pub levels: usize,
     /// Share of vertices kept by each coarsening step. Default [`DEFAULT_RATIO`] (0.25).
     pub ratio: f64,
@@ -42,8 +42,8 @@ pub struct InterpolationOptions {
 impl Default for InterpolationOptions {
     fn default() -> Self {
         InterpolationOptions {
-            insert: crate::defaults::PAPER_INSERT,
-            levels: crate::defaults::LEVELS,
+            insert: super::defaults::PAPER_INSERT,
+            levels: super::defaults::LEVELS,
             ratio: DEFAULT_RATIO,
             geodesic: GeodesicOptions::default(),
             normalization: Normalization::MeanEdgeOfFirst,

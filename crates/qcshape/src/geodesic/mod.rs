@@ -32,6 +32,7 @@
 //! [`Interpolator`] and [`interpolate_sequence`].
 
 mod compact;
+pub mod defaults;
 mod energy;
 mod hessian;
 mod interpolate;

@@ -121,7 +121,7 @@ fn distance_solves_stop_when_the_length_settles() {
             assert_eq!(o.iterations, p.iterations);
             let rel = (d.length - t.length).abs() / t.length;
             assert!(
-                rel <= 5.0 * crate::defaults::LENGTH_TOLERANCE,
+                rel <= 5.0 * super::defaults::LENGTH_TOLERANCE,
                 "{kind:?}: distance {} path {} tight {} ({rel:e})",
                 d.length,
                 p.length,

@@ -110,7 +110,7 @@ pub struct GeodesicOptions {
     /// along the path lowers the energy but not `L`): at 162 vertices distances move by at
     /// most 5e-8 relative; at 2,562 and 10,242 by up to 3e-7 and 5e-7 (docs/speed.md, round
     /// 4). Only the default solver ([`Solver::Preconditioned`]) applies it; 0 disables it.
-    /// Default [`crate::defaults::LENGTH_TOLERANCE`].
+    /// Default [`super::defaults::LENGTH_TOLERANCE`].
     pub length_tolerance: f64,
     /// Stop as soon as the energy is at or below this value (used to time solvers to a
     /// common energy).
@@ -170,12 +170,12 @@ impl GeodesicOptions {
 impl Default for GeodesicOptions {
     fn default() -> Self {
         GeodesicOptions {
-            steps: crate::defaults::STEPS,
-            solver: crate::defaults::SOLVER,
+            steps: super::defaults::STEPS,
+            solver: super::defaults::SOLVER,
             max_iterations: None,
-            gradient_tolerance: crate::defaults::TOLERANCE,
-            energy_tolerance: crate::defaults::ENERGY_TOLERANCE,
-            length_tolerance: crate::defaults::LENGTH_TOLERANCE,
+            gradient_tolerance: super::defaults::TOLERANCE,
+            energy_tolerance: super::defaults::ENERGY_TOLERANCE,
+            length_tolerance: super::defaults::LENGTH_TOLERANCE,
             target_energy: None,
             lbfgs_memory: 10,
             preconditioner_refresh: 45,

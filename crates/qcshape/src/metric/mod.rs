@@ -13,6 +13,7 @@
 
 mod conformal;
 mod curvature;
+pub mod defaults;
 mod fused;
 mod gradient;
 mod isometric;

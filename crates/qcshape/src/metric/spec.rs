@@ -198,28 +198,28 @@ impl MetricSpec {
         )
     }
 
-    /// Defaults: quadratic form, endpoint weights normalized as [`crate::defaults::QC_NORMALIZE`],
-    /// `lambda` = [`crate::defaults::LAMBDA`] on the [`MetricScale::Calibrated`] scale, frozen
+    /// Defaults: quadratic form, endpoint weights normalized as [`super::defaults::QC_NORMALIZE`],
+    /// `lambda` = [`super::defaults::LAMBDA`] on the [`MetricScale::Calibrated`] scale, frozen
     /// areas.
     pub fn new(kind: MetricKind) -> Self {
         MetricSpec {
             kind,
             form: ConformalForm::Quadratic,
             weights: QcWeights::Endpoints,
-            qc_normalize: crate::defaults::QC_NORMALIZE,
-            lambda: crate::defaults::LAMBDA,
-            scale: crate::defaults::SCALE,
+            qc_normalize: super::defaults::QC_NORMALIZE,
+            lambda: super::defaults::LAMBDA,
+            scale: super::defaults::SCALE,
             frozen_areas: true,
         }
     }
 
     /// The configuration of every release before 2026-12-04 (and of the README's previous
     /// tables): raw terms in mean-edge units, raw quasi-conformal weights, `lambda`
-    /// [`crate::defaults::RAW_LAMBDA`] (0.1).
+    /// [`super::defaults::RAW_LAMBDA`] (0.1).
     pub fn previous(kind: MetricKind) -> Self {
         MetricSpec {
             qc_normalize: None,
-            lambda: crate::defaults::RAW_LAMBDA,
+            lambda: super::defaults::RAW_LAMBDA,
             scale: MetricScale::Raw,
             ..MetricSpec::new(kind)
         }

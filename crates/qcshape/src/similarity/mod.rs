@@ -2,6 +2,7 @@
 //! common base, computed in parallel and resumable through a journal, and the distance matrix
 //! they fill.
 
+pub mod defaults;
 pub mod engine;
 pub mod journal;
 pub mod matrix;

@@ -18,7 +18,6 @@ use crate::transport::{
 };
 
 use super::engine::{Approx, Pose, SimilarityError};
-use crate::defaults;
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]
@@ -58,14 +57,14 @@ pub struct PipelineOptions {
 impl Default for PipelineOptions {
     fn default() -> Self {
         PipelineOptions {
-            metric: MetricSpec::new(defaults::METRIC),
+            metric: MetricSpec::new(crate::metric::defaults::METRIC),
             geodesic: GeodesicOptions::default(),
-            insert: defaults::INSERT,
-            levels: defaults::LEVELS,
-            transport: defaults::TRANSPORT,
+            insert: super::defaults::INSERT,
+            levels: crate::geodesic::defaults::LEVELS,
+            transport: crate::transport::defaults::TRANSPORT,
             base: 0,
-            align: defaults::ALIGN,
-            smoothing: defaults::SMOOTH,
+            align: crate::transport::defaults::ALIGN,
+            smoothing: super::defaults::SMOOTH,
             approx: Approx::Exact,
         }
     }

@@ -15,6 +15,7 @@
 //! example `G + lambda L2`), so the transport depends on the scale.
 
 pub mod align;
+pub mod defaults;
 pub mod inner;
 pub mod parallel;
 pub mod schild;
