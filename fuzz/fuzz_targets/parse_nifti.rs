@@ -1,10 +1,10 @@
-//! Fuzz target: `qcshape::lv::nifti::parse_nifti` on arbitrary bytes (plain or gzipped NIfTI-1).
+//! Fuzz target: `qcshape::io::nifti::parse_nifti` on arbitrary bytes (plain or gzipped NIfTI-1).
 //! It must never panic, and whatever it accepts must hold one value per voxel in every frame,
 //! with positive dimensions and a finite affine.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use qcshape::lv::nifti::parse_nifti;
+use qcshape::io::nifti::parse_nifti;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(frames) = parse_nifti(data) {

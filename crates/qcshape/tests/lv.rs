@@ -1,12 +1,12 @@
 //! Left-ventricle image side: NIfTI, thin-plate splines, phantom, surfaces, free wall.
 
+use qcshape::io::nifti::{
+    parse_nifti, read_series, read_volume, write_series, NiftiError, NiftiParseError, Volume,
+};
 use qcshape::lv::cohort::Registration;
 use qcshape::lv::freewall::{free_wall, LvAxis, SectorOptions};
 use qcshape::lv::landmarks::{read_landmarks, write_landmarks, LandmarkError, APEX, BASE_CENTRE, SEPTUM};
 use qcshape::lv::meshing::{extract_surface, SurfaceOptions};
-use qcshape::lv::nifti::{
-    parse_nifti, read_series, read_volume, write_series, NiftiError, NiftiParseError, Volume,
-};
 use qcshape::lv::phantom::{subject, Group, PhantomOptions, PhantomSubject};
 use qcshape::lv::surface::{isosurface, otsu_thresholds, SurfaceError};
 use qcshape::lv::tps::{Tps, TpsError};

@@ -35,6 +35,7 @@ mod fields;
 pub mod inspect;
 #[cfg(test)]
 mod interop_tests;
+pub mod nifti;
 pub mod npy;
 mod obj;
 mod off;

@@ -286,10 +286,10 @@ fn mutated_files_never_panic() {
 }
 
 /// NIfTI: mutations of small plain and gzipped files through
-/// [`crate::lv::nifti::parse_nifti`]; no panic, and every success has one value per voxel.
+/// [`crate::io::nifti::parse_nifti`]; no panic, and every success has one value per voxel.
 #[test]
 fn mutated_nifti_never_panics() {
-    use crate::lv::nifti::parse_nifti;
+    use crate::io::nifti::parse_nifti;
     if !selected("nifti") {
         return;
     }

@@ -11,7 +11,7 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::nifti::{apply_affine, Volume};
+use crate::io::nifti::{apply_affine, Volume};
 
 /// Landmarks per frame.
 pub const N_LANDMARKS: usize = 32;

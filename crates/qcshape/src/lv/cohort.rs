@@ -17,11 +17,11 @@ use thiserror::Error;
 
 use super::freewall::FreeWallError;
 use super::landmarks::{read_landmarks, write_landmarks, LandmarkError, Landmarks};
-use super::nifti::{read_series, write_series, write_volume, NiftiError, Volume};
 use super::phantom::PhantomSubject;
 use super::surface::SurfaceError;
 use super::tps::{Tps, TpsError};
 use crate::dataset::natural_cmp;
+use crate::io::nifti::{read_series, write_series, write_volume, NiftiError, Volume};
 use crate::io::{write_atomically, IoError};
 
 /// The labels file's name.

@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
-use super::nifti::Volume;
 use super::surface::{compact, isosurface, otsu_thresholds, SurfaceError, TriMesh};
+use crate::io::nifti::Volume;
 use crate::io::DEGENERATE_REL_TOL;
 use crate::mesh::{Shape, Topology};
 

@@ -27,7 +27,7 @@ pub mod freewall;
 pub mod landmarks;
 pub mod meshing;
 pub mod motion_report;
-pub mod nifti;
+
 pub mod phantom;
 pub mod refine;
 pub mod region;
@@ -36,9 +36,9 @@ pub mod study_report;
 pub mod surface;
 pub mod tps;
 
+pub use crate::io::nifti::{read_series, read_volume, write_series, write_volume, Volume};
 pub use cohort::{LvError, Registration, SubjectDir};
 pub use freewall::{free_wall, LvAxis, SectorOptions, Submesh};
 pub use landmarks::{read_landmarks, write_landmarks, Landmarks};
 pub use meshing::{extract_surface, Surface, SurfaceOptions};
-pub use nifti::{read_series, read_volume, write_series, write_volume, Volume};
 pub use tps::Tps;

@@ -84,7 +84,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::anatomy::{self, LvModel};
 use super::landmarks::Landmarks;
-use super::nifti::Volume;
+use crate::io::nifti::Volume;
 
 /// The subject's class.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -11,7 +11,7 @@
 //! from the landmarks; only the wall's position across it comes from the image.
 
 use super::analysis::keeps_triangles;
-use super::nifti::{apply_affine, Volume};
+use crate::io::nifti::{apply_affine, Volume};
 use crate::mesh::{geometry, Topology};
 
 /// Settings of [`refine_to_image`].

@@ -13,7 +13,7 @@ use std::collections::HashMap;
 
 use thiserror::Error;
 
-use super::nifti::{apply_affine, det3, Volume};
+use crate::io::nifti::{apply_affine, det3, Volume};
 use crate::mesh::{geometry, MeshError, Topology};
 
 /// Why no usable surface came out.

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::io::write_atomically;
+use super::write_atomically;
 
 /// Size of the NIfTI-1 header in bytes.
 const HEADER_SIZE: usize = 348;
