@@ -3,12 +3,13 @@
 //! are validated by the library, once.
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::dataset::Dataset;
 use qcshape::defaults;
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
 use qcshape::similarity::{Approx, PipelineOptions};
-use qcshape::transport::{Alignment, Transport};
+use qcshape::transport::Transport;
 
 /// The metric (METHOD.md) and its variants.
 #[derive(Debug, Clone, clap::Args)]

@@ -4,11 +4,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::experiment::provenance::Provenance;
 use qcshape::experiment::reproduce::{ReproduceReport, Reproduction};
 use qcshape::metric::MetricKind;
 use qcshape::synth::{write_benchmark, NoiseKind};
-use qcshape::transport::{Alignment, Transport};
+use qcshape::transport::Transport;
 
 use crate::args::in_pool;
 use crate::progress::{bar, PipelineBars};

@@ -325,7 +325,7 @@ impl PipelineKw {
             align: match self.align.as_deref() {
                 None => d.align,
                 Some(a) => a
-                    .parse::<qcshape::transport::Alignment>()
+                    .parse::<qcshape::align::Alignment>()
                     .map_err(|e| PyValueError::new_err(format!("align: {e}")))?,
             },
             smoothing: self.smooth.unwrap_or(d.smoothing),

@@ -13,6 +13,7 @@
 //! Lengths are in the units of the input coordinates unless a function says it normalizes.
 #![warn(missing_docs)]
 
+pub mod align;
 pub mod cluster;
 pub mod contribution;
 pub mod dataset;

@@ -12,8 +12,9 @@ const ORDER: &[&str] = &[
     "limits",
     "numfmt",
     "outputs",
-    // meshes and their files
+    // meshes, their rigid alignment and their files
     "mesh",
+    "align",
     "io",
     "multires",
     "dataset",

@@ -507,6 +507,7 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
 
 // ---- The harder (overlapping) phantom and the cohort study (section 4.3). ----
 
+use qcshape::align::{Alignment, Motion};
 use qcshape::cluster::ClusterMethod;
 use qcshape::geodesic::GeodesicOptions;
 use qcshape::lv::cohort::{write_labels, write_subject, LABELS_NAME};
@@ -515,7 +516,6 @@ use qcshape::lv::phantom::{overlap_model, roster, sample_model};
 use qcshape::lv::study::{analyse, baselines, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
-use qcshape::transport::{Alignment, Motion};
 
 #[test]
 fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {

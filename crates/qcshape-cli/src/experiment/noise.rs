@@ -5,12 +5,13 @@ use std::collections::HashSet;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::experiment::noise::NoiseExperiment;
 use qcshape::geodesic::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
-use qcshape::transport::{Alignment, Transport};
+use qcshape::transport::Transport;
 
 use crate::args::MetricArgs;
 use crate::progress::PipelineBars;

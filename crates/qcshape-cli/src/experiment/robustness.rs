@@ -7,11 +7,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::InitialShape;
-use qcshape::transport::Alignment;
 
 use crate::args::SolverArgs;
 

@@ -11,12 +11,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::cluster::ClusterMethod;
 use qcshape::dataset::{load_sequence, mesh_files, Deformation};
 use qcshape::geodesic::GeodesicOptions;
 use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
 use qcshape::lv::study_report::cycle_report;
-use qcshape::transport::{Alignment, Transport};
+use qcshape::transport::Transport;
 
 use crate::args::{in_pool, MetricArgs};
 use progress::Bars;

@@ -18,6 +18,7 @@ use super::classification::{classify_set, score, ClassificationError, Classified
 use super::interpolation::InterpolationExperiment;
 use super::provenance::Provenance;
 use super::transfer::TransferExperiment;
+use crate::align::Alignment;
 use crate::cluster::IntrinsicOptions;
 use crate::dataset::Deformation;
 use crate::defaults;
@@ -29,7 +30,7 @@ use crate::metric::{MetricKind, MetricSpec};
 use crate::plot::PlotError;
 use crate::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Stage};
 use crate::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
-use crate::transport::{Alignment, Transport};
+use crate::transport::Transport;
 
 use super::noise::noisy_set;
 

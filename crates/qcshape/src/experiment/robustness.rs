@@ -14,6 +14,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::align::{align_deformation, Alignment};
 use crate::cluster::{kernel_kmeans, kmedoids, ClusterError, ClusterOptions, Clustering};
 use crate::dataset::Deformation;
 use crate::eval::{
@@ -27,7 +28,6 @@ use crate::similarity::{
 use crate::synth::{
     perturbed_benchmark, DeformationKind, InitialShape, Perturbation, SynthError, VertexNoise,
 };
-use crate::transport::{align_deformation, Alignment};
 
 /// A named perturbation of the benchmark.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

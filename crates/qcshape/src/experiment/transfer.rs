@@ -246,9 +246,9 @@ fn distances(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
 }
 
 /// Per-vertex `|R a[i] + t - b[i]|` (#V) for the rotation `R` and translation `t` that best
-/// align `a` onto `b` in least squares (equal weights; [`crate::transport::align::best_motion`]).
+/// align `a` onto `b` in least squares (equal weights; [`crate::align::best_motion`]).
 fn rigid_residuals(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<f64> {
-    let m = crate::transport::align::best_motion(a, b, &[], false);
+    let m = crate::align::best_motion(a, b, &[], false);
     a.iter()
         .zip(b)
         .map(|(p, q)| geometry::norm(geometry::sub(m.apply(*p), *q)))

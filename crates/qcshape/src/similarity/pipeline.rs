@@ -6,6 +6,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::align::{align_deformation, Alignment};
 use crate::dataset::Deformation;
 use crate::geodesic::{
     normalization_factor, GeodesicError, GeodesicOptions, InterpolationError, InterpolationOptions,
@@ -13,9 +14,7 @@ use crate::geodesic::{
 };
 use crate::mesh::{MeshError, Topology};
 use crate::metric::{Calibration, Metric, MetricSpec};
-use crate::transport::{
-    align_deformation, Alignment, TransferOptions, TransferSetup, Transport, TransportError,
-};
+use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError};
 
 use super::engine::{Approx, Pose, SimilarityError};
 
@@ -508,8 +507,8 @@ mod alignment_tests {
     use super::*;
     use crate::metric::MetricKind;
 
+    use crate::align::{rotation_about, Motion};
     use crate::synth::{genus0_benchmark, SynthOptions};
-    use crate::transport::align::{rotation_about, Motion};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

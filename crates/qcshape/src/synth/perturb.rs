@@ -15,11 +15,11 @@ use super::deformations::{deform, DeformParams, DeformationKind};
 use super::noise::{sample, NoiseKind};
 use super::shapes::{initial_shape, template, InitialShape};
 use super::SynthError;
+use crate::align::{rotation_about, Motion};
 use crate::dataset::Deformation;
 use crate::io::DEGENERATE_REL_TOL;
 use crate::mesh::geometry::{bounding_box, mean_edge_length, norm, sub};
 use crate::mesh::Shape;
-use crate::transport::align::{rotation_about, Motion};
 
 /// Vertex noise: independent Gaussian noise on every coordinate of every pose.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -168,7 +168,7 @@ pub fn perturbed_benchmark(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::transport::align::{best_motion, rms_distance};
+    use crate::align::{best_motion, rms_distance};
 
     fn set(p: &Perturbation, seed: u64) -> Vec<Deformation> {
         perturbed_benchmark(

@@ -2,7 +2,8 @@
 //! every other default by [`crate::defaults`] (the index the command line's `--help` and the
 //! docs take them from).
 
-use super::{Alignment, Transport};
+use super::Transport;
+use crate::align::Alignment;
 
 /// Transport of every deformation to the common base: Euclidean (`N_k = N_0 + M_k - M_0`,
 /// command-line value `euclidean`). It gave the lower transfer error and the better

@@ -1,7 +1,6 @@
 //! Discrete parallel transport and deformation transfer (paper section 2.2.2, METHOD.md
 //! "Deformation transfer").
 //!
-//! - [`align`]: rigid or similarity alignment of a deformation to the base before transfer;
 //! - [`inner`]: the metric's inner product `<<U, V>>_S` (the polarization of its quadratic form at
 //!   a pose `S`, #V x 3 tangent vectors) as a sparse operator `G_S = J^T J`;
 //! - [`parallel`]: the paper's discrete parallel transport along the samples of a curve (each
@@ -14,14 +13,12 @@
 //! factor, see [`crate::geodesic::Normalization`]): the forms mix different powers of length (for
 //! example `G + lambda L2`), so the transport depends on the scale.
 
-pub mod align;
 pub mod defaults;
 pub mod inner;
 pub mod parallel;
 pub mod schild;
 pub mod transfer;
 
-pub use align::{align_deformation, best_motion, Alignment, Motion};
 pub use inner::{quadratic_companion, InnerProduct, TransportMetric};
 pub use parallel::{euclidean_transport, parallel_transport, ParallelOptions, StepDiagnostics, Transported};
 pub use schild::{schild_ladder, RungDiagnostics, SchildOptions, SchildTransported};

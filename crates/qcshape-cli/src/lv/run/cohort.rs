@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
 use qcshape::dataset::{load_sequence, Dataset};
 use qcshape::lv::analysis::Axis;
 use qcshape::lv::cohort_mesh::{is_cohort, mesh_cohort, write_meshes, MeshSettings};
@@ -14,7 +15,6 @@ use qcshape::lv::region::{cohort_region, write_region, REGION_NAME};
 use qcshape::lv::study::{analyse, baselines, coarsen, compare_methods, labels_of, SplitOptions, Tick};
 use qcshape::lv::study_report::{run_report, RunSummary};
 use qcshape::similarity::PipelineOptions;
-use qcshape::transport::Alignment;
 
 use super::progress::Bars;
 use super::{cycle_settings, pattern_files, run_cycle, RunArgs};
