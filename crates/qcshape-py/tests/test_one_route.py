@@ -119,3 +119,24 @@ def test_out_of_range_values_are_named_by_their_keyword(synthetic, pair):
         qs.similarity_matrix(synthetic, length_tolerance=-1.0, progress=False)
     with pytest.warns(UserWarning, match="lambda = 0 leaves the conformal metric"):
         qs.ShapeSpace(F, metric="conformal", lam=0.0)
+
+
+def test_geodesic_cli_and_python_dist_give_one_distance(tmp_path, pair):
+    import json
+
+    exe = cli()
+    V, B, F = pair
+    a, b = tmp_path / "A.ply", tmp_path / "B.ply"
+    qs.write_mesh(a, V, F)
+    qs.write_mesh(b, B, F)
+
+    def cli_distance(x, y):
+        out = subprocess.run([exe, "geodesic", str(x), str(y), "--json"], check=True, capture_output=True)
+        return json.loads(out.stdout)["distance"]
+
+    ab, ba = cli_distance(a, b), cli_distance(b, a)
+    space = qs.ShapeSpace(F)
+    d_ab, d_ba = space.dist(V, B), space.dist(B, V)
+    assert ab > 0.05
+    for d in (ba, d_ab, d_ba):
+        assert abs(d - ab) <= 1e-12, (ab, ba, d_ab, d_ba)
