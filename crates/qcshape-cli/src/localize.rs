@@ -160,7 +160,7 @@ pub fn run(args: &Args) -> Result<()> {
         opts.metric.label()
     );
     let (prepared, maps, result, motion, metric_name) = in_pool(args.threads, || {
-        let prepared = prepare(&defs, &opts, &|_, _| {})?;
+        let prepared = prepare(&defs, &opts, &|_| {})?;
         let metric = prepared.metric(&opts.metric);
         let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
         let scaled = prepared.scaled();

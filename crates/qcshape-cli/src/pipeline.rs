@@ -14,7 +14,7 @@ use crate::progress::PipelineBars;
 /// Interpolation and transfer with progress bars.
 pub(crate) fn prepare_with_progress(data: &Dataset, opts: &PipelineOptions) -> Result<Prepared> {
     let bars = PipelineBars::new(data.deformations.len());
-    let prepared = prepare(&data.deformations, opts, &|stage, _| bars.tick("pairs", stage))?;
+    let prepared = prepare(&data.deformations, opts, &|e| bars.event("pairs", &e))?;
     bars.finish();
     Ok(prepared)
 }

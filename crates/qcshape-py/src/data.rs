@@ -551,7 +551,7 @@ pub fn pair_contributions<'py>(
     let (na, nb) = (name_of(a, "a")?, name_of(b, "b")?);
     let opts = kw.options(&names)?;
     let total = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         qcshape::explain::explain(&prepared, &opts, &na, &nb)
             .map(|e| e.contributions.total)
@@ -598,7 +598,7 @@ pub fn motion_maps<'py>(
     let raw = opts.metric.build(&qcshape::metric::Calibration::RAW);
     MotionMeasure::parse(measure, raw.as_ref()).map_err(bad("measure"))?;
     let (rows, nv, values) = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_, _| {})
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);
         let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;

@@ -49,7 +49,7 @@ pub fn prepare_pairs<'py>(
     let opts = space.pipeline_options(opts);
     let defs = ds.defs.clone();
     let prepared = detached(py, kw.threads, |_| {
-        prepare(&defs, &opts, &|_, _| {}).map_err(|e| errors::space(e.into()))
+        prepare(&defs, &opts, &|_| {}).map_err(|e| errors::space(e.into()))
     })?;
     let poses = deformations_out(py, &prepared.scaled())?;
     let faces = faces_out(py, prepared.topology.faces())?;

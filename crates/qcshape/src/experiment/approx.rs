@@ -225,7 +225,7 @@ pub fn compare_modes(
         )));
     }
     let t0 = Instant::now();
-    let prepared: Prepared = prepare(defs, opts, &|_, _| {})?;
+    let prepared: Prepared = prepare(defs, opts, &|_| {})?;
     let prepare_seconds = t0.elapsed().as_secs_f64();
     let n = prepared.names.len();
     let mut out: Vec<ModeResult> = Vec::new();

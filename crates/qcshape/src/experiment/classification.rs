@@ -211,7 +211,11 @@ pub fn classify_set(
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<Classified, ClassificationError> {
     let t0 = Instant::now();
-    let prepared = prepare(defs, opts, &|stage, _| progress(stage))?;
+    let prepared = prepare(defs, opts, &|e| {
+        if let Event::Prepared { stage, .. } = e {
+            progress(stage)
+        }
+    })?;
     let t_prepare = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let run = Run {

@@ -309,16 +309,22 @@ pub fn analyse(
         .collect();
     let t0 = Instant::now();
     let n = defs.len();
-    let mut prepared = prepare(&data, opts, &|stage, _| match stage {
-        Stage::Interpolation => progress(Tick {
+    let mut prepared = prepare(&data, opts, &|e| match e {
+        Event::Prepared {
+            stage: Stage::Interpolation,
+            ..
+        } => progress(Tick {
             what: "interpolating",
             total: n,
         }),
-        Stage::Transfer => progress(Tick {
+        Event::Prepared {
+            stage: Stage::Transfer,
+            ..
+        } => progress(Tick {
             what: "transferring",
             total: n,
         }),
-        Stage::Similarity => {}
+        _ => {}
     })?;
     progress(Tick::DONE);
     if !open {

@@ -17,6 +17,7 @@ use crate::metric::{Calibration, Metric, MetricSpec};
 use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError};
 
 use super::engine::{Approx, Pose, SimilarityError};
+use super::run::Event;
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]
@@ -84,8 +85,12 @@ impl PipelineOptions {
         count("insert", self.insert, 0, MAX_INSERT)?;
         count("levels", self.levels, 1, MAX_LEVELS)?;
         count("smooth", self.smoothing, 0, MAX_SWEEPS)?;
-        if n > 0 {
-            count("base", self.base, 0, n - 1)?;
+        if n > 0 && self.base >= n {
+            return Err(crate::limits::LimitError::TooLarge {
+                what: format!("base (the index of the base deformation among {n})"),
+                max: n as u128 - 1,
+                value: self.base as u128,
+            });
         }
         Ok(())
     }
@@ -240,14 +245,15 @@ fn check(defs: &[Deformation], base: usize) -> Result<Arc<Topology>, PipelineErr
 /// Smooths every pose ([`PipelineOptions::smoothing`]), aligns each deformation to the first
 /// pose of deformation `opts.base` ([`PipelineOptions::align`]), interpolates it (`opts.insert`
 /// poses between key poses) and transfers it to that base, deformations in parallel.
-/// `progress(stage, name)` is called as each deformation finishes a stage.
+/// `events` sees an [`Event::Prepared`] as each deformation finishes a stage.
 pub fn prepare(
     defs: &[Deformation],
     opts: &PipelineOptions,
-    progress: &(dyn Fn(Stage, &str) + Sync),
+    events: &(dyn Fn(Event<'_>) + Sync),
 ) -> Result<Prepared, PipelineError> {
-    opts.validate(defs.len())?;
+    let progress = |stage: Stage, name: &str| events(Event::Prepared { stage, name });
     let topo = check(defs, opts.base)?;
+    opts.validate(defs.len())?;
     let smoothed: Vec<Vec<Pose>> = if opts.smoothing > 0 {
         defs.par_iter()
             .map(|d| {
@@ -436,8 +442,10 @@ mod tests {
             ..Default::default()
         };
         let calls = std::sync::Mutex::new(Vec::new());
-        let prepared = prepare(&pick, &opts, &|stage, name| {
-            calls.lock().unwrap().push((stage, name.to_string()))
+        let prepared = prepare(&pick, &opts, &|e| {
+            if let crate::similarity::Event::Prepared { stage, name } = e {
+                calls.lock().unwrap().push((stage, name.to_string()))
+            }
         })
         .unwrap();
         assert_eq!(calls.lock().unwrap().len(), 12);
@@ -487,7 +495,7 @@ mod tests {
         .unwrap();
         let mut short = defs[1].clone();
         short.poses.pop();
-        let e = prepare(&[defs[0].clone(), short], &PipelineOptions::default(), &|_, _| {}).unwrap_err();
+        let e = prepare(&[defs[0].clone(), short], &PipelineOptions::default(), &|_| {}).unwrap_err();
         assert!(e.to_string().contains("has 2 poses"), "{e}");
         let e = prepare(
             &defs[..2],
@@ -495,7 +503,7 @@ mod tests {
                 base: 5,
                 ..Default::default()
             },
-            &|_, _| {},
+            &|_| {},
         )
         .unwrap_err();
         assert!(e.to_string().contains("base deformation 5"), "{e}");

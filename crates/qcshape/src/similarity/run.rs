@@ -299,9 +299,7 @@ pub fn similarity_matrix(
     opts: &PipelineOptions,
     run: &Run<'_>,
 ) -> Result<(Prepared, Outcome), PipelineError> {
-    let prepared = prepare(defs, opts, &|stage, name| {
-        (run.events)(Event::Prepared { stage, name })
-    })?;
+    let prepared = prepare(defs, opts, run.events)?;
     let outcome = compute(&prepared.comparison(), opts, run)?;
     Ok((prepared, outcome))
 }
