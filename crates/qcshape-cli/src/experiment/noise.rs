@@ -8,13 +8,15 @@ use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::experiment::noise::NoiseExperiment;
-use qcshape::geodesic::GeodesicOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
 use qcshape::transport::Transport;
 
-use crate::args::MetricArgs;
+use crate::args::{MetricArgs, SolverArgs};
 use crate::progress::PipelineBars;
+
+/// `--steps`' default here: [`qcshape::defaults::NOISE_STEPS`] (a named exception).
+const NOISE_STEPS: &str = "4";
 
 /// Noise resistance of the classification (Table 3, eq. 17).
 ///
@@ -27,7 +29,11 @@ use crate::progress::PipelineBars;
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Noise resistance of the classification (Table 3, eq. 17)",
-    long_about
+    long_about,
+    mut_arg("steps", |a| a
+        .default_value(NOISE_STEPS)
+        .long_help("Segments N of every geodesic. Default 4, not the other commands' 8: the setting \
+the README's Table 3 was measured with (the experiment classifies the set twice per level).\nAt most 10,000."))
 )]
 pub struct Args {
     /// A data set (manifest CSV or folder); default: the built-in synthetic set at --level.
@@ -49,11 +55,8 @@ pub struct Args {
     kinds: Vec<NoiseKind>,
     #[command(flatten)]
     metric: MetricArgs,
-    /// Segments N of every geodesic. Default 4, not the other commands' 8: the setting the
-    /// README's Table 3 was measured with (the experiment classifies the set twice per level).
-    /// At most 10,000.
-    #[arg(long, default_value_t = qcshape::defaults::NOISE_STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
-    steps: usize,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Poses inserted between consecutive key poses.
     /// At most 1,000.
     #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
@@ -119,15 +122,12 @@ pub fn run(args: &Args) -> Result<()> {
             defs.len()
         );
     }
-    if args.steps == 0 || args.restarts == 0 {
-        bail!("--steps and --restarts must be at least 1");
+    if args.restarts == 0 {
+        bail!("--restarts must be at least 1");
     }
     let opts = PipelineOptions {
         metric: args.metric.spec()?,
-        geodesic: GeodesicOptions {
-            steps: args.steps,
-            ..Default::default()
-        },
+        geodesic: args.solver.options()?,
         insert: args.insert,
         levels: qcshape::defaults::LEVELS,
         transport: args.transport,
