@@ -436,7 +436,10 @@ mod tests {
         assert!(r.csv().lines().count() == 3 && r.markdown().contains("reference"));
         // Both modes' clusters are scored against the classes; the reference's own reseeded
         // clustering is the stability bound.
-        assert!(r.modes.iter().all(|m| m.class_ari.is_some_and(|x| (-1.0..=1.0).contains(&x))));
+        assert!(r
+            .modes
+            .iter()
+            .all(|m| m.class_ari.is_some_and(|x| (-1.0..=1.0).contains(&x))));
         assert!((-1.0..=1.0).contains(&r.reseeded_ari));
         assert!(r.markdown().contains("seed + 1 agree to ARI"));
     }

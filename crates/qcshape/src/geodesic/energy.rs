@@ -11,7 +11,21 @@ use crate::mesh::Topology;
 use crate::metric::{At, Jacobian, Metric, Pattern, Scratch, Segment, SegmentSink};
 
 /// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
-type SegmentGradient = (f64, Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>);
+/// One segment's energy and its gradient parts: at its start pose, at its end pose, and for its
+/// auxiliary unknowns.
+#[derive(Default)]
+struct SegmentGradient {
+    energy: f64,
+    ga: Vec<[f64; 3]>,
+    gb: Vec<[f64; 3]>,
+    gaux: Vec<f64>,
+}
+
+/// Reusable per-segment accumulators of [`PathEnergy::energy_gradient_with`].
+#[derive(Default)]
+pub(crate) struct SegmentWork {
+    parts: Vec<SegmentGradient>,
+}
 
 /// Fixed data of one path problem: the two end poses and the frozen metric weights.
 #[derive(Debug, Clone)]
@@ -220,57 +234,80 @@ impl<'m> PathEnergy<'m> {
         x: &[f64],
         ends: &Ends,
         grad: &mut [f64],
+        segments: Option<&mut [f64]>,
+    ) -> f64 {
+        self.energy_gradient_with(x, ends, grad, segments, &mut SegmentWork::default())
+    }
+
+    /// [`Self::energy_gradient_segments`] with the per-segment accumulators kept in `work`
+    /// between calls (a solver's evaluations reuse them: no allocation once warm). The same
+    /// arithmetic and the same fixed order of the sums, whatever the thread count.
+    pub(crate) fn energy_gradient_with(
+        &self,
+        x: &[f64],
+        ends: &Ends,
+        grad: &mut [f64],
         mut segments: Option<&mut [f64]>,
+        work: &mut SegmentWork,
     ) -> f64 {
         let nv3 = 3 * self.n_vertices();
+        let nv = nv3 / 3;
         let n_aux = self.metric.n_aux();
-        let parts: Vec<SegmentGradient> = (0..self.steps)
-            .into_par_iter()
-            .map_init(Scratch::default, |scratch, s| {
+        work.parts.resize_with(self.steps, SegmentGradient::default);
+        work.parts
+            .par_iter_mut()
+            .enumerate()
+            .for_each_init(Scratch::default, |scratch, (s, part)| {
                 // Per-vertex accumulators, filled by the metric's (fused) gradient kernel.
-                let nv = nv3 / 3;
-                let mut ga = vec![[0.0f64; 3]; nv];
-                let mut gb = vec![[0.0f64; 3]; nv];
-                let mut gaux = vec![0.0; 2 * n_aux];
+                part.ga.clear();
+                part.ga.resize(nv, [0.0; 3]);
+                part.gb.clear();
+                part.gb.resize(nv, [0.0; 3]);
+                part.gaux.clear();
+                part.gaux.resize(2 * n_aux, 0.0);
                 let (s0, s1) = (
                     self.segment(x, ends, s, At::Start),
                     self.segment(x, ends, s, At::End),
                 );
                 let mut sink = SegmentSink {
-                    ga: &mut ga,
-                    gb: &mut gb,
-                    gaux: &mut gaux,
+                    ga: &mut part.ga,
+                    gb: &mut part.gb,
+                    gaux: &mut part.gaux,
                     weight: 1.0,
                 };
-                let e = self.metric.segment_gradient(
+                part.energy = self.metric.segment_gradient(
                     &self.topo,
                     self.pattern.as_ref(),
                     [&s0, &s1],
                     scratch,
                     &mut sink,
                 );
-                (e, ga, gb, gaux)
-            })
-            .collect();
+            });
         grad.fill(0.0);
         let np = self.n_pose_vars();
         let mut e = 0.0;
-        for (s, (es, ga, gb, gaux)) in parts.into_iter().enumerate() {
-            e += es;
+        for (s, part) in work.parts.iter().enumerate() {
+            e += part.energy;
             if let Some(out) = segments.as_deref_mut() {
-                out[s] = es;
+                out[s] = part.energy;
             }
             if s >= 1 {
-                for (g, v) in grad[(s - 1) * nv3..s * nv3].iter_mut().zip(ga.as_flattened()) {
+                for (g, v) in grad[(s - 1) * nv3..s * nv3]
+                    .iter_mut()
+                    .zip(part.ga.as_flattened())
+                {
                     *g += v;
                 }
             }
             if s + 1 < self.steps {
-                for (g, v) in grad[s * nv3..(s + 1) * nv3].iter_mut().zip(gb.as_flattened()) {
+                for (g, v) in grad[s * nv3..(s + 1) * nv3]
+                    .iter_mut()
+                    .zip(part.gb.as_flattened())
+                {
                     *g += v;
                 }
             }
-            grad[np + 2 * s * n_aux..np + 2 * (s + 1) * n_aux].copy_from_slice(&gaux);
+            grad[np + 2 * s * n_aux..np + 2 * (s + 1) * n_aux].copy_from_slice(&part.gaux);
         }
         e
     }

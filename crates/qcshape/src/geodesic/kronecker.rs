@@ -191,20 +191,40 @@ impl SpatialLayout {
 
     /// `q <- A^{-1} q` for every column of `q` (column-major, 3 #V rows), `A` factorized by
     /// [`Self::factorize`] into `l_values` (any precision faer supports: the preconditioners
-    /// keep the factor in single precision).
-    pub fn solve<T: faer::traits::ComplexField>(&self, l_values: &[T], q: &mut [T]) {
+    /// keep the factor in single precision). faer's work space is kept in `mem` between calls
+    /// (grown when a call needs more), so a warm solve allocates nothing.
+    pub fn solve_with<T: faer::traits::ComplexField>(
+        &self,
+        l_values: &[T],
+        q: &mut [T],
+        mem: &mut Option<(faer::dyn_stack::StackReq, MemBuffer)>,
+    ) {
         let n = 3 * self.nv;
         let m = q.len() / n;
         let par = Par::Seq;
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<T>(m, par));
+        let req = self.symbolic.solve_in_place_scratch::<T>(m, par);
+        if !matches!(mem, Some((have, _)) if have.size_bytes() >= req.size_bytes() && have.align_bytes() >= req.align_bytes())
+        {
+            *mem = Some((req, MemBuffer::new(req)));
+        }
+        let Some((_, buf)) = mem.as_mut() else {
+            unreachable!("set above")
+        };
         let llt = faer::sparse::linalg::cholesky::LltRef::new(&self.symbolic, l_values);
         llt.solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(q, n, m),
             par,
-            MemStack::new(&mut mem),
+            MemStack::new(buf),
         );
     }
+}
+
+/// Work space of [`KroneckerModel::apply_with`], reused across applications.
+#[derive(Default)]
+pub(crate) struct ApplyScratch {
+    q32: Vec<f32>,
+    mem: Option<(faer::dyn_stack::StackReq, MemBuffer)>,
 }
 
 /// `T_c (x) A` fitted to the blocks of `J^T J` at one path, factorized.
@@ -419,23 +439,39 @@ impl KroneckerModel {
     /// on several such vectors stored one after the other (one multi-column spatial solve).
     /// The spatial solves run in single precision, the time mixing accumulates in double.
     pub fn apply(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64) {
+        self.apply_with(layout, q, factor, &mut ApplyScratch::default());
+    }
+
+    /// [`Self::apply`] with its work space (the single-precision copy, the solver's scratch)
+    /// kept in `scratch` between calls: the same arithmetic, no allocation once warm.
+    pub fn apply_with(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64, scratch: &mut ApplyScratch) {
         let n = 3 * layout.nv;
         let m = layout.st.steps - 1;
         if m == 0 || q.is_empty() {
             return;
         }
-        let mut q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        let q32 = &mut scratch.q32;
+        q32.clear();
+        q32.extend(q.iter().map(|&v| v as f32));
         // Every pose of every vector is one column of the spatial solve.
-        layout.solve(&self.l_values, &mut q32);
+        layout.solve_with(&self.l_values, q32, &mut scratch.mem);
+        // out_i = factor sum_j Tinv_ij q_j, in blocks of the spatial index so that a block of
+        // out_i stays in cache while the m poses stream past it (the same sums, in the same
+        // order, as one pass per pose).
+        const BLOCK: usize = 512;
         for (qv, qv32) in q.chunks_exact_mut(n * m).zip(q32.chunks_exact(n * m)) {
             for i in 0..m {
                 let row = &self.tinv[i * m..(i + 1) * m];
                 let out = &mut qv[i * n..(i + 1) * n];
-                out.iter_mut().for_each(|v| *v = 0.0);
-                for (j, t) in row.iter().enumerate() {
-                    let t = factor * t;
-                    for (o, v) in out.iter_mut().zip(&qv32[j * n..(j + 1) * n]) {
-                        *o += t * f64::from(*v);
+                for start in (0..n).step_by(BLOCK) {
+                    let end = (start + BLOCK).min(n);
+                    let ob = &mut out[start..end];
+                    ob.fill(0.0);
+                    for (j, t) in row.iter().enumerate() {
+                        let t = factor * t;
+                        for (o, v) in ob.iter_mut().zip(&qv32[j * n + start..j * n + end]) {
+                            *o += t * f64::from(*v);
+                        }
                     }
                 }
             }

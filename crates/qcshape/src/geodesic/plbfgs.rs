@@ -19,8 +19,8 @@
 //! ([`GeodesicOptions::vertex_block_weight`]).
 
 use super::compact::{CompactHistory, Pair};
-use super::energy::{Ends, PathEnergy};
-use super::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
+use super::energy::{Ends, PathEnergy, SegmentWork};
+use super::kronecker::{ApplyScratch, KroneckerModel, PoseSum, SpatialLayout};
 use super::vertex_blocks::VertexBlocks;
 use super::{dot, norm, GeodesicError, GeodesicOptions, LastEvaluation, SolveOutput, StopReason};
 
@@ -32,6 +32,9 @@ pub(crate) struct Preconditioner<'l> {
     /// The vertex-block term `omega (2 D)^{-1}` added to the Kronecker part (none when
     /// `omega = 0` or without a layout).
     local: Option<VertexBlocks>,
+    /// Work space of the applications, reused (no allocation per iteration once warm).
+    scratch: ApplyScratch,
+    copy: Vec<f64>,
 }
 
 impl<'l> Preconditioner<'l> {
@@ -49,6 +52,8 @@ impl<'l> Preconditioner<'l> {
             return Ok(Preconditioner {
                 kron: None,
                 local: None,
+                scratch: ApplyScratch::default(),
+                copy: Vec::new(),
             });
         };
         let ps = PoseSum::assemble(layout, pe, x, ends);
@@ -56,40 +61,59 @@ impl<'l> Preconditioner<'l> {
         Ok(Preconditioner {
             kron: Some((layout, KroneckerModel::fit(layout, ps)?)),
             local,
+            scratch: ApplyScratch::default(),
+            copy: Vec::new(),
         })
     }
 
     /// `q <- ((2 T_c (x) A)^{-1} + omega (2 D)^{-1}) q` on the pose part (length 3 #V (N - 1),
     /// or several such vectors one after the other); nothing for the identity.
-    fn apply(&self, q: &mut [f64]) {
-        let x = self.local.as_ref().map(|_| q.to_vec());
+    fn apply(&mut self, q: &mut [f64]) {
+        if self.local.is_some() {
+            self.copy.clear();
+            self.copy.extend_from_slice(q);
+        }
         if let Some((layout, model)) = &self.kron {
-            model.apply(layout, q, 0.5);
+            model.apply_with(layout, q, 0.5, &mut self.scratch);
         }
-        if let (Some(local), Some(x)) = (&self.local, x) {
-            local.add_apply(&x, q);
+        if let Some(local) = &self.local {
+            local.add_apply(&self.copy, q);
         }
+    }
+
+    /// Moves the work space of `old` (a preconditioner this one replaces) into this one.
+    fn take_scratch(&mut self, old: Preconditioner) {
+        self.scratch = old.scratch;
+        self.copy = old.copy;
     }
 }
 
 /// Energy and pose gradient (into `out`) with the auxiliary unknowns at their optimum
 /// (variable projection).
 /// Each segment's energy goes to `segments` (length `N`).
+/// The full unknown vector and the gradient and segment work space are kept in `ev` and reused.
 fn eval(
     pe: &PathEnergy,
     ends: &Ends,
     xp: &[f64],
-    full: &mut [f64],
-    grad: &mut [f64],
+    ev: &mut Evaluation,
     out: &mut [f64],
     segments: &mut [f64],
 ) -> f64 {
     let np = pe.n_pose_vars();
-    full[..np].copy_from_slice(xp);
-    pe.reset_aux(full, ends);
-    let e = pe.energy_gradient_segments(full, ends, grad, Some(segments));
-    out.copy_from_slice(&grad[..np]);
+    ev.full[..np].copy_from_slice(xp);
+    pe.reset_aux(&mut ev.full, ends);
+    let e = pe.energy_gradient_with(&ev.full, ends, &mut ev.grad, Some(segments), &mut ev.work);
+    out.copy_from_slice(&ev.grad[..np]);
     e
+}
+
+/// Work space of [`eval`]: the full unknown vector (poses and auxiliary unknowns), its
+/// gradient, and the per-segment accumulators.
+struct Evaluation {
+    full: Vec<f64>,
+    grad: Vec<f64>,
+    work: SegmentWork,
 }
 
 /// The path's length `L = sum_i sqrt(E_i / 2)` from its segments' energies
@@ -119,12 +143,15 @@ pub(crate) fn minimize<'l>(
     mut shared: Option<&mut Option<Preconditioner<'l>>>,
 ) -> Result<SolveOutput, GeodesicError> {
     let np = pe.n_pose_vars();
-    let mut full = x0.clone();
-    let mut gfull = vec![0.0; pe.n_vars()];
+    let mut ev = Evaluation {
+        full: x0.clone(),
+        grad: vec![0.0; pe.n_vars()],
+        work: SegmentWork::default(),
+    };
     let mut x = x0[..np].to_vec();
     let mut g = vec![0.0; np];
     let (mut seg, mut seg_new) = (vec![0.0; pe.steps()], vec![0.0; pe.steps()]);
-    let mut e = eval(pe, ends, &x, &mut full, &mut gfull, &mut g, &mut seg);
+    let mut e = eval(pe, ends, &x, &mut ev, &mut g, &mut seg);
     if !e.is_finite() {
         return Err(GeodesicError::NonFinite(format!("initial energy {e}")));
     }
@@ -132,7 +159,7 @@ pub(crate) fn minimize<'l>(
     let g0 = norm(&g);
     let mut pre = match shared.as_deref_mut().and_then(Option::take) {
         Some(p) => p,
-        None => Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?,
+        None => Preconditioner::new(layout, pe, &ev.full, ends, opts.vertex_block_weight)?,
     };
     let refresh = opts.preconditioner_refresh;
     // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
@@ -144,13 +171,13 @@ pub(crate) fn minimize<'l>(
     };
     // M^{-1} g for the current gradient; the history in compact form keeps M^{-1} y per pair,
     // so one preconditioner application per iteration suffices.
-    let precondition = |pre: &Preconditioner, v: &[f64], z: &mut Vec<f64>| {
+    let precondition = |pre: &mut Preconditioner, v: &[f64], z: &mut Vec<f64>| {
         z.clear();
         z.extend_from_slice(v);
         pre.apply(z);
     };
     let mut mg = Vec::with_capacity(np);
-    precondition(&pre, &g, &mut mg);
+    precondition(&mut pre, &g, &mut mg);
     // Work vectors reused across iterations (no allocation in the loop but for new pairs).
     let mut d = vec![0.0; np];
     let (mut xn, mut gn, mut mg_new) = (vec![0.0; np], vec![0.0; np], Vec::with_capacity(np));
@@ -173,7 +200,7 @@ pub(crate) fn minimize<'l>(
             *slot = Some(pre);
         }
         return Ok(SolveOutput {
-            x: full,
+            x: ev.full,
             iterations,
             stop: StopReason::GradientTolerance,
             last: Some(LastEvaluation {
@@ -193,10 +220,12 @@ pub(crate) fn minimize<'l>(
         // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
         // valid secant information; their `M^{-1} y` are recomputed).
         if layout.is_some() && refresh > 0 && iterations % refresh == 0 {
-            full[..np].copy_from_slice(&x);
-            pe.reset_aux(&mut full, ends);
-            pre = Preconditioner::new(layout, pe, &full, ends, opts.vertex_block_weight)?;
-            precondition(&pre, &g, &mut mg);
+            ev.full[..np].copy_from_slice(&x);
+            pe.reset_aux(&mut ev.full, ends);
+            let fresh = Preconditioner::new(layout, pe, &ev.full, ends, opts.vertex_block_weight)?;
+            let old = std::mem::replace(&mut pre, fresh);
+            pre.take_scratch(old);
+            precondition(&mut pre, &g, &mut mg);
             hist.reset_preconditioner(&g, |z| pre.apply(z));
         }
         hist.direction(&mg, gamma, &mut d);
@@ -215,7 +244,7 @@ pub(crate) fn minimize<'l>(
             for ((xi, a), b) in xn.iter_mut().zip(&x).zip(&d) {
                 *xi = a + t * b;
             }
-            let en = eval(pe, ends, &xn, &mut full, &mut gfull, &mut gn, &mut seg_new);
+            let en = eval(pe, ends, &xn, &mut ev, &mut gn, &mut seg_new);
             if en.is_finite() && en <= e + 1e-4 * t * slope {
                 break Some(en);
             }
@@ -228,7 +257,7 @@ pub(crate) fn minimize<'l>(
             stop = StopReason::NoProgress;
             break;
         };
-        precondition(&pre, &gn, &mut mg_new);
+        precondition(&mut pre, &gn, &mut mg_new);
         let mut pair = spare.take().unwrap_or_else(|| Pair {
             s: vec![0.0; np],
             y: vec![0.0; np],
@@ -286,13 +315,13 @@ pub(crate) fn minimize<'l>(
     }
     let gnorm = norm(&g);
     let stop = opts.final_stop(stop, gnorm, g0);
-    full[..np].copy_from_slice(&x);
-    pe.reset_aux(&mut full, ends);
+    ev.full[..np].copy_from_slice(&x);
+    pe.reset_aux(&mut ev.full, ends);
     if let Some(slot) = shared {
         *slot = Some(pre);
     }
     Ok(SolveOutput {
-        x: full,
+        x: ev.full,
         iterations,
         stop,
         last: Some(LastEvaluation {
