@@ -9,6 +9,7 @@ use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
 
 use crate::args::{MetricArgs, SolverArgs};
+use crate::mesh_format::MeshFormat;
 
 /// Compute the discrete geodesic between two meshes of one connectivity and print the
 /// distance.
@@ -19,7 +20,7 @@ use crate::args::{MetricArgs, SolverArgs};
 /// energy are in the metric's units (calibrated: dimensionless; raw: the scaled coordinates';
 /// the JSON's `scale` is the factor). The energy is split into the geometric term and the L2
 /// regularizer; a warning says when the regularizer carries more than half of it. With --out, the N + 1 poses of
-/// the path are written as pose000.ply ... in the input's units, together with maps of where
+/// the path are written as pose000.ply ... (--format) in the input's units, together with maps of where
 /// the two shapes differ (docs/maps.md): segment_000.vtk ... (on pose i: `energy`, the
 /// per-vertex energy contribution of segment i, `length`, its length contribution, and
 /// `displacement`, P_{i+1} - P_i as vectors in the input's units) and contribution.vtk plus
@@ -47,11 +48,14 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Write the path's poses (PLY) and the per-vertex contribution maps to this folder.
+    /// Write the path's poses (--format) and the per-vertex contribution maps to this folder.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Format of the segment maps: vtk (legacy, ParaView), vtp (VTK XML) or ply (MeshLab).
-    #[arg(long, default_value = "vtk", value_parser = ["vtk", "vtp", "ply"])]
+    /// Mesh format of the written poses.
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    format: MeshFormat,
+    /// Format of the segment maps: vtk (legacy, ParaView), vtp or vtu (VTK XML) or ply (MeshLab).
+    #[arg(long, default_value = "vtk", value_parser = ["vtk", "vtp", "vtu", "ply"])]
     maps_format: String,
     /// Print the result as JSON.
     #[arg(long)]
@@ -165,7 +169,7 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (i, p) in g.poses.iter().enumerate() {
-            let path = dir.join(format!("pose{i:03}.ply"));
+            let path = dir.join(format!("pose{i:03}.{}", args.format.extension()));
             io::write_mesh(&path, p, a.topology.faces(), &Default::default())?;
         }
         write_maps(dir, &args.maps_format, metric.as_ref(), &a, &g)?;

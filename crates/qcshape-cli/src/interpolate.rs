@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressStyle;
+use qcshape::contribution::pose_speeds;
 use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
@@ -15,6 +16,7 @@ use qcshape::io;
 use qcshape::mesh::Topology;
 
 use crate::args::{non_negative, MetricArgs};
+use crate::mesh_format::MeshFormat;
 
 /// Insert poses between consecutive poses of each deformation, along discrete geodesics.
 ///
@@ -26,7 +28,7 @@ use crate::args::{non_negative, MetricArgs};
 ///
 /// Writes DIR/<deformation>/pose000.ply ..., DIR/manifest.csv (readable as a data set; its
 /// extra column `key` marks the key poses) and DIR/segments.csv (deformation, segment, from,
-/// to, length). PLY, VTK and VTP poses carry per-vertex speed fields of the segment leaving
+/// to, length). PLY, VTK, VTP and VTU poses carry per-vertex speed fields of the segment leaving
 /// the pose (entering it, for the last pose): `speed` (the vertex's share of the segment's
 /// metric length, normalized units; docs/maps.md), `euclidean_speed` and the vector
 /// `velocity` (displacement to the next pose, input units). PLY's `quality` is `speed`.
@@ -71,9 +73,9 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     out: PathBuf,
-    /// Mesh format of the written poses.
-    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk", "vtp"])]
-    format: String,
+    /// Mesh format of the written poses (OBJ and OFF carry no speed fields).
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    format: MeshFormat,
 }
 
 /// Runs the command.
@@ -214,49 +216,6 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-/// Per-vertex speed fields of pose `i` of an interpolated sequence (#poses >= 2): the outgoing
-/// segment `i -> i + 1` (the incoming one for the last pose). `speed` is the vertex's share of
-/// the segment's metric length (normalized units, docs/maps.md), `euclidean_speed` the length
-/// of `velocity`, the vertex's displacement over that segment (input units per step).
-struct Speeds {
-    speed: Vec<Vec<f64>>,
-    euclidean: Vec<Vec<f64>>,
-    velocity: Vec<Vec<[f64; 3]>>,
-}
-
-fn speeds(
-    metric: &dyn qcshape::metric::Metric,
-    topo: &Topology,
-    poses: &[Vec<[f64; 3]>],
-    factor: f64,
-) -> Result<Option<Speeds>> {
-    if poses.len() < 2 {
-        return Ok(None);
-    }
-    let c = qcshape::contribution::path_contributions(metric, topo, poses, factor)?;
-    let mut out = Speeds {
-        speed: Vec::new(),
-        euclidean: Vec::new(),
-        velocity: Vec::new(),
-    };
-    for i in 0..poses.len() {
-        let s = i.min(poses.len() - 2);
-        let v: Vec<[f64; 3]> = poses[s]
-            .iter()
-            .zip(&poses[s + 1])
-            .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
-            .collect();
-        out.euclidean.push(
-            v.iter()
-                .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
-                .collect(),
-        );
-        out.velocity.push(v);
-        out.speed.push(c.segment_length[s].clone());
-    }
-    Ok(Some(out))
-}
-
 fn write_outputs(
     args: &Args,
     data: &Dataset,
@@ -277,14 +236,14 @@ fn write_outputs(
         }
         let dir = args.out.join(&folder);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let sp = if args.format == "obj" {
-            None
-        } else {
-            speeds(metric, &d.topology, &r.poses, factor)
+        let sp = if args.format.has_fields() {
+            pose_speeds(metric, &d.topology, &r.poses, factor)
                 .with_context(|| format!("deformation {:?}", d.name))?
+        } else {
+            None
         };
         for (i, (pose, key)) in r.poses.iter().zip(&r.is_key).enumerate() {
-            let file = format!("pose{i:03}.{}", args.format);
+            let file = format!("pose{i:03}.{}", args.format.extension());
             match &sp {
                 Some(sp) => {
                     let fields = [

@@ -1,18 +1,16 @@
 //! `qcshape localize`: where labelled groups of deformations differ, per vertex.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use qcshape::dataset::Dataset;
-use qcshape::geodesic::GeodesicSolver;
 use qcshape::io::{self, Field};
 use qcshape::localize::{
-    contrasts, motion_contrasts, motion_maps, pair_maps, read_vertex_mask, region_share, write_map,
-    LocalizeOptions, MotionMeasure, MotionScale, VertexMap,
+    file_part, group_labels, localize, motion_title, push_region_row, read_vertex_mask, region_share,
+    write_map, LocalizeOptions, MotionMeasure, MotionScale, VertexMap, REGION_SUMMARY_HEADER,
 };
 use qcshape::render::RenderOptions;
-use qcshape::similarity::{prepare, PipelineOptions};
+use qcshape::similarity::PipelineOptions;
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 
@@ -100,25 +98,6 @@ pub struct Args {
     motion_scale: String,
 }
 
-/// A file name part for a label: letters, digits, `-`, `_` kept, the rest `_`.
-fn file_part(s: &str) -> String {
-    let t: String = s
-        .chars()
-        .map(|c| {
-            if c.is_alphanumeric() || matches!(c, '-' | '_') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if t.is_empty() {
-        "_".into()
-    } else {
-        t
-    }
-}
-
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
     let data = Dataset::load(&args.input)?;
@@ -126,16 +105,7 @@ pub fn run(args: &Args) -> Result<()> {
     inputs.extend(args.region.as_deref());
     crate::input::refuse_out_folder(&inputs, &args.out, "--out")?;
     let defs = data.deformations;
-    let mut labels = Vec::with_capacity(defs.len());
-    for d in &defs {
-        match &d.label {
-            Some(l) if !l.is_empty() => labels.push(l.clone()),
-            _ => bail!(
-                "deformation {:?} has no label: localize needs a labelled data set",
-                d.name
-            ),
-        }
-    }
+    let labels = group_labels(&defs)?;
     let opts = PipelineOptions {
         metric: args.metric.spec()?,
         geodesic: args.solver.options()?,
@@ -159,20 +129,12 @@ pub fn run(args: &Args) -> Result<()> {
         },
         opts.metric.label()
     );
-    let (prepared, maps, result, motion, metric_name) = in_pool(args.threads, || {
-        let prepared = prepare(&defs, &opts, &|_| {})?;
-        let metric = prepared.metric(&opts.metric);
-        let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;
-        let scaled = prepared.scaled();
-        let maps = pair_maps(&solver, &scaled)?;
-        let result = contrasts(&maps, &labels, &lopts)?;
-        let measure = MotionMeasure::parse(&args.motion, metric.as_ref())?;
-        let scale: MotionScale = args.motion_scale.parse()?;
-        let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
-        let motion = motion_contrasts(&m, &labels, &lopts)?;
-        Ok((prepared, maps, result, motion, metric.name()))
+    let scale: MotionScale = args.motion_scale.parse()?;
+    let l = in_pool(args.threads, || {
+        Ok(localize(&defs, &labels, &opts, &lopts, &args.motion, scale)?)
     })?;
-    if !maps.converged {
+    let (prepared, metric_name) = (&l.prepared, &l.metric_name);
+    if !l.maps.converged {
         eprintln!("warning: not every geodesic converged");
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -188,10 +150,8 @@ pub fn run(args: &Args) -> Result<()> {
         region: region.as_ref(),
         alpha: args.alpha,
     };
-    let mut summary = String::from(
-        "map,a,b,region_vertices,vertices,area_share,positive_mass_share,ratio,significant_in_region,significant\n",
-    );
-    for c in &result {
+    let mut summary = String::from(REGION_SUMMARY_HEADER);
+    for c in &l.contrasts {
         let stem = format!("contrast_{}_vs_{}", file_part(&c.a), file_part(&c.b));
         out.write_map(
             &stem,
@@ -210,13 +170,8 @@ pub fn run(args: &Args) -> Result<()> {
         )?;
         out.summarize(&mut summary, "contrast", &c.a, &c.b, &c.score, &c.significant)?;
     }
-    let motion_name = match (args.motion.as_str(), args.motion_scale.as_str()) {
-        ("metric", "share") => format!("{} length, shares", metric_name),
-        ("metric", _) => format!("{} length", metric_name),
-        (_, "share") => "normal excursion, shares".to_string(),
-        _ => "normal excursion".to_string(),
-    };
-    for c in &motion {
+    let motion_name = motion_title(&args.motion, scale, metric_name);
+    for c in &l.motion {
         let stem = format!("motion_{}_minus_{}", file_part(&c.a), file_part(&c.b));
         out.write_map(
             &stem,
@@ -311,17 +266,7 @@ impl Output<'_> {
     ) -> Result<()> {
         let Some(r) = self.region else { return Ok(()) };
         let share = region_share(self.topology, self.base, values, significant, r);
-        writeln!(
-            summary,
-            "{map},{a},{b},{},{},{:.6},{:.6},{:.4},{},{}",
-            share.vertices,
-            values.len(),
-            share.area_share,
-            share.positive_mass_share,
-            share.ratio,
-            share.significant_in_region,
-            share.significant
-        )?;
+        push_region_row(summary, map, a, b, values.len(), &share);
         outln!("{map} {a} over {b}: {share}");
         Ok(())
     }

@@ -41,6 +41,7 @@ mod input;
 mod interpolate;
 mod localize;
 mod lv;
+mod mesh_format;
 mod pipeline;
 mod progress;
 mod reproduce;

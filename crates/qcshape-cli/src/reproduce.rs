@@ -3,12 +3,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use qcshape::align::Alignment;
 use qcshape::experiment::provenance::Provenance;
 use qcshape::experiment::reproduce::{ReproduceReport, Reproduction};
 use qcshape::metric::MetricKind;
-use qcshape::synth::{write_benchmark, NoiseKind};
+use qcshape::synth::write_benchmark;
 use qcshape::transport::Transport;
 
 use crate::args::in_pool;
@@ -131,15 +131,7 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let t_all = Instant::now();
     let s = settings(args);
-    if args.metrics.is_empty() {
-        bail!("--metrics is empty");
-    }
-    if args.lambda.is_nan() || args.lambda < 0.0 {
-        bail!("--lambda must be non-negative");
-    }
-    if s.steps == 0 || s.restarts == 0 {
-        bail!("--steps and --restarts must be at least 1");
-    }
+    s.validate()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let defs = s.benchmark()?;
     let manifest = write_benchmark(&args.out.join("data"), &defs, qcshape::io::Format::Ply)?;
@@ -262,25 +254,24 @@ fn run_in_pool(args: &Args) -> Result<()> {
         let reference = &runs[noise_run];
         let name = reference.kind.label();
         for &level in &s.noise_levels {
-            let mut row = (level, 0.0, 0.0);
-            for kind in [NoiseKind::Uniform, NoiseKind::Gaussian] {
-                let t = s.noise_tau(&defs, &labels, reference, kind, level, &|stage| {
-                    bars.tick(name, stage)
-                });
-                bars.finish();
-                let t = t?;
-                eprintln!(
-                    "{:>16}: {level} % {} noise, tau {:.1} %",
-                    "noise",
-                    kind.name(),
-                    100.0 * t
-                );
-                if kind == NoiseKind::Uniform {
-                    row.1 = t;
-                } else {
-                    row.2 = t;
-                }
-            }
+            let row = s.noise_row(
+                &defs,
+                &labels,
+                reference,
+                level,
+                &|stage| bars.tick(name, stage),
+                &|kind, t| {
+                    bars.finish();
+                    if let Some(t) = t {
+                        eprintln!(
+                            "{:>16}: {level} % {} noise, tau {:.1} %",
+                            "noise",
+                            kind.name(),
+                            100.0 * t
+                        );
+                    }
+                },
+            )?;
             noise_rows.push(row);
             if noise_rows.len() < s.noise_levels.len() {
                 write_report(

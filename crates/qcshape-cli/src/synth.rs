@@ -3,10 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use qcshape::dataset::Deformation;
 use qcshape::io::Format;
 use qcshape::synth::{genus0_benchmark, genus1_benchmark, write_benchmark, SynthOptions};
+
+use crate::mesh_format::MeshFormat;
 
 /// Arguments of `qcshape synth`.
 #[derive(Debug, clap::Args)]
@@ -48,8 +50,8 @@ pub struct Args {
     #[arg(long, default_value = "0", value_parser = ["0", "1", "all"])]
     pub genus: String,
     /// Mesh file format.
-    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "off", "vtk"])]
-    pub format: String,
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    pub format: MeshFormat,
 }
 
 /// Writes one set and prints its one-line summary.
@@ -77,7 +79,7 @@ pub fn run(args: &Args) -> Result<()> {
         jitter: args.jitter,
     };
     opts.validate()?;
-    let format = Format::from_extension(&args.format).context("unknown --format")?;
+    let format = args.format.format();
     if args.genus != "1" {
         write_set(&args.out, &genus0_benchmark(&opts)?, format, 0)?;
     }

@@ -9,6 +9,7 @@ use qcshape::io;
 use qcshape::transport::{TransferOptions, TransferSetup, Transport};
 
 use crate::args::{MetricArgs, SolverArgs};
+use crate::mesh_format::MeshFormat;
 
 /// Transfer deformations to a new base pose (Euclidean by default, parallel transport along
 /// geodesics with --transport parallel).
@@ -48,9 +49,9 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     out: PathBuf,
-    /// Mesh format of the written poses.
-    #[arg(long, default_value = "ply", value_parser = ["ply", "obj", "vtk", "vtp"])]
-    format: String,
+    /// Mesh format of the written poses (OBJ and OFF carry no displacement fields).
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    format: MeshFormat,
     /// Print the per-deformation summary as JSON.
     #[arg(long)]
     json: bool,
@@ -166,9 +167,9 @@ pub fn run(args: &Args) -> Result<()> {
         let dir = args.out.join(&folder);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (k, p) in out.poses.iter().enumerate() {
-            let file = format!("pose{k:03}.{}", args.format);
+            let file = format!("pose{k:03}.{}", args.format.extension());
             let path = dir.join(&file);
-            if args.format == "obj" {
+            if !args.format.has_fields() {
                 io::write_mesh(&path, p, base.topology.faces(), &Default::default())?;
             } else {
                 let n0 = &out.poses[0];

@@ -59,6 +59,24 @@ pub enum OutputError {
         /// The process id recorded in it (0 when unreadable).
         pid: u32,
     },
+    /// A lock file younger than [`STALE_LOCK_HOURS`] whose process cannot be checked (no
+    /// `/proc`): it may belong to a live run.
+    #[error(
+        "{} was taken by process {pid} {} ago and this system cannot tell whether that process \
+         still runs (no /proc); if no run is active, remove the file (rm \"{}\") and start again; \
+         a lock is taken over by itself after {STALE_LOCK_HOURS} hours",
+        lock.display(),
+        hours_minutes(*age_seconds),
+        lock.display()
+    )]
+    MaybeLocked {
+        /// The lock file.
+        lock: PathBuf,
+        /// The process id recorded in it (0 when unreadable).
+        pid: u32,
+        /// Seconds since the lock file was written.
+        age_seconds: u64,
+    },
     /// The lock file cannot be created or written.
     #[error("{}: cannot create the lock file: {error}", lock.display())]
     Lock {
@@ -179,10 +197,26 @@ pub fn lock_path(path: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// How old a lock file must be before it is taken over where its process cannot be checked
+/// (no `/proc`: macOS, Windows, the BSDs).
+pub const STALE_LOCK_HOURS: u64 = 24;
+
+/// `3 h 05 min` (or `42 min`, `0 min`) for a duration in seconds.
+fn hours_minutes(seconds: u64) -> String {
+    let (h, m) = (seconds / 3600, seconds % 3600 / 60);
+    if h > 0 {
+        format!("{h} h {m:02} min")
+    } else {
+        format!("{m} min")
+    }
+}
+
 /// An exclusive claim on a file (a similarity journal, a shard): the file `<path>.lock`,
 /// created with `create_new` and holding the owner's process id, removed when the lock is
-/// dropped. A lock left by a process that no longer runs (killed with `kill -9`) is taken over
-/// (detected through `/proc` where it exists); elsewhere it must be removed by hand.
+/// dropped. A lock left by a process that no longer runs (killed with `kill -9`) is taken over:
+/// where `/proc` exists (Linux) as soon as the process is gone; elsewhere, where whether a
+/// process runs cannot be told portably, once the lock file is [`STALE_LOCK_HOURS`] old (a
+/// younger one gives [`OutputError::MaybeLocked`], which names the file to remove).
 #[derive(Debug)]
 pub struct RunLock {
     path: PathBuf,
@@ -213,12 +247,25 @@ impl RunLock {
                         .ok()
                         .and_then(|s| s.trim().parse::<u32>().ok())
                         .unwrap_or(0);
-                    if pid != 0 && process_is_gone(pid) {
-                        // A stale lock of a killed run: take it over (one racer wins create_new).
-                        let _ = std::fs::remove_file(&lock);
-                        continue;
+                    let age = std::fs::metadata(&lock)
+                        .and_then(|m| m.modified())
+                        .ok()
+                        .and_then(|t| t.elapsed().ok());
+                    match staleness(pid, process_is_gone(pid), age) {
+                        Staleness::Stale => {
+                            // A stale lock of a killed run: take it over (one racer wins create_new).
+                            let _ = std::fs::remove_file(&lock);
+                            continue;
+                        }
+                        Staleness::Live => return Err(OutputError::Locked { lock, pid }),
+                        Staleness::Unknown(age_seconds) => {
+                            return Err(OutputError::MaybeLocked {
+                                lock,
+                                pid,
+                                age_seconds,
+                            })
+                        }
                     }
-                    return Err(OutputError::Locked { lock, pid });
                 }
                 Err(error) => return Err(OutputError::Lock { lock, error }),
             }
@@ -238,19 +285,44 @@ impl Drop for RunLock {
     }
 }
 
-/// Whether process `pid` is known not to run (no `/proc/<pid>`, or a zombie). `false` when
-/// it cannot be told (no `/proc`).
-fn process_is_gone(pid: u32) -> bool {
-    if !Path::new("/proc/self").exists() {
-        return false;
+/// What an existing lock file is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Staleness {
+    /// Its process is known to be gone, or it is older than [`STALE_LOCK_HOURS`] where that
+    /// cannot be told: take it over.
+    Stale,
+    /// Its process runs.
+    Live,
+    /// Its process cannot be checked and it is younger (seconds since it was written).
+    Unknown(u64),
+}
+
+/// The rule: `gone` is [`process_is_gone`] (`None`: cannot be told), `age` the lock file's age
+/// (`None`: unreadable, or written in the future).
+fn staleness(pid: u32, gone: Option<bool>, age: Option<std::time::Duration>) -> Staleness {
+    match gone {
+        Some(true) if pid != 0 => Staleness::Stale,
+        Some(_) => Staleness::Live,
+        None => match age {
+            Some(a) if a.as_secs() >= STALE_LOCK_HOURS * 3600 => Staleness::Stale,
+            a => Staleness::Unknown(a.map_or(0, |a| a.as_secs())),
+        },
     }
-    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+}
+
+/// Whether process `pid` is known not to run (no `/proc/<pid>`, or a zombie); `None` when it
+/// cannot be told (no `/proc`).
+fn process_is_gone(pid: u32) -> Option<bool> {
+    if !Path::new("/proc/self").exists() {
+        return None;
+    }
+    Some(match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
         Err(_) => true,
         // "pid (comm) S ...": the state follows the last ')'.
         Ok(stat) => stat
             .rsplit_once(')')
             .is_some_and(|(_, rest)| matches!(rest.trim_start().chars().next(), Some('Z' | 'X'))),
-    }
+    })
 }
 
 #[cfg(test)]
@@ -320,5 +392,36 @@ mod tests {
         if Path::new("/proc/self").exists() {
             let _taken = RunLock::acquire(&j).unwrap();
         }
+    }
+
+    #[test]
+    fn without_proc_a_lock_is_stale_after_its_age_limit() {
+        use std::time::Duration;
+        let h = |n: u64| Some(Duration::from_secs(n * 3600));
+        // /proc answers: its answer decides, whatever the age.
+        assert_eq!(staleness(7, Some(true), h(0)), Staleness::Stale);
+        assert_eq!(staleness(7, Some(false), h(1000)), Staleness::Live);
+        assert_eq!(staleness(0, Some(true), h(0)), Staleness::Live);
+        // No /proc: the age decides.
+        assert_eq!(staleness(7, None, h(STALE_LOCK_HOURS)), Staleness::Stale);
+        assert_eq!(staleness(0, None, h(STALE_LOCK_HOURS + 1)), Staleness::Stale);
+        assert_eq!(
+            staleness(7, None, Some(Duration::from_secs(3 * 3600 + 5 * 60))),
+            Staleness::Unknown(3 * 3600 + 5 * 60)
+        );
+        assert_eq!(staleness(7, None, None), Staleness::Unknown(0));
+        let e = OutputError::MaybeLocked {
+            lock: PathBuf::from("D.csv.journal.lock"),
+            pid: 7,
+            age_seconds: 3 * 3600 + 5 * 60,
+        };
+        let m = e.to_string();
+        assert!(
+            m.contains("D.csv.journal.lock was taken by process 7 3 h 05 min ago"),
+            "{m}"
+        );
+        assert!(m.contains("rm \"D.csv.journal.lock\""), "{m}");
+        assert!(m.contains(&format!("after {STALE_LOCK_HOURS} hours")), "{m}");
+        assert_eq!(hours_minutes(59), "0 min");
     }
 }

@@ -13,6 +13,7 @@ use qcshape::lv::freewall::SectorOptions;
 use qcshape::lv::meshing::SurfaceOptions;
 
 use super::progress;
+use crate::mesh_format::MeshFormat;
 
 #[derive(Debug, clap::Args)]
 pub(crate) struct Args {
@@ -69,6 +70,9 @@ pub(crate) struct Args {
         allow_negative_numbers = true
     )]
     heights: Vec<f64>,
+    /// Mesh format of the written poses.
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    format: MeshFormat,
 }
 
 /// Runs `qcshape lv mesh`.
@@ -107,7 +111,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         let dir = a.out.join(&s.name);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for (k, p) in poses.iter().enumerate() {
-            let name = format!("pose{k:03}.ply");
+            let name = format!("pose{k:03}.{}", a.format.extension());
             io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
             rows.push(ManifestRow {
                 deformation: s.name.clone(),

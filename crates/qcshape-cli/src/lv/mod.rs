@@ -2,6 +2,8 @@
 //! landmarks to one deformation per subject (paper section 4.2), and the cohort classification
 //! (`run`, `cycle`).
 
+mod bars;
+mod cycle;
 mod mesh;
 mod run;
 
@@ -44,7 +46,7 @@ enum LvCommand {
     /// Classify a cohort's wall motion (Tables 4 and 5, Fig. 9), from images or meshes.
     Run(run::RunArgs),
     /// MDS map of one heart cycle with interpolated poses (Fig. 9) from mesh files.
-    Cycle(run::CycleArgs),
+    Cycle(cycle::CycleArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -109,7 +111,7 @@ pub fn run(args: &Args) -> Result<()> {
         LvCommand::Register(a) => register(a),
         LvCommand::Mesh(a) => mesh::run(a),
         LvCommand::Run(a) => run::run(a),
-        LvCommand::Cycle(a) => run::cycle(a),
+        LvCommand::Cycle(a) => cycle::cycle(a),
     }
 }
 

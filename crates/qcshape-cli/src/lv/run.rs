@@ -1,26 +1,23 @@
-//! `qcshape lv run` and `qcshape lv cycle`: the left-ventricle analysis of section 4.3 from
-//! one command (Tables 4 and 5, Fig. 9). The analysis is in the library
-//! ([`qcshape::lv::study`], [`qcshape::lv::cycle_map`], [`qcshape::lv::study_report`]); this
-//! module parses the arguments, `lv/run/cohort.rs` runs a cohort, `lv/run/progress.rs` shows
-//! the library's progress.
+//! `qcshape lv run`: the left-ventricle analysis of section 4.3 from one command (Tables 4
+//! and 5, Fig. 9). The study is [`qcshape::lv::pipeline`]; this module parses the arguments,
+//! shows its progress and prints its lines.
 
-mod cohort;
-mod progress;
-
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use qcshape::align::Alignment;
 use qcshape::cluster::ClusterMethod;
-use qcshape::dataset::{load_sequence, mesh_files, Deformation};
-use qcshape::geodesic::GeodesicOptions;
-use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
-use qcshape::lv::study_report::cycle_report;
+use qcshape::lv::cohort_mesh::MeshSettings;
+use qcshape::lv::freewall::SectorOptions;
+use qcshape::lv::pipeline::{load_input, run_cohort, Event, Input, RunSettings};
+use qcshape::lv::study::SplitOptions;
+use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
 
-use crate::args::{in_pool, MetricArgs};
-use progress::Bars;
+use super::bars::Bars;
+use super::cycle::{args_line, cycle_settings, run_cycle, CycleCommon};
+use crate::args::in_pool;
 
 /// Options of `qcshape lv run`.
 #[derive(Debug, clap::Args)]
@@ -155,197 +152,75 @@ impl std::fmt::Display for Harmonics {
     }
 }
 
-/// Options shared by `lv run` and `lv cycle`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct CycleCommon {
-    #[command(flatten)]
-    pub metric: MetricArgs,
-    /// Poses inserted between consecutive frames (default 3, the paper's section 4 setting, not
-    /// the other commands' 0).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
-    pub insert: usize,
-    /// Segments N of every geodesic (default 4, the setting the README's LV tables were measured
-    /// with, not the other commands' 8).
-    /// At most 10,000.
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
-    pub steps: usize,
-    /// Vertex budget: the cohort template's whole surface, or meshes given as input are coarsened
-    /// (a vertex subset, multires hierarchy) when larger.
-    /// At most 100,000,000.
-    #[arg(long, default_value_t = 600, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_VERTICES as u64), allow_negative_numbers = true)]
-    pub vertices: usize,
-    /// Do not close the cycle (no gap last frame -> frame 0).
-    #[arg(long)]
-    pub open: bool,
-    /// Worker threads (default: all cores).
-    /// At most 1,024.
-    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
-    pub threads: Option<usize>,
-}
-
-/// Options of `qcshape lv cycle`.
-#[derive(Debug, clap::Args)]
-#[command(
-    about = "MDS path of one heart cycle with interpolated poses (Fig. 9) from mesh files",
-    long_about = "Fig. 9 for one sequence of meshes with one connectivity (e.g. a fitted real cycle): \
-the frames in natural name order (FILES: mesh files, or one folder filtered by --pattern), every \
---every-th frame kept, coarsened to about --vertices vertices (a subset of the vertices, so every frame \
-keeps its correspondence), the cycle closed unless --open, --insert poses interpolated between \
-consecutive frames, the geodesic distance dis(P_i, P_j) of every pair of poses (one solver) and its \
-2-D SMACOF map: frames as filled dots, interpolated poses in a second colour. Writes OUT/report.md, \
-OUT/fig9_mds.svg|png, OUT/fig9_mds.csv, OUT/fig9_distances.csv."
-)]
-pub struct CycleArgs {
-    /// Mesh files in cycle order, or one folder of them.
-    #[arg(required = true)]
-    files: Vec<PathBuf>,
-    /// Output folder (created).
-    #[arg(long)]
-    out: PathBuf,
-    /// With a folder: only files whose name contains this text (e.g. LV_ENDO).
-    #[arg(long)]
-    pattern: Option<String>,
-    /// Keep every K-th frame (1: all).
-    /// At most 10,000.
-    #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_EVERY as u64), allow_negative_numbers = true)]
-    every: usize,
-    #[command(flatten)]
-    common: CycleCommon,
-    /// Seed of the MDS.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-}
-
-/// The library's cycle settings of the command line.
-fn cycle_settings(c: &CycleCommon, frame_stride: usize) -> Result<CycleSettings> {
-    if c.steps == 0 {
-        bail!("--steps must be at least 1");
-    }
-    Ok(CycleSettings {
-        metric: c.metric.spec()?,
-        geodesic: GeodesicOptions {
-            steps: c.steps,
-            ..Default::default()
-        },
-        insert: c.insert,
-        vertices: c.vertices,
-        open: c.open,
-        frame_stride,
-    })
-}
-
-/// The command line, as typed (for reports).
-fn args_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
-}
-
-/// Interpolates one sequence and maps it (the single-subject path of `lv run`, and `lv cycle`).
-fn run_cycle(
-    def: Deformation,
-    out: &Path,
-    common: &CycleCommon,
-    frame_stride: usize,
-    seed: u64,
-    source: &str,
-) -> Result<()> {
-    let t_all = Instant::now();
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let settings = cycle_settings(common, frame_stride)?;
-    let nv = def.topology.n_vertices();
-    eprintln!(
-        "{}: {} frames of {nv} vertices{}",
-        def.name,
-        def.poses.len(),
-        if common.vertices > 0 && nv > common.vertices {
-            format!(
-                "; coarsened to about {} vertices first (--vertices; 0 keeps every vertex)",
-                common.vertices
-            )
-        } else {
-            String::new()
-        }
-    );
-    let bars = Bars::default();
-    let c = study_cycle(def, &settings, seed, &|t| bars.tick(t)).with_context(|| source.to_string())?;
-    c.map.write_files(out, &cycle_title(&c.name, c.frames))?;
-    eprintln!(
-        "{}: {} frames -> {} poses, {} vertices; interpolation {:.1} s, {} pose pairs {:.1} s",
-        c.name,
-        c.frames,
-        c.map.n_poses,
-        c.vertices,
-        c.interpolation_seconds,
-        c.map.n_poses * (c.map.n_poses - 1) / 2,
-        c.map.seconds
-    );
-    let md = cycle_report(&args_line(), source, &c, &settings, t_all.elapsed().as_secs_f64())?;
-    let path = out.join("report.md");
-    qcshape::io::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
-    eprintln!(
-        "wrote {} in {:.1} s",
-        path.display(),
-        t_all.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
-/// The mesh files of `dir` whose names contain `pattern`.
-fn pattern_files(dir: &Path, pattern: Option<&str>) -> Result<Vec<PathBuf>> {
-    let files: Vec<PathBuf> = mesh_files(dir)?
-        .into_iter()
-        .filter(|f| pattern.is_none_or(|p| f.file_name().is_some_and(|n| n.to_string_lossy().contains(p))))
-        .collect();
-    Ok(files)
-}
-
-/// `qcshape lv cycle`.
-pub fn cycle(a: &CycleArgs) -> Result<()> {
-    if a.every == 0 {
-        bail!("--every must be at least 1");
-    }
-    in_pool(a.common.threads, || {
-        let files = match a.files.as_slice() {
-            [dir] if dir.is_dir() => {
-                let f = pattern_files(dir, a.pattern.as_deref())?;
-                if f.is_empty() {
-                    bail!(
-                        "{}: no mesh files{}",
-                        dir.display(),
-                        a.pattern
-                            .as_ref()
-                            .map_or(String::new(), |p| format!(" containing {p:?}"))
-                    );
-                }
-                f
-            }
-            files => files.to_vec(),
-        };
-        let given: Vec<&Path> = a.files.iter().chain(&files).map(PathBuf::as_path).collect();
-        crate::input::refuse_out_folder(&given, &a.out, "--out")?;
-        let files: Vec<PathBuf> = files.into_iter().step_by(a.every).collect();
-        let def = load_sequence(&files)?;
-        let source = format!(
-            "{} files from {}{}",
-            files.len(),
-            files[0].parent().unwrap_or(Path::new(".")).display(),
-            if a.every > 1 {
-                format!(
-                    ", one frame in {} (frames 0, {}, {}, ...)",
-                    a.every,
-                    a.every,
-                    2 * a.every
-                )
-            } else {
-                String::new()
-            }
-        );
-        run_cycle(def, &a.out, &a.common, a.every, a.seed, &source)
-    })
-}
-
 /// `qcshape lv run`.
 pub fn run(a: &RunArgs) -> Result<()> {
     crate::input::refuse_out_folder(&[&a.dir], &a.out, "--out")?;
-    in_pool(a.common.threads, || cohort::run(a))
+    in_pool(a.common.threads, || run_in_pool(a))
+}
+
+/// Runs `lv run` inside the worker pool.
+fn run_in_pool(a: &RunArgs) -> Result<()> {
+    let started = Instant::now();
+    if a.restarts == 0 {
+        bail!("--restarts must be at least 1");
+    }
+    let cycle = cycle_settings(&a.common, 1)?;
+    let s = RunSettings {
+        dir: a.dir.clone(),
+        out: a.out.clone(),
+        landmarks: a.landmarks,
+        landmark_sweep: (!a.no_sweep).then(|| a.landmark_sweep.clone()),
+        mesh: MeshSettings {
+            threshold: a.threshold,
+            smooth: a.smooth,
+            vertices: a.common.vertices,
+            free_wall: a.region.cuts(),
+            sector: a.region.sector(SectorOptions::default()),
+            tps_lambda: a.tps_lambda,
+            // None for an open cycle: the frames need not cover a whole cycle then, and the
+            // filter is periodic.
+            harmonics: a.harmonics.0.filter(|_| !a.common.open),
+            refine: a.refine.0,
+        },
+        harmonics_asked: a.harmonics.0.is_some(),
+        pipeline: PipelineOptions {
+            metric: cycle.metric,
+            geodesic: cycle.geodesic.clone(),
+            insert: a.common.insert,
+            levels: qcshape::defaults::LEVELS,
+            transport: a.transport,
+            base: 0,
+            align: a.align,
+            smoothing: PipelineOptions::default().smoothing,
+            approx: Default::default(),
+        },
+        cycle,
+        split: SplitOptions {
+            method: a.cluster,
+            restarts: a.restarts,
+            seed: a.seed,
+        },
+        compare: a.compare.clone(),
+        mds_subject: a.mds_subject.clone(),
+        region: a.region.name().to_string(),
+        pattern: a.pattern.clone(),
+        args_line: args_line(),
+        started,
+    };
+    let bars = Bars::default();
+    let events = |e: Event<'_>| match e {
+        Event::Tick(t) => bars.tick(t),
+        Event::Line(l) => eprintln!("{l}"),
+    };
+    let input = match load_input(&s, &events)? {
+        Input::Cycle { def, source } => return run_cycle(def, &a.out, &a.common, 1, a.seed, &source),
+        Input::Cohort(c) => c,
+    };
+    let path = run_cohort(&s, &input, &events)?;
+    eprintln!(
+        "wrote {} in {:.1} s",
+        path.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
 }

@@ -291,6 +291,49 @@ impl Reproduction {
             &r.classified.clustering.assignments,
         )?)
     }
+
+    /// One Table 3 row at `level` %: `(level, tau uniform, tau Gaussian)` ([`Self::noise_tau`]
+    /// for [`NoiseKind::Uniform`], then [`NoiseKind::Gaussian`]); `done` is called after each
+    /// cell with its kind and `tau` (or the error it ends with).
+    pub fn noise_row(
+        &self,
+        defs: &[Deformation],
+        labels: &[String],
+        reference: &MetricRun,
+        level: f64,
+        progress: &(dyn Fn(Stage) + Sync),
+        done: &dyn Fn(NoiseKind, Option<f64>),
+    ) -> Result<(f64, f64, f64), ReproduceError> {
+        let mut row = (level, 0.0, 0.0);
+        for kind in [NoiseKind::Uniform, NoiseKind::Gaussian] {
+            let t = self.noise_tau(defs, labels, reference, kind, level, progress);
+            done(kind, t.as_ref().ok().copied());
+            let t = t?;
+            if kind == NoiseKind::Uniform {
+                row.1 = t;
+            } else {
+                row.2 = t;
+            }
+        }
+        Ok(row)
+    }
+
+    /// Checks the settings: at least one metric, a non-negative `lambda`, at least one step
+    /// and one restart.
+    pub fn validate(&self) -> Result<(), ReproduceError> {
+        if self.metrics.is_empty() {
+            return Err(ReproduceError::Input("--metrics is empty".into()));
+        }
+        if self.lambda.is_nan() || self.lambda < 0.0 {
+            return Err(ReproduceError::Input("--lambda must be non-negative".into()));
+        }
+        if self.steps == 0 || self.restarts == 0 {
+            return Err(ReproduceError::Input(
+                "--steps and --restarts must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// One metric's classification of the benchmark, scored.
@@ -974,5 +1017,41 @@ impl ReproduceReport {
             writeln!(md, "![Similarity matrix, {name} metric](similarity_{name}.png)\n")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod validate_tests {
+    use super::*;
+
+    #[test]
+    fn validate_names_the_bad_setting() {
+        let ok = Reproduction {
+            metrics: vec![MetricKind::QuasiConformal],
+            ..Reproduction::quick()
+        };
+        assert!(ok.validate().is_ok());
+        let msg = |r: Reproduction| r.validate().unwrap_err().to_string();
+        assert!(msg(Reproduction {
+            metrics: vec![],
+            ..ok.clone()
+        })
+        .contains("--metrics"));
+        assert!(msg(Reproduction {
+            lambda: -1.0,
+            ..ok.clone()
+        })
+        .contains("--lambda"));
+        assert!(msg(Reproduction {
+            lambda: f64::NAN,
+            ..ok.clone()
+        })
+        .contains("--lambda"));
+        assert!(msg(Reproduction {
+            steps: 0,
+            ..ok.clone()
+        })
+        .contains("--steps"));
+        assert!(msg(Reproduction { restarts: 0, ..ok }).contains("--restarts"));
     }
 }

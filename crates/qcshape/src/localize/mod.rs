@@ -25,8 +25,13 @@ use crate::similarity::{all_pairs, Pose};
 
 mod files;
 mod motion;
+mod study;
 pub use files::{write_map, MapFileError, VertexMap};
 pub use motion::{motion_contrasts, motion_maps, MotionContrast, MotionMeasure, MotionScale};
+pub use study::{
+    file_part, group_labels, localize, motion_title, push_region_row, Localization, LocalizeStudyError,
+    REGION_SUMMARY_HEADER,
+};
 
 /// Options of [`contrasts`].
 #[derive(Debug, Clone, Copy, PartialEq)]

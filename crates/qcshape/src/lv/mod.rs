@@ -16,7 +16,8 @@
 //! The analysis (section 4.3): [`cohort_mesh`] puts a whole cohort on one connectivity,
 //! [`study`] runs the classification (Tables 4 and 5; each subject's rigid pose removed by
 //! [`crate::transport::align`] before transfer) beside the radial baselines of [`analysis`],
-//! [`cycle_map`] maps one cycle (Fig. 9), and [`study_report`] writes their Markdown and CSV.
+//! [`cycle_map`] maps one cycle (Fig. 9), and [`study_report`] writes their Markdown and CSV;
+//! [`pipeline`] runs them in order, as `qcshape lv run` does.
 
 pub mod analysis;
 pub mod anatomy;
@@ -29,6 +30,7 @@ pub mod meshing;
 pub mod motion_report;
 
 pub mod phantom;
+pub mod pipeline;
 pub mod refine;
 pub mod region;
 pub mod study;

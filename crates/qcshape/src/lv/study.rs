@@ -102,6 +102,14 @@ pub enum StudyError {
     /// A report cannot be formatted.
     #[error(transparent)]
     Fmt(#[from] std::fmt::Error),
+    /// A deformation given as input has no long axis (its frame 0 is degenerate).
+    #[error("deformation '{name}': {error}")]
+    Deformation {
+        /// The deformation.
+        name: String,
+        /// Why.
+        error: AnalysisError,
+    },
     /// The input does not fit the study (labels, classes, landmarks, frames).
     #[error("{0}")]
     Input(String),

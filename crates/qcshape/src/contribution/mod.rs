@@ -32,6 +32,9 @@ use crate::mesh::Topology;
 use crate::metric::{At, Metric, Pattern, Segment};
 use crate::similarity::Pose;
 
+mod speeds;
+pub use speeds::{pose_speeds, PoseSpeeds};
+
 /// Why contributions cannot be computed.
 #[derive(Debug, Error)]
 pub enum ContributionError {
