@@ -32,7 +32,7 @@ fn check(command: &str, settings: &[&Setting]) {
     for s in settings {
         let e = entry(&text, s.key).unwrap_or_else(|| panic!("`qcshape {command}` has no --{}", s.key));
         // Named exceptions keep their own default (tests/defaults.rs checks those).
-        let exception = command == "experiment noise" && s.key == "steps";
+        let exception = matches!(command, "experiment noise" | "lv run" | "lv cycle") && s.key == "steps";
         if let Some(d) = (s.default)().filter(|_| !exception) {
             let shown = e.contains(&format!("[default: {d}]"));
             assert!(
@@ -56,7 +56,14 @@ fn matrix_commands_take_every_setting_with_the_librarys_default() {
 #[test]
 fn geodesic_commands_take_every_metric_and_solver_setting() {
     let ms: Vec<&Setting> = of_groups(&[Group::Metric, Group::Solver]).collect();
-    for command in ["geodesic", "transfer", "localize", "experiment noise"] {
+    for command in [
+        "geodesic",
+        "transfer",
+        "localize",
+        "experiment noise",
+        "lv run",
+        "lv cycle",
+    ] {
         check(command, &ms);
     }
 }

@@ -7,16 +7,23 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{load_sequence, Deformation};
-use qcshape::geodesic::GeodesicOptions;
 use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
 use qcshape::lv::pipeline::pattern_files;
 use qcshape::lv::study_report::cycle_report;
 
 use super::bars::Bars;
-use crate::args::{in_pool, MetricArgs};
+use crate::args::{in_pool, MetricArgs, SolverArgs};
+
+/// `--steps`' default in `lv run` and `lv cycle`: [`qcshape::defaults::PAPER_STEPS`] (a named
+/// exception, checked by tests/defaults.rs).
+const PAPER_STEPS: &str = "4";
 
 /// Options shared by `lv run` and `lv cycle`.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("steps", |a| a
+    .default_value(PAPER_STEPS)
+    .long_help("Segments N of every geodesic (default 4, the setting the README's LV tables were \
+measured with, not the other commands' 8).\nAt most 10,000.")))]
 pub struct CycleCommon {
     #[command(flatten)]
     pub metric: MetricArgs,
@@ -25,11 +32,10 @@ pub struct CycleCommon {
     /// At most 1,000.
     #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     pub insert: usize,
-    /// Segments N of every geodesic (default 4, the setting the README's LV tables were measured
-    /// with, not the other commands' 8).
-    /// At most 10,000.
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
-    pub steps: usize,
+    /// The geodesic solver (`--steps` defaults to 4 here, the setting the README's LV tables
+    /// were measured with, not the other commands' 8).
+    #[command(flatten)]
+    pub solver: SolverArgs,
     /// Vertex budget: the cohort template's whole surface, or meshes given as input are coarsened
     /// (a vertex subset, multires hierarchy) when larger.
     /// At most 100,000,000.
@@ -79,15 +85,9 @@ pub struct CycleArgs {
 
 /// The library's cycle settings of the command line.
 pub(super) fn cycle_settings(c: &CycleCommon, frame_stride: usize) -> Result<CycleSettings> {
-    if c.steps == 0 {
-        bail!("--steps must be at least 1");
-    }
     Ok(CycleSettings {
         metric: c.metric.spec()?,
-        geodesic: GeodesicOptions {
-            steps: c.steps,
-            ..Default::default()
-        },
+        geodesic: c.solver.options()?,
         insert: c.insert,
         vertices: c.vertices,
         open: c.open,
