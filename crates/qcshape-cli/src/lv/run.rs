@@ -113,6 +113,13 @@ pub struct RunArgs {
     /// pipeline, the default here), schild or euclidean (the other commands' default).
     #[arg(long, default_value = qcshape::defaults::LV_TRANSPORT.label())]
     pub(crate) transport: Transport,
+    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
+    /// (the straight-path length, no optimization) or tangent (the metric linearized at the
+    /// common base: one feature vector per pose, cost linear in the subjects; l2, isometric,
+    /// conformal only). Errors against exact: docs/speed.md. Interpolation, transfer and the
+    /// Fig. 9 map stay exact.
+    #[arg(long, default_value = "exact")]
+    pub(crate) approx: qcshape::similarity::Approx,
     /// Clustering restarts.
     /// At most 10,000.
     #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
@@ -192,7 +199,7 @@ fn run_in_pool(a: &RunArgs) -> Result<()> {
             base: 0,
             align: a.align,
             smoothing: PipelineOptions::default().smoothing,
-            approx: Default::default(),
+            approx: a.approx,
         },
         cycle,
         split: SplitOptions {
