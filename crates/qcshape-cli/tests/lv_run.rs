@@ -254,6 +254,71 @@ fn phantom_images_to_a_classification_report_and_the_meshes_back_in() {
     );
 }
 
+/// `lv run --approx straight`: the same subjects, every distance an upper bound of the exact
+/// one (a straight path is a path) and close to it on these mild deformations.
+#[test]
+fn lv_run_takes_a_cheaper_pose_distance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cohort = tmp.path().join("cohort");
+    ok(&qcshape(&[
+        "lv",
+        "phantom",
+        "--out",
+        s(&cohort),
+        "--controls",
+        "2",
+        "--hcm",
+        "2",
+        "--size",
+        "24",
+        "--frames",
+        "4",
+    ]));
+    let run = |approx: &str| {
+        let out = tmp.path().join(approx);
+        let mut args = vec![
+            "lv",
+            "run",
+            s(&cohort),
+            "--out",
+            s(&out),
+            "--no-sweep",
+            "--vertices",
+            "120",
+        ];
+        args.extend_from_slice(&[
+            "--insert",
+            "1",
+            "--steps",
+            "2",
+            "--restarts",
+            "3",
+            "--approx",
+            approx,
+        ]);
+        ok(&qcshape(&args));
+        DistanceMatrix::read_csv(&out.join("similarity.csv")).unwrap()
+    };
+    let (exact, straight) = (run("exact"), run("straight"));
+    assert_eq!(exact.names(), straight.names());
+    for (e, a) in exact.values().iter().zip(straight.values()) {
+        assert!(
+            *a >= e * (1.0 - 1e-6) && *a <= e * 1.2 + 1e-12,
+            "{a} vs exact {e}"
+        );
+    }
+    let bad = qcshape(&[
+        "lv",
+        "run",
+        s(&cohort),
+        "--out",
+        s(&tmp.path().join("x")),
+        "--approx",
+        "fast",
+    ]);
+    assert!(!bad.status.success());
+}
+
 /// The shared data folder: `$QCSHAPE_DATA`, else `../../../shared/data` from this crate.
 fn data_dir() -> PathBuf {
     std::env::var_os("QCSHAPE_DATA")
