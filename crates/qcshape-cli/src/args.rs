@@ -150,14 +150,6 @@ impl SolverArgs {
     }
 }
 
-/// `value` if it is a finite non-negative number, else an error naming the option.
-pub(crate) fn non_negative(option: &str, value: f64) -> Result<f64> {
-    if !value.is_finite() || value < 0.0 {
-        bail!("{option} must be a finite non-negative number (got {value})");
-    }
-    Ok(value)
-}
-
 /// A library validation error ([`qcshape::limits::LimitError`], naming a setting by its key)
 /// with the setting spelled as its flag: `--lambda must be >= 0 ...`.
 pub(crate) fn flag_error(e: qcshape::limits::LimitError) -> anyhow::Error {

@@ -15,7 +15,7 @@ use qcshape::geodesic::{
 use qcshape::io;
 use qcshape::mesh::Topology;
 
-use crate::args::{non_negative, MetricArgs};
+use crate::args::{flag_error, MetricArgs};
 use crate::mesh_format::MeshFormat;
 
 /// Insert poses between consecutive poses of each deformation, along discrete geodesics.
@@ -102,17 +102,19 @@ pub fn run(args: &Args) -> Result<()> {
     // One scale and one calibrated metric for the whole data set.
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &first.topology, &first.poses[0]);
     let metric = spec.build_scaled(&first.topology, &first.poses[0], factor)?;
+    let geodesic = GeodesicOptions {
+        solver: args.solver,
+        gradient_tolerance: args.tolerance,
+        energy_tolerance: args.energy_tolerance,
+        max_iterations: args.max_iterations,
+        ..Default::default()
+    };
+    geodesic.validate().map_err(flag_error)?;
     let options = InterpolationOptions {
         insert: args.insert,
         levels: args.levels,
         ratio: args.ratio,
-        geodesic: GeodesicOptions {
-            solver: args.solver,
-            gradient_tolerance: non_negative("--tolerance", args.tolerance)?,
-            energy_tolerance: non_negative("--energy-tolerance", args.energy_tolerance)?,
-            max_iterations: args.max_iterations,
-            ..Default::default()
-        },
+        geodesic,
         normalization: Normalization::Factor(factor),
     };
     let n_pairs: usize = data

@@ -168,6 +168,14 @@ impl State {
             b.finish_and_clear();
         }
     }
+
+    /// Makes `run` the current run: a tick of another run clears the bars before it.
+    fn enter(&mut self, run: &str) {
+        if self.run != run {
+            self.clear();
+            self.run = run.to_string();
+        }
+    }
 }
 
 impl PipelineBars {
@@ -182,10 +190,7 @@ impl PipelineBars {
     /// Advances the bar of `stage` of the run `run`.
     pub(crate) fn tick(&self, run: &str, stage: Stage) {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
-        if s.run != run {
-            s.clear();
-            s.run = run.to_string();
-        }
+        s.enter(run);
         let n = self.n;
         match stage {
             Stage::Interpolation => s
@@ -211,14 +216,8 @@ impl PipelineBars {
             Event::Pair(_) => self.tick(run, Stage::Similarity),
             Event::Journal { recorded, total, .. } => {
                 let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
-                if s.run != run {
-                    s.clear();
-                    s.run = run.to_string();
-                }
-                s.clear_prepare();
-                if let Some(b) = s.pairs.take() {
-                    b.finish_and_clear();
-                }
+                s.enter(run);
+                s.clear();
                 let pb = bar(total, run);
                 pb.set_position(recorded as u64);
                 s.pairs = Some(pb);

@@ -95,11 +95,11 @@ fn run_in_pool(args: &Args) -> Result<()> {
         path: journal_path(&matrix_path),
         resume: args.resume,
     };
-    let outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
-    let matrix = outcome.matrix.clone().context("the run computed every pair")?;
+    let mut outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
+    let matrix = outcome.matrix.take().context("the run computed every pair")?;
     matrix.write_csv(&matrix_path)?;
-    let pairs = outcome.pairs.clone();
     outcome.finish()?;
+    let pairs = outcome.pairs;
     let similarity_seconds = ts.elapsed().as_secs_f64();
     let shares = report_shares(&pairs, opts.metric.kind.label());
 

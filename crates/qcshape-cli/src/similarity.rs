@@ -178,7 +178,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         path: journal_path(&args.output),
         resume: args.resume,
     };
-    let outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
+    let mut outcome = matrix_with_progress(&prepared, &opts, Selection::All, sink)?;
     let pairs = &outcome.pairs;
     report_shares(pairs, opts.metric.kind.label());
     let matrix = outcome.matrix.as_ref().context("the run computed every pair")?;

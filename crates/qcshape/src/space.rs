@@ -125,9 +125,7 @@ impl ShapeSpace {
         geodesic: GeodesicOptions,
     ) -> Result<Self, SpaceError> {
         spec.validate().map_err(|e| SpaceError::Input(e.to_string()))?;
-        geodesic
-            .validate()
-            .map_err(|e| SpaceError::Geodesic(GeodesicError::Option(e.to_string())))?;
+        geodesic.check()?;
         Ok(ShapeSpace {
             topology,
             spec,
@@ -159,8 +157,7 @@ impl ShapeSpace {
 
     /// The same space with other geodesic options (checked as in [`ShapeSpace::new`]).
     pub fn with_geodesic(mut self, geodesic: GeodesicOptions) -> Result<Self, SpaceError> {
-        let metric = self.spec.build(&Calibration::RAW);
-        GeodesicSolver::new(metric.as_ref(), self.topology.clone(), geodesic.clone())?;
+        geodesic.check()?;
         self.geodesic = geodesic;
         Ok(self)
     }
@@ -552,14 +549,12 @@ impl ShapeSpace {
             ));
         }
         let opts = self.pipeline_options(template);
-        let (prepared, outcome) = similarity_matrix(deformations, &opts, run)?;
-        let matrix = outcome.matrix.clone().expect("all pairs");
-        let pairs = outcome.pairs.clone();
+        let (prepared, mut outcome) = similarity_matrix(deformations, &opts, run)?;
         outcome.finish()?;
         Ok(SimilarityResult {
             prepared,
-            pairs,
-            matrix,
+            pairs: outcome.pairs,
+            matrix: outcome.matrix.expect("all pairs"),
         })
     }
 

@@ -12,7 +12,7 @@ use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::MetricKind;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
-use crate::args::{non_negative, VariantArgs};
+use crate::args::{flag_error, VariantArgs};
 
 /// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
 ///
@@ -155,17 +155,19 @@ pub fn run(args: &Args) -> Result<()> {
     if metrics.is_empty() {
         bail!("--metrics must name at least one metric");
     }
+    let geodesic = GeodesicOptions {
+        solver: args.solver,
+        gradient_tolerance: args.tolerance,
+        energy_tolerance: args.energy_tolerance,
+        max_iterations: args.max_iterations,
+        ..Default::default()
+    };
+    geodesic.validate().map_err(flag_error)?;
     let exp = InterpolationExperiment {
         metrics,
         insert: args.insert,
         levels: args.levels,
-        geodesic: GeodesicOptions {
-            solver: args.solver,
-            gradient_tolerance: non_negative("--tolerance", args.tolerance)?,
-            energy_tolerance: non_negative("--energy-tolerance", args.energy_tolerance)?,
-            max_iterations: args.max_iterations,
-            ..Default::default()
-        },
+        geodesic,
         showcase: args.showcase.clone(),
     };
     let defs = match &args.input {

@@ -196,15 +196,7 @@ impl<'m> GeodesicSolver<'m> {
         topo: Arc<Topology>,
         options: GeodesicOptions,
     ) -> Result<Self, GeodesicError> {
-        options
-            .validate()
-            .map_err(|e| GeodesicError::Option(e.to_string()))?;
-        if !(options.vertex_block_weight >= 0.0 && options.vertex_block_weight.is_finite()) {
-            return Err(GeodesicError::Option(format!(
-                "the vertex-block weight must be a non-negative number (got {})",
-                options.vertex_block_weight
-            )));
-        }
+        options.check()?;
         let energy = PathEnergy::new(metric, topo, options.steps);
         let layout = if options.solver == Solver::LevenbergMarquardt && energy.n_vars() > 0 {
             Some(

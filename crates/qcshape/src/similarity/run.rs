@@ -162,9 +162,10 @@ impl Outcome {
     }
 
     /// Ends the run once its outputs are written: removes the journal of a matrix run (a
-    /// shard file is the run's output and stays).
-    pub fn finish(self) -> Result<(), SimilarityError> {
-        match self.journal {
+    /// shard file is the run's output and stays). The pairs and the matrix stay in the
+    /// outcome.
+    pub fn finish(&mut self) -> Result<(), SimilarityError> {
+        match self.journal.take() {
             Some(j) if !self.keep_journal => j.remove(),
             _ => Ok(()),
         }
@@ -401,7 +402,7 @@ mod tests {
             matches!(e, PipelineError::Similarity(SimilarityError::Cancelled)),
             "{e}"
         );
-        let resumed = run_with(Selection::All, sink(true), None).unwrap();
+        let mut resumed = run_with(Selection::All, sink(true), None).unwrap();
         assert!(resumed.recorded >= 3, "{} pairs read back", resumed.recorded);
         assert_eq!(bits(&resumed.pairs), bits(&memory.pairs));
         assert_eq!(resumed.matrix.as_ref().unwrap().values(), m.values());
@@ -414,7 +415,7 @@ mod tests {
         for k in 1..=3 {
             let shard = Shard::new(k, 3).unwrap();
             let file = shard.file_for(&dir.path().join("D.csv"));
-            let o = run_with(
+            let mut o = run_with(
                 Selection::Shard(shard),
                 Sink::Journal {
                     path: file.clone(),
