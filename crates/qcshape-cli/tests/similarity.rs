@@ -186,6 +186,7 @@ fn every_metric_works_with_every_solver() {
     for metric in ["l2", "rigid", "isometric", "conformal", "quasi-conformal"] {
         for solver in [
             "preconditioned",
+            "pose-kronecker",
             "newton",
             "gauss-newton",
             "gauss-newton-direct",

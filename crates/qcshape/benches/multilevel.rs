@@ -6,12 +6,13 @@
 //! time and iteration ratios against the single-level solve and the energy difference.
 //!
 //! `cargo bench -p qcshape --bench multilevel [-- --sizes 3,4,5 --metrics isometric,conformal
-//! --levels 2,3 --lambda 0.01 --tube]`. Run with `RAYON_NUM_THREADS=1` for single-core figures.
+//! --levels 2,3 --lambda 0.01 --tube --solvers preconditioned,pose-kronecker]` (the first solver
+//! is the baseline; `--levels 1` runs single-level solves only). Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;
 
 use qcshape::experiment::geometry::{sphere_pair, tube_pair};
-use qcshape::geodesic::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver};
+use qcshape::geodesic::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver, Solver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
@@ -37,13 +38,14 @@ fn scaled(p: &[[f64; 3]], f: f64) -> Vec<[f64; 3]> {
 }
 
 /// Coarse-to-fine solve with `levels` levels (1 = the single-level solve).
-fn solve(spec: &MetricSpec, a: &Shape, b: &Shape, steps: usize, levels: usize) -> Run {
+fn solve(spec: &MetricSpec, a: &Shape, b: &Shape, steps: usize, levels: usize, solver: Solver) -> Run {
     let t0 = Instant::now();
     let f = pair_factor(&a.positions, &b.positions, &a.topology).expect("factor");
     let (sa, sb) = (scaled(&a.positions, f), scaled(&b.positions, f));
     let h = Hierarchy::new(&a.topology, &sa, levels, DEFAULT_RATIO).expect("hierarchy");
     let opts = GeodesicOptions {
         steps,
+        solver,
         ..GeodesicOptions::default()
     };
     let top = h.n_levels() - 1;
@@ -95,6 +97,10 @@ fn main() {
         .iter()
         .map(|s| s.parse().expect("--levels takes level counts"))
         .collect();
+    let solvers: Vec<Solver> = list("--solvers", "preconditioned")
+        .iter()
+        .map(|s| s.parse().expect("--solvers takes solver names"))
+        .collect();
     let lambda: Option<f64> = arg(&args, "--lambda").map(|s| s.parse().expect("--lambda takes a number"));
     let steps = 8;
     let mut cases: Vec<(String, Shape, Shape)> = sizes
@@ -108,9 +114,12 @@ fn main() {
         let (a, b) = tube_pair();
         cases.push((format!("bent tube {}", a.n_vertices()), a, b));
     }
-    println!("N = {steps}; baseline: the single-level solve from the straight path, same run");
-    println!("| case | metric | levels (vertices) | its per level (coarse..fine) | s | s / single | fine its / single its | energy rel. diff | converged |");
-    println!("|---|---|---|---|---:|---:|---:|---:|---|");
+    println!(
+        "N = {steps}; baseline: the single-level solve from the straight path with the first solver ({}), same run",
+        solvers[0].label()
+    );
+    println!("| case | metric | solver | levels (vertices) | its per level (coarse..fine) | s | s / single | fine its / single its | energy rel. diff | converged |");
+    println!("|---|---|---|---|---|---:|---:|---:|---:|---|");
     for metric in list("--metrics", "isometric,conformal") {
         let kind: MetricKind = metric.parse().expect("--metrics takes metric names");
         let mut spec = MetricSpec::new(kind);
@@ -118,13 +127,14 @@ fn main() {
             spec.lambda = l;
         }
         for (name, a, b) in &cases {
-            let single = solve(&spec, a, b, steps, 1);
-            let row = |r: &Run, label: String| {
+            let single = solve(&spec, a, b, steps, 1, solvers[0]);
+            let row = |r: &Run, solver: Solver, label: String| {
                 let its: Vec<String> = r.per_level.iter().map(|x| x.1.to_string()).collect();
                 let verts: Vec<String> = r.per_level.iter().map(|x| x.0.to_string()).collect();
                 println!(
-                    "| {name} | {} | {label} ({}) | {} | {:.3} | {:.2} | {:.2} | {:.1e} | {} |",
+                    "| {name} | {} | {} | {label} ({}) | {} | {:.3} | {:.2} | {:.2} | {:.1e} | {} |",
                     spec.label(),
+                    solver.label(),
                     verts.join(", "),
                     its.join(", "),
                     r.seconds,
@@ -134,9 +144,14 @@ fn main() {
                     r.geodesic.converged
                 );
             };
-            row(&single, "1".into());
-            for &l in &levels {
-                row(&solve(&spec, a, b, steps, l), l.to_string());
+            row(&single, solvers[0], "1".into());
+            for &solver in &solvers[1..] {
+                row(&solve(&spec, a, b, steps, 1, solver), solver, "1".into());
+            }
+            for &l in levels.iter().filter(|&&l| l > 1) {
+                for &solver in &solvers {
+                    row(&solve(&spec, a, b, steps, l, solver), solver, l.to_string());
+                }
             }
         }
     }

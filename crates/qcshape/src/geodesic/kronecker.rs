@@ -130,6 +130,16 @@ impl SpatialLayout {
         &self.st
     }
 
+    /// Number of vertices #V (the matrix is 3 #V x 3 #V).
+    pub fn n_vertices(&self) -> usize {
+        self.nv
+    }
+
+    /// The symbolic Cholesky factorization of `A`'s structure (AMD ordering).
+    pub fn symbolic(&self) -> &SymbolicCholesky<usize> {
+        &self.symbolic
+    }
+
     /// Cholesky factor values of the 3 #V x 3 #V matrix whose 3 x 3 block at vertex pair slot
     /// `k` (row `u`, column `v`, row-major; slots of [`VertexPairs::new`] on the metric's
     /// pattern) is `blocks[k]`; `1e-8` times the largest diagonal entry is added to the diagonal
@@ -251,6 +261,22 @@ pub(crate) struct PoseSum {
 }
 
 impl PoseSum {
+    /// A sum from its parts (tests).
+    #[cfg(test)]
+    pub fn from_parts(
+        sum: Vec<[f64; 9]>,
+        traces: Vec<f64>,
+        parts: Vec<usize>,
+        diagonal: Vec<[f64; 9]>,
+    ) -> Self {
+        PoseSum {
+            sum,
+            traces,
+            parts,
+            diagonal,
+        }
+    }
+
     /// From assembled segment blocks ([`Structure::assemble`]).
     pub fn from_blocks(layout: &SpatialLayout, blocks: &[SegmentBlocks]) -> Self {
         let mut sum = vec![[0.0f64; 9]; layout.st.pairs.n_slots()];
@@ -481,7 +507,7 @@ impl KroneckerModel {
 
 /// Inverse of the symmetric tridiagonal `T` with diagonal `d` and off-diagonal `e` (m x m,
 /// row-major), column by column (Thomas algorithm).
-fn tridiagonal_inverse(d: &[f64], e: &[f64]) -> Vec<f64> {
+pub(crate) fn tridiagonal_inverse(d: &[f64], e: &[f64]) -> Vec<f64> {
     let m = d.len();
     let mut inv = vec![0.0; m * m];
     for c in 0..m {

@@ -13,6 +13,8 @@
 //!   sparse Cholesky factorization of the full block-tridiagonal normal equations
 //!   `J^T J + mu D` (exact steps; the factor grows with `N` times the spatial fill, practical
 //!   up to a few hundred vertices);
+//! - [`Solver::PoseKronecker`] (`plbfgs.rs` with `pose_kronecker.rs`): the default solver with
+//!   each interior pose's own spatial block in the model (conformal metrics at small lambda);
 //! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
 //!
 //! Kept for the benchmark and the `--solver` choices (module `research`):
@@ -43,6 +45,7 @@ mod near_tests;
 mod options;
 mod pairs;
 mod plbfgs;
+mod pose_kronecker;
 mod research;
 #[cfg(test)]
 mod second_order_tests;
@@ -210,7 +213,7 @@ impl<'m> GeodesicSolver<'m> {
         };
         let spatial = if matches!(
             options.solver,
-            Solver::Preconditioned | Solver::GaussNewton | Solver::Newton
+            Solver::Preconditioned | Solver::PoseKronecker | Solver::GaussNewton | Solver::Newton
         ) && energy.n_vars() > 0
         {
             Some(
@@ -494,7 +497,11 @@ impl<'m> GeodesicSolver<'m> {
         let pe = &self.energy;
         // The default solver evaluates the start itself (its first energy and gradient);
         // the others, and a path without unknowns, are evaluated here.
-        let own_start = pe.n_vars() > 0 && self.options.solver == Solver::Preconditioned;
+        let own_start = pe.n_vars() > 0
+            && matches!(
+                self.options.solver,
+                Solver::Preconditioned | Solver::PoseKronecker
+            );
         let checked_start = if own_start {
             None
         } else {
@@ -526,7 +533,7 @@ impl<'m> GeodesicSolver<'m> {
                     levenberg_marquardt::minimize(pe, layout, ends, x0, &self.options)?
                 }
                 Solver::Lbfgs => research::lbfgs::minimize(pe, ends, x0, &self.options)?,
-                Solver::Preconditioned => {
+                Solver::Preconditioned | Solver::PoseKronecker => {
                     let layout = self
                         .spatial
                         .as_ref()
@@ -539,7 +546,7 @@ impl<'m> GeodesicSolver<'m> {
                     };
                     let out = plbfgs::minimize(
                         pe,
-                        Some(layout),
+                        Some((layout, self.options.solver == Solver::PoseKronecker)),
                         ends,
                         x0,
                         &self.options,

@@ -17,10 +17,14 @@
 //! `H0 = gamma ((2 T_c (x) A)^{-1} + omega (2 D)^{-1})`, `D` the 3 x 3 diagonal blocks of
 //! `J^T J` per interior pose and vertex, refitted with the model
 //! ([`GeodesicOptions::vertex_block_weight`]).
+//!
+//! [`super::Solver::PoseKronecker`] runs the same iteration with the pose-wise model
+//! ([`super::pose_kronecker`]) in place of `T_c (x) A`: each interior pose's own spatial block.
 
 use super::compact::{CompactHistory, Pair};
 use super::energy::{Ends, PathEnergy, SegmentWork};
 use super::kronecker::{ApplyScratch, KroneckerModel, PoseSum, SpatialLayout};
+use super::pose_kronecker::{PoseBlocks, PoseKronecker, PoseScratch};
 use super::vertex_blocks::VertexBlocks;
 use super::{dot, norm, GeodesicError, GeodesicOptions, LastEvaluation, SolveOutput, StopReason};
 
@@ -29,6 +33,9 @@ use super::{dot, norm, GeodesicError, GeodesicOptions, LastEvaluation, SolveOutp
 /// identity: plain L-BFGS).
 pub(crate) struct Preconditioner<'l> {
     kron: Option<(&'l SpatialLayout, KroneckerModel)>,
+    /// The pose-wise model instead of `kron`.
+    pose: Option<(&'l SpatialLayout, PoseKronecker)>,
+    pose_scratch: PoseScratch,
     /// The vertex-block term `omega (2 D)^{-1}` added to the Kronecker part (none when
     /// `omega = 0` or without a layout).
     local: Option<VertexBlocks>,
@@ -42,24 +49,41 @@ impl<'l> Preconditioner<'l> {
     /// `vertex_block_weight > 0`, the vertex-block term from the same assembly; the identity
     /// without a layout.
     fn new(
-        layout: Option<&'l SpatialLayout>,
+        layout: Option<(&'l SpatialLayout, bool)>,
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
         vertex_block_weight: f64,
     ) -> Result<Self, GeodesicError> {
-        let Some(layout) = layout else {
+        let Some((layout, pose_wise)) = layout else {
             return Ok(Preconditioner {
                 kron: None,
+                pose: None,
+                pose_scratch: PoseScratch::default(),
                 local: None,
                 scratch: ApplyScratch::default(),
                 copy: Vec::new(),
             });
         };
+        if pose_wise {
+            let pb = PoseBlocks::assemble(layout, pe, x, ends);
+            let local =
+                (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&pb.diagonal, vertex_block_weight));
+            return Ok(Preconditioner {
+                kron: None,
+                pose: Some((layout, PoseKronecker::fit(layout, &pb)?)),
+                pose_scratch: PoseScratch::default(),
+                local,
+                scratch: ApplyScratch::default(),
+                copy: Vec::new(),
+            });
+        }
         let ps = PoseSum::assemble(layout, pe, x, ends);
         let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&ps.diagonal, vertex_block_weight));
         Ok(Preconditioner {
             kron: Some((layout, KroneckerModel::fit(layout, ps)?)),
+            pose: None,
+            pose_scratch: PoseScratch::default(),
             local,
             scratch: ApplyScratch::default(),
             copy: Vec::new(),
@@ -76,6 +100,9 @@ impl<'l> Preconditioner<'l> {
         if let Some((layout, model)) = &self.kron {
             model.apply_with(layout, q, 0.5, &mut self.scratch);
         }
+        if let Some((layout, model)) = &self.pose {
+            model.apply_with(layout, q, 0.5, &mut self.pose_scratch);
+        }
         if let Some(local) = &self.local {
             local.add_apply(&self.copy, q);
         }
@@ -84,6 +111,7 @@ impl<'l> Preconditioner<'l> {
     /// Moves the work space of `old` (a preconditioner this one replaces) into this one.
     fn take_scratch(&mut self, old: Preconditioner) {
         self.scratch = old.scratch;
+        self.pose_scratch = old.pose_scratch;
         self.copy = old.copy;
     }
 }
@@ -124,7 +152,9 @@ fn path_length(segments: &[f64]) -> f64 {
 }
 
 /// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
-/// (`H0 = gamma I`, the first step of unit length).
+/// (`H0 = gamma I`, the first step of unit length). `layout`'s flag chooses the pose-wise
+/// Kronecker model ([`super::pose_kronecker`], [`super::Solver::PoseKronecker`]) over the
+/// Kronecker model.
 ///
 /// `length_tolerance > 0` adds a stop once two consecutive accepted steps each change the
 /// path's length by at most that fraction of it ([`StopReason::LengthTolerance`]; distance
@@ -135,7 +165,7 @@ fn path_length(segments: &[f64]) -> f64 {
 /// geodesics of one pair of deformations (consecutive poses) share one fit.
 pub(crate) fn minimize<'l>(
     pe: &PathEnergy,
-    layout: Option<&'l SpatialLayout>,
+    layout: Option<(&'l SpatialLayout, bool)>,
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
