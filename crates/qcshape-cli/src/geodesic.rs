@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use qcshape::contribution::path_contributions;
-use qcshape::geodesic::{geodesic, pair_metric, Normalization};
+use qcshape::geodesic::{geodesic, pair_metric, Normalization, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
 
@@ -164,6 +164,17 @@ pub fn run(args: &Args) -> Result<()> {
              L2 displacement more than its own geometry (lower --lambda)",
             100.0 * share,
             spec.kind.label()
+        );
+    }
+    if g.stop == StopReason::MaxIterations {
+        let hint = opts
+            .solver
+            .stall_hint()
+            .map(|h| format!(" ({h}: --solver pose-kronecker)"));
+        eprintln!(
+            "warning: the solver stopped at its iteration limit after {} iterations{}",
+            g.iterations,
+            hint.unwrap_or_default()
         );
     }
     if let Some(dir) = &args.out {

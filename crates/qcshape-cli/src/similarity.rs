@@ -196,7 +196,14 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.output.display(),
         t0.elapsed().as_secs_f64(),
         if unconverged > 0 || !prepared.converged {
-            format!("; warning: {unconverged} pair(s) with a geodesic that did not converge")
+            format!(
+                "; warning: {unconverged} pair(s) with a geodesic that did not converge{}",
+                opts.geodesic
+                    .solver
+                    .stall_hint()
+                    .map(|h| format!(" ({h}: --solver pose-kronecker)"))
+                    .unwrap_or_default()
+            )
         } else {
             String::new()
         }

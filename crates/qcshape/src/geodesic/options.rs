@@ -83,6 +83,19 @@ impl Solver {
         }
     }
 
+    /// What to try when a solve with this solver stopped at its iteration limit: for the
+    /// default, the pose-wise model ([`Solver::PoseKronecker`]), which converges where the
+    /// default stalls (conformal metrics at small lambda); `None` for the other solvers.
+    pub fn stall_hint(self) -> Option<&'static str> {
+        match self {
+            Solver::Preconditioned => Some(
+                "for the conformal and quasi-conformal metrics at small lambda, the pose-kronecker \
+                 solver converges where the default stalls",
+            ),
+            _ => None,
+        }
+    }
+
     /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`: 100 outer
     /// steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a linear system),
     /// 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers
