@@ -54,7 +54,7 @@ pub struct Args {
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,
-    /// Optimizer: preconditioned, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
+    /// Optimizer: preconditioned, hessian-kronecker, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
     #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.

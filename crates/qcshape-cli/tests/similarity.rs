@@ -187,6 +187,7 @@ fn every_metric_works_with_every_solver() {
         for solver in [
             "preconditioned",
             "pose-kronecker",
+            "hessian-kronecker",
             "newton",
             "gauss-newton",
             "gauss-newton-direct",

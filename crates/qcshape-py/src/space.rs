@@ -128,7 +128,7 @@ impl PyGeodesic {
 /// with ``lam=0.1``); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5), ``qc_smooth``
 /// (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
 /// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
-/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | pose-kronecker; ``tolerance`` (1e-6) and
+/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
 /// ``pairwise_distances`` and ``similarity``, stop once the length has settled; 0 = off);
 /// ``n_vertices`` (default max index + 1).

@@ -136,6 +136,7 @@ fn all_solvers_reach_the_same_energy() {
             Solver::LevenbergMarquardt,
             Solver::Preconditioned,
             Solver::PoseKronecker,
+            Solver::HessianKronecker,
             Solver::PlainLbfgs,
         ] {
             let g = geodesic(m.as_ref(), &a, &b, &opts(solver, 5), norm).unwrap();
@@ -431,6 +432,7 @@ fn the_iteration_limit_is_the_one_given() {
     for solver in [
         Solver::Preconditioned,
         Solver::PoseKronecker,
+        Solver::HessianKronecker,
         Solver::PlainLbfgs,
         Solver::GaussNewton,
         Solver::Newton,

@@ -67,7 +67,7 @@ pub struct Args {
     /// At most 16.
     #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     levels: usize,
-    /// Optimizer: preconditioned, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
+    /// Optimizer: preconditioned, hessian-kronecker, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
     #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
     solver: Solver,
     /// Relative gradient tolerance.

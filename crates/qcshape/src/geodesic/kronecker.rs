@@ -427,6 +427,41 @@ impl PoseSum {
 }
 
 impl KroneckerModel {
+    /// Fits the model to the exact Hessian's blocks at `x` (half of it: `J^T J` plus the
+    /// metric's second-order part `sum r_i d2 r_i`, [`crate::metric::Metric::add_second_order`])
+    /// instead of `J^T J` alone ([`super::Solver::HessianKronecker`]); to `J^T J` where the metric
+    /// has no second-order part or the Hessian's model is not positive definite (far from the
+    /// geodesic). Also returns the 3 x 3 per-vertex diagonal blocks the model was fitted to
+    /// (`(N - 1) #V`, pose-major), for the vertex-block term.
+    pub fn fit_hessian(
+        layout: &SpatialLayout,
+        pe: &PathEnergy,
+        x: &[f64],
+        ends: &Ends,
+    ) -> Result<(Self, Vec<[f64; 9]>), GeodesicError> {
+        let (mut blocks, _, _) = layout.st.assemble_with(pe, x, ends, true);
+        let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
+        let gauss_newton = PoseSum::from_blocks(layout, &blocks);
+        if seconds.iter().all(Option::is_none) {
+            let diagonal = gauss_newton.diagonal.clone();
+            return Ok((Self::fit(layout, gauss_newton)?, diagonal));
+        }
+        for (b, so) in blocks.iter_mut().zip(&seconds) {
+            if let Some(so) = so {
+                b.add_second(so);
+            }
+        }
+        let hessian = PoseSum::from_blocks(layout, &blocks);
+        let diagonal = hessian.diagonal.clone();
+        match Self::fit(layout, hessian) {
+            Ok(model) => Ok((model, diagonal)),
+            Err(_) => {
+                let diagonal = gauss_newton.diagonal.clone();
+                Ok((Self::fit(layout, gauss_newton)?, diagonal))
+            }
+        }
+    }
+
     /// Fits `A` and the segment weights `c_s` to the blocks of `J^T J` (`ps`) and factorizes
     /// `A`.
     pub fn fit(layout: &SpatialLayout, ps: PoseSum) -> Result<Self, GeodesicError> {

@@ -15,6 +15,9 @@
 //!   up to a few hundred vertices);
 //! - [`Solver::PoseKronecker`] (`plbfgs.rs` with `pose_kronecker.rs`): the default solver with
 //!   each interior pose's own spatial block in the model (conformal metrics at small lambda);
+//! - [`Solver::HessianKronecker`]: the default solver with the Kronecker model fitted to the
+//!   exact Hessian (where positive definite) and refitted more often: iterations nearly flat in
+//!   the resolution for the isometric metric;
 //! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
 //!
 //! Kept for the benchmark and the `--solver` choices (module `research`):
@@ -213,7 +216,11 @@ impl<'m> GeodesicSolver<'m> {
         };
         let spatial = if matches!(
             options.solver,
-            Solver::Preconditioned | Solver::PoseKronecker | Solver::GaussNewton | Solver::Newton
+            Solver::Preconditioned
+                | Solver::PoseKronecker
+                | Solver::HessianKronecker
+                | Solver::GaussNewton
+                | Solver::Newton
         ) && energy.n_vars() > 0
         {
             Some(
@@ -497,11 +504,7 @@ impl<'m> GeodesicSolver<'m> {
         let pe = &self.energy;
         // The default solver evaluates the start itself (its first energy and gradient);
         // the others, and a path without unknowns, are evaluated here.
-        let own_start = pe.n_vars() > 0
-            && matches!(
-                self.options.solver,
-                Solver::Preconditioned | Solver::PoseKronecker
-            );
+        let own_start = pe.n_vars() > 0 && self.options.solver.is_preconditioned_lbfgs();
         let checked_start = if own_start {
             None
         } else {
@@ -533,7 +536,7 @@ impl<'m> GeodesicSolver<'m> {
                     levenberg_marquardt::minimize(pe, layout, ends, x0, &self.options)?
                 }
                 Solver::Lbfgs => research::lbfgs::minimize(pe, ends, x0, &self.options)?,
-                Solver::Preconditioned | Solver::PoseKronecker => {
+                Solver::Preconditioned | Solver::PoseKronecker | Solver::HessianKronecker => {
                     let layout = self
                         .spatial
                         .as_ref()
@@ -546,7 +549,14 @@ impl<'m> GeodesicSolver<'m> {
                     };
                     let out = plbfgs::minimize(
                         pe,
-                        Some((layout, self.options.solver == Solver::PoseKronecker)),
+                        Some((
+                            layout,
+                            match self.options.solver {
+                                Solver::PoseKronecker => plbfgs::Model::PoseWise,
+                                Solver::HessianKronecker => plbfgs::Model::Hessian,
+                                _ => plbfgs::Model::Kronecker,
+                            },
+                        )),
                         ends,
                         x0,
                         &self.options,

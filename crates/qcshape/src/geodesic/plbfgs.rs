@@ -28,6 +28,24 @@ use super::pose_kronecker::{PoseBlocks, PoseKronecker, PoseScratch};
 use super::vertex_blocks::VertexBlocks;
 use super::{dot, norm, GeodesicError, GeodesicOptions, LastEvaluation, SolveOutput, StopReason};
 
+/// Which model of the Hessian the preconditioned L-BFGS fits at its refits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Model {
+    /// `T_c (x) A` fitted to `J^T J` ([`super::Solver::Preconditioned`]).
+    Kronecker,
+    /// `T_c (x) A` fitted to the exact Hessian where positive definite
+    /// ([`super::Solver::HessianKronecker`]).
+    Hessian,
+    /// Each pose's own block of `J^T J` ([`super::Solver::PoseKronecker`]).
+    PoseWise,
+}
+
+/// Refit interval of [`Model::Hessian`] (iterations; capped by
+/// [`GeodesicOptions::preconditioner_refresh`]): the Hessian's model is worth refitting more often
+/// than `J^T J`'s, since it changes as the path approaches the geodesic (twisted sphere, isometric,
+/// 2,562 vertices: 58 iterations refitting every 45, 39 every 15; docs/speed.md).
+pub(crate) const HESSIAN_REFRESH: usize = 15;
+
 /// The factorized preconditioner `(2 T_c (x) A)^{-1} + omega (2 D)^{-1}` (the energy's
 /// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the
 /// identity: plain L-BFGS).
@@ -49,13 +67,13 @@ impl<'l> Preconditioner<'l> {
     /// `vertex_block_weight > 0`, the vertex-block term from the same assembly; the identity
     /// without a layout.
     fn new(
-        layout: Option<(&'l SpatialLayout, bool)>,
+        layout: Option<(&'l SpatialLayout, Model)>,
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
         vertex_block_weight: f64,
     ) -> Result<Self, GeodesicError> {
-        let Some((layout, pose_wise)) = layout else {
+        let Some((layout, model)) = layout else {
             return Ok(Preconditioner {
                 kron: None,
                 pose: None,
@@ -65,7 +83,7 @@ impl<'l> Preconditioner<'l> {
                 copy: Vec::new(),
             });
         };
-        if pose_wise {
+        if model == Model::PoseWise {
             let pb = PoseBlocks::assemble(layout, pe, x, ends);
             let local =
                 (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&pb.diagonal, vertex_block_weight));
@@ -78,10 +96,16 @@ impl<'l> Preconditioner<'l> {
                 copy: Vec::new(),
             });
         }
-        let ps = PoseSum::assemble(layout, pe, x, ends);
-        let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&ps.diagonal, vertex_block_weight));
+        let (kron, diagonal) = if model == Model::Hessian {
+            KroneckerModel::fit_hessian(layout, pe, x, ends)?
+        } else {
+            let mut ps = PoseSum::assemble(layout, pe, x, ends);
+            let diagonal = std::mem::take(&mut ps.diagonal);
+            (KroneckerModel::fit(layout, ps)?, diagonal)
+        };
+        let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight));
         Ok(Preconditioner {
-            kron: Some((layout, KroneckerModel::fit(layout, ps)?)),
+            kron: Some((layout, kron)),
             pose: None,
             pose_scratch: PoseScratch::default(),
             local,
@@ -152,9 +176,8 @@ fn path_length(segments: &[f64]) -> f64 {
 }
 
 /// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
-/// (`H0 = gamma I`, the first step of unit length). `layout`'s flag chooses the pose-wise
-/// Kronecker model ([`super::pose_kronecker`], [`super::Solver::PoseKronecker`]) over the
-/// Kronecker model.
+/// (`H0 = gamma I`, the first step of unit length). `layout`'s [`Model`] chooses what the
+/// preconditioner is fitted to.
 ///
 /// `length_tolerance > 0` adds a stop once two consecutive accepted steps each change the
 /// path's length by at most that fraction of it ([`StopReason::LengthTolerance`]; distance
@@ -165,7 +188,7 @@ fn path_length(segments: &[f64]) -> f64 {
 /// geodesics of one pair of deformations (consecutive poses) share one fit.
 pub(crate) fn minimize<'l>(
     pe: &PathEnergy,
-    layout: Option<(&'l SpatialLayout, bool)>,
+    layout: Option<(&'l SpatialLayout, Model)>,
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
@@ -191,7 +214,12 @@ pub(crate) fn minimize<'l>(
         Some(p) => p,
         None => Preconditioner::new(layout, pe, &ev.full, ends, opts.vertex_block_weight)?,
     };
-    let refresh = opts.preconditioner_refresh;
+    let refresh = match layout {
+        Some((_, Model::Hessian)) if opts.preconditioner_refresh > 0 => {
+            opts.preconditioner_refresh.min(HESSIAN_REFRESH)
+        }
+        _ => opts.preconditioner_refresh,
+    };
     // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
     // step of unit length (normalized coordinates: about one edge).
     let mut gamma = if layout.is_some() {
