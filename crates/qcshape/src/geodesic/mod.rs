@@ -1,7 +1,7 @@
 //! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
-//! path with `N` segments, started from the linear interpolation. Six solvers, the default
+//! path with `N` segments, started from the linear interpolation. Eight solvers, the default
 //! first:
 //! - [`Solver::Preconditioned`] (default, `plbfgs.rs`): L-BFGS whose initial inverse Hessian is
 //!   a Kronecker model `T_c (x) A` of the Gauss-Newton Hessian (`kronecker.rs`; one sparse
