@@ -432,19 +432,20 @@ impl KroneckerModel {
     /// instead of `J^T J` alone ([`super::Solver::HessianKronecker`]); to `J^T J` where the metric
     /// has no second-order part or the Hessian's model is not positive definite (far from the
     /// geodesic). Also returns the 3 x 3 per-vertex diagonal blocks the model was fitted to
-    /// (`(N - 1) #V`, pose-major), for the vertex-block term.
+    /// (`(N - 1) #V`, pose-major), for the vertex-block term, and whether the metric has a
+    /// second-order part at all (without one, later refits can fit `J^T J` directly).
     pub fn fit_hessian(
         layout: &SpatialLayout,
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
-    ) -> Result<(Self, Vec<[f64; 9]>), GeodesicError> {
+    ) -> Result<(Self, Vec<[f64; 9]>, bool), GeodesicError> {
         let (mut blocks, _, _) = layout.st.assemble_with(pe, x, ends, true);
         let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
         let gauss_newton = PoseSum::from_blocks(layout, &blocks);
         if seconds.iter().all(Option::is_none) {
             let diagonal = gauss_newton.diagonal.clone();
-            return Ok((Self::fit(layout, gauss_newton)?, diagonal));
+            return Ok((Self::fit(layout, gauss_newton)?, diagonal, false));
         }
         for (b, so) in blocks.iter_mut().zip(&seconds) {
             if let Some(so) = so {
@@ -454,10 +455,10 @@ impl KroneckerModel {
         let hessian = PoseSum::from_blocks(layout, &blocks);
         let diagonal = hessian.diagonal.clone();
         match Self::fit(layout, hessian) {
-            Ok(model) => Ok((model, diagonal)),
+            Ok(model) => Ok((model, diagonal, true)),
             Err(_) => {
                 let diagonal = gauss_newton.diagonal.clone();
-                Ok((Self::fit(layout, gauss_newton)?, diagonal))
+                Ok((Self::fit(layout, gauss_newton)?, diagonal, true))
             }
         }
     }

@@ -60,6 +60,9 @@ pub(crate) struct Preconditioner<'l> {
     /// Work space of the applications, reused (no allocation per iteration once warm).
     scratch: ApplyScratch,
     copy: Vec<f64>,
+    /// [`Model::Hessian`] fitted to a metric without a second-order part (the rigid metric):
+    /// the refits fit `J^T J` like [`Model::Kronecker`], at its interval.
+    no_second_order: bool,
 }
 
 impl<'l> Preconditioner<'l> {
@@ -81,6 +84,7 @@ impl<'l> Preconditioner<'l> {
                 local: None,
                 scratch: ApplyScratch::default(),
                 copy: Vec::new(),
+                no_second_order: false,
             });
         };
         if model == Model::PoseWise {
@@ -94,14 +98,15 @@ impl<'l> Preconditioner<'l> {
                 local,
                 scratch: ApplyScratch::default(),
                 copy: Vec::new(),
+                no_second_order: false,
             });
         }
-        let (kron, diagonal) = if model == Model::Hessian {
+        let (kron, diagonal, second_order) = if model == Model::Hessian {
             KroneckerModel::fit_hessian(layout, pe, x, ends)?
         } else {
             let mut ps = PoseSum::assemble(layout, pe, x, ends);
             let diagonal = std::mem::take(&mut ps.diagonal);
-            (KroneckerModel::fit(layout, ps)?, diagonal)
+            (KroneckerModel::fit(layout, ps)?, diagonal, false)
         };
         let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight));
         Ok(Preconditioner {
@@ -111,6 +116,7 @@ impl<'l> Preconditioner<'l> {
             local,
             scratch: ApplyScratch::default(),
             copy: Vec::new(),
+            no_second_order: model == Model::Hessian && !second_order,
         })
     }
 
@@ -213,6 +219,11 @@ pub(crate) fn minimize<'l>(
     let mut pre = match shared.as_deref_mut().and_then(Option::take) {
         Some(p) => p,
         None => Preconditioner::new(layout, pe, &ev.full, ends, opts.vertex_block_weight)?,
+    };
+    // A metric without second derivatives gets the Gauss-Newton model at its own interval.
+    let layout = match layout {
+        Some((l, Model::Hessian)) if pre.no_second_order => Some((l, Model::Kronecker)),
+        other => other,
     };
     let refresh = match layout {
         Some((_, Model::Hessian)) if opts.preconditioner_refresh > 0 => {
