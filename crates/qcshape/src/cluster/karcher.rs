@@ -5,6 +5,12 @@ use crate::geodesic::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
 
 use crate::mesh::Pose;
 
+/// Below this mean log norm, relative to the mean's own norm (both Euclidean norms of #V x 3
+/// fields), the members are taken to coincide with the mean (round-off), and the iteration has
+/// converged: a real spread of poses is many orders of magnitude above it, round-off of the
+/// normalized coordinates about 1e-16.
+pub const ROUNDOFF_SPREAD: f64 = 1e-10;
+
 /// Options of the Karcher mean iteration `mu <- mu + step * mean_k log_mu(P_k)`.
 #[derive(Debug, Clone)]
 pub struct KarcherOptions {
@@ -122,7 +128,11 @@ pub fn karcher_mean(
                 }
             }
         }
-        let residual = if norm_sum > 0.0 {
+        // Members that all lie within round-off of the mean (the common base that every
+        // deformation's first pose becomes after transfer, whose arithmetic mean differs from
+        // it in the last bits) have logs of round-off size that all point the same way: their
+        // relative residual is 1 however close the mean is, so it is measured as 0.
+        let residual = if norm_sum / k > ROUNDOFF_SPREAD * field_norm(&mu) {
             field_norm(&mean_log) / (norm_sum / k)
         } else {
             0.0
@@ -180,6 +190,30 @@ mod tests {
                 assert!((v[k] - want).abs() < 1e-6, "{} vs {want}", v[k]);
             }
         }
+    }
+
+    /// Identical members seen from a start that differs from them by round-off (their
+    /// arithmetic mean, computed in floating point): converged at once, not after the iteration
+    /// limit (the relative residual of round-off logs that all point the same way is 1).
+    #[test]
+    fn members_within_roundoff_of_the_start_converge_at_once() {
+        let s = icosphere(1);
+        let f = 1.0 / crate::mesh::geometry::mean_edge_length(&s.topology, &s.positions);
+        let a = scaled(&s.positions, [1.3 * f, f, 0.9 * f]);
+        let start: Pose = a
+            .iter()
+            .map(|v| v.map(|c| c * (1.0 + 4.0 * f64::EPSILON)))
+            .collect();
+        assert_ne!(start, a);
+        let metric = Regularized::new(Box::new(Isometric), 0.1);
+        let opts = GeodesicOptions {
+            steps: 4,
+            ..Default::default()
+        };
+        let solver = GeodesicSolver::new(&metric, s.topology.clone(), opts).unwrap();
+        let m = karcher_mean(&solver, &[&a, &a, &a, &a, &a], &start, &KarcherOptions::default()).unwrap();
+        assert!(m.converged && m.iterations == 0, "{m:?}");
+        assert_eq!(m.residual, 0.0);
     }
 
     #[test]
