@@ -1,13 +1,28 @@
 //! The tangent-space approximation of the pose distances ([`super::Approx::Tangent`]):
-//! `dis(M_k, N_k) ~ |J_B (M_k - N_k)| = |y(M_k) - y(N_k)|` with `J_B` the Jacobian of the
-//! metric's residuals with respect to the displacement at the common base `B` (the squared norm
-//! `G_B(X) = |J_B X|^2`, METHOD.md "Metrics"), and `y(P) = J_B (P - B)` one feature vector per
-//! pose. The metric is linearized once at the base: one sparse product per pose (O(N) work for N
-//! deformations) and then one Euclidean distance of two feature vectors per pair and pose,
-//! instead of a geodesic. For metrics whose squared norm is quadratic in the displacement at a
-//! fixed geometry (l2, isometric, conformal, with or without the L2 regularizer); the
-//! quasi-conformal weights `K(N_k) - K(M_k)` depend on both poses of a pair, and the rigid metric
-//! has auxiliary unknowns, so both are refused.
+//! `dis(M_k, N_k) ~ |y(M_k) - y(N_k)|` with one feature vector `y(P)` per pose, a fixed linear
+//! map of the displacement `P - B` from the common base `B` such that `|y(P) - y(Q)|^2` is the
+//! metric's squared norm `G_B(P - Q)` at the base (METHOD.md "Metrics"). The metric is
+//! linearized once at the base: one sparse product per pose (O(N) work for N deformations) and
+//! then one Euclidean distance of two feature vectors per pair and pose, instead of a geodesic.
+//!
+//! - Metrics whose squared norm is quadratic in the displacement at a fixed geometry (l2,
+//!   isometric, conformal, with or without the L2 regularizer): `G_B(X) = |J_X X|^2` with `J_X`
+//!   the Jacobian of the residuals with respect to the displacement at `B`, and
+//!   `y(P) = J_X (P - B)`.
+//! - Metrics with auxiliary unknowns (rigid, each reading, with or without the regularizer):
+//!   the residuals at a fixed geometry are `r(X, aux) = J_X X + J_aux aux`, linear in the
+//!   displacement and in the motion `aux` (6 values; exactly linear for the rigid metrics, so
+//!   linearizing at `aux = 0`, the best motion of a zero displacement, loses nothing), and
+//!   `G_B(X) = min_aux |r|^2`. The optimal motion leaves the residual
+//!   `y = (I - J_aux (J_aux^T J_aux)^+ J_aux^T) J_X X`: `J_X X` minus its orthogonal
+//!   projection onto the range of `J_aux`, again a fixed linear map of `X`, so
+//!   `|y(P) - y(Q)|^2 = G_B(P - Q)` exactly as for the other metrics. The projection is built
+//!   once from the eigen-decomposition of the (column-scaled) normal matrix
+//!   `J_aux^T J_aux` ([`AuxProjection`]); directions with an eigenvalue below
+//!   [`AUX_RANK_TOLERANCE`] times the largest (a degenerate base: collinear or zero-area) are
+//!   left out, the pseudo-inverse, never a division by zero.
+//! - The quasi-conformal weights `K(N_k) - K(M_k)` depend on both poses of a pair, so that
+//!   metric is refused ([`check_metric`]).
 
 use rayon::prelude::*;
 
@@ -15,20 +30,185 @@ use super::engine::{Pose, SimilarityError};
 use crate::mesh::Topology;
 use crate::metric::{At, Jacobian, Metric, Segment};
 
-/// Refuses metrics the tangent approximation does not apply to (see the module docs).
+/// Relative eigenvalue threshold of the column-scaled normal matrix `J_aux^T J_aux`
+/// ([`AuxProjection`]): directions of the auxiliary unknowns whose eigenvalue is below this
+/// times the largest are treated as absent (pseudo-inverse).
+pub const AUX_RANK_TOLERANCE: f64 = 1e-10;
+
+/// Refuses metrics the tangent approximation does not apply to (see the module docs): the
+/// quasi-conformal metric, whose weights depend on both poses of a pair. Every other metric
+/// (l2, rigid, isometric, conformal, each with or without the L2 regularizer) is accepted.
 pub fn check_metric(metric: &dyn Metric) -> Result<(), SimilarityError> {
     let name = metric.name();
-    if name.starts_with("quasi-conformal") || metric.n_aux() > 0 {
+    if name.contains("quasi-conformal") {
         return Err(SimilarityError::Mismatch(format!(
-            "the tangent approximation needs a metric whose squared norm is quadratic in the displacement \
-             (l2, isometric, conformal); {name} is not (use --approx straight)"
+            "the tangent approximation needs a metric whose squared norm at the base is a fixed quadratic \
+             form of the displacement (l2, rigid, isometric, conformal); {name} is not (use --approx straight)"
         )));
     }
     Ok(())
 }
 
-/// The feature vector `y(P) = J_B (P - B)` of every pose (each #V x 3 on `topo`, in the same
-/// normalized units as `base`): #residuals values per pose, one vector per pose in order.
+/// The orthogonal projection onto the range of the auxiliary unknowns' Jacobian `J_aux`
+/// (#residuals x n_aux) as an orthonormal basis of that range: `z - sum_k q_k (q_k . z)` is
+/// `(I - J_aux (J_aux^T J_aux)^+ J_aux^T) z`.
+#[derive(Debug, Clone, Default)]
+pub struct AuxProjection {
+    /// Orthonormal basis vectors (each #residuals values) of the range of `J_aux`.
+    pub basis: Vec<Vec<f64>>,
+}
+
+impl AuxProjection {
+    /// The projection for `daux` (#residuals x `n_aux`, row-major, as [`Jacobian::daux`]).
+    ///
+    /// Forms the normal matrix `N = J_aux^T J_aux`, scales it to unit diagonal
+    /// (`D^-1 N D^-1`, `D` the column norms, so translations and rotations weigh alike
+    /// whatever the units), and diagonalizes it (cyclic Jacobi: `V Lambda V^T`). Each
+    /// eigenpair with `lambda_k > AUX_RANK_TOLERANCE * lambda_max` gives the basis vector
+    /// `q_k = J_aux D^-1 v_k / sqrt(lambda_k)`; zero columns and the other eigenpairs are left
+    /// out (the pseudo-inverse of a singular `N`). Errors when `daux` is not finite or its
+    /// length is not a multiple of `n_aux`.
+    pub fn new(daux: &[f64], n_aux: usize) -> Result<Self, SimilarityError> {
+        if n_aux == 0 {
+            return Ok(AuxProjection::default());
+        }
+        if daux.len() % n_aux != 0 {
+            return Err(SimilarityError::Mismatch(format!(
+                "the auxiliary Jacobian has {} values, not a multiple of {n_aux}",
+                daux.len()
+            )));
+        }
+        if daux.iter().any(|v| !v.is_finite()) {
+            return Err(SimilarityError::Mismatch(
+                "the metric's Jacobian with respect to its auxiliary unknowns (the rigid motion) is not \
+                 finite at the base: the base pose is degenerate"
+                    .into(),
+            ));
+        }
+        let rows = daux.len() / n_aux;
+        let mut n = vec![vec![0.0; n_aux]; n_aux];
+        for row in daux.chunks_exact(n_aux) {
+            for (i, ni) in n.iter_mut().enumerate() {
+                for (j, nij) in ni.iter_mut().enumerate().skip(i) {
+                    *nij += row[i] * row[j];
+                }
+            }
+        }
+        for i in 0..n_aux {
+            for j in 0..i {
+                n[i][j] = n[j][i];
+            }
+        }
+        let scale: Vec<f64> = (0..n_aux)
+            .map(|i| if n[i][i] > 0.0 { 1.0 / n[i][i].sqrt() } else { 0.0 })
+            .collect();
+        for (i, ni) in n.iter_mut().enumerate() {
+            for (j, nij) in ni.iter_mut().enumerate() {
+                *nij *= scale[i] * scale[j];
+            }
+        }
+        let (lambda, v) = symmetric_eigen(n);
+        let max = lambda.iter().copied().fold(0.0, f64::max);
+        let mut basis = Vec::new();
+        for (k, &l) in lambda.iter().enumerate() {
+            if !(l > AUX_RANK_TOLERANCE * max && l > 0.0) {
+                continue;
+            }
+            // Coefficients of q_k on the columns of J_aux: D^-1 v_k / sqrt(lambda_k).
+            let c: Vec<f64> = (0..n_aux).map(|i| scale[i] * v[i][k] / l.sqrt()).collect();
+            let q: Vec<f64> = daux
+                .chunks_exact(n_aux)
+                .map(|row| row.iter().zip(&c).map(|(a, b)| a * b).sum())
+                .collect();
+            debug_assert_eq!(q.len(), rows);
+            basis.push(q);
+        }
+        // One pass of Gram-Schmidt against the earlier vectors and renormalization removes the
+        // rounding of the eigenvectors (the basis is orthonormal in exact arithmetic).
+        let mut ortho: Vec<Vec<f64>> = Vec::with_capacity(basis.len());
+        for mut q in basis {
+            for p in &ortho {
+                let d = dot(p, &q);
+                q.iter_mut().zip(p).for_each(|(x, y)| *x -= d * y);
+            }
+            let norm = dot(&q, &q).sqrt();
+            if norm > 0.5 && norm.is_finite() {
+                q.iter_mut().for_each(|x| *x /= norm);
+                ortho.push(q);
+            }
+        }
+        Ok(AuxProjection { basis: ortho })
+    }
+
+    /// Replaces `z` (#residuals) by `z` minus its orthogonal projection onto the range of
+    /// `J_aux` (nothing when the range is empty).
+    pub fn remove_from(&self, z: &mut [f64]) {
+        for q in &self.basis {
+            let d = dot(q, z);
+            z.iter_mut().zip(q).for_each(|(x, y)| *x -= d * y);
+        }
+    }
+}
+
+/// `a . b`, summed in order.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Eigenvalues and eigenvectors (columns of the second value) of the small symmetric matrix
+/// `a` by cyclic Jacobi rotations: `a = V diag(lambda) V^T`. Non-finite input is the caller's
+/// concern (checked by [`AuxProjection::new`]).
+fn symmetric_eigen(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let n = a.len();
+    let mut v: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect();
+    for _sweep in 0..100 {
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i][j] * a[i][j])
+            .sum();
+        let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
+        if off <= 1e-32 * diag || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                if a[p][q] == 0.0 {
+                    continue;
+                }
+                // The rotation that zeroes a[p][q] (Golub and Van Loan, Algorithm 8.4.1).
+                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (akp, akq) = (a[k][p], a[k][q]);
+                    a[k][p] = c * akp - s * akq;
+                    a[k][q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p][k], a[q][k]);
+                    a[p][k] = c * apk - s * aqk;
+                    a[q][k] = s * apk + c * aqk;
+                }
+                for row in v.iter_mut() {
+                    let (vp, vq) = (row[p], row[q]);
+                    row[p] = c * vp - s * vq;
+                    row[q] = s * vp + c * vq;
+                }
+            }
+        }
+    }
+    ((0..n).map(|i| a[i][i]).collect(), v)
+}
+
+/// The feature vector `y(P)` of every pose (each #V x 3 on `topo`, in the same normalized
+/// units as `base`): `J_X (P - B)`, minus its projection onto the range of the auxiliary
+/// unknowns' Jacobian when the metric has any (see the module docs); #residuals values per
+/// pose, one vector per pose in order. `|y(P) - y(Q)|^2` is `G_B(P - Q)`, the metric's squared
+/// norm at the base with the optimal auxiliary unknowns.
 pub fn features(
     metric: &dyn Metric,
     topo: &Topology,
@@ -38,22 +218,28 @@ pub fn features(
     check_metric(metric)?;
     let pattern = metric.pattern(topo);
     let frozen = metric.frozen_weights(topo, base, base);
+    let n_aux = metric.n_aux();
+    // The linearization point of the auxiliary unknowns: zero, the best motion of a zero
+    // displacement (the rigid residuals are linear in them, so any value gives the same
+    // Jacobians).
+    let aux = vec![0.0; n_aux];
     let seg = Segment {
         a: base,
         b: base,
         at: At::Start,
-        aux: &[],
+        aux: &aux,
         frozen: frozen.as_deref(),
     };
     let mut r = vec![0.0; pattern.n_residuals()];
-    let mut jac = Jacobian::zeros(&pattern, 0);
+    let mut jac = Jacobian::zeros(&pattern, n_aux);
     metric.residuals(topo, pattern.as_ref(), &seg, &mut r, Some(jac.as_mut()));
+    let projection = AuxProjection::new(&jac.daux, n_aux)?;
     // With the geometry at `a`, `b` enters only through X = b - a: dr/db = dr/dX.
     let db = &jac.db;
     Ok(poses
         .par_iter()
         .map(|p| {
-            (0..pattern.n_residuals())
+            let mut z: Vec<f64> = (0..pattern.n_residuals())
                 .map(|i| {
                     pattern
                         .row(i)
@@ -64,7 +250,9 @@ pub fn features(
                         })
                         .sum()
                 })
-                .collect()
+                .collect();
+            projection.remove_from(&mut z);
+            z
         })
         .collect())
 }
@@ -99,22 +287,59 @@ pub fn distance(y: &[f64], z: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metric::{MetricKind, MetricSpec};
+    use crate::metric::{Calibration, MetricKind, MetricSpec};
+
+    /// Two small non-rigid displacements of the icosphere(1) base `v`.
+    fn poses(v: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let p = v
+            .iter()
+            .map(|x| [x[0] * 1.01, x[1] + 0.01 * x[2], x[2]])
+            .collect();
+        let q = v
+            .iter()
+            .map(|x| [x[0], x[1] * 0.99, x[2] + 0.02 * x[0]])
+            .collect();
+        (p, q)
+    }
+
+    /// `G_B(X)` with the geometry (and the frozen weights) of the base `b` and the optimal
+    /// auxiliary unknowns ([`Metric::squared_norm`] goes through [`Metric::best_aux`]).
+    fn norm_at_base(m: &dyn Metric, topo: &Topology, b: &[[f64; 3]], x: &[[f64; 3]]) -> f64 {
+        let moved: Vec<[f64; 3]> = b
+            .iter()
+            .zip(x)
+            .map(|(p, d)| [p[0] + d[0], p[1] + d[1], p[2] + d[2]])
+            .collect();
+        let frozen = m.frozen_weights(topo, b, b);
+        let seg = Segment {
+            a: b,
+            b: &moved,
+            at: At::Start,
+            aux: &[],
+            frozen: frozen.as_deref(),
+        };
+        m.squared_norm(topo, &m.pattern(topo), &seg)
+    }
+
+    fn minus(p: &[[f64; 3]], q: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        p.iter()
+            .zip(q)
+            .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+            .collect()
+    }
 
     #[test]
     fn features_give_the_metric_norm_at_the_base_and_quasi_conformal_is_refused() {
         let s = crate::synth::icosphere(1);
         let (topo, v) = (s.topology.clone(), s.positions.clone());
-        let p: Vec<[f64; 3]> = v
-            .iter()
-            .map(|x| [x[0] * 1.01, x[1] + 0.01 * x[2], x[2]])
-            .collect();
-        let q: Vec<[f64; 3]> = v
-            .iter()
-            .map(|x| [x[0], x[1] * 0.99, x[2] + 0.02 * x[0]])
-            .collect();
-        for kind in [MetricKind::L2, MetricKind::Isometric, MetricKind::Conformal] {
-            let m = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
+        let (p, q) = poses(&v);
+        for kind in [
+            MetricKind::L2,
+            MetricKind::Rigid,
+            MetricKind::Isometric,
+            MetricKind::Conformal,
+        ] {
+            let m = MetricSpec::previous(kind).build(&Calibration::RAW);
             let y = features(m.as_ref(), &topo, &v, &[&p, &q, &v]).unwrap();
             assert!(y[2].iter().all(|x| *x == 0.0), "the base itself is the origin");
             // |y(P) - y(B)|^2 is G_B(P - B) up to the linearization (exact for quadratic norms).
@@ -135,10 +360,189 @@ mod tests {
             assert!((d - g).abs() <= 0.05 * g, "{kind:?}: {d} vs {g}");
             assert!(distance(&y[0], &y[1]) > 0.0);
         }
-        for kind in [MetricKind::QuasiConformal, MetricKind::Rigid] {
-            let m = MetricSpec::previous(kind).build(&crate::metric::Calibration::RAW);
+        // Refused raw and calibrated (the calibrated metric's name carries a factor first).
+        for spec in [
+            MetricSpec::previous(MetricKind::QuasiConformal),
+            MetricSpec::new(MetricKind::QuasiConformal),
+        ] {
+            let m = spec.build_for(&topo, &[&v]).unwrap();
             let e = features(m.as_ref(), &topo, &v, &[&p]).unwrap_err().to_string();
-            assert!(e.contains("straight"), "{e}");
+            assert!(e.contains("straight") && e.contains("rigid"), "{e}");
         }
+    }
+
+    /// The rigid metric at the library defaults (frozen areas, calibrated, regularized), the
+    /// previous spec (raw, lambda 0.1), the per-pose areas and without the regularizer.
+    fn rigid_specs() -> Vec<MetricSpec> {
+        let mut pose_areas = MetricSpec::previous(MetricKind::Rigid);
+        pose_areas.frozen_areas = false;
+        let mut bare = MetricSpec::new(MetricKind::Rigid);
+        bare.lambda = 0.0;
+        let mut bare_pose = pose_areas;
+        bare_pose.lambda = 0.0;
+        vec![
+            MetricSpec::new(MetricKind::Rigid),
+            MetricSpec::previous(MetricKind::Rigid),
+            pose_areas,
+            bare,
+            bare_pose,
+        ]
+    }
+
+    #[test]
+    fn rigid_features_give_the_norm_with_the_optimal_motion_exactly() {
+        use rand::{Rng, SeedableRng};
+        let s = crate::synth::icosphere(1);
+        let topo = s.topology.clone();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // A base off the origin and not a round sphere (t and w are coupled).
+        let v: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|x| [1.3 * x[0] + 2.0, x[1] - 1.0, 0.8 * x[2] + 0.5])
+            .collect();
+        let mut random = |scale: f64| -> Vec<[f64; 3]> {
+            v.iter()
+                .map(|x| x.map(|c| c + scale * (rng.random::<f64>() - 0.5)))
+                .collect()
+        };
+        let (p, q) = (random(0.02), random(0.02));
+        for spec in rigid_specs() {
+            let m = spec.build_for(&topo, &[&v]).unwrap();
+            assert_eq!(m.n_aux(), 6, "{}", m.name());
+            let y = features(m.as_ref(), &topo, &v, &[&p, &q]).unwrap();
+            assert!(y.iter().flatten().all(|x| x.is_finite()));
+            let d = distance(&y[0], &y[1]).powi(2);
+            let g = norm_at_base(m.as_ref(), &topo, &v, &minus(&p, &q));
+            assert!(g > 0.0);
+            assert!((d - g).abs() <= 1e-9 * g, "{}: {d} vs {g}", m.name());
+            // Below the norm without the motion (the same residuals at aux = 0).
+            let pat = m.pattern(&topo);
+            let moved: Vec<[f64; 3]> = v
+                .iter()
+                .zip(minus(&p, &q))
+                .map(|(b, x)| [b[0] + x[0], b[1] + x[1], b[2] + x[2]])
+                .collect();
+            let frozen = m.frozen_weights(&topo, &v, &v);
+            let aux = [0.0; 6];
+            let mut r = vec![0.0; pat.n_residuals()];
+            let seg = Segment {
+                a: &v,
+                b: &moved,
+                at: At::Start,
+                aux: &aux,
+                frozen: frozen.as_deref(),
+            };
+            m.residuals(&topo, pat.as_ref(), &seg, &mut r, None);
+            let g0: f64 = r.iter().map(|x| x * x).sum();
+            assert!(d < g0, "{}: {d} vs {g0} without the motion", m.name());
+        }
+    }
+
+    #[test]
+    fn rigid_motions_of_the_base_have_zero_features() {
+        let s = crate::synth::icosphere(1);
+        let topo = s.topology.clone();
+        let v: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|x| [1.3 * x[0] + 2.0, x[1] - 1.0, 0.8 * x[2] + 0.5])
+            .collect();
+        let (t, axis, angle) = ([0.01, -0.02, 0.015], [0.36, 0.48, 0.8], 1e-3_f64);
+        // The finite rotation by `angle` about the unit `axis` (Rodrigues), plus `t`.
+        let rotated: Vec<[f64; 3]> = v
+            .iter()
+            .map(|x| {
+                let (c, s) = (angle.cos(), angle.sin());
+                let k = axis;
+                let kx = [
+                    k[1] * x[2] - k[2] * x[1],
+                    k[2] * x[0] - k[0] * x[2],
+                    k[0] * x[1] - k[1] * x[0],
+                ];
+                let kd = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
+                [0, 1, 2].map(|i| x[i] * c + kx[i] * s + k[i] * kd * (1.0 - c) + t[i])
+            })
+            .collect();
+        // The infinitesimal motion t + w x v with w = angle * axis (exactly rigid for the metric).
+        let w = axis.map(|a| a * angle);
+        let infinitesimal: Vec<[f64; 3]> = v
+            .iter()
+            .map(|x| {
+                let wx = [
+                    w[1] * x[2] - w[2] * x[1],
+                    w[2] * x[0] - w[0] * x[2],
+                    w[0] * x[1] - w[1] * x[0],
+                ];
+                [0, 1, 2].map(|i| x[i] + t[i] + wx[i])
+            })
+            .collect();
+        // A non-rigid displacement of the same size (root mean square per vertex).
+        let rms = |p: &[[f64; 3]]| {
+            (minus(p, &v)
+                .iter()
+                .map(|d| d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+                .sum::<f64>()
+                / v.len() as f64)
+                .sqrt()
+        };
+        let shear: Vec<[f64; 3]> = v.iter().map(|x| [x[0] + (x[1] + 1.0), x[1], x[2]]).collect();
+        let f = rms(&rotated) / rms(&shear);
+        let nonrigid: Vec<[f64; 3]> = v
+            .iter()
+            .zip(&shear)
+            .map(|(b, s)| [0, 1, 2].map(|i| b[i] + f * (s[i] - b[i])))
+            .collect();
+        assert!((rms(&nonrigid) / rms(&rotated) - 1.0).abs() < 1e-12);
+        for spec in rigid_specs() {
+            let m = spec.build_for(&topo, &[&v]).unwrap();
+            let y = features(m.as_ref(), &topo, &v, &[&rotated, &infinitesimal, &nonrigid, &v]).unwrap();
+            let norm = |y: &[f64]| dot(y, y).sqrt();
+            let (yr, yi, yn) = (norm(&y[0]), norm(&y[1]), norm(&y[2]));
+            assert!(yn > 0.0);
+            if spec.lambda == 0.0 {
+                // The rigid metric alone vanishes on infinitesimal motions, and a finite
+                // rotation leaves only its second-order part (about angle / 2 of the motion).
+                assert!(yi <= 1e-10 * yn, "{}: {yi} vs {yn}", m.name());
+                assert!(yr <= 2.0 * angle * yn, "{}: {yr} vs {yn}", m.name());
+            } else {
+                // The L2 regularizer sees the motion: its part alone remains.
+                let mut bare = spec;
+                bare.lambda = 0.0;
+                let mb = bare.build_for(&topo, &[&v]).unwrap();
+                let yb = features(mb.as_ref(), &topo, &v, &[&infinitesimal]).unwrap();
+                assert!(norm(&yb[0]) <= 1e-10 * yn, "{}", mb.name());
+                let g = norm_at_base(m.as_ref(), &topo, &v, &minus(&infinitesimal, &v));
+                assert!(
+                    (yi * yi - g).abs() <= 1e-9 * g,
+                    "{}: {} vs {g}",
+                    m.name(),
+                    yi * yi
+                );
+                assert!(yi < yn, "{}: {yi} vs {yn}", m.name());
+            }
+        }
+    }
+
+    #[test]
+    fn the_aux_projection_is_a_pseudo_inverse_for_a_degenerate_base() {
+        // Collinear points: the rotation about the line is absent; zero area: nothing at all.
+        let s = crate::synth::icosphere(1);
+        let line: Vec<[f64; 3]> = s.positions.iter().map(|p| [p[0], 0.0, 0.0]).collect();
+        let (p, _) = poses(&s.positions);
+        for spec in rigid_specs() {
+            let m = spec.build(&Calibration::RAW);
+            let y = features(m.as_ref(), &s.topology, &line, &[&p]).unwrap();
+            assert!(y[0].iter().all(|x| x.is_finite()), "{}", m.name());
+        }
+        // Two equal columns and a zero column: rank 1, orthonormal basis, no NaN.
+        let daux: Vec<f64> = (0..10).flat_map(|i| [i as f64, i as f64, 0.0]).collect();
+        let proj = AuxProjection::new(&daux, 3).unwrap();
+        assert_eq!(proj.basis.len(), 1);
+        let mut z: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        proj.remove_from(&mut z);
+        assert!(z.iter().all(|x| x.abs() < 1e-12), "{z:?}");
+        assert!(AuxProjection::new(&[f64::NAN; 6], 6).is_err());
+        assert!(AuxProjection::new(&[1.0; 7], 6).is_err());
     }
 }
