@@ -134,10 +134,13 @@ pub enum Approx {
     /// error against the exact matrix is measured by `qcshape experiment approx`
     /// (docs/scale.md).
     Straight,
-    /// The metric linearized at the common base: `|J_B (M_k - N_k)|` with `J_B` the residual
-    /// Jacobian at the base ([`super::tangent`]): one sparse product per pose, then one
-    /// Euclidean distance per pair and pose. For l2, isometric and conformal only. No path is
-    /// measured, so the energy split of [`PairDistance::per_pose_energy`] is unknown (`None`).
+    /// The metric linearized at the common base: `|y(M_k) - y(N_k)|` with `y(P) = J_B (P - B)`,
+    /// `J_B` the residual Jacobian at the base `B` ([`super::tangent`]; for the rigid metric
+    /// minus its projection onto the rigid motions, the optimal motion in closed form), so that
+    /// `|y(P) - y(Q)|^2 = G_B(P - Q)`: one sparse product per pose, then one Euclidean distance
+    /// per pair and pose. For l2, rigid, isometric and conformal; quasi-conformal is refused
+    /// (its weights depend on both poses of a pair). No path is measured, so the energy split
+    /// of [`PairDistance::per_pose_energy`] is unknown (`None`).
     Tangent,
 }
 

@@ -72,7 +72,7 @@ impl AuxProjection {
         if n_aux == 0 {
             return Ok(AuxProjection::default());
         }
-        if daux.len() % n_aux != 0 {
+        if !daux.len().is_multiple_of(n_aux) {
             return Err(SimilarityError::Mismatch(format!(
                 "the auxiliary Jacobian has {} values, not a multiple of {n_aux}",
                 daux.len()
