@@ -24,6 +24,8 @@
 //! - The quasi-conformal weights `K(N_k) - K(M_k)` depend on both poses of a pair, so that
 //!   metric is refused ([`check_metric`]).
 
+// Index loops mirror the formulas (residual, auxiliary unknown indices) in these kernels.
+#![allow(clippy::needless_range_loop)]
 use rayon::prelude::*;
 
 use super::engine::{Pose, SimilarityError};
