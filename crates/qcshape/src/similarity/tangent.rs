@@ -24,11 +24,10 @@
 //! - The quasi-conformal weights `K(N_k) - K(M_k)` depend on both poses of a pair, so that
 //!   metric is refused ([`check_metric`]).
 
-// Index loops mirror the formulas (residual, auxiliary unknown indices) in these kernels.
-#![allow(clippy::needless_range_loop)]
 use rayon::prelude::*;
 
 use super::engine::{Pose, SimilarityError};
+use crate::geodesic::dot;
 use crate::mesh::Topology;
 use crate::metric::{At, Jacobian, Metric, Segment};
 
@@ -65,7 +64,7 @@ impl AuxProjection {
     ///
     /// Forms the normal matrix `N = J_aux^T J_aux`, scales it to unit diagonal
     /// (`D^-1 N D^-1`, `D` the column norms, so translations and rotations weigh alike
-    /// whatever the units), and diagonalizes it (cyclic Jacobi: `V Lambda V^T`). Each
+    /// whatever the units), and diagonalizes it (faer's self-adjoint eigen-decomposition: `V Lambda V^T`). Each
     /// eigenpair with `lambda_k > AUX_RANK_TOLERANCE * lambda_max` gives the basis vector
     /// `q_k = J_aux D^-1 v_k / sqrt(lambda_k)`; zero columns and the other eigenpairs are left
     /// out (the pseudo-inverse of a singular `N`). Errors when `daux` is not finite or its
@@ -88,28 +87,36 @@ impl AuxProjection {
             ));
         }
         let rows = daux.len() / n_aux;
-        let mut n = vec![vec![0.0; n_aux]; n_aux];
+        // The upper triangle of N (what the eigen-decomposition reads), scaled to unit diagonal.
+        let mut n = faer::Mat::<f64>::zeros(n_aux, n_aux);
         for row in daux.chunks_exact(n_aux) {
-            for (i, ni) in n.iter_mut().enumerate() {
-                for (j, nij) in ni.iter_mut().enumerate().skip(i) {
-                    *nij += row[i] * row[j];
+            for i in 0..n_aux {
+                for j in i..n_aux {
+                    n[(i, j)] += row[i] * row[j];
                 }
             }
         }
-        for i in 0..n_aux {
-            for j in 0..i {
-                n[i][j] = n[j][i];
-            }
-        }
         let scale: Vec<f64> = (0..n_aux)
-            .map(|i| if n[i][i] > 0.0 { 1.0 / n[i][i].sqrt() } else { 0.0 })
+            .map(|i| {
+                if n[(i, i)] > 0.0 {
+                    1.0 / n[(i, i)].sqrt()
+                } else {
+                    0.0
+                }
+            })
             .collect();
-        for (i, ni) in n.iter_mut().enumerate() {
-            for (j, nij) in ni.iter_mut().enumerate() {
-                *nij *= scale[i] * scale[j];
+        for i in 0..n_aux {
+            for j in i..n_aux {
+                n[(i, j)] *= scale[i] * scale[j];
             }
         }
-        let (lambda, v) = symmetric_eigen(n);
+        let evd = n.self_adjoint_eigen(faer::Side::Upper).map_err(|e| {
+            SimilarityError::Mismatch(format!(
+                "the eigen-decomposition of the auxiliary unknowns' normal matrix failed ({e:?})"
+            ))
+        })?;
+        let (lambda, v) = (evd.S().column_vector(), evd.U());
+        let lambda: Vec<f64> = (0..n_aux).map(|k| lambda[k]).collect();
         let max = lambda.iter().copied().fold(0.0, f64::max);
         let mut basis = Vec::new();
         for (k, &l) in lambda.iter().enumerate() {
@@ -117,7 +124,7 @@ impl AuxProjection {
                 continue;
             }
             // Coefficients of q_k on the columns of J_aux: D^-1 v_k / sqrt(lambda_k).
-            let c: Vec<f64> = (0..n_aux).map(|i| scale[i] * v[i][k] / l.sqrt()).collect();
+            let c: Vec<f64> = (0..n_aux).map(|i| scale[i] * v[(i, k)] / l.sqrt()).collect();
             let q: Vec<f64> = daux
                 .chunks_exact(n_aux)
                 .map(|row| row.iter().zip(&c).map(|(a, b)| a * b).sum())
@@ -150,60 +157,6 @@ impl AuxProjection {
             z.iter_mut().zip(q).for_each(|(x, y)| *x -= d * y);
         }
     }
-}
-
-/// `a . b`, summed in order.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// Eigenvalues and eigenvectors (columns of the second value) of the small symmetric matrix
-/// `a` by cyclic Jacobi rotations: `a = V diag(lambda) V^T`. Non-finite input is the caller's
-/// concern (checked by [`AuxProjection::new`]).
-fn symmetric_eigen(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
-    let n = a.len();
-    let mut v: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
-        .collect();
-    for _sweep in 0..100 {
-        let off: f64 = (0..n)
-            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
-            .map(|(i, j)| a[i][j] * a[i][j])
-            .sum();
-        let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
-        if off <= 1e-32 * diag || off == 0.0 {
-            break;
-        }
-        for p in 0..n {
-            for q in p + 1..n {
-                if a[p][q] == 0.0 {
-                    continue;
-                }
-                // The rotation that zeroes a[p][q] (Golub and Van Loan, Algorithm 8.4.1).
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for k in 0..n {
-                    let (akp, akq) = (a[k][p], a[k][q]);
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
-                }
-                for k in 0..n {
-                    let (apk, aqk) = (a[p][k], a[q][k]);
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-                for row in v.iter_mut() {
-                    let (vp, vq) = (row[p], row[q]);
-                    row[p] = c * vp - s * vq;
-                    row[q] = s * vp + c * vq;
-                }
-            }
-        }
-    }
-    ((0..n).map(|i| a[i][i]).collect(), v)
 }
 
 /// The feature vector `y(P)` of every pose (each #V x 3 on `topo`, in the same normalized
