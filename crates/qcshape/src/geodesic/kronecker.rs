@@ -441,8 +441,20 @@ impl KroneckerModel {
         ends: &Ends,
     ) -> Result<(Self, Vec<[f64; 9]>, bool), GeodesicError> {
         let (mut blocks, _, _) = layout.st.assemble_with(pe, x, ends, true);
+        Self::fit_merging_second(layout, &mut blocks)
+    }
+
+    /// Merges each segment's second-order part ([`SegmentBlocks::second`]) into its blocks and
+    /// fits the model to the result (the exact half Hessian); where that model is not positive
+    /// definite, to the Gauss-Newton blocks (without the second-order parts) instead. `blocks`
+    /// keep the merged parts. Returns the model, the per-vertex diagonal blocks it was fitted to
+    /// and whether any segment had a second-order part.
+    pub fn fit_merging_second(
+        layout: &SpatialLayout,
+        blocks: &mut [SegmentBlocks],
+    ) -> Result<(Self, Vec<[f64; 9]>, bool), GeodesicError> {
         let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
-        let gauss_newton = PoseSum::from_blocks(layout, &blocks);
+        let gauss_newton = PoseSum::from_blocks(layout, blocks);
         if seconds.iter().all(Option::is_none) {
             let diagonal = gauss_newton.diagonal.clone();
             return Ok((Self::fit(layout, gauss_newton)?, diagonal, false));
@@ -452,7 +464,7 @@ impl KroneckerModel {
                 b.add_second(so);
             }
         }
-        let hessian = PoseSum::from_blocks(layout, &blocks);
+        let hessian = PoseSum::from_blocks(layout, blocks);
         let diagonal = hessian.diagonal.clone();
         match Self::fit(layout, hessian) {
             Ok(model) => Ok((model, diagonal, true)),

@@ -33,7 +33,7 @@ use rayon::prelude::*;
 
 use crate::geodesic::energy::{Ends, PathEnergy};
 use crate::geodesic::hessian::{SegmentBlocks, Structure};
-use crate::geodesic::kronecker::{KroneckerModel, PoseSum, SpatialLayout};
+use crate::geodesic::kronecker::{KroneckerModel, SpatialLayout};
 use crate::geodesic::{dot, norm, GeodesicError, GeodesicOptions, SolveOutput, StopReason};
 
 /// Conjugate-gradient iterations allowed per Gauss-Newton step.
@@ -108,25 +108,7 @@ impl<'a> Model<'a> {
     fn new(layout: &'a SpatialLayout, mut blocks: Vec<SegmentBlocks>) -> Result<Self, GeodesicError> {
         let st = layout.structure();
         let (steps, n_aux) = (st.steps, st.n_aux);
-        let seconds: Vec<_> = blocks.iter_mut().map(|b| b.second.take()).collect();
-        // The Gauss-Newton part's pose sum, kept for the fallback fit.
-        let gauss_newton = seconds
-            .iter()
-            .any(Option::is_some)
-            .then(|| PoseSum::from_blocks(layout, &blocks));
-        for (b, so) in blocks.iter_mut().zip(&seconds) {
-            if let Some(so) = so {
-                b.add_second(so);
-            }
-        }
-        let kron = match (
-            KroneckerModel::fit(layout, PoseSum::from_blocks(layout, &blocks)),
-            gauss_newton,
-        ) {
-            (Ok(k), _) => k,
-            (Err(_), Some(gn)) => KroneckerModel::fit(layout, gn)?,
-            (Err(e), None) => return Err(e),
-        };
+        let (kron, _, _) = KroneckerModel::fit_merging_second(layout, &mut blocks)?;
         let aux_inv = if n_aux == 0 {
             Vec::new()
         } else {
