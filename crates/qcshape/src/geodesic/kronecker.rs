@@ -27,9 +27,10 @@ use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::hessian::{outer_add, SegmentBlocks, Structure};
+use super::pairs::VertexPairs;
 use super::{GeodesicError, LinearAlgebraError};
 use crate::mesh::geometry::dot;
-use crate::metric::At;
+use crate::metric::{At, Pattern};
 
 /// One chunk's part of a [`PoseSum`]: slot sums, `(segment, (trace, parts))`, diagonal blocks.
 type ChunkSum = (Vec<[f64; 9]>, Vec<(usize, (f64, usize))>, Vec<[f64; 9]>);
@@ -334,6 +335,8 @@ impl PoseSum {
         let pat = &pe.pattern;
         let nv = layout.nv;
         // Accumulates segment s into the slot sums `acc` and the pose-vertex diagonal blocks `dg`.
+        // A fixed end (segment 0's start, the last segment's end) has no block: its zeroed
+        // Jacobian is skipped rather than multiplied out.
         let per_segment = |acc: &mut Vec<[f64; 9]>, dg: &mut Vec<[f64; 9]>, s: usize| -> (f64, usize) {
             let need_a = s >= 1;
             let need_b = s + 1 < steps;
@@ -341,42 +344,13 @@ impl PoseSum {
             let mut trace = 0.0;
             for at in [At::Start, At::End] {
                 pe.eval_term(x, ends, s, at, &mut te, true);
-                let jac = &te.jac;
-                for i in 0..pat.n_residuals() {
-                    let range = pat.row(i);
-                    let (l, first) = (range.len(), range.start);
-                    let ps = st.pairs.slots(i);
-                    for k in 0..l {
-                        let (dak, dbk) = (jac.da[first + k], jac.db[first + k]);
-                        let (dak, dbk) = (
-                            if need_a { dak } else { [0.0; 3] },
-                            if need_b { dbk } else { [0.0; 3] },
-                        );
-                        trace += dot(dak, dak) + dot(dbk, dbk);
-                        let v = pat.vertices[first + k] as usize;
-                        if need_a {
-                            outer_add(&mut dg[(s - 1) * nv + v], dak, dak);
-                        }
-                        if need_b {
-                            outer_add(&mut dg[s * nv + v], dbk, dbk);
-                        }
-                        // A fixed end (segment 0's start, the last segment's end) has no
-                        // block: its zeroed Jacobian is skipped rather than multiplied out.
-                        // Only the upper triangle (row vertex <= column vertex) is factorized,
-                        // so the lower blocks are not formed.
-                        for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
-                            if (pat.vertices[first + ll] as usize) < v {
-                                continue;
-                            }
-                            let blk = &mut acc[slot as usize];
-                            if need_a {
-                                outer_add(blk, dak, jac.da[first + ll]);
-                            }
-                            if need_b {
-                                outer_add(blk, dbk, jac.db[first + ll]);
-                            }
-                        }
-                    }
+                if need_a {
+                    let dg = &mut dg[(s - 1) * nv..s * nv];
+                    trace += accumulate_pose_block(pat, &st.pairs, &te.jac.da, acc, dg);
+                }
+                if need_b {
+                    let dg = &mut dg[s * nv..(s + 1) * nv];
+                    trace += accumulate_pose_block(pat, &st.pairs, &te.jac.db, acc, dg);
                 }
             }
             (trace, usize::from(need_a) + usize::from(need_b))
@@ -424,6 +398,38 @@ impl PoseSum {
             diagonal,
         }
     }
+}
+
+/// Adds one pose's part `d^T d` of a metric term's Gauss-Newton matrix (`d`: the term's
+/// Jacobian with respect to that pose, one 3-vector per pattern entry) into the vertex-pair slot
+/// blocks `acc` (upper triangle only, row vertex <= column vertex: what
+/// [`SpatialLayout::factorize`] reads; the lower blocks are not formed) and the per-vertex 3 x 3
+/// diagonal blocks `dg` (#V); returns the trace `sum |d_k|^2` it added.
+pub(crate) fn accumulate_pose_block(
+    pat: &Pattern,
+    pairs: &VertexPairs,
+    d: &[[f64; 3]],
+    acc: &mut [[f64; 9]],
+    dg: &mut [[f64; 9]],
+) -> f64 {
+    let mut trace = 0.0;
+    for i in 0..pat.n_residuals() {
+        let range = pat.row(i);
+        let (l, first) = (range.len(), range.start);
+        let ps = pairs.slots(i);
+        for k in 0..l {
+            let dk = d[first + k];
+            trace += dot(dk, dk);
+            let v = pat.vertices[first + k] as usize;
+            outer_add(&mut dg[v], dk, dk);
+            for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
+                if (pat.vertices[first + ll] as usize) >= v {
+                    outer_add(&mut acc[slot as usize], dk, d[first + ll]);
+                }
+            }
+        }
+    }
+    trace
 }
 
 impl KroneckerModel {

@@ -32,10 +32,8 @@ use faer::{Conj, MatMut, Par};
 use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
-use super::hessian::outer_add;
-use super::kronecker::{tridiagonal_inverse, SpatialLayout};
+use super::kronecker::{accumulate_pose_block, tridiagonal_inverse, SpatialLayout};
 use super::GeodesicError;
-use crate::mesh::geometry::dot;
 use crate::metric::At;
 
 /// One pose's part of [`PoseBlocks`]: slot blocks, per-vertex diagonal blocks, and the traces
@@ -78,25 +76,8 @@ impl PoseBlocks {
                 for (part, (s, is_end)) in [(j, true), (j + 1, false)].into_iter().enumerate() {
                     for at in [At::Start, At::End] {
                         pe.eval_term(x, ends, s, at, &mut te, true);
-                        let jac = &te.jac;
-                        let d = if is_end { &jac.db } else { &jac.da };
-                        for i in 0..pat.n_residuals() {
-                            let range = pat.row(i);
-                            let (l, first) = (range.len(), range.start);
-                            let ps = st.pairs.slots(i);
-                            for k in 0..l {
-                                let dk = d[first + k];
-                                traces[part] += dot(dk, dk);
-                                let v = pat.vertices[first + k] as usize;
-                                outer_add(&mut dg[v], dk, dk);
-                                for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
-                                    if (pat.vertices[first + ll] as usize) < v {
-                                        continue;
-                                    }
-                                    outer_add(&mut acc[slot as usize], dk, d[first + ll]);
-                                }
-                            }
-                        }
+                        let d = if is_end { &te.jac.db } else { &te.jac.da };
+                        traces[part] += accumulate_pose_block(pat, &st.pairs, d, &mut acc, &mut dg);
                     }
                 }
                 (acc, dg, traces)
