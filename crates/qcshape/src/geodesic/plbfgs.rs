@@ -46,19 +46,26 @@ pub(crate) enum Model {
 /// 2,562 vertices: 58 iterations refitting every 45, 39 every 15; docs/speed.md).
 pub(crate) const HESSIAN_REFRESH: usize = 15;
 
+/// The fitted model of the Hessian's pose part.
+enum Fitted {
+    /// `T_c (x) A` ([`Model::Kronecker`], [`Model::Hessian`]).
+    Kronecker(KroneckerModel),
+    /// Each pose's own block ([`Model::PoseWise`]).
+    PoseWise(PoseKronecker),
+}
+
 /// The factorized preconditioner `(2 T_c (x) A)^{-1} + omega (2 D)^{-1}` (the energy's
-/// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`), fitted at one path; or none (the
-/// identity: plain L-BFGS).
+/// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`; the pose-wise model in place of
+/// `T_c (x) A` for [`Model::PoseWise`]), fitted at one path; or none (the identity: plain
+/// L-BFGS).
 pub(crate) struct Preconditioner<'l> {
-    kron: Option<(&'l SpatialLayout, KroneckerModel)>,
-    /// The pose-wise model instead of `kron`.
-    pose: Option<(&'l SpatialLayout, PoseKronecker)>,
-    pose_scratch: PoseScratch,
-    /// The vertex-block term `omega (2 D)^{-1}` added to the Kronecker part (none when
+    model: Option<(&'l SpatialLayout, Fitted)>,
+    /// The vertex-block term `omega (2 D)^{-1}` added to the model's part (none when
     /// `omega = 0` or without a layout).
     local: Option<VertexBlocks>,
     /// Work space of the applications, reused (no allocation per iteration once warm).
     scratch: ApplyScratch,
+    pose_scratch: PoseScratch,
     copy: Vec<f64>,
     /// [`Model::Hessian`] fitted to a metric without a second-order part (the rigid metric):
     /// the refits fit `J^T J` like [`Model::Kronecker`], at its interval.
@@ -66,9 +73,9 @@ pub(crate) struct Preconditioner<'l> {
 }
 
 impl<'l> Preconditioner<'l> {
-    /// Fits the model to the blocks of `J^T J` at `x` ([`KroneckerModel::fit`]) and, for
-    /// `vertex_block_weight > 0`, the vertex-block term from the same assembly; the identity
-    /// without a layout.
+    /// Fits `layout`'s [`Model`] at `x` ([`KroneckerModel::fit`], [`KroneckerModel::fit_hessian`]
+    /// or [`PoseKronecker::fit`]) and, for `vertex_block_weight > 0`, the vertex-block term from
+    /// the same assembly; the identity without a layout.
     fn new(
         layout: Option<(&'l SpatialLayout, Model)>,
         pe: &PathEnergy,
@@ -76,48 +83,36 @@ impl<'l> Preconditioner<'l> {
         ends: &Ends,
         vertex_block_weight: f64,
     ) -> Result<Self, GeodesicError> {
-        let Some((layout, model)) = layout else {
-            return Ok(Preconditioner {
-                kron: None,
-                pose: None,
-                pose_scratch: PoseScratch::default(),
-                local: None,
-                scratch: ApplyScratch::default(),
-                copy: Vec::new(),
-                no_second_order: false,
-            });
-        };
-        if model == Model::PoseWise {
-            let pb = PoseBlocks::assemble(layout, pe, x, ends);
-            let local =
-                (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&pb.diagonal, vertex_block_weight));
-            return Ok(Preconditioner {
-                kron: None,
-                pose: Some((layout, PoseKronecker::fit(layout, &pb)?)),
-                pose_scratch: PoseScratch::default(),
-                local,
-                scratch: ApplyScratch::default(),
-                copy: Vec::new(),
-                no_second_order: false,
-            });
-        }
-        let (kron, diagonal, second_order) = if model == Model::Hessian {
-            KroneckerModel::fit_hessian(layout, pe, x, ends)?
-        } else {
-            let mut ps = PoseSum::assemble(layout, pe, x, ends);
-            let diagonal = std::mem::take(&mut ps.diagonal);
-            (KroneckerModel::fit(layout, ps)?, diagonal, false)
-        };
-        let local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight));
-        Ok(Preconditioner {
-            kron: Some((layout, kron)),
-            pose: None,
-            pose_scratch: PoseScratch::default(),
-            local,
+        let mut pre = Preconditioner {
+            model: None,
+            local: None,
             scratch: ApplyScratch::default(),
+            pose_scratch: PoseScratch::default(),
             copy: Vec::new(),
-            no_second_order: model == Model::Hessian && !second_order,
-        })
+            no_second_order: false,
+        };
+        let Some((layout, model)) = layout else {
+            return Ok(pre);
+        };
+        let (fitted, diagonal) = match model {
+            Model::PoseWise => {
+                let pb = PoseBlocks::assemble(layout, pe, x, ends);
+                (Fitted::PoseWise(PoseKronecker::fit(layout, &pb)?), pb.diagonal)
+            }
+            Model::Hessian => {
+                let (kron, diagonal, second_order) = KroneckerModel::fit_hessian(layout, pe, x, ends)?;
+                pre.no_second_order = !second_order;
+                (Fitted::Kronecker(kron), diagonal)
+            }
+            Model::Kronecker => {
+                let mut ps = PoseSum::assemble(layout, pe, x, ends);
+                let diagonal = std::mem::take(&mut ps.diagonal);
+                (Fitted::Kronecker(KroneckerModel::fit(layout, ps)?), diagonal)
+            }
+        };
+        pre.local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight));
+        pre.model = Some((layout, fitted));
+        Ok(pre)
     }
 
     /// `q <- ((2 T_c (x) A)^{-1} + omega (2 D)^{-1}) q` on the pose part (length 3 #V (N - 1),
@@ -127,11 +122,12 @@ impl<'l> Preconditioner<'l> {
             self.copy.clear();
             self.copy.extend_from_slice(q);
         }
-        if let Some((layout, model)) = &self.kron {
-            model.apply_with(layout, q, 0.5, &mut self.scratch);
-        }
-        if let Some((layout, model)) = &self.pose {
-            model.apply_with(layout, q, 0.5, &mut self.pose_scratch);
+        match &self.model {
+            Some((layout, Fitted::Kronecker(model))) => model.apply_with(layout, q, 0.5, &mut self.scratch),
+            Some((layout, Fitted::PoseWise(model))) => {
+                model.apply_with(layout, q, 0.5, &mut self.pose_scratch)
+            }
+            None => {}
         }
         if let Some(local) = &self.local {
             local.add_apply(&self.copy, q);
