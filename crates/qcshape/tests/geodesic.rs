@@ -465,6 +465,22 @@ fn the_iteration_limit_is_the_one_given() {
     assert_eq!(Solver::PlainLbfgs.default_max_iterations(), 5000);
 }
 
+/// The twisted sphere pair at subdivision `level` in the units the solvers work in (scaled by
+/// the pair factor) and `spec`'s metric calibrated on it: (scaled ends, metric).
+fn scaled_sphere_problem(level: u32, spec: &qcshape::metric::MetricSpec) -> (Shape, Shape, Box<dyn Metric>) {
+    let (a, b) = qcshape::experiment::geometry::sphere_pair(level);
+    let f = qcshape::geodesic::pair_factor(&a.positions, &b.positions, &a.topology).unwrap();
+    let scaled = |s: &Shape| {
+        let pos = s.positions.iter().map(|v| v.map(|c| c * f)).collect();
+        Shape::new(s.topology.clone(), pos).unwrap()
+    };
+    let (sa, sb) = (scaled(&a), scaled(&b));
+    let metric = spec
+        .build_for(&sa.topology, &[&sa.positions, &sb.positions])
+        .unwrap();
+    (sa, sb, metric)
+}
+
 /// The conformal metrics at small lambda: the Kronecker model's one spatial matrix makes the
 /// directions that are nearly conformal at one pose but not at the next expensive everywhere,
 /// and the default solver stalls (twisted sphere, 162 vertices, calibrated conformal metric,
@@ -472,17 +488,11 @@ fn the_iteration_limit_is_the_one_given() {
 /// converges in a few hundred, to a lower energy than the default reaches in as many.
 #[test]
 fn the_pose_wise_model_converges_where_the_kronecker_model_stalls() {
-    use qcshape::experiment::geometry::sphere_pair;
-    use qcshape::geodesic::pair_factor;
     use qcshape::metric::{MetricKind, MetricSpec};
-    let (a, b) = sphere_pair(2);
-    let f = pair_factor(&a.positions, &b.positions, &a.topology).unwrap();
-    let scaled = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
-    let (sa, sb) = (scaled(&a.positions), scaled(&b.positions));
     for kind in [MetricKind::Conformal, MetricKind::QuasiConformal] {
         let mut spec = MetricSpec::new(kind);
         spec.lambda = 1e-5;
-        let metric = spec.build_for(&a.topology, &[&sa, &sb]).unwrap();
+        let (sa, sb, metric) = scaled_sphere_problem(2, &spec);
         let solve = |solver| {
             let o = GeodesicOptions {
                 steps: 8,
@@ -490,9 +500,9 @@ fn the_pose_wise_model_converges_where_the_kronecker_model_stalls() {
                 max_iterations: Some(400),
                 ..GeodesicOptions::default()
             };
-            GeodesicSolver::new(metric.as_ref(), a.topology.clone(), o)
+            GeodesicSolver::new(metric.as_ref(), sa.topology.clone(), o)
                 .unwrap()
-                .solve(&sa, &sb)
+                .solve(&sa.positions, &sb.positions)
                 .unwrap()
         };
         let (kron, pose) = (solve(Solver::Preconditioned), solve(Solver::PoseKronecker));
@@ -521,26 +531,18 @@ fn the_pose_wise_model_converges_where_the_kronecker_model_stalls() {
 /// Gauss-Newton matrix misses a part of the Hessian that grows with the resolution).
 #[test]
 fn the_hessian_model_grows_less_with_the_resolution() {
-    use qcshape::experiment::geometry::sphere_pair;
-    use qcshape::geodesic::pair_factor;
     use qcshape::metric::{MetricKind, MetricSpec};
     let mut its = Vec::new();
     for level in [2, 3] {
-        let (a, b) = sphere_pair(level);
-        let f = pair_factor(&a.positions, &b.positions, &a.topology).unwrap();
-        let scaled = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
-        let (sa, sb) = (scaled(&a.positions), scaled(&b.positions));
-        let metric = MetricSpec::new(MetricKind::Isometric)
-            .build_for(&a.topology, &[&sa, &sb])
-            .unwrap();
+        let (sa, sb, metric) = scaled_sphere_problem(level, &MetricSpec::new(MetricKind::Isometric));
         let solve = |solver| {
             let o = GeodesicOptions {
                 solver,
                 ..GeodesicOptions::default()
             };
-            GeodesicSolver::new(metric.as_ref(), a.topology.clone(), o)
+            GeodesicSolver::new(metric.as_ref(), sa.topology.clone(), o)
                 .unwrap()
-                .solve(&sa, &sb)
+                .solve(&sa.positions, &sb.positions)
                 .unwrap()
         };
         let (gn, h) = (solve(Solver::Preconditioned), solve(Solver::HessianKronecker));

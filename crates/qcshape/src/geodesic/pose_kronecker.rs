@@ -257,6 +257,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
+    use crate::geodesic::dot;
     use crate::geodesic::kronecker::{KroneckerModel, PoseSum};
     use crate::metric::{Conformal, ConformalForm, Isometric, Metric, Regularized};
 
@@ -290,12 +291,12 @@ mod tests {
             let mut scratch = PoseScratch::default();
             model.apply_with(&layout, &mut mu, 1.0, &mut scratch);
             model.apply_with(&layout, &mut mv, 1.0, &mut scratch);
-            let (uv, vu) = (dot_n(&u, &mv), dot_n(&v, &mu));
+            let (uv, vu) = (dot(&u, &mv), dot(&v, &mu));
             assert!(
                 (uv - vu).abs() <= 1e-4 * uv.abs().max(vu.abs()),
                 "not symmetric: {uv} vs {vu}"
             );
-            assert!(dot_n(&u, &mu) > 0.0 && dot_n(&v, &mv) > 0.0);
+            assert!(dot(&u, &mu) > 0.0 && dot(&v, &mv) > 0.0);
             // Two vectors at once give the two single applications.
             let mut both = [u.clone(), v.clone()].concat();
             model.apply_with(&layout, &mut both, 1.0, &mut scratch);
@@ -351,10 +352,6 @@ mod tests {
             err <= 1e-3 * scale,
             "pose-wise model differs from the Kronecker model: {err} (scale {scale})"
         );
-    }
-
-    fn dot_n(a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
     }
 
     /// `A u` for the symmetric matrix whose upper-triangle slot blocks are `blk`.
