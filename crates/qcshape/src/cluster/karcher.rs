@@ -11,10 +11,23 @@ use crate::mesh::Pose;
 /// normalized coordinates about 1e-16.
 pub const ROUNDOFF_SPREAD: f64 = 1e-10;
 
-/// Options of the Karcher mean iteration `mu <- mu + step * mean_k log_mu(P_k)`.
+/// The damped step's floor, as a fraction of [`KarcherOptions::step`]: once the step has been
+/// halved below it (four halvings) without lowering the variance, the iteration stops at the
+/// best mean found (the logs' own inaccuracy, not the step, then limits the residual).
+pub const MIN_STEP_FRACTION: f64 = 1.0 / 16.0;
+
+/// A step is kept when it lowers the variance by more than this fraction (round-off of the sum
+/// of squared distances; a real step near the tolerance 1e-3 lowers it by about 1e-6).
+pub const VARIANCE_ROUNDOFF: f64 = 1e-12;
+
+/// Options of the Karcher mean iteration `mu <- mu + step * mean_k log_mu(P_k)`, damped: a
+/// step that does not lower the variance `sum_k dis(mu, P_k)^2` is taken back and retried with half
+/// the step.
 #[derive(Debug, Clone)]
 pub struct KarcherOptions {
-    /// Step along the mean log. Default 1 (the Gauss-Newton step of the Karcher functional).
+    /// Step along the mean log (the first one; halved whenever a step does not lower the
+    /// variance).
+    /// Default 1 (the Gauss-Newton step of the Karcher functional).
     pub step: f64,
     /// Iteration limit. Default 20.
     pub max_iterations: usize,
@@ -38,7 +51,7 @@ impl Default for KarcherOptions {
 pub struct KarcherMean {
     /// The mean pose (#V x 3), in the units of the inputs.
     pub mean: Pose,
-    /// Iterations taken.
+    /// Iterations taken (each one log map per member, rejected steps included).
     pub iterations: usize,
     /// Final `|mean log| / mean |log|` (Euclidean norms of #V x 3 fields).
     pub residual: f64,
@@ -90,69 +103,116 @@ fn field_norm(x: &[[f64; 3]]) -> f64 {
     x.iter().flatten().map(|v| v * v).sum::<f64>().sqrt()
 }
 
+/// One evaluation of the Karcher functional at a mean: the mean log, `sum dis^2` and the
+/// relative residual `|mean log| / mean |log|`.
+struct Evaluation {
+    mu: Pose,
+    mean_log: Pose,
+    variance: f64,
+    residual: f64,
+}
+
+impl Evaluation {
+    fn into_mean(self, iterations: usize, converged: bool) -> KarcherMean {
+        KarcherMean {
+            mean: self.mu,
+            iterations,
+            residual: self.residual,
+            converged,
+            variance: self.variance,
+        }
+    }
+}
+
+/// The logs of every member at `mu` (through one solve context, each started from the member's
+/// previous geodesic in `previous`, which is updated) and what [`karcher_mean`] reads from them.
+fn evaluate(
+    solver: &GeodesicSolver,
+    poses: &[&[[f64; 3]]],
+    mu: Pose,
+    previous: &mut [Option<Geodesic>],
+) -> Result<Evaluation, GeodesicError> {
+    let k = poses.len() as f64;
+    let mut mean_log = vec![[0.0; 3]; mu.len()];
+    let (mut norm_sum, mut variance) = (0.0, 0.0);
+    let mut ctx = SolveContext::default();
+    for (p, near) in poses.iter().zip(previous.iter_mut()) {
+        let (log, d, g) = log_map_in(solver, &mut ctx, &mu, p, near.as_ref())?;
+        *near = g;
+        norm_sum += field_norm(&log);
+        variance += d * d;
+        for (m, l) in mean_log.iter_mut().zip(&log) {
+            for c in 0..3 {
+                m[c] += l[c] / k;
+            }
+        }
+    }
+    // Members that all lie within round-off of the mean (the common base that every
+    // deformation's first pose becomes after transfer, whose arithmetic mean differs from
+    // it in the last bits) have logs of round-off size that all point the same way: their
+    // relative residual is 1 however close the mean is, so it is measured as 0.
+    let residual = if norm_sum / k > ROUNDOFF_SPREAD * field_norm(&mu) {
+        field_norm(&mean_log) / (norm_sum / k)
+    } else {
+        0.0
+    };
+    Ok(Evaluation {
+        mu,
+        mean_log,
+        variance,
+        residual,
+    })
+}
+
+/// `mu + step * mean_log`.
+fn stepped(e: &Evaluation, step: f64) -> Pose {
+    e.mu.iter()
+        .zip(&e.mean_log)
+        .map(|(m, l)| [0, 1, 2].map(|c| m[c] + step * l[c]))
+        .collect()
+}
+
 /// The Karcher mean of `poses` (each #V x 3, already scaled by the common normalization factor)
 /// started from `init`: repeats `mu <- mu + step * mean_k log_mu(P_k)` until the mean log is
-/// small relative to the logs (METHOD.md). A single pose is its own mean.
+/// small relative to the logs (METHOD.md). A step that does not lower the variance (by more
+/// than [`VARIANCE_ROUNDOFF`]) is taken back and
+/// retried with half the step (the undamped update overshoots and cycles for the conformal
+/// metrics); once the step falls below [`MIN_STEP_FRACTION`] of the first, or at the iteration
+/// limit, the best mean found is returned, not converged. A single pose is its own mean.
 pub fn karcher_mean(
     solver: &GeodesicSolver,
     poses: &[&[[f64; 3]]],
     init: &[[f64; 3]],
     opts: &KarcherOptions,
 ) -> Result<KarcherMean, GeodesicError> {
-    let mut mu: Pose = init.to_vec();
     if poses.is_empty() {
         return Ok(KarcherMean {
-            mean: mu,
+            mean: init.to_vec(),
             iterations: 0,
             residual: 0.0,
             converged: true,
             variance: 0.0,
         });
     }
-    let k = poses.len() as f64;
-    let mut iterations = 0;
     // Each member's geodesic from the previous mean starts the next iteration's.
     let mut previous: Vec<Option<Geodesic>> = vec![None; poses.len()];
+    let mut best = evaluate(solver, poses, init.to_vec(), &mut previous)?;
+    let mut step = opts.step;
+    let mut iterations = 0;
     loop {
-        let mut mean_log = vec![[0.0; 3]; mu.len()];
-        let (mut norm_sum, mut variance) = (0.0, 0.0);
-        let mut ctx = SolveContext::default();
-        for (p, near) in poses.iter().zip(previous.iter_mut()) {
-            let (log, d, g) = log_map_in(solver, &mut ctx, &mu, p, near.as_ref())?;
-            *near = g;
-            norm_sum += field_norm(&log);
-            variance += d * d;
-            for (m, l) in mean_log.iter_mut().zip(&log) {
-                for c in 0..3 {
-                    m[c] += l[c] / k;
-                }
-            }
+        if best.residual <= opts.tolerance {
+            return Ok(best.into_mean(iterations, true));
         }
-        // Members that all lie within round-off of the mean (the common base that every
-        // deformation's first pose becomes after transfer, whose arithmetic mean differs from
-        // it in the last bits) have logs of round-off size that all point the same way: their
-        // relative residual is 1 however close the mean is, so it is measured as 0.
-        let residual = if norm_sum / k > ROUNDOFF_SPREAD * field_norm(&mu) {
-            field_norm(&mean_log) / (norm_sum / k)
-        } else {
-            0.0
-        };
-        let converged = residual <= opts.tolerance;
-        if converged || iterations >= opts.max_iterations {
-            return Ok(KarcherMean {
-                mean: mu,
-                iterations,
-                residual,
-                converged,
-                variance,
-            });
+        if iterations >= opts.max_iterations || step < MIN_STEP_FRACTION * opts.step {
+            return Ok(best.into_mean(iterations, false));
         }
-        for (m, l) in mu.iter_mut().zip(&mean_log) {
-            for c in 0..3 {
-                m[c] += opts.step * l[c];
-            }
-        }
+        let trial = evaluate(solver, poses, stepped(&best, step), &mut previous)?;
         iterations += 1;
+        if trial.residual <= opts.tolerance || trial.variance < best.variance * (1.0 - VARIANCE_ROUNDOFF) {
+            best = trial;
+        } else {
+            step *= 0.5;
+        }
     }
 }
 
@@ -190,6 +250,46 @@ mod tests {
                 assert!((v[k] - want).abs() < 1e-6, "{} vs {want}", v[k]);
             }
         }
+    }
+
+    /// A step that overshoots (2.5 times the flat metric's exact step: undamped, the error
+    /// would grow 1.5x per iteration) raises the variance, is taken back and halved, and the
+    /// iteration converges to the arithmetic mean; a step that never lowers the variance
+    /// (the start is already the mean, to round-off, with a tolerance of 0) stops after the
+    /// halvings at the start, not at the iteration limit.
+    #[test]
+    fn overshooting_steps_are_halved() {
+        let s = icosphere(1);
+        let a = scaled(&s.positions, [2.0, 2.0, 2.0]);
+        let b: Pose = a.iter().map(|v| [v[0] + 1.0, v[1], v[2]]).collect();
+        let c: Pose = a.iter().map(|v| [v[0], v[1] - 0.5, v[2] + 0.25]).collect();
+        let opts = GeodesicOptions {
+            steps: 1,
+            ..Default::default()
+        };
+        let solver = GeodesicSolver::new(&FrozenL2, s.topology.clone(), opts).unwrap();
+        let kopts = KarcherOptions {
+            step: 2.5,
+            ..Default::default()
+        };
+        let m = karcher_mean(&solver, &[&a, &b, &c], &a, &kopts).unwrap();
+        assert!(m.converged, "{m:?}");
+        for (i, v) in m.mean.iter().enumerate() {
+            for k in 0..3 {
+                let want = (a[i][k] + b[i][k] + c[i][k]) / 3.0;
+                assert!((v[k] - want).abs() < 1e-2, "{} vs {want}", v[k]);
+            }
+        }
+        let mean: Pose = (0..a.len())
+            .map(|i| [0, 1, 2].map(|k| (a[i][k] + b[i][k] + c[i][k]) / 3.0))
+            .collect();
+        let exact = KarcherOptions {
+            tolerance: 0.0,
+            max_iterations: 100,
+            ..Default::default()
+        };
+        let m = karcher_mean(&solver, &[&a, &b, &c], &mean, &exact).unwrap();
+        assert!(!m.converged && m.iterations < 100, "{m:?}");
     }
 
     /// Identical members seen from a start that differs from them by round-off (their
