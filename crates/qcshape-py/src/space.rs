@@ -439,7 +439,8 @@ impl PyShapeSpace {
 
     /// karcher_mean(poses, init=None, max_iterations=None, tolerance=None) -> ndarray (nV, 3):
     /// the intrinsic (Karcher) mean of poses (K, nV, 3), iterating mu <- mu + mean_k log_mu(P_k)
-    /// from init (default poses[0]).
+    /// from init (default poses[0]); a step that does not lower sum_k dis(mu, P_k)^2 is taken
+    /// back and halved.
     #[pyo3(signature = (poses, init=None, max_iterations=None, tolerance=None))]
     fn karcher_mean<'py>(
         &self,
