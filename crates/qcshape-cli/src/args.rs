@@ -197,7 +197,7 @@ pub struct PipelineArgs {
     /// Pose distances: exact (geodesic lengths, the paper's), straight (the straight-path length
     /// with the same steps, no optimization: an upper bound, about 20-100x cheaper) or tangent
     /// (the metric linearized at the common base: one feature vector per pose, then Euclidean
-    /// distances; l2, rigid, isometric, conformal: not quasi-conformal). Errors against exact:
+    /// distances; quasi-conformal weighs each pair by its curvature-change weights). Errors against exact:
     /// docs/scale.md.
     /// Interpolation and transfer stay exact.
     #[arg(long, default_value = "exact")]

@@ -394,8 +394,8 @@ pub fn run_pipeline(
 /// "similarity" | "none": placement of each deformation on the base), smooth (Taubin iterations
 /// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md | "tangent": the metric
-/// linearized at the common base, one feature vector per pose; l2, rigid, isometric, conformal,
-/// not quasi-conformal); threads (None: all cores); progress (True: counts on stderr). Distances are in
+/// linearized at the common base, one feature vector per pose; quasi-conformal weighs each pair
+/// by its own curvature-change weights); threads (None: all cores); progress (True: counts on stderr). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
 ///
 /// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the

@@ -81,6 +81,18 @@ def test_tangent_details_have_no_energy_split(synthetic):
     assert np.all(np.isnan(det["geometric_energy"])) and np.all(np.isnan(det["regularizer_share"]))
 
 
+def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
+    """The tangent mode weighs each pair by its own curvature-change weights: a symmetric
+    matrix with a zero diagonal whose nearest neighbours are the exact matrix's."""
+    ds = small(synthetic)
+    T = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, approx="tangent", progress=False)
+    E = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, progress=False)
+    assert np.all(np.isfinite(T)) and np.allclose(T, T.T) and np.all(np.diag(T) == 0.0)
+    assert np.all(T[~np.eye(len(ds), dtype=bool)] > 0.0)
+    off = np.eye(len(ds)) * np.inf
+    assert np.array_equal(np.argmin(T + off, axis=1), np.argmin(E + off, axis=1))
+
+
 def test_return_details_must_be_a_bool(synthetic):
     ds = small(synthetic)
     with pytest.raises(ValueError, match="^return_details"):

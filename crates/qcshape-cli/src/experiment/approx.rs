@@ -20,7 +20,8 @@ use crate::args::{in_pool, MetricArgs, SolverArgs};
 /// the similarity matrix (eq. 13) with the reference mode (geodesics with --steps segments) and
 /// with every mode of --modes: `straight-N` (the straight-path length with N segments, no
 /// optimization), `exact-N` (geodesics with N segments) or `tangent` (the metric linearized at
-/// the common base, O(N) work; every metric but quasi-conformal). For each: the time of the
+/// the common base, O(N) linearizations; for quasi-conformal each pair weighs them by its own
+/// curvature-change weights). For each: the time of the
 /// similarity step and the speed-up, the Spearman correlation and the largest and median
 /// relative error of the pair distances, the agreement of the leave-one-out 1-NN labels, and the
 /// ARI between kernel k-means clusterings of the two matrices (same seed). Without INPUT, the
@@ -48,7 +49,7 @@ pub struct Args {
     #[command(flatten)]
     solver: SolverArgs,
     /// Modes compared with the reference exact-STEPS (comma-separated): straight-N, exact-N,
-    /// tangent (not with quasi-conformal); `straight` alone means straight-STEPS.
+    /// tangent; `straight` alone means straight-STEPS.
     #[arg(
         long,
         value_delimiter = ',',

@@ -115,8 +115,8 @@ pub struct RunArgs {
     pub(crate) transport: Transport,
     /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
     /// (the straight-path length, no optimization) or tangent (the metric linearized at the
-    /// common base: one feature vector per pose, cost linear in the subjects; l2, rigid,
-    /// isometric, conformal: not quasi-conformal). Errors against exact: docs/speed.md.
+    /// common base: one feature vector per pose, cost linear in the subjects; every metric).
+    /// Errors against exact: docs/speed.md.
     /// Interpolation, transfer and the Fig. 9 map stay exact.
     #[arg(long, default_value = "exact")]
     pub(crate) approx: qcshape::similarity::Approx,

@@ -241,6 +241,24 @@ pub trait Metric: Send + Sync + Debug {
         None
     }
 
+    /// The factor each residual (pattern order) takes from the frozen weights `frozen` (as
+    /// [`Metric::frozen_weights`] returns them), for metrics whose residuals are such a factor
+    /// times a term that does not depend on the weights: the quasi-conformal `endpoints`
+    /// weights of the quadratic form (the residual of the corner at `v` is `w_v T_v`, eq. 10).
+    /// With [`Metric::unit_frozen`] it lets the tangent approximation linearize the unweighted
+    /// terms once at the base and weigh them per pair. `None` (the default): the residuals
+    /// carry no such factors (or the weights do not enter as factors, as in the paper form).
+    fn residual_factors(&self, _topo: &Topology, _frozen: &[f64]) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// `frozen` with the weights that [`Metric::residual_factors`] reads set to one (every
+    /// factor 1) and every other frozen value (the L2 regularizer's areas) unchanged; the
+    /// default returns `frozen` as it is.
+    fn unit_frozen(&self, _topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
+        frozen
+    }
+
     /// [`Metric::frozen_weights`] of `start`, `end` given their [`Metric::pose_summary`]
     /// values (bit for bit the same weights). The default ignores the summaries.
     fn frozen_weights_from(

@@ -200,6 +200,32 @@ impl Metric for QuasiConformal {
         })
     }
 
+    /// With [`QcWeights::Endpoints`] and the quadratic form: `w_v` for the residual of each
+    /// face's corner at `v` (3 per face, in face order); `None` for the paper form (whose one
+    /// residual per face is a sum of absolute values, not a factor times a term) and for
+    /// [`QcWeights::Segment`] (no frozen weights), or when `frozen` is not #V values.
+    fn residual_factors(&self, topo: &Topology, frozen: &[f64]) -> Option<Vec<f64>> {
+        let factorable = self.weights == QcWeights::Endpoints && self.form == ConformalForm::Quadratic;
+        if !factorable || frozen.len() != topo.n_vertices() {
+            return None;
+        }
+        Some(
+            topo.faces()
+                .iter()
+                .flat_map(|f| f.map(|v| frozen[v as usize]))
+                .collect(),
+        )
+    }
+
+    /// All ones (#V) where [`Metric::residual_factors`] applies, else `frozen` unchanged.
+    fn unit_frozen(&self, topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
+        if self.weights == QcWeights::Endpoints && self.form == ConformalForm::Quadratic {
+            vec![1.0; topo.n_vertices()]
+        } else {
+            frozen
+        }
+    }
+
     /// With [`QcWeights::Endpoints`] the weights are `seg.frozen`; if it is absent (or not of
     /// length #V) the weights fall back to `K(b) - K(a)` of this segment, held constant (their
     /// derivatives are not in the Jacobian, which then is that of the frozen-weight form).

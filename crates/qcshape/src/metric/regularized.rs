@@ -136,6 +136,27 @@ impl Metric for Regularized {
         join(inner, l2)
     }
 
+    /// The inner metric's factors, then 1 for every L2 residual (the regularizer's frozen
+    /// areas are not factors of a pair-dependent weight).
+    fn residual_factors(&self, topo: &Topology, frozen: &[f64]) -> Option<Vec<f64>> {
+        let (inner, _) = self.split_frozen(topo, Some(frozen));
+        let mut f = self.inner.residual_factors(topo, inner?)?;
+        f.resize(f.len() + self.l2().n_residuals(topo), 1.0);
+        Some(f)
+    }
+
+    /// The inner metric's part set to one ([`Metric::unit_frozen`]), the L2 areas unchanged.
+    fn unit_frozen(&self, topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
+        match self.split_frozen(topo, Some(&frozen)) {
+            (Some(inner), l2) => join(
+                Some(self.inner.unit_frozen(topo, inner.to_vec())),
+                l2.map(<[f64]>::to_vec),
+            )
+            .unwrap_or_default(),
+            (None, _) => frozen,
+        }
+    }
+
     fn residuals(
         &self,
         topo: &Topology,

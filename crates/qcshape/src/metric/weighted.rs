@@ -69,6 +69,14 @@ impl Metric for Weighted {
         self.inner.frozen_weights_from(topo, start, end, summaries)
     }
 
+    fn residual_factors(&self, topo: &Topology, frozen: &[f64]) -> Option<Vec<f64>> {
+        self.inner.residual_factors(topo, frozen)
+    }
+
+    fn unit_frozen(&self, topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
+        self.inner.unit_frozen(topo, frozen)
+    }
+
     fn residuals(
         &self,
         topo: &Topology,

@@ -138,8 +138,9 @@ pub enum Approx {
     /// `J_B` the residual Jacobian at the base `B` ([`super::tangent`]; for the rigid metric
     /// minus its projection onto the rigid motions, the optimal motion in closed form), so that
     /// `|y(P) - y(Q)|^2 = G_B(P - Q)`: one sparse product per pose, then one Euclidean distance
-    /// per pair and pose. For l2, rigid, isometric and conformal; quasi-conformal is refused
-    /// (its weights depend on both poses of a pair). No path is measured, so the energy split
+    /// per pair and pose. For every metric; the quasi-conformal metric (quadratic form,
+    /// endpoint weights) weighs each pair's feature difference by that pair's curvature-change
+    /// weights, and its paper form and segment weights are refused. No path is measured, so the energy split
     /// of [`PairDistance::per_pose_energy`] is unknown (`None`).
     Tangent,
 }
@@ -301,10 +302,10 @@ where
         )));
     }
     // The tangent mode measures feature vectors, computed once for every pose.
-    let features = match approx {
+    let tangent = match approx {
         Approx::Tangent => {
             let pe = solver.path_energy();
-            Some(super::tangent::deformation_features(
+            Some(super::tangent::TangentModel::new(
                 pe.metric,
                 &pe.topo,
                 deformations,
@@ -343,14 +344,12 @@ where
                 return Err(SimilarityError::Cancelled);
             }
             let t0 = Instant::now();
-            let (per_pose, per_pose_energy, converged, iterations) = match &features {
-                Some(y) => {
-                    let d = y[i]
-                        .iter()
-                        .zip(&y[j])
-                        .map(|(a, b)| super::tangent::distance(a, b));
+            let (per_pose, per_pose_energy, converged, iterations) = match &tangent {
+                Some(t) => {
+                    let pe = solver.path_energy();
+                    let d = t.pose_distances(pe.metric, &pe.topo, deformations, i, j);
                     // No path: the energy split is unknown.
-                    (d.collect(), None, true, 0)
+                    (d, None, true, 0)
                 }
                 None => {
                     let s = match (summaries.get(i), summaries.get(j)) {

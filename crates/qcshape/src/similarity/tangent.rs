@@ -21,8 +21,16 @@
 //!   `J_aux^T J_aux` ([`AuxProjection`]); directions with an eigenvalue below
 //!   [`AUX_RANK_TOLERANCE`] times the largest (a degenerate base: collinear or zero-area) are
 //!   left out, the pseudo-inverse, never a division by zero.
-//! - The quasi-conformal weights `K(N_k) - K(M_k)` depend on both poses of a pair, so that
-//!   metric is refused ([`check_metric`]).
+//! - The quasi-conformal metric with `endpoints` weights and the quadratic form (the default):
+//!   its residuals are `w_v T_v`, a weight of the pair `(M_k, N_k)` (the normalized curvature
+//!   change `K(N_k) - K(M_k)`, [`Metric::frozen_weights`]) times a conformal term. The terms
+//!   are linearized once at the base with unit weights ([`Metric::unit_frozen`]), and each
+//!   pair weighs the difference of its two feature vectors by its own weights
+//!   ([`Metric::residual_factors`]): `|f(M_k, N_k) * (y(M_k) - y(N_k))|`, O(#V) per pair and
+//!   pose, still no geodesic. The weights are those the exact geodesic of the pair would use;
+//!   only the geometry of the terms is the base's.
+//! - The paper form and the `segment` weights of the quasi-conformal metric do not factor
+//!   that way and are refused ([`check_metric`]).
 
 use rayon::prelude::*;
 
@@ -36,18 +44,30 @@ use crate::metric::{At, Jacobian, Metric, Segment};
 /// times the largest are treated as absent (pseudo-inverse).
 pub const AUX_RANK_TOLERANCE: f64 = 1e-10;
 
-/// Refuses metrics the tangent approximation does not apply to (see the module docs): the
-/// quasi-conformal metric, whose weights depend on both poses of a pair. Every other metric
-/// (l2, rigid, isometric, conformal, each with or without the L2 regularizer) is accepted.
-pub fn check_metric(metric: &dyn Metric) -> Result<(), SimilarityError> {
+/// Checks that the tangent approximation applies to `metric` at `base` (#V x 3 on `topo`) and
+/// says whether each pair weighs its features ([`Metric::residual_factors`]: `true` for the
+/// quasi-conformal metric with `endpoints` weights and the quadratic form). Refuses the
+/// quasi-conformal metrics whose weights do not enter as residual factors (the paper form,
+/// the `segment` weights); every other metric (l2, rigid, isometric, conformal, each with or
+/// without the L2 regularizer) is accepted without pair weights.
+pub fn check_metric(
+    metric: &dyn Metric,
+    topo: &Topology,
+    base: &[[f64; 3]],
+) -> Result<bool, SimilarityError> {
+    let weighted = metric
+        .frozen_weights(topo, base, base)
+        .and_then(|f| metric.residual_factors(topo, &metric.unit_frozen(topo, f)))
+        .is_some();
     let name = metric.name();
-    if name.contains("quasi-conformal") {
+    if name.contains("quasi-conformal") && !weighted {
         return Err(SimilarityError::Mismatch(format!(
-            "the tangent approximation needs a metric whose squared norm at the base is a fixed quadratic \
-             form of the displacement (l2, rigid, isometric, conformal); {name} is not (use --approx straight)"
+            "the tangent approximation needs a metric whose squared norm at the base is a quadratic form of \
+             the displacement with fixed weights (l2, rigid, isometric, conformal, or quasi-conformal with \
+             the quadratic form and endpoint weights); {name} is not (use --approx straight)"
         )));
     }
-    Ok(())
+    Ok(weighted)
 }
 
 /// The orthogonal projection onto the range of the auxiliary unknowns' Jacobian `J_aux`
@@ -170,9 +190,13 @@ pub fn features(
     base: &[[f64; 3]],
     poses: &[&[[f64; 3]]],
 ) -> Result<Vec<Vec<f64>>, SimilarityError> {
-    check_metric(metric)?;
+    check_metric(metric, topo, base)?;
     let pattern = metric.pattern(topo);
-    let frozen = metric.frozen_weights(topo, base, base);
+    // Unit weights where the residuals carry pair factors (applied per pair by
+    // [`TangentModel::pose_distances`]); the base's own frozen values elsewhere.
+    let frozen = metric
+        .frozen_weights(topo, base, base)
+        .map(|f| metric.unit_frozen(topo, f));
     let n_aux = metric.n_aux();
     // The linearization point of the auxiliary unknowns: zero, the best motion of a zero
     // displacement (the rigid residuals are linear in them, so any value gives the same
@@ -230,11 +254,90 @@ pub fn deformation_features(
         .collect())
 }
 
+/// What the tangent approximation keeps of a data set: the features of every pose
+/// ([`deformation_features`]) and, when the metric's residuals carry pair factors
+/// ([`check_metric`]), every pose's [`Metric::pose_summary`] (the quasi-conformal angle
+/// defects and areas), from which each pair's weights are computed.
+#[derive(Debug, Clone)]
+pub struct TangentModel {
+    /// `y(P)` per deformation and pose (n x K, each #residuals values).
+    pub features: Vec<Vec<Vec<f64>>>,
+    /// Per deformation and pose, the pose summary (empty when the metric has no pair factors
+    /// or no summary).
+    pub summaries: Vec<Vec<Option<Vec<f64>>>>,
+}
+
+impl TangentModel {
+    /// The model of `deformations` (n x K poses, each #V x 3 on `topo`), linearized at
+    /// `deformations[0][0]`.
+    pub fn new(
+        metric: &dyn Metric,
+        topo: &Topology,
+        deformations: &[Vec<Pose>],
+    ) -> Result<Self, SimilarityError> {
+        let weighted = match deformations.first().and_then(|d| d.first()) {
+            Some(base) => check_metric(metric, topo, base)?,
+            None => false,
+        };
+        let features = deformation_features(metric, topo, deformations)?;
+        let summaries = if weighted {
+            deformations
+                .par_iter()
+                .map(|d| d.iter().map(|p| metric.pose_summary(topo, p)).collect())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Ok(TangentModel { features, summaries })
+    }
+
+    /// The approximate pose distances of deformations `i` and `j` (K values): `|y - z|`, or,
+    /// with pair factors, `|f * (y - z)|` with `f` the residual factors of the frozen weights
+    /// of the pair of poses (the weights the exact geodesic from pose `k` of `i` to pose `k` of
+    /// `j` uses).
+    pub fn pose_distances(
+        &self,
+        metric: &dyn Metric,
+        topo: &Topology,
+        deformations: &[Vec<Pose>],
+        i: usize,
+        j: usize,
+    ) -> Vec<f64> {
+        let (yi, yj) = (&self.features[i], &self.features[j]);
+        if self.summaries.is_empty() {
+            return yi.iter().zip(yj).map(|(a, b)| distance(a, b)).collect();
+        }
+        (0..yi.len())
+            .map(|k| {
+                let (p, q) = (&deformations[i][k], &deformations[j][k]);
+                let w = match (&self.summaries[i][k], &self.summaries[j][k]) {
+                    (Some(a), Some(b)) => metric.frozen_weights_from(topo, p, q, [a, b]),
+                    _ => metric.frozen_weights(topo, p, q),
+                };
+                match w.and_then(|w| metric.residual_factors(topo, &w)) {
+                    Some(f) => weighted_distance(&yi[k], &yj[k], &f),
+                    None => distance(&yi[k], &yj[k]),
+                }
+            })
+            .collect()
+    }
+}
+
 /// `|y - z|`, summed in order.
 pub fn distance(y: &[f64], z: &[f64]) -> f64 {
     y.iter()
         .zip(z)
         .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// `|f * (y - z)|` (element-wise product), summed in order.
+pub fn weighted_distance(y: &[f64], z: &[f64], f: &[f64]) -> f64 {
+    y.iter()
+        .zip(z)
+        .zip(f)
+        .map(|((a, b), w)| (w * (a - b)) * (w * (a - b)))
         .sum::<f64>()
         .sqrt()
 }
@@ -284,7 +387,7 @@ mod tests {
     }
 
     #[test]
-    fn features_give_the_metric_norm_at_the_base_and_quasi_conformal_is_refused() {
+    fn features_give_the_metric_norm_at_the_base() {
         let s = crate::synth::icosphere(1);
         let (topo, v) = (s.topology.clone(), s.positions.clone());
         let (p, q) = poses(&v);
@@ -315,14 +418,70 @@ mod tests {
             assert!((d - g).abs() <= 0.05 * g, "{kind:?}: {d} vs {g}");
             assert!(distance(&y[0], &y[1]) > 0.0);
         }
-        // Refused raw and calibrated (the calibrated metric's name carries a factor first).
+    }
+
+    /// The quasi-conformal metric (quadratic form, endpoint weights; raw and calibrated): each
+    /// pair weighs the unit-weight features by its own curvature-change weights, which gives
+    /// the metric's squared norm of `Q - P` at the base's geometry with the pair's weights
+    /// (and the base's regularizer areas). The paper form and the segment weights are refused.
+    #[test]
+    fn quasi_conformal_pairs_weigh_the_features_by_their_own_weights() {
+        let s = crate::synth::icosphere(1);
+        let (topo, v) = (s.topology.clone(), s.positions.clone());
+        let nv = topo.n_vertices();
+        let (p, q) = poses(&v);
         for spec in [
             MetricSpec::previous(MetricKind::QuasiConformal),
             MetricSpec::new(MetricKind::QuasiConformal),
         ] {
             let m = spec.build_for(&topo, &[&v]).unwrap();
+            assert!(check_metric(m.as_ref(), &topo, &v).unwrap(), "{}", m.name());
+            let defs = vec![vec![v.clone(), p.clone()], vec![v.clone(), q.clone()]];
+            let model = TangentModel::new(m.as_ref(), &topo, &defs).unwrap();
+            let d = model.pose_distances(m.as_ref(), &topo, &defs, 0, 1);
+            assert_eq!(d[0], 0.0, "both start at the base");
+            // The reference: G at the base's geometry, displacement Q - P, the pair's QC
+            // weights (the first #V frozen values) and the base's L2 areas (the last #V).
+            let pair = m.frozen_weights(&topo, &p, &q).unwrap();
+            let mut frozen = m.frozen_weights(&topo, &v, &v).unwrap();
+            frozen[..nv].copy_from_slice(&pair[..nv]);
+            let moved: Vec<[f64; 3]> = v
+                .iter()
+                .zip(minus(&q, &p))
+                .map(|(b, x)| [b[0] + x[0], b[1] + x[1], b[2] + x[2]])
+                .collect();
+            let g = m.squared_norm(
+                &topo,
+                &m.pattern(&topo),
+                &Segment {
+                    a: &v,
+                    b: &moved,
+                    at: At::Start,
+                    aux: &[],
+                    frozen: Some(&frozen),
+                },
+            );
+            assert!(g > 0.0);
+            let rel = (d[1] * d[1] - g).abs() / g;
+            assert!(rel < 1e-9, "{}: {} vs {g} ({rel:e})", m.name(), d[1] * d[1]);
+            // The weights matter: the unweighted feature distance is another number.
+            let plain = distance(&model.features[0][1], &model.features[1][1]);
+            assert!((plain - d[1]).abs() > 1e-3 * d[1], "{plain} vs {}", d[1]);
+        }
+        // Refused: the paper form and the segment weights (calibrated names carry a factor).
+        for spec in [
+            MetricSpec {
+                form: crate::metric::ConformalForm::Paper,
+                ..MetricSpec::new(MetricKind::QuasiConformal)
+            },
+            MetricSpec {
+                weights: crate::metric::QcWeights::Segment,
+                ..MetricSpec::previous(MetricKind::QuasiConformal)
+            },
+        ] {
+            let m = spec.build_for(&topo, &[&v]).unwrap();
             let e = features(m.as_ref(), &topo, &v, &[&p]).unwrap_err().to_string();
-            assert!(e.contains("straight") && e.contains("rigid"), "{e}");
+            assert!(e.contains("straight") && e.contains("endpoint"), "{e}");
         }
     }
 
