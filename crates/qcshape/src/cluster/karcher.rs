@@ -229,14 +229,29 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn flat_metric_mean_is_the_arithmetic_mean() {
-        // L2 with frozen areas between poses of equal area weights is flat: geodesics are
-        // straight lines, logs are differences and the Karcher mean is the average.
+    /// The icosphere(1) scaled by 2 and two translates of it (flat-metric tests).
+    fn three_poses() -> (crate::mesh::Shape, [Pose; 3]) {
         let s = icosphere(1);
         let a = scaled(&s.positions, [2.0, 2.0, 2.0]);
         let b: Pose = a.iter().map(|v| [v[0] + 1.0, v[1], v[2]]).collect();
         let c: Pose = a.iter().map(|v| [v[0], v[1] - 0.5, v[2] + 0.25]).collect();
+        (s, [a, b, c])
+    }
+
+    /// The vertex-wise average of `poses`.
+    fn arithmetic_mean(poses: &[&Pose]) -> Pose {
+        let n = poses.len() as f64;
+        (0..poses[0].len())
+            .map(|i| [0, 1, 2].map(|k| poses.iter().map(|p| p[i][k]).sum::<f64>() / n))
+            .collect()
+    }
+
+    #[test]
+    fn flat_metric_mean_is_the_arithmetic_mean() {
+        // L2 with frozen areas between poses of equal area weights is flat: geodesics are
+        // straight lines, logs are differences and the Karcher mean is the average.
+        let (s, [a, b, c]) = three_poses();
+        let mean = arithmetic_mean(&[&a, &b, &c]);
         let opts = GeodesicOptions {
             steps: 4,
             ..Default::default()
@@ -246,7 +261,7 @@ mod tests {
         assert!(m.converged, "{m:?}");
         for (i, v) in m.mean.iter().enumerate() {
             for k in 0..3 {
-                let want = (a[i][k] + b[i][k] + c[i][k]) / 3.0;
+                let want = mean[i][k];
                 assert!((v[k] - want).abs() < 1e-6, "{} vs {want}", v[k]);
             }
         }
@@ -259,10 +274,8 @@ mod tests {
     /// halvings at the start, not at the iteration limit.
     #[test]
     fn overshooting_steps_are_halved() {
-        let s = icosphere(1);
-        let a = scaled(&s.positions, [2.0, 2.0, 2.0]);
-        let b: Pose = a.iter().map(|v| [v[0] + 1.0, v[1], v[2]]).collect();
-        let c: Pose = a.iter().map(|v| [v[0], v[1] - 0.5, v[2] + 0.25]).collect();
+        let (s, [a, b, c]) = three_poses();
+        let mean = arithmetic_mean(&[&a, &b, &c]);
         let opts = GeodesicOptions {
             steps: 1,
             ..Default::default()
@@ -276,13 +289,10 @@ mod tests {
         assert!(m.converged, "{m:?}");
         for (i, v) in m.mean.iter().enumerate() {
             for k in 0..3 {
-                let want = (a[i][k] + b[i][k] + c[i][k]) / 3.0;
+                let want = mean[i][k];
                 assert!((v[k] - want).abs() < 1e-2, "{} vs {want}", v[k]);
             }
         }
-        let mean: Pose = (0..a.len())
-            .map(|i| [0, 1, 2].map(|k| (a[i][k] + b[i][k] + c[i][k]) / 3.0))
-            .collect();
         let exact = KarcherOptions {
             tolerance: 0.0,
             max_iterations: 100,
