@@ -8,9 +8,15 @@
 //! the paper's L-BFGS (argmin), and `plain-lbfgs` (the preconditioned solver's L-BFGS without
 //! its preconditioner: what the Kronecker model buys).
 //!
+//! The `hessian-kronecker` and `pose-kronecker` variants of the default solver are timed to
+//! `E*` as well.
+//!
 //! `cargo bench -p qcshape --bench geodesic [-- --levels 3,4 --metrics all --lbfgs-cap 3000
 //! --gn-cap 100 --skip-gn --skip-lbfgs --gn-direct --lambda 0.1 --refresh 45 --memory 10
-//! --omega 0.3]` (`--omega`: the preconditioned solver's vertex-block weight)
+//! --omega 0.3 --calibrated]` (`--omega`: the preconditioned solver's vertex-block weight;
+//! `--calibrated`: the library's metrics as `MetricSpec::new` builds them, calibrated on the two
+//! meshes, with `--lambda` on that scale, default `qcshape::defaults::LAMBDA`; without it the
+//! raw metrics of the previous releases, `--lambda` default 0.1)
 //! Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
 use std::time::Instant;
@@ -18,8 +24,8 @@ use std::time::Instant;
 use qcshape::geodesic::{geodesic, GeodesicOptions, Normalization, Solver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{
-    Conformal, ConformalForm, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal, Regularized, Rigid,
-    L2,
+    Conformal, ConformalForm, FrozenRigid, Isometric, Metric, MetricKind, MetricSpec, QcWeights,
+    QuasiConformal, Regularized, Rigid, L2,
 };
 use qcshape::synth::icosphere;
 
@@ -70,6 +76,54 @@ fn metric(name: &str, lambda: f64) -> Box<dyn Metric> {
     }
 }
 
+/// The library's metric `name` (see [`metric`]) as [`MetricSpec::new`] builds it with `lambda`,
+/// calibrated on `refs` (the two meshes in the solver's units).
+fn calibrated(name: &str, lambda: f64, a: &Shape, refs: &[&[[f64; 3]]]) -> Box<dyn Metric> {
+    let (kind, form, weights) = match name {
+        "l2" => (MetricKind::L2, ConformalForm::Quadratic, QcWeights::Endpoints),
+        "rigid" => (MetricKind::Rigid, ConformalForm::Quadratic, QcWeights::Endpoints),
+        "isometric" => (
+            MetricKind::Isometric,
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ),
+        "conformal-paper" => (MetricKind::Conformal, ConformalForm::Paper, QcWeights::Endpoints),
+        "conformal-quadratic" => (
+            MetricKind::Conformal,
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ),
+        "qc-quadratic-endpoints" => (
+            MetricKind::QuasiConformal,
+            ConformalForm::Quadratic,
+            QcWeights::Endpoints,
+        ),
+        "qc-paper-endpoints" => (
+            MetricKind::QuasiConformal,
+            ConformalForm::Paper,
+            QcWeights::Endpoints,
+        ),
+        "qc-quadratic-segment" => (
+            MetricKind::QuasiConformal,
+            ConformalForm::Quadratic,
+            QcWeights::Segment,
+        ),
+        "qc-paper-segment" => (
+            MetricKind::QuasiConformal,
+            ConformalForm::Paper,
+            QcWeights::Segment,
+        ),
+        _ => panic!("{name} has no --calibrated form"),
+    };
+    let spec = MetricSpec {
+        form,
+        weights,
+        lambda,
+        ..MetricSpec::new(kind)
+    };
+    spec.build_for(&a.topology, refs).unwrap()
+}
+
 const ALL: &[&str] = &[
     "l2",
     "l2-pose",
@@ -102,7 +156,13 @@ fn main() {
         Some(list) => list.split(',').map(String::from).collect(),
     };
     let cap: usize = get("--lbfgs-cap").map_or(3000, |s| s.parse().unwrap());
-    let lambda: f64 = get("--lambda").map_or(0.1, |s| s.parse().unwrap());
+    let calibrated_scale = args.iter().any(|a| a == "--calibrated");
+    let default_lambda = if calibrated_scale {
+        qcshape::defaults::LAMBDA
+    } else {
+        0.1
+    };
+    let lambda: f64 = get("--lambda").map_or(default_lambda, |s| s.parse().unwrap());
     let skip_gn = args.iter().any(|a| a == "--skip-gn");
     let skip_lbfgs = args.iter().any(|a| a == "--skip-lbfgs");
     let gn_direct = args.iter().any(|a| a == "--gn-direct");
@@ -110,8 +170,9 @@ fn main() {
         s.parse().unwrap()
     });
     println!(
-        "threads: {} (set RAYON_NUM_THREADS=1 for one core); N = 8; lambda = {lambda}; coordinates scaled by 1/mean edge length; vertex-block weight {omega}",
-        rayon::current_num_threads()
+        "threads: {} (set RAYON_NUM_THREADS=1 for one core); N = 8; lambda = {lambda} ({}); coordinates scaled by 1/mean edge length; vertex-block weight {omega}",
+        rayon::current_num_threads(),
+        if calibrated_scale { "calibrated" } else { "raw" }
     );
     let gn_cap: usize = get("--gn-cap").map_or(100, |s| s.parse().unwrap());
     let memory: usize =
@@ -123,13 +184,22 @@ fn main() {
     println!(
         "E* = energy of the preconditioned solver run to its own convergence test; every solver is then timed to E* (1 + 1e-6) ('>' = not reached: time and iterations spent)"
     );
-    println!("| #V | metric | linear energy | E* | precond converged s (its) | precond to E* s (its) | Newton to E* s (its) | {gn_name} to E* s (its) | L-BFGS (argmin) to E* s (its) | plain L-BFGS to E* s (its) | L-BFGS/precond | plain/precond | L-BFGS/Newton | L-BFGS/{gn_name} |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| #V | metric | linear energy | E* | precond converged s (its) | precond to E* s (its) | hessian-kronecker to E* s (its) | pose-kronecker to E* s (its) | Newton to E* s (its) | {gn_name} to E* s (its) | L-BFGS (argmin) to E* s (its) | plain L-BFGS to E* s (its) | L-BFGS/precond | plain/precond | L-BFGS/Newton | L-BFGS/{gn_name} |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for level in levels {
         let a = icosphere(level);
         let b = twist_stretch(&a);
+        // The solver's units (Normalization::MeanEdgeOfFirst), where the calibration is taken.
+        let unit = 1.0 / qcshape::mesh::geometry::mean_edge_length(&a.topology, &a.positions);
+        let scaled =
+            |s: &Shape| -> Vec<[f64; 3]> { s.positions.iter().map(|p| p.map(|c| c * unit)).collect() };
+        let (sa, sb) = (scaled(&a), scaled(&b));
         for name in &names {
-            let m = metric(name, lambda);
+            let m = if calibrated_scale {
+                calibrated(name, lambda, &a, &[&sa, &sb])
+            } else {
+                metric(name, lambda)
+            };
             let run = |o: GeodesicOptions| {
                 let t = Instant::now();
                 let g = geodesic(m.as_ref(), &a, &b, &o, Normalization::MeanEdgeOfFirst).unwrap();
@@ -165,6 +235,8 @@ fn main() {
                 format!("{}{t:.3} ({its})", if reached { "" } else { ">" })
             };
             let pc_t = to_target(Solver::Preconditioned, 1000);
+            let hk_t = to_target(Solver::HessianKronecker, 1000);
+            let pk_t = to_target(Solver::PoseKronecker, 1000);
             let nt_t = to_target(Solver::Newton, gn_cap);
             let gn_t = if skip_gn {
                 (f64::NAN, 0, false)
@@ -193,12 +265,14 @@ fn main() {
             };
             let ratio = |x: (f64, usize, bool)| ratio_to(lb_t, x);
             println!(
-                "| {} | {name} | {:.6e} | {:.8e} | {t_pc:.3} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {name} | {:.6e} | {:.8e} | {t_pc:.3} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 a.n_vertices(),
                 pc.initial_energy,
                 pc.energy,
                 pc.iterations,
                 fmt(pc_t),
+                fmt(hk_t),
+                fmt(pk_t),
                 fmt(nt_t),
                 if skip_gn { "-".into() } else { fmt(gn_t) },
                 if skip_lbfgs { "-".into() } else { fmt(lb_t) },
