@@ -52,3 +52,32 @@ fn a_killed_reproduction_leaves_a_partial_report_with_table_1() {
     assert!(on_disk.starts_with("# qcshape reproduction") && on_disk.contains("## Table 1"));
     assert!(on_disk.contains("Partial report"));
 }
+
+/// `--noise-metric` must name a metric of `--metrics` (its Table 1 run is Table 3's reference):
+/// refused before any work, with the reason and no output folder.
+#[test]
+fn a_noise_metric_outside_the_metrics_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = Command::new(env!("CARGO_BIN_EXE_qcshape"))
+        .args([
+            "--quiet",
+            "reproduce",
+            "--quick",
+            "--metrics",
+            "l2,rigid",
+            "--noise-metric",
+            "isometric",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--noise-metric isometric is not among --metrics"),
+        "{err}"
+    );
+    assert!(!out.join("report.md").exists());
+}

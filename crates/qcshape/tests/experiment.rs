@@ -32,7 +32,7 @@ fn reproduction_table1_is_far_above_chance() {
         &s,
         &defs,
         &runs,
-        (Reproduction::noise_reference(&runs), &[(1.0, 0.9, 0.8)]),
+        (s.noise_reference(&runs), &[(1.0, 0.9, 0.8)]),
         ["", ""],
         Provenance::current("test".into(), 1.0),
     )
