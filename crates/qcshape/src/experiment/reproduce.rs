@@ -81,9 +81,10 @@ pub struct Reproduction {
     pub noise_levels: Vec<f64>,
     /// The metrics of Table 1, in order.
     pub metrics: Vec<MetricKind>,
-    /// The metric of Table 3 (the paper's: quasi-conformal); its Table 1 run is the noise-free
-    /// reference, so it must be one of [`Reproduction::metrics`] (else the last of them is used).
-    pub noise_metric: MetricKind,
+    /// The metric of Table 3; its Table 1 run is the noise-free reference, so it must be one of
+    /// [`Reproduction::metrics`] ([`Reproduction::validate`]). `None`: the paper's,
+    /// quasi-conformal, when it is run, else the last metric.
+    pub noise_metric: Option<MetricKind>,
     /// Weight `lambda` of the L2 regularizer of every metric (eq. 11).
     pub lambda: f64,
     /// Transport to the common base.
@@ -120,7 +121,7 @@ impl Reproduction {
                 MetricKind::QuasiConformal,
                 MetricKind::L2,
             ],
-            noise_metric: MetricKind::QuasiConformal,
+            noise_metric: None,
             lambda: defaults::LAMBDA,
             transport: defaults::TRANSPORT,
             align: defaults::ALIGN,
@@ -270,10 +271,12 @@ impl Reproduction {
         exp
     }
 
-    /// The run Table 3 uses: the one of [`Reproduction::noise_metric`], or the last.
+    /// The run Table 3 uses: the one of [`Reproduction::noise_metric`] (default
+    /// quasi-conformal), or the last.
     pub fn noise_reference(&self, runs: &[MetricRun]) -> usize {
+        let kind = self.noise_metric.unwrap_or(MetricKind::QuasiConformal);
         runs.iter()
-            .position(|r| r.kind == self.noise_metric)
+            .position(|r| r.kind == kind)
             .unwrap_or(runs.len().saturating_sub(1))
     }
 
@@ -323,7 +326,7 @@ impl Reproduction {
     }
 
     /// Checks the settings: at least one metric, a non-negative `lambda`, at least one step
-    /// and one restart.
+    /// and one restart, a Table 3 metric among the metrics.
     pub fn validate(&self) -> Result<(), ReproduceError> {
         if self.metrics.is_empty() {
             return Err(ReproduceError::Input("--metrics is empty".into()));
@@ -335,6 +338,13 @@ impl Reproduction {
             return Err(ReproduceError::Input(
                 "--steps and --restarts must be at least 1".into(),
             ));
+        }
+        if let Some(m) = self.noise_metric.filter(|m| !self.metrics.contains(m)) {
+            return Err(ReproduceError::Input(format!(
+                "--noise-metric {} is not among --metrics: Table 3 needs that metric's Table 1 run as \
+                 its noise-free reference",
+                m.label()
+            )));
         }
         Ok(())
     }
@@ -1064,6 +1074,11 @@ mod validate_tests {
             ..ok.clone()
         })
         .contains("--steps"));
+        let other = Reproduction {
+            noise_metric: Some(MetricKind::Isometric),
+            ..ok.clone()
+        };
+        assert!(msg(other).contains("--noise-metric isometric is not among --metrics"));
         assert!(msg(Reproduction { restarts: 0, ..ok }).contains("--restarts"));
     }
 }
