@@ -89,8 +89,10 @@ def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
     E = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, progress=False)
     assert np.all(np.isfinite(T)) and np.allclose(T, T.T) and np.all(np.diag(T) == 0.0)
     assert np.all(T[~np.eye(len(ds), dtype=bool)] > 0.0)
-    off = np.eye(len(ds)) * np.inf
-    assert np.array_equal(np.argmin(T + off, axis=1), np.argmin(E + off, axis=1))
+    off = np.where(np.eye(len(ds), dtype=bool), np.inf, 0.0)
+    nearest_t, nearest_e = np.argmin(T + off, axis=1), np.argmin(E + off, axis=1)
+    assert np.all(nearest_t != np.arange(len(ds)))
+    assert np.array_equal(nearest_t, nearest_e), (nearest_t, nearest_e)
 
 
 def test_return_details_must_be_a_bool(synthetic):
