@@ -138,7 +138,7 @@ def main() -> None:
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--metric", default="isometric", help="the library default (isometric since 2026-12-04)")
-    p.add_argument("--modes", default="straight", help="approximate modes: straight and/or tangent (tangent: l2, rigid, isometric, conformal)")
+    p.add_argument("--modes", default="straight", help="approximate modes: straight and/or tangent (every metric)")
     p.add_argument("--out", default="bench/results")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--n", type=int, help=argparse.SUPPRESS)
