@@ -66,6 +66,10 @@ impl std::str::FromStr for Mode {
     }
 }
 
+/// Median relative error above which [`ApproxReport::markdown`] says that a mode does not
+/// approximate the reference's distance values (only, at best, their order).
+pub const FAR_MEDIAN_ERROR: f64 = 0.5;
+
 /// How an approximate matrix agrees with the exact one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Agreement {
@@ -348,6 +352,31 @@ impl ApproxReport {
              the clustering's own stability, which bounds the ARI of any other matrix against the reference.\n",
             self.reseeded_ari
         ));
+        let far: Vec<String> = self
+            .modes
+            .iter()
+            .filter(|m| {
+                m.agreement
+                    .as_ref()
+                    .is_some_and(|a| a.median_relative_error > FAR_MEDIAN_ERROR)
+            })
+            .map(|m| m.mode.name())
+            .collect();
+        if !far.is_empty() {
+            s.push_str(&format!(
+                "\n{} {} off by more than half at the median pair: the reference's geodesics are much \
+                 shorter than the straight paths (they bend; with the conformal metrics into directions \
+                 their terms barely charge, docs/speed.md), so {} only the order of the distances where \
+                 the columns above say so, not their values.\n",
+                far.join(", "),
+                if far.len() == 1 { "is" } else { "are" },
+                if far.len() == 1 {
+                    "it approximates"
+                } else {
+                    "they approximate"
+                }
+            ));
+        }
         s
     }
 }
@@ -398,6 +427,43 @@ mod tests {
         assert!(a.spearman < 1.0);
         assert!(a.nn_agreement < 1.0, "{a:?}");
         assert!(agreement(&e, &matrix(&[1.0], 2), None, &opts).is_err());
+    }
+
+    /// The report says when a mode's median pair is off by more than half (the distances'
+    /// values are not approximated), and only then.
+    #[test]
+    fn the_report_flags_modes_far_from_the_reference_values() {
+        let opts = ClusterOptions {
+            k: 2,
+            ..Default::default()
+        };
+        let exact = matrix(&[1.0, 2.0, 3.0], 3);
+        let report = |scale: f64| {
+            let approx = matrix(&[scale, 2.0 * scale, 3.1 * scale], 3);
+            let result = |mode: &str, m: &DistanceMatrix, agreement| ModeResult {
+                mode: mode.parse().unwrap(),
+                matrix: m.clone(),
+                seconds: 1.0,
+                converged: true,
+                agreement,
+                class_ari: None,
+            };
+            let a = agreement(&exact, &approx, None, &opts).unwrap();
+            ApproxReport {
+                size: (3, 2, 12),
+                prepare_seconds: 0.0,
+                modes: vec![
+                    result("exact-8", &exact, None),
+                    result("straight-8", &approx, Some(a)),
+                ],
+                reseeded_ari: 1.0,
+            }
+            .markdown()
+        };
+        let far = report(4.0);
+        assert!(far.contains("straight-8 is off by more than half"), "{far}");
+        let near = report(1.05);
+        assert!(!near.contains("off by more than half"), "{near}");
     }
 
     #[test]
