@@ -315,8 +315,9 @@ where
     };
     // The per-pose part of the frozen weights (the quasi-conformal angle defects), once per
     // pose of every deformation in `todo` instead of once per pair and pose: #deformations x
-    // #poses x #V values in memory (a third of the poses' own).
-    let summaries: Vec<Option<PoseSummaries>> = if approx != Approx::Tangent {
+    // #poses x #V values in memory (a third of the poses' own). The tangent mode needs them
+    // only for its pair weights.
+    let summaries: Vec<Option<PoseSummaries>> = if tangent.as_ref().is_none_or(|t| t.weighted) {
         let pe = solver.path_energy();
         let mut used = vec![false; n];
         for &(i, j) in todo {
@@ -347,7 +348,11 @@ where
             let (per_pose, per_pose_energy, converged, iterations) = match &tangent {
                 Some(t) => {
                     let pe = solver.path_energy();
-                    let d = t.pose_distances(pe.metric, &pe.topo, deformations, i, j);
+                    let s = match (summaries.get(i), summaries.get(j)) {
+                        (Some(Some(a)), Some(Some(b))) => Some([a.as_slice(), b.as_slice()]),
+                        _ => None,
+                    };
+                    let d = t.pose_distances(pe.metric, &pe.topo, deformations, i, j, s);
                     // No path: the energy split is unknown.
                     (d, None, true, 0)
                 }

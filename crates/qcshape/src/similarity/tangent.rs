@@ -255,16 +255,14 @@ pub fn deformation_features(
 }
 
 /// What the tangent approximation keeps of a data set: the features of every pose
-/// ([`deformation_features`]) and, when the metric's residuals carry pair factors
-/// ([`check_metric`]), every pose's [`Metric::pose_summary`] (the quasi-conformal angle
-/// defects and areas), from which each pair's weights are computed.
+/// ([`deformation_features`]) and whether each pair weighs them by its own frozen weights
+/// ([`check_metric`]: the quasi-conformal metric's residual factors).
 #[derive(Debug, Clone)]
 pub struct TangentModel {
     /// `y(P)` per deformation and pose (n x K, each #residuals values).
     pub features: Vec<Vec<Vec<f64>>>,
-    /// Per deformation and pose, the pose summary (empty when the metric has no pair factors
-    /// or no summary).
-    pub summaries: Vec<Vec<Option<Vec<f64>>>>,
+    /// Whether the metric's residuals carry pair factors ([`Metric::residual_factors`]).
+    pub weighted: bool,
 }
 
 impl TangentModel {
@@ -280,21 +278,14 @@ impl TangentModel {
             None => false,
         };
         let features = deformation_features(metric, topo, deformations)?;
-        let summaries = if weighted {
-            deformations
-                .par_iter()
-                .map(|d| d.iter().map(|p| metric.pose_summary(topo, p)).collect())
-                .collect()
-        } else {
-            Vec::new()
-        };
-        Ok(TangentModel { features, summaries })
+        Ok(TangentModel { features, weighted })
     }
 
     /// The approximate pose distances of deformations `i` and `j` (K values): `|y - z|`, or,
     /// with pair factors, `|f * (y - z)|` with `f` the residual factors of the frozen weights
     /// of the pair of poses (the weights the exact geodesic from pose `k` of `i` to pose `k` of
-    /// `j` uses).
+    /// `j` uses), computed from the two deformations' [`Metric::pose_summary`] per pose when
+    /// `summaries` holds them.
     pub fn pose_distances(
         &self,
         metric: &dyn Metric,
@@ -302,17 +293,18 @@ impl TangentModel {
         deformations: &[Vec<Pose>],
         i: usize,
         j: usize,
+        summaries: Option<[&[Vec<f64>]; 2]>,
     ) -> Vec<f64> {
         let (yi, yj) = (&self.features[i], &self.features[j]);
-        if self.summaries.is_empty() {
+        if !self.weighted {
             return yi.iter().zip(yj).map(|(a, b)| distance(a, b)).collect();
         }
         (0..yi.len())
             .map(|k| {
                 let (p, q) = (&deformations[i][k], &deformations[j][k]);
-                let w = match (&self.summaries[i][k], &self.summaries[j][k]) {
-                    (Some(a), Some(b)) => metric.frozen_weights_from(topo, p, q, [a, b]),
-                    _ => metric.frozen_weights(topo, p, q),
+                let w = match summaries {
+                    Some([a, b]) => metric.frozen_weights_from(topo, p, q, [&a[k], &b[k]]),
+                    None => metric.frozen_weights(topo, p, q),
                 };
                 match w.and_then(|w| metric.residual_factors(topo, &w)) {
                     Some(f) => weighted_distance(&yi[k], &yj[k], &f),
@@ -438,7 +430,14 @@ mod tests {
             assert!(check_metric(m.as_ref(), &topo, &v).unwrap(), "{}", m.name());
             let defs = vec![vec![v.clone(), p.clone()], vec![v.clone(), q.clone()]];
             let model = TangentModel::new(m.as_ref(), &topo, &defs).unwrap();
-            let d = model.pose_distances(m.as_ref(), &topo, &defs, 0, 1);
+            let d = model.pose_distances(m.as_ref(), &topo, &defs, 0, 1, None);
+            // The same weights from the poses' cached summaries (as the engine passes them).
+            let s: Vec<Vec<Vec<f64>>> = defs
+                .iter()
+                .map(|d| d.iter().map(|p| m.pose_summary(&topo, p).unwrap()).collect())
+                .collect();
+            let cached = model.pose_distances(m.as_ref(), &topo, &defs, 0, 1, Some([&s[0], &s[1]]));
+            assert_eq!(d, cached);
             assert_eq!(d[0], 0.0, "both start at the base");
             // The reference: G at the base's geometry, displacement Q - P, the pair's QC
             // weights (the first #V frozen values) and the base's L2 areas (the last #V).
