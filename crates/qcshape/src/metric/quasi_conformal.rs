@@ -107,14 +107,18 @@ impl QuasiConformal {
         self
     }
 
+    /// Whether each residual is a frozen weight times a term that does not depend on it
+    /// (`endpoints` weights with the quadratic form: [`Metric::residual_factors`]).
+    fn weights_are_factors(&self) -> bool {
+        self.weights == QcWeights::Endpoints && self.form == ConformalForm::Quadratic
+    }
+
     /// The two terms' frozen weights (#V each) when the fused segment kernels of the
     /// quadratic form apply (endpoint weights present on both terms); `None` otherwise.
     fn fused_weights<'a>(&self, topo: &Topology, segs: [&Segment<'a>; 2]) -> Option<[Option<&'a [f64]>; 2]> {
         let nv = topo.n_vertices();
-        match (self.weights, self.form, segs[0].frozen, segs[1].frozen) {
-            (QcWeights::Endpoints, ConformalForm::Quadratic, Some(w0), Some(w1))
-                if w0.len() == nv && w1.len() == nv =>
-            {
+        match (segs[0].frozen, segs[1].frozen) {
+            (Some(w0), Some(w1)) if self.weights_are_factors() && w0.len() == nv && w1.len() == nv => {
                 Some([Some(w0), Some(w1)])
             }
             _ => None,
@@ -205,8 +209,7 @@ impl Metric for QuasiConformal {
     /// residual per face is a sum of absolute values, not a factor times a term) and for
     /// [`QcWeights::Segment`] (no frozen weights), or when `frozen` is not #V values.
     fn residual_factors(&self, topo: &Topology, frozen: &[f64]) -> Option<Vec<f64>> {
-        let factorable = self.weights == QcWeights::Endpoints && self.form == ConformalForm::Quadratic;
-        if !factorable || frozen.len() != topo.n_vertices() {
+        if !self.weights_are_factors() || frozen.len() != topo.n_vertices() {
             return None;
         }
         Some(
@@ -219,7 +222,7 @@ impl Metric for QuasiConformal {
 
     /// All ones (#V) where [`Metric::residual_factors`] applies, else `frozen` unchanged.
     fn unit_frozen(&self, topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
-        if self.weights == QcWeights::Endpoints && self.form == ConformalForm::Quadratic {
+        if self.weights_are_factors() {
             vec![1.0; topo.n_vertices()]
         } else {
             frozen
