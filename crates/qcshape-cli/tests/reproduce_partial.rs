@@ -1,8 +1,19 @@
 //! `qcshape reproduce` writes report.md after every step: killed after Table 1, it leaves a
 //! report holding Table 1, marked as partial (issue 21).
 
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// `qcshape --quiet reproduce --quick --metrics l2,rigid EXTRA --out OUT`.
+fn quick_reproduction(out: &Path, extra: &[&str]) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_qcshape"));
+    cmd.args(["--quiet", "reproduce", "--quick", "--metrics", "l2,rigid"])
+        .args(extra)
+        .arg("--out")
+        .arg(out);
+    cmd
+}
 
 #[test]
 fn a_killed_reproduction_leaves_a_partial_report_with_table_1() {
@@ -10,16 +21,7 @@ fn a_killed_reproduction_leaves_a_partial_report_with_table_1() {
     let out = dir.path().join("r");
     // The smallest run: --quick with one cheap metric first (Table 1's first row in a second
     // or two); Fig. 4, Fig. 5 and Table 3 follow and take longer.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_qcshape"))
-        .args([
-            "--quiet",
-            "reproduce",
-            "--quick",
-            "--metrics",
-            "l2,rigid",
-            "--out",
-        ])
-        .arg(&out)
+    let mut child = quick_reproduction(&out, &[])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -59,18 +61,7 @@ fn a_killed_reproduction_leaves_a_partial_report_with_table_1() {
 fn a_noise_metric_outside_the_metrics_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let o = Command::new(env!("CARGO_BIN_EXE_qcshape"))
-        .args([
-            "--quiet",
-            "reproduce",
-            "--quick",
-            "--metrics",
-            "l2,rigid",
-            "--noise-metric",
-            "isometric",
-            "--out",
-        ])
-        .arg(&out)
+    let o = quick_reproduction(&out, &["--noise-metric", "isometric"])
         .output()
         .unwrap();
     assert!(!o.status.success());

@@ -246,6 +246,15 @@ mod tests {
             .collect()
     }
 
+    /// Every coordinate of `got` within `tol` of `want`'s.
+    fn assert_near(got: &Pose, want: &Pose, tol: f64) {
+        for (g, w) in got.iter().zip(want) {
+            for k in 0..3 {
+                assert!((g[k] - w[k]).abs() < tol, "{} vs {}", g[k], w[k]);
+            }
+        }
+    }
+
     #[test]
     fn flat_metric_mean_is_the_arithmetic_mean() {
         // L2 with frozen areas between poses of equal area weights is flat: geodesics are
@@ -259,12 +268,7 @@ mod tests {
         let solver = GeodesicSolver::new(&FrozenL2, s.topology.clone(), opts).unwrap();
         let m = karcher_mean(&solver, &[&a, &b, &c], &a, &KarcherOptions::default()).unwrap();
         assert!(m.converged, "{m:?}");
-        for (i, v) in m.mean.iter().enumerate() {
-            for k in 0..3 {
-                let want = mean[i][k];
-                assert!((v[k] - want).abs() < 1e-6, "{} vs {want}", v[k]);
-            }
-        }
+        assert_near(&m.mean, &mean, 1e-6);
     }
 
     /// A step that overshoots (2.5 times the flat metric's exact step: undamped, the error
@@ -287,12 +291,7 @@ mod tests {
         };
         let m = karcher_mean(&solver, &[&a, &b, &c], &a, &kopts).unwrap();
         assert!(m.converged, "{m:?}");
-        for (i, v) in m.mean.iter().enumerate() {
-            for k in 0..3 {
-                let want = mean[i][k];
-                assert!((v[k] - want).abs() < 1e-2, "{} vs {want}", v[k]);
-            }
-        }
+        assert_near(&m.mean, &mean, 1e-2);
         let exact = KarcherOptions {
             tolerance: 0.0,
             max_iterations: 100,
