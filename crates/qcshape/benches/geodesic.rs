@@ -42,79 +42,48 @@ fn twist_stretch(s: &Shape) -> Shape {
     Shape::new(s.topology.clone(), pos).unwrap()
 }
 
+/// The metric, triangle form and quasi-conformal weights a bench name stands for (every name
+/// of [`ALL`] but the two raw-only variants `l2-pose` and `rigid-frozen`).
+fn variant(name: &str) -> Option<(MetricKind, ConformalForm, QcWeights)> {
+    use ConformalForm::{Paper, Quadratic};
+    use QcWeights::{Endpoints, Segment};
+    Some(match name {
+        "l2" => (MetricKind::L2, Quadratic, Endpoints),
+        "rigid" => (MetricKind::Rigid, Quadratic, Endpoints),
+        "isometric" => (MetricKind::Isometric, Quadratic, Endpoints),
+        "conformal-paper" => (MetricKind::Conformal, Paper, Endpoints),
+        "conformal-quadratic" => (MetricKind::Conformal, Quadratic, Endpoints),
+        "qc-quadratic-endpoints" => (MetricKind::QuasiConformal, Quadratic, Endpoints),
+        "qc-paper-endpoints" => (MetricKind::QuasiConformal, Paper, Endpoints),
+        "qc-quadratic-segment" => (MetricKind::QuasiConformal, Quadratic, Segment),
+        "qc-paper-segment" => (MetricKind::QuasiConformal, Paper, Segment),
+        _ => return None,
+    })
+}
+
+/// The raw metric `name` (the previous releases' terms, no calibration), `+ lambda * L2`
+/// except for the L2 metrics themselves.
 fn metric(name: &str, lambda: f64) -> Box<dyn Metric> {
     let reg = |m: Box<dyn Metric>| -> Box<dyn Metric> { Box::new(Regularized::new(m, lambda)) };
     match name {
-        "l2" => Box::new(qcshape::metric::FrozenL2),
-        "l2-pose" => Box::new(L2),
-        "rigid" => reg(Box::new(Rigid)),
-        "rigid-frozen" => reg(Box::new(FrozenRigid)),
-        "isometric" => reg(Box::new(Isometric)),
-        "conformal-paper" => reg(Box::new(Conformal {
-            form: ConformalForm::Paper,
-        })),
-        "conformal-quadratic" => reg(Box::new(Conformal {
-            form: ConformalForm::Quadratic,
-        })),
-        "qc-quadratic-endpoints" => reg(Box::new(QuasiConformal::new(
-            ConformalForm::Quadratic,
-            QcWeights::Endpoints,
-        ))),
-        "qc-paper-endpoints" => reg(Box::new(QuasiConformal::new(
-            ConformalForm::Paper,
-            QcWeights::Endpoints,
-        ))),
-        "qc-quadratic-segment" => reg(Box::new(QuasiConformal::new(
-            ConformalForm::Quadratic,
-            QcWeights::Segment,
-        ))),
-        "qc-paper-segment" => reg(Box::new(QuasiConformal::new(
-            ConformalForm::Paper,
-            QcWeights::Segment,
-        ))),
-        _ => panic!("unknown metric {name}"),
+        "l2-pose" => return Box::new(L2),
+        "rigid-frozen" => return reg(Box::new(FrozenRigid)),
+        _ => {}
+    }
+    let (kind, form, weights) = variant(name).unwrap_or_else(|| panic!("unknown metric {name}"));
+    match kind {
+        MetricKind::L2 => Box::new(qcshape::metric::FrozenL2),
+        MetricKind::Rigid => reg(Box::new(Rigid)),
+        MetricKind::Isometric => reg(Box::new(Isometric)),
+        MetricKind::Conformal => reg(Box::new(Conformal { form })),
+        MetricKind::QuasiConformal => reg(Box::new(QuasiConformal::new(form, weights))),
     }
 }
 
 /// The library's metric `name` (see [`metric`]) as [`MetricSpec::new`] builds it with `lambda`,
 /// calibrated on `refs` (the two meshes in the solver's units).
 fn calibrated(name: &str, lambda: f64, a: &Shape, refs: &[&[[f64; 3]]]) -> Box<dyn Metric> {
-    let (kind, form, weights) = match name {
-        "l2" => (MetricKind::L2, ConformalForm::Quadratic, QcWeights::Endpoints),
-        "rigid" => (MetricKind::Rigid, ConformalForm::Quadratic, QcWeights::Endpoints),
-        "isometric" => (
-            MetricKind::Isometric,
-            ConformalForm::Quadratic,
-            QcWeights::Endpoints,
-        ),
-        "conformal-paper" => (MetricKind::Conformal, ConformalForm::Paper, QcWeights::Endpoints),
-        "conformal-quadratic" => (
-            MetricKind::Conformal,
-            ConformalForm::Quadratic,
-            QcWeights::Endpoints,
-        ),
-        "qc-quadratic-endpoints" => (
-            MetricKind::QuasiConformal,
-            ConformalForm::Quadratic,
-            QcWeights::Endpoints,
-        ),
-        "qc-paper-endpoints" => (
-            MetricKind::QuasiConformal,
-            ConformalForm::Paper,
-            QcWeights::Endpoints,
-        ),
-        "qc-quadratic-segment" => (
-            MetricKind::QuasiConformal,
-            ConformalForm::Quadratic,
-            QcWeights::Segment,
-        ),
-        "qc-paper-segment" => (
-            MetricKind::QuasiConformal,
-            ConformalForm::Paper,
-            QcWeights::Segment,
-        ),
-        _ => panic!("{name} has no --calibrated form"),
-    };
+    let (kind, form, weights) = variant(name).unwrap_or_else(|| panic!("{name} has no --calibrated form"));
     let spec = MetricSpec {
         form,
         weights,
