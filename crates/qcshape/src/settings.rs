@@ -83,6 +83,12 @@ pub const SETTINGS: &[Setting] = &[
         default: || Some(metric().scale.label().to_string()),
     },
     Setting {
+        key: "stretch",
+        python: "stretch",
+        group: Group::Metric,
+        default: || Some(metric().stretch.to_string()),
+    },
+    Setting {
         key: "qc-weights",
         python: "qc_weights",
         group: Group::Metric,
@@ -259,5 +265,10 @@ mod tests {
             renamed.to_string().starts_with("qc_floor must be >= 0"),
             "{renamed}"
         );
+        o = PipelineOptions::default();
+        o.metric.stretch = -0.5;
+        let e = o.validate(3).unwrap_err();
+        assert_eq!(e.what(), "stretch");
+        assert_eq!(python_name(e.what()), "stretch");
     }
 }
