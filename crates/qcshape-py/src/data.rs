@@ -387,7 +387,8 @@ pub fn run_pipeline(
 /// similarity_matrix(dataset, **options) -> ndarray (n, n): the similarity matrix (eq. 13) of
 /// a Dataset, computed as ``qcshape similarity`` does (interpolation, transfer to the first
 /// pose of the base deformation, sum of pose distances), equal to its CSV. Options (None or
-/// left out: the library's defaults): metric, form, weights, lam, l2_areas (the metric);
+/// left out: the library's defaults): metric, form, weights, lam, metric_scale, stretch,
+/// qc_weights, qc_floor, qc_smooth, l2_areas (the metric, as ``ShapeSpace``);
 /// steps, solver, tolerance, energy_tolerance, length_tolerance (the geodesics; the last
 /// stops each distance once its length has settled, 1e-8, 0 = off); insert (poses inserted between
 /// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), align ("rigid" |
@@ -415,7 +416,7 @@ pub fn run_pipeline(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, return_details=None, journal=None, resume=false, **options))]
 #[pyo3(
-    text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
+    text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]
@@ -512,7 +513,7 @@ fn pair_details<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, a, b, **options))]
 #[pyo3(
-    text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
+    text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]
@@ -573,7 +574,7 @@ pub fn pair_contributions<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
 #[pyo3(
-    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, weights=None, lam=None, metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
+    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
 transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
 )]

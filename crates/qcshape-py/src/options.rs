@@ -11,7 +11,7 @@ use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
 
 /// The metric keywords (the CLI's `--metric --form --weights --lambda --l2-areas --scale
-/// --qc-weights --qc-floor --qc-smooth`; `--scale` is `metric_scale`).
+/// --stretch --qc-weights --qc-floor --qc-smooth`; `--scale` is `metric_scale`).
 #[derive(Debug, Clone, Default)]
 pub struct MetricKw {
     pub metric: Option<String>,
@@ -20,6 +20,7 @@ pub struct MetricKw {
     pub lam: Option<f64>,
     pub l2_areas: Option<String>,
     pub metric_scale: Option<String>,
+    pub stretch: Option<f64>,
     pub qc_weights: Option<String>,
     pub qc_floor: Option<f64>,
     pub qc_smooth: Option<usize>,
@@ -75,6 +76,9 @@ impl MetricKw {
             spec.scale = s
                 .parse::<MetricScale>()
                 .map_err(|e| PyValueError::new_err(format!("metric_scale: {e}")))?;
+        }
+        if let Some(s) = self.stretch {
+            spec.stretch = s;
         }
         let mut qc = spec.qc_normalize.unwrap_or(QcNormalize {
             floor: 0.0,
@@ -218,6 +222,7 @@ impl PipelineKw {
                 "lam" | "lambda_" => k.metric.lam = Some(value.extract().map_err(bad)?),
                 "l2_areas" => k.metric.l2_areas = Some(value.extract().map_err(bad)?),
                 "metric_scale" => k.metric.metric_scale = Some(value.extract().map_err(bad)?),
+                "stretch" => k.metric.stretch = Some(value.extract().map_err(bad)?),
                 "qc_weights" => k.metric.qc_weights = Some(value.extract().map_err(bad)?),
                 "qc_floor" => k.metric.qc_floor = Some(value.extract().map_err(bad)?),
                 "qc_smooth" => {

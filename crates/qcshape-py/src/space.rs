@@ -122,11 +122,15 @@ impl PyGeodesic {
 /// shared by every shape; shapes are (nV, 3) float64 arrays, tangent vectors (nV, 3)
 /// displacements. Keywords (None keeps the library default, the CLI's): ``metric`` l2 | rigid
 /// | isometric (default) | conformal | quasi-conformal; ``form`` quadratic | paper; ``weights``
-/// endpoints | segment; ``lam`` L2 weight lambda (eq. 11, default 0.01 on the calibrated
-/// scale); ``metric_scale`` calibrated (default: every term over its own resolution-consistent
-/// scale, docs/geometry.md) | raw (the paper's sums in mean-edge units, the previous releases'
-/// with ``lam=0.1``); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5), ``qc_smooth``
-/// (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
+/// endpoints | segment; ``lam`` L2 weight lambda (eq. 11, default 0.01); ``metric_scale``
+/// invariant (default: every term a relative rate weighted by its face's area share,
+/// scale-invariant, G_{sM}(sX) = G_M(X), so geodesics do not shrink the shape;
+/// docs/method.md) | calibrated (every term over its own resolution-consistent scale,
+/// docs/geometry.md: the 2026-12-04 releases') | raw (the paper's sums in mean-edge units,
+/// the releases before, with ``lam=0.1``); ``stretch`` weight of the conformal and
+/// quasi-conformal metrics' stretch term on the invariant scale (the relative rate of change of
+/// each face's area; 0.1, 0 = none); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5),
+/// ``qc_smooth`` (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
 /// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
 /// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
@@ -185,7 +189,7 @@ fn put<'py, T: IntoPyObject<'py>>(d: &Bound<'py, PyDict>, name: &str, v: Option<
 impl PyShapeSpace {
     #[new]
     #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
-        metric_scale=None, qc_weights=None, qc_floor=None, qc_smooth=None,
+        metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None,
         steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None,
         reference=None, scale=None, n_vertices=None))]
     #[allow(clippy::too_many_arguments)]
@@ -197,6 +201,7 @@ impl PyShapeSpace {
         lam: Option<f64>,
         l2_areas: Option<String>,
         metric_scale: Option<String>,
+        stretch: Option<f64>,
         qc_weights: Option<String>,
         qc_floor: Option<f64>,
         qc_smooth: Option<AnyInt>,
@@ -220,6 +225,7 @@ impl PyShapeSpace {
         put(&kwargs, "lam", lam)?;
         put(&kwargs, "l2_areas", l2_areas.clone())?;
         put(&kwargs, "metric_scale", metric_scale.clone())?;
+        put(&kwargs, "stretch", stretch)?;
         put(&kwargs, "qc_weights", qc_weights.clone())?;
         put(&kwargs, "qc_floor", qc_floor)?;
         put(&kwargs, "qc_smooth", qc_smooth)?;
@@ -243,6 +249,7 @@ impl PyShapeSpace {
             lam,
             l2_areas,
             metric_scale,
+            stretch,
             qc_weights,
             qc_floor,
             qc_smooth,

@@ -35,10 +35,15 @@ def test_geodesic_is_symmetric(pair):
 def test_defaults_are_the_librarys(pair):
     V, B, F = pair
     space = qs.ShapeSpace(F)
-    assert space.metric == "isometric+0.01*l2(frozen),calibrated"
+    assert space.metric.startswith("isometric(relative)+0.01*") and space.metric.endswith(",invariant")
     assert space.steps == 8
-    explicit = qs.ShapeSpace(F, metric="isometric", lam=0.01, metric_scale="calibrated", steps=8, solver="preconditioned")
+    explicit = qs.ShapeSpace(
+        F, metric="isometric", lam=0.01, metric_scale="invariant", stretch=0.1, steps=8, solver="preconditioned"
+    )
+    assert space.metric == explicit.metric
     assert space.dist(V, B) == explicit.dist(V, B)
+    calibrated = qs.ShapeSpace(F, metric_scale="calibrated")
+    assert calibrated.metric == "isometric+0.01*l2(frozen),calibrated"
     previous = qs.ShapeSpace(F, metric="quasi-conformal", lam=0.1, metric_scale="raw", qc_weights="raw")
     assert previous.metric == "quasi-conformal(quadratic,endpoints)+0.1*l2(frozen),raw"
     qc = qs.ShapeSpace(F, metric="quasi-conformal", qc_floor=0.25, qc_smooth=2)
@@ -47,6 +52,23 @@ def test_defaults_are_the_librarys(pair):
         qs.ShapeSpace(F, metric_scale="size")
     with pytest.raises(ValueError, match="qc_floor"):
         qs.ShapeSpace(F, qc_floor=-1.0)
+
+
+def test_stretch_weighs_the_change_of_area(pair, synthetic):
+    import pickle
+
+    V, B, F = pair  # B changes the faces' areas (y scaled by 0.8)
+    stretched = qs.ShapeSpace(F, metric="conformal", stretch=0.5, steps=2)
+    free = qs.ShapeSpace(F, metric="conformal", stretch=0.0, steps=2)
+    assert "+0.5*stretch" in stretched.metric and "stretch" not in free.metric
+    assert qs.ShapeSpace(F, metric="conformal").metric == qs.ShapeSpace(F, metric="conformal", stretch=0.1).metric
+    assert pickle.loads(pickle.dumps(stretched)).metric == stretched.metric
+    d_stretched, d_free = stretched.dist(V, B), free.dist(V, B)
+    assert d_stretched > d_free > 0.0, (d_stretched, d_free)
+    with pytest.raises(ValueError, match="^stretch must be >= 0"):
+        qs.ShapeSpace(F, metric="conformal", stretch=-1.0)
+    with pytest.raises(ValueError, match="^stretch must be >= 0"):
+        qs.similarity_matrix(synthetic, metric="conformal", stretch=-1.0, progress=False)
 
 
 def test_dist_stops_when_the_length_settles_and_length_tolerance_switches_it_off(pair):

@@ -27,7 +27,8 @@ class _PipelineOptions(TypedDict, total=False):
     form: Optional[str]
     weights: Optional[str]
     lam: Optional[float]
-    metric_scale: Optional[str]
+    metric_scale: Optional[str]  # invariant (default) | calibrated | raw
+    stretch: Optional[float]
     qc_weights: Optional[str]
     qc_floor: Optional[float]
     qc_smooth: Optional[int]
@@ -110,6 +111,7 @@ class ShapeSpace:
         lam: Optional[float] = None,
         l2_areas: Optional[str] = None,
         metric_scale: Optional[str] = None,
+        stretch: Optional[float] = None,
         qc_weights: Optional[str] = None,
         qc_floor: Optional[float] = None,
         qc_smooth: Optional[int] = None,
