@@ -43,12 +43,19 @@ pub struct VariantArgs {
     /// At most 1e6.
     #[arg(long, default_value_t = defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     pub lambda: f64,
-    /// How the metric's terms are scaled: calibrated (each term divided by its own
-    /// resolution-consistent scale at the reference pose, so distances and lambda do not depend
-    /// on the mesh resolution or size) or raw (the paper's sums in mean-edge units, the
-    /// previous releases').
+    /// How the metric's terms are scaled: invariant (every term a relative rate weighted by its
+    /// face's area share: scaling a pose and its motion together changes nothing, so geodesics
+    /// do not shrink the shape; the conformal terms as eq. 6), calibrated (eq. 3's and eq. 7's
+    /// sums divided by their scale at the reference pose: the 2026-12-04 releases') or raw (the
+    /// paper's sums in mean-edge units, the releases before).
     #[arg(long, default_value = defaults::SCALE.label())]
     pub scale: MetricScale,
+    /// Weight of the stretch term of the conformal and quasi-conformal metrics on the invariant
+    /// scale: the relative rate of change of each face's area, which the conformal terms leave
+    /// free (uniform scaling); 0 disables it.
+    /// At most 1e6.
+    #[arg(long, default_value_t = defaults::STRETCH, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    pub stretch: f64,
     /// Quasi-conformal endpoint weights: rms (the curvature-change density over its RMS, with
     /// --qc-floor) or raw (the paper's angle-defect change in radians).
     #[arg(long, default_value = if defaults::QC_NORMALIZE.is_some() { "rms" } else { "raw" }, value_parser = ["rms", "raw"])]
@@ -88,6 +95,7 @@ impl VariantArgs {
             },
             lambda: self.lambda,
             frozen_areas: self.l2_areas == "frozen",
+            stretch: self.stretch,
         };
         spec.validate().map_err(flag_error)?;
         if let Some(w) = spec.warning() {

@@ -138,5 +138,6 @@ def test_geodesic_cli_and_python_dist_give_one_distance(tmp_path, pair):
     space = qs.ShapeSpace(F)
     d_ab, d_ba = space.dist(V, B), space.dist(B, V)
     assert ab > 0.05
+    # B -> A is solved as its own problem: the same distance to rounding.
     for d in (ba, d_ab, d_ba):
-        assert abs(d - ab) <= 1e-12, (ab, ba, d_ab, d_ba)
+        assert abs(d - ab) <= 1e-11 * ab, (ab, ba, d_ab, d_ba)

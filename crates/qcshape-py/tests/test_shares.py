@@ -83,16 +83,25 @@ def test_tangent_details_have_no_energy_split(synthetic):
 
 def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
     """The tangent mode weighs each pair by its own curvature-change weights: a symmetric
-    matrix with a zero diagonal whose nearest neighbours are the exact matrix's."""
+    matrix with a zero diagonal whose nearest neighbours are of the exact matrix's classes, and
+    (on the scale-invariant forms, whose geodesics no longer shrink the shape) whose values
+    are the exact ones to within 15 % (measured: 12 %). Two of the three twists are nearly the
+    same deformation (distance 0.001), so the third's nearest neighbour is a tie: compare
+    classes, not indices."""
     ds = small(synthetic)
     T = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, approx="tangent", progress=False)
     E = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, progress=False)
     assert np.all(np.isfinite(T)) and np.allclose(T, T.T) and np.all(np.diag(T) == 0.0)
-    assert np.all(T[~np.eye(len(ds), dtype=bool)] > 0.0)
+    off_diag = ~np.eye(len(ds), dtype=bool)
+    assert np.all(T[off_diag] > 0.0)
     off = np.where(np.eye(len(ds), dtype=bool), np.inf, 0.0)
     nearest_t, nearest_e = np.argmin(T + off, axis=1), np.argmin(E + off, axis=1)
     assert np.all(nearest_t != np.arange(len(ds)))
-    assert np.array_equal(nearest_t, nearest_e), (nearest_t, nearest_e)
+    cls = np.array([0, 0, 0, 1, 1, 1])
+    assert np.array_equal(cls[nearest_t], cls[nearest_e]), (nearest_t, nearest_e)
+    big = E[off_diag] > 0.01
+    rel = np.abs(T[off_diag][big] - E[off_diag][big]) / E[off_diag][big]
+    assert rel.max() < 0.15, rel
 
 
 def test_return_details_must_be_a_bool(synthetic):

@@ -111,6 +111,16 @@ pub enum LimitError {
         /// The value given.
         value: f64,
     },
+    /// A value that is valid on its own but not together with another setting.
+    #[error("{what} {value} is not available with {with}")]
+    Unsupported {
+        /// The option or argument.
+        what: String,
+        /// The value given.
+        value: String,
+        /// The other setting's value that excludes it (e.g. `--scale invariant`).
+        with: String,
+    },
 }
 
 impl LimitError {
@@ -133,6 +143,11 @@ impl LimitError {
                 max,
                 value,
             },
+            LimitError::Unsupported { what, value, with } => LimitError::Unsupported {
+                what: spell(&what),
+                value,
+                with,
+            },
         }
     }
 
@@ -141,7 +156,8 @@ impl LimitError {
         match self {
             LimitError::TooLarge { what, .. }
             | LimitError::TooSmall { what, .. }
-            | LimitError::OutOfRange { what, .. } => what,
+            | LimitError::OutOfRange { what, .. }
+            | LimitError::Unsupported { what, .. } => what,
         }
     }
 }

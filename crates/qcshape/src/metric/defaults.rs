@@ -18,9 +18,14 @@ pub const METRIC: MetricKind = MetricKind::Isometric;
 /// [`MetricScale::Calibrated`] scale (a ratio of two dimensionless terms; docs/geometry.md).
 pub const LAMBDA: f64 = 0.01;
 
-/// How the metric's terms are scaled: calibrated (dimensionless, resolution-consistent terms;
-/// docs/geometry.md).
-pub const SCALE: MetricScale = MetricScale::Calibrated;
+/// How the metric's terms are scaled: scale-invariant forms (dimensionless,
+/// resolution-consistent, and free of the shrinking of eq. 7's conformal terms; docs/method.md
+/// "Scale-invariant forms").
+pub const SCALE: MetricScale = MetricScale::Invariant;
+
+/// Weight of the stretch term of the conformal and quasi-conformal metrics on the invariant
+/// scale (the relative rate of change of each face's area against the corner terms' shear).
+pub const STRETCH: f64 = 0.1;
 
 /// Normalization of the quasi-conformal `endpoints` weights: the curvature-change density over
 /// its RMS, floored (docs/geometry.md).

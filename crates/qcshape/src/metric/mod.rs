@@ -20,6 +20,7 @@ mod isometric;
 mod l2;
 mod quasi_conformal;
 mod regularized;
+mod relative;
 mod rigid;
 mod rigid_frozen;
 mod second_order;
@@ -34,7 +35,8 @@ pub use gradient::{gradient_from_jacobian, segment_gradient_per_term, GradientSi
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
-pub use regularized::Regularized;
+pub use regularized::{Regularized, RegularizerL2};
+pub use relative::{RelativeConformal, RelativeIsometric, RelativeL2};
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;

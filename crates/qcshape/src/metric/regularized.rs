@@ -1,23 +1,35 @@
 use super::{
-    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment,
-    SegmentSink, L2,
+    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, RelativeL2, Scratch, SecondOrderSink,
+    Segment, SegmentSink, L2,
 };
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times
 /// the L2 residuals. Makes conformal-type metrics positive definite (METHOD.md).
 ///
-/// The L2 part is [`FrozenL2`] (area weights frozen at the path's ends) by default, or the
-/// literal [`L2`] (weights of the pose itself) with [`Regularized::with_pose_areas`]. Frozen
-/// weights are passed as one array: the inner metric's, then the regularizer's (#V).
+/// The L2 part is [`FrozenL2`] (area weights frozen at the path's ends) by default, the
+/// literal [`L2`] (weights of the pose itself) with [`Regularized::with_pose_areas`], or the
+/// scale-invariant [`RelativeL2`] with [`Regularized::relative`]. Frozen weights are passed as
+/// one array: the inner metric's, then the regularizer's (#V, or 2 #F for [`RelativeL2`]).
 #[derive(Debug)]
 pub struct Regularized {
     /// The metric being regularized.
     pub inner: Box<dyn Metric>,
     /// Weight `lambda >= 0` of the L2 term.
     pub lambda: f64,
-    /// Whether the L2 part uses frozen (true, default) or per-pose (false) area weights.
-    pub frozen_areas: bool,
+    /// Which L2 term regularizes.
+    pub l2: RegularizerL2,
+}
+
+/// The L2 term of a [`Regularized`] metric (eq. 11).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RegularizerL2 {
+    /// [`FrozenL2`]: area weights frozen at the path's ends (#V frozen values).
+    Frozen,
+    /// [`L2`]: the area weights of the pose itself (no frozen values).
+    PoseAreas,
+    /// [`RelativeL2`]: the scale-invariant form (2 #F frozen values).
+    Relative,
 }
 
 impl Regularized {
@@ -26,7 +38,7 @@ impl Regularized {
         Regularized {
             inner,
             lambda,
-            frozen_areas: true,
+            l2: RegularizerL2::Frozen,
         }
     }
 
@@ -35,15 +47,34 @@ impl Regularized {
         Regularized {
             inner,
             lambda,
-            frozen_areas: false,
+            l2: RegularizerL2::PoseAreas,
+        }
+    }
+
+    /// `inner + lambda * L2` with the scale-invariant [`RelativeL2`] (docs/method.md
+    /// "Scale-invariant forms").
+    pub fn relative(inner: Box<dyn Metric>, lambda: f64) -> Self {
+        Regularized {
+            inner,
+            lambda,
+            l2: RegularizerL2::Relative,
         }
     }
 
     fn l2(&self) -> &dyn Metric {
-        if self.frozen_areas {
-            &FrozenL2
-        } else {
-            &L2
+        match self.l2 {
+            RegularizerL2::Frozen => &FrozenL2,
+            RegularizerL2::PoseAreas => &L2,
+            RegularizerL2::Relative => &RelativeL2,
+        }
+    }
+
+    /// Number of the L2 part's frozen values.
+    fn l2_frozen_len(&self, topo: &Topology) -> usize {
+        match self.l2 {
+            RegularizerL2::Frozen => topo.n_vertices(),
+            RegularizerL2::PoseAreas => 0,
+            RegularizerL2::Relative => super::relative::PER_FACE * topo.n_faces(),
         }
     }
 }
@@ -120,7 +151,7 @@ impl Metric for Regularized {
         end: &[[f64; 3]],
         [sa, sb]: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
-        // The same split as the frozen weights: the L2 part is the last #V values.
+        // The same split as the frozen weights: the L2 part is the last values.
         let ((ia, la), (ib, lb)) = (
             self.split_frozen(topo, Some(sa)),
             self.split_frozen(topo, Some(sb)),
@@ -298,7 +329,7 @@ impl Metric for Regularized {
         r: &[f64],
         sink: &mut SecondOrderSink,
     ) -> bool {
-        if !self.frozen_areas {
+        if self.l2 != RegularizerL2::Frozen {
             return false;
         }
         let parts = self.patterns(topo, pattern);
@@ -339,7 +370,7 @@ impl Regularized {
         segs: [&Segment; 2],
     ) -> ([f64; 2], [f64; 2]) {
         let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
-        let (v_in, v_l2) = if self.frozen_areas {
+        let (v_in, v_l2) = if self.l2 == RegularizerL2::Frozen {
             // The frozen L2 part needs no pattern: no rebased copy of its offsets.
             let inner = self.inner_pattern(topo, pattern);
             let v_in = self.inner.segment_squared_norms(topo, inner, [&s0_in, &s1_in]);
@@ -394,15 +425,15 @@ impl Regularized {
         (seg_in, seg_l2)
     }
 
-    /// Splits a frozen-weight array into the inner metric's part and the L2 part (#V when the
-    /// areas are frozen).
+    /// Splits a frozen-weight array into the inner metric's part and the L2 part (its last
+    /// values: #V for frozen areas, 2 #F for the relative form).
     fn split_frozen<'a>(
         &self,
         topo: &Topology,
         frozen: Option<&'a [f64]>,
     ) -> (Option<&'a [f64]>, Option<&'a [f64]>) {
         let Some(f) = frozen else { return (None, None) };
-        let nl = if self.frozen_areas { topo.n_vertices() } else { 0 };
+        let nl = self.l2_frozen_len(topo);
         if f.len() < nl {
             return (Some(f), None);
         }

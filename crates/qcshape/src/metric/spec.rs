@@ -4,7 +4,7 @@ use thiserror::Error;
 
 use super::{
     Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcNormalize, QcWeights,
-    QuasiConformal, Regularized, Rigid, Weighted, L2,
+    QuasiConformal, Regularized, RelativeConformal, RelativeIsometric, RelativeL2, Rigid, Weighted, L2,
 };
 use crate::mesh::geometry::{dot, sub, total_area};
 use crate::mesh::Topology;
@@ -60,9 +60,20 @@ impl std::str::FromStr for MetricKind {
     }
 }
 
-/// How a metric's terms are scaled, which fixes what `lambda` means (METHOD.md "Scale").
+/// How a metric's terms are scaled, which fixes what `lambda` means (docs/method.md "Scale").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum MetricScale {
+    /// Scale-invariant forms (docs/method.md "Scale-invariant forms"): every term a rate of
+    /// relative change weighted by its face's area share ([`RelativeIsometric`],
+    /// [`RelativeConformal`]: conformal and quasi-conformal as eq. 6's relative rates, not
+    /// eq. 7's; the regularizer [`RelativeL2`]),
+    /// so that `G_{sM}(sX) = G_M(X)` for every pose: a geodesic gains nothing by shrinking the
+    /// shape. Dimensionless and resolution-consistent; `lambda` a plain ratio. The regularizer
+    /// is the calibrated, flat L2 term by default (frozen areas; its share of the energy is
+    /// under 1 %), [`RelativeL2`] with per-pose areas ([`MetricSpec::frozen_areas`] false).
+    /// The L2 and rigid metrics, the flat displacement baselines, keep their
+    /// [`MetricScale::Calibrated`] forms.
+    Invariant,
     /// Every term divided by its own scale at the reference pose(s) of the analysis
     /// ([`Calibration`]): the geometric term becomes an area-weighted mean of squared strain
     /// rates (isometric: edge strain `<dX_e, e> / |e|^2`; conformal and quasi-conformal: the
@@ -70,7 +81,9 @@ pub enum MetricScale {
     /// regularizer) the mean squared displacement per unit area `sum_p A_p |X_p|^2 / A^2`.
     /// Both are dimensionless and converge as the mesh is refined, so `lambda` is a plain
     /// ratio that does not depend on the resolution, the shapes' size or the coordinates'
-    /// units. The default.
+    /// units. The terms keep eq. 3's and eq. 7's powers of the pose's size (the conformal
+    /// terms scale like its sixth power), so a geodesic can shrink the shape on the way
+    /// (releases of 2026-12-04 to 2026-12-06).
     Calibrated,
     /// The paper's sums as written, in coordinates divided by the mean edge length (every
     /// release before 2026-12-04, `lambda` 0.1): the terms scale with the resolution
@@ -81,11 +94,12 @@ pub enum MetricScale {
 
 impl MetricScale {
     /// Every scale, the default first.
-    pub const ALL: [MetricScale; 2] = [MetricScale::Calibrated, MetricScale::Raw];
+    pub const ALL: [MetricScale; 3] = [MetricScale::Invariant, MetricScale::Calibrated, MetricScale::Raw];
 
-    /// The command-line name (`"calibrated"`, `"raw"`).
+    /// The command-line name (`"invariant"`, `"calibrated"`, `"raw"`).
     pub fn label(self) -> &'static str {
         match self {
+            MetricScale::Invariant => "invariant",
             MetricScale::Calibrated => "calibrated",
             MetricScale::Raw => "raw",
         }
@@ -98,7 +112,7 @@ impl std::str::FromStr for MetricScale {
         MetricScale::ALL
             .into_iter()
             .find(|m| m.label() == s)
-            .ok_or_else(|| format!("unknown metric scale '{s}' (expected calibrated or raw)"))
+            .ok_or_else(|| format!("unknown metric scale '{s}' (expected invariant, calibrated or raw)"))
     }
 }
 
@@ -161,8 +175,16 @@ pub struct MetricSpec {
     pub lambda: f64,
     /// How the terms are scaled (what `lambda` means).
     pub scale: MetricScale,
-    /// L2 area weights frozen at the path's ends (true) or taken from each pose (false).
+    /// L2 area weights frozen at the path's ends (true) or taken from each pose (false). On the
+    /// [`MetricScale::Invariant`] scale the isometric and conformal metrics' regularizer is
+    /// then the flat, calibrated [`FrozenL2`] (true: translations cost the same at every size,
+    /// so a geodesic between translated copies is the straight translation) or the
+    /// scale-invariant [`RelativeL2`], measured against each pose's own size (false).
     pub frozen_areas: bool,
+    /// Weight of the stretch term of the conformal and quasi-conformal metrics on the
+    /// [`MetricScale::Invariant`] scale (the relative rate of change of each face's area,
+    /// [`RelativeConformal`]); 0: none. Ignored by the other metrics and scales.
+    pub stretch: f64,
 }
 
 impl MetricSpec {
@@ -174,6 +196,20 @@ impl MetricSpec {
     pub fn validate(&self) -> Result<(), crate::limits::LimitError> {
         use crate::limits::{count, non_negative, MAX_LAMBDA, MAX_SWEEPS};
         non_negative("lambda", self.lambda, MAX_LAMBDA)?;
+        non_negative("stretch", self.stretch, MAX_LAMBDA)?;
+        if self.relative() && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal) {
+            let unsupported = |what: &str, value: &str| crate::limits::LimitError::Unsupported {
+                what: what.into(),
+                value: value.into(),
+                with: "the invariant scale (use the calibrated or raw scale)".into(),
+            };
+            if self.form != ConformalForm::Quadratic {
+                return Err(unsupported("form", self.form.label()));
+            }
+            if self.kind == MetricKind::QuasiConformal && self.weights != QcWeights::Endpoints {
+                return Err(unsupported("weights", self.weights.label()));
+            }
+        }
         if let Some(q) = self.qc_normalize {
             non_negative("qc-floor", q.floor, MAX_LAMBDA)?;
             count("qc-smooth", q.smooth, 0, MAX_SWEEPS)?;
@@ -210,6 +246,7 @@ impl MetricSpec {
             lambda: super::defaults::LAMBDA,
             scale: super::defaults::SCALE,
             frozen_areas: true,
+            stretch: super::defaults::STRETCH,
         }
     }
 
@@ -221,6 +258,17 @@ impl MetricSpec {
             qc_normalize: None,
             lambda: super::defaults::RAW_LAMBDA,
             scale: MetricScale::Raw,
+            stretch: 0.0,
+            ..MetricSpec::new(kind)
+        }
+    }
+
+    /// The configuration of the releases of 2026-12-04 to 2026-12-06: the calibrated scale
+    /// (eq. 7's conformal terms), `lambda` [`super::defaults::LAMBDA`], no stretch term.
+    pub fn calibrated(kind: MetricKind) -> Self {
+        MetricSpec {
+            scale: MetricScale::Calibrated,
+            stretch: 0.0,
             ..MetricSpec::new(kind)
         }
     }
@@ -233,7 +281,9 @@ impl MetricSpec {
         let core = if self.kind == MetricKind::L2 || self.lambda <= 0.0 {
             inner
         } else {
-            let l2 = if self.frozen_areas {
+            let l2 = if self.relative() && !self.frozen_areas {
+                RelativeL2.name()
+            } else if self.frozen_areas {
                 FrozenL2.name()
             } else {
                 L2.name()
@@ -250,7 +300,7 @@ impl MetricSpec {
     /// the references (isometric: `1 / sum_e |e|^4`; conformal and quasi-conformal:
     /// `1 / sum over corners |e1|^4 |e2|^4`; L2 and rigid: `1 / A^2`) and `1 / A^2` for L2.
     pub fn calibrate(&self, topo: &Topology, refs: &[&[[f64; 3]]]) -> Result<Calibration, CalibrationError> {
-        if self.scale == MetricScale::Raw {
+        if self.scale == MetricScale::Raw || (self.relative() && !self.frozen_areas) {
             return Ok(Calibration::RAW);
         }
         let nv = topo.n_vertices();
@@ -273,6 +323,7 @@ impl MetricSpec {
         let area = positive("area", area)?;
         let l2 = 1.0 / (area * area);
         let geometric = match self.kind {
+            _ if self.relative() => 1.0,
             MetricKind::L2 | MetricKind::Rigid => l2,
             MetricKind::Isometric => {
                 1.0 / positive("sum of |e|^4 over the edges", mean(&|r| edge_scale(topo, r)))?
@@ -304,15 +355,52 @@ impl MetricSpec {
         reference: &[[f64; 3]],
         factor: f64,
     ) -> Result<Box<dyn Metric>, CalibrationError> {
-        if self.scale == MetricScale::Raw {
+        if self.scale == MetricScale::Raw || (self.relative() && !self.frozen_areas) {
             return Ok(self.build(&Calibration::RAW));
         }
         let scaled: Vec<[f64; 3]> = reference.iter().map(|p| p.map(|c| c * factor)).collect();
         self.build_for(topo, &[&scaled])
     }
 
+    /// Whether the metric takes the scale-invariant forms: the isometric, conformal and
+    /// quasi-conformal metrics on the [`MetricScale::Invariant`] scale. The L2 and rigid
+    /// metrics keep their calibrated forms there: they are the flat baselines (L2 geodesics
+    /// are straight lines), and measure displacement, not its rate relative to the shape.
+    fn relative(&self) -> bool {
+        self.scale == MetricScale::Invariant
+            && matches!(
+                self.kind,
+                MetricKind::Isometric | MetricKind::Conformal | MetricKind::QuasiConformal
+            )
+    }
+
     /// The metric without regularizer or factors.
     fn inner(&self) -> Box<dyn Metric> {
+        if self.relative() {
+            let qc = || {
+                let qc = QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Endpoints);
+                match self.qc_normalize {
+                    Some(n) => qc.normalized(n),
+                    None => qc,
+                }
+            };
+            match self.kind {
+                MetricKind::Isometric => return Box::new(RelativeIsometric),
+                MetricKind::Conformal => {
+                    return Box::new(RelativeConformal {
+                        qc: None,
+                        stretch: self.stretch,
+                    })
+                }
+                MetricKind::QuasiConformal => {
+                    return Box::new(RelativeConformal {
+                        qc: Some(qc()),
+                        stretch: self.stretch,
+                    })
+                }
+                MetricKind::L2 | MetricKind::Rigid => {}
+            }
+        }
         match self.kind {
             MetricKind::L2 => {
                 if self.frozen_areas {
@@ -356,7 +444,9 @@ impl MetricSpec {
         }
         if self.lambda > 0.0 {
             let lambda = self.lambda * cal.l2;
-            if self.frozen_areas {
+            if self.relative() && !self.frozen_areas {
+                Box::new(Regularized::relative(inner, lambda))
+            } else if self.frozen_areas {
                 Box::new(Regularized::new(inner, lambda))
             } else {
                 Box::new(Regularized::with_pose_areas(inner, lambda))
@@ -459,10 +549,88 @@ mod tests {
         }
     }
 
+    /// The property of the invariant scale (issue 47): for every metric whose default form is
+    /// on it (isometric, conformal, quasi-conformal), a pose scaled by `s` with its
+    /// displacement scaled by `s` (the metric's frozen values fixed, as on a path's interior)
+    /// gives the same squared norm, `G_{sM}(sX) = G_M(X)`, to 1e-10 for s from 0.01 to 100:
+    /// the default's geometric term, and the whole metric with the per-pose (relative)
+    /// regularizer. The default's flat L2 regularizer (and the L2 and rigid baselines) scale
+    /// like `s^2`; the calibrated eq. 7 form of the conformal metrics like `s^8` (T_p is quartic).
+    #[test]
+    fn invariant_metrics_are_scale_invariant() {
+        use crate::metric::{At, Segment};
+        let s = crate::synth::icosphere(2);
+        let topo = &s.topology;
+        let a: Vec<[f64; 3]> = s
+            .positions
+            .iter()
+            .map(|p| [p[0] * 1.2, p[1], p[2] * 0.9])
+            .collect();
+        let b: Vec<[f64; 3]> = a
+            .iter()
+            .map(|p| {
+                [
+                    p[0] + 0.1 * p[1] * p[2],
+                    p[1] * 1.1 - 0.05 * p[0],
+                    p[2] + 0.1 * p[0] * p[0],
+                ]
+            })
+            .collect();
+        // [geometric, regularizer] summed over both ends of the segment (a, b) scaled by f.
+        let parts = |spec: &MetricSpec, f: f64| {
+            let m = spec.build_for(topo, &[&a]).unwrap();
+            let frozen = m.frozen_weights(topo, &a, &b);
+            let (sa, sb): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (
+                a.iter().map(|p| p.map(|c| c * f)).collect(),
+                b.iter().map(|p| p.map(|c| c * f)).collect(),
+            );
+            let seg = |at| Segment {
+                a: &sa,
+                b: &sb,
+                at,
+                aux: &[],
+                frozen: frozen.as_deref(),
+            };
+            let pat = m.pattern(topo);
+            m.segment_energy_parts(topo, pat.as_ref(), [&seg(At::Start), &seg(At::End)])
+        };
+        for kind in [
+            MetricKind::Isometric,
+            MetricKind::Conformal,
+            MetricKind::QuasiConformal,
+        ] {
+            let spec = MetricSpec::new(kind);
+            assert_eq!(spec.scale, MetricScale::Invariant);
+            let relative = MetricSpec {
+                frozen_areas: false,
+                ..spec
+            };
+            let ([g1, r1], [t1, u1]) = (parts(&spec, 1.0), parts(&relative, 1.0));
+            assert!(g1 > 0.0 && r1 > 0.0 && u1 > 0.0);
+            for f in [0.01, 0.1, 3.0, 100.0] {
+                let ([gf, rf], [tf, uf]) = (parts(&spec, f), parts(&relative, f));
+                assert!((gf - g1).abs() <= 1e-10 * g1, "{kind:?} x {f}: {gf} vs {g1}");
+                assert!(
+                    (tf + uf - t1 - u1).abs() <= 1e-10 * (t1 + u1),
+                    "{kind:?} relative x {f}: {} vs {}",
+                    tf + uf,
+                    t1 + u1
+                );
+                // The flat regularizer: s^2.
+                assert!((rf - f * f * r1).abs() <= 1e-10 * f * f * r1, "{kind:?} x {f}");
+            }
+            if kind != MetricKind::Isometric {
+                let old = MetricSpec::calibrated(kind);
+                let ([o1, _], [o2, _]) = (parts(&old, 1.0), parts(&old, 2.0));
+                assert!((o2 / o1 - 256.0).abs() < 1e-6, "{kind:?} calibrated: {}", o2 / o1);
+            }
+        }
+    }
+
     #[test]
     fn calibration_refuses_degenerate_references() {
         let s = crate::synth::icosphere(1);
-        let spec = MetricSpec::new(MetricKind::Isometric);
+        let spec = MetricSpec::calibrated(MetricKind::Isometric);
         let flat = vec![[0.0; 3]; s.n_vertices()];
         assert!(matches!(
             spec.calibrate(&s.topology, &[&flat]),

@@ -441,9 +441,15 @@ mod tests {
             assert_eq!(d[0], 0.0, "both start at the base");
             // The reference: G at the base's geometry, displacement Q - P, the pair's QC
             // weights (the first #V frozen values) and the base's L2 areas (the last #V).
+            // On the invariant scale the QC weights follow the face shares (2 #F values).
+            let off = if spec.scale == crate::metric::MetricScale::Invariant {
+                2 * topo.n_faces()
+            } else {
+                0
+            };
             let pair = m.frozen_weights(&topo, &p, &q).unwrap();
             let mut frozen = m.frozen_weights(&topo, &v, &v).unwrap();
-            frozen[..nv].copy_from_slice(&pair[..nv]);
+            frozen[off..off + nv].copy_from_slice(&pair[off..off + nv]);
             let moved: Vec<[f64; 3]> = v
                 .iter()
                 .zip(minus(&q, &p))
@@ -471,7 +477,7 @@ mod tests {
         for spec in [
             MetricSpec {
                 form: crate::metric::ConformalForm::Paper,
-                ..MetricSpec::new(MetricKind::QuasiConformal)
+                ..MetricSpec::calibrated(MetricKind::QuasiConformal)
             },
             MetricSpec {
                 weights: crate::metric::QcWeights::Segment,

@@ -1,0 +1,87 @@
+use super::{edge_shares, face_summary, mean_summary, path_faces, segment_faces, PER_FACE};
+use crate::mesh::geometry::{dot, scale, sub};
+use crate::mesh::Topology;
+use crate::metric::{
+    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment,
+};
+
+/// The scale-invariant isometric metric (eq. 3 as a strain, docs/method.md "Scale-invariant
+/// forms"): `G_M(X) = sum over edges (p, q) of w_e (<X_p - X_q, p - q> / |p - q|^2)^2`, the
+/// area-weighted mean squared edge strain rate (`w_e` a third of the frozen area shares of the
+/// edge's faces; the shares sum to one). Vanishes on infinitesimal rigid motions; a uniform
+/// scaling `X = t M` costs `t^2`. Dimensionless; `G_{sM}(sX) = G_M(X)`.
+///
+/// One residual per edge, depending on its two vertices.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RelativeIsometric;
+
+impl Metric for RelativeIsometric {
+    fn name(&self) -> String {
+        "isometric(relative)".into()
+    }
+
+    fn pattern(&self, topo: &Topology) -> Pattern {
+        Pattern::from_rows(topo.edges().iter())
+    }
+
+    fn n_residuals(&self, topo: &Topology) -> usize {
+        topo.n_edges()
+    }
+
+    /// The mean face shares of the two ends (2 #F).
+    fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
+        let nv = topo.n_vertices();
+        (start.len() == nv && end.len() == nv).then(|| path_faces(topo, start, end))
+    }
+
+    /// The pose's face shares (2 #F).
+    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+        (pose.len() == topo.n_vertices()).then(|| face_summary(topo, pose))
+    }
+
+    fn frozen_weights_from(
+        &self,
+        topo: &Topology,
+        start: &[[f64; 3]],
+        end: &[[f64; 3]],
+        [a, b]: [&[f64]; 2],
+    ) -> Option<Vec<f64>> {
+        let n = PER_FACE * topo.n_faces();
+        if a.len() != n || b.len() != n {
+            return self.frozen_weights(topo, start, end);
+        }
+        Some(mean_summary(a, b))
+    }
+
+    fn residuals(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &mut [f64],
+        mut jac: Option<JacobianMut>,
+    ) {
+        let (g, x) = geometry_and_displacement(seg);
+        let faces = segment_faces(topo, seg);
+        let shares = edge_shares(topo, &faces);
+        for (ei, e) in topo.edges().iter().enumerate() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let de = sub(g[p], g[q]);
+            let dx = sub(x[p], x[q]);
+            let (l, pr) = (dot(de, de), dot(de, dx));
+            let s = shares[ei].max(0.0).sqrt();
+            r[ei] = s * pr / l;
+            if let Some(j) = jac.as_mut() {
+                // d(pr / l)/de = dx / l - 2 pr e / l^2, d(pr / l)/dX = e / l.
+                let dg = scale(sub(scale(dx, 1.0 / l), scale(de, 2.0 * pr / (l * l))), s);
+                let dd = scale(de, s / l);
+                let (da, db) = split_segment(seg.at, dg, dd);
+                j.da[2 * ei] = da;
+                j.db[2 * ei] = db;
+                let (da, db) = split_segment(seg.at, dg.map(|v| -v), dd.map(|v| -v));
+                j.da[2 * ei + 1] = da;
+                j.db[2 * ei + 1] = db;
+            }
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! The scale-invariant ("relative") forms of the metrics (docs/method.md "Scale-invariant
+//! forms"): every term is a rate of *relative* change, so that scaling a pose and its
+//! displacement together by `s` leaves the metric unchanged, `G_{sM}(sX) = G_M(X)`.
+//!
+//! - [`RelativeL2`] (eq. 11): displacement over the local size of the pose;
+//! - [`RelativeIsometric`] (eq. 3): edge strain rate `<X_p - X_q, p - q> / |p - q|^2`;
+//! - [`RelativeConformal`] (eq. 6, and eq. 10 with curvature-change weights): the difference of
+//!   the two edge strain rates at each corner, plus an optional stretch term on the relative
+//!   rate of change of each face's area.
+//!
+//! Every term is weighted by its face's share of the surface area, frozen along a path (the
+//! mean of the two ends' shares, [`Metric::frozen_weights`]); so each metric is an
+//! area-weighted mean of squared dimensionless rates: it does not depend on the coordinates'
+//! units, converges as the mesh is refined and needs no calibration against a reference pose.
+//! With eq. 7's form (the rates multiplied by squared edge lengths) a shape's conformal cost
+//! falls like the sixth power of its size, and geodesics shrink the shape on the way (the
+//! reason for these forms).
+
+mod conformal;
+mod isometric;
+mod l2;
+
+pub use conformal::RelativeConformal;
+pub use isometric::RelativeIsometric;
+pub use l2::RelativeL2;
+
+use std::borrow::Cow;
+
+use super::Segment;
+use crate::mesh::geometry::{cross, dot, norm, sub};
+use crate::mesh::Topology;
+
+/// Frozen values per face of every relative form: the area share `c_f = A_f / A` and the size
+/// share `q_f = L_f / A` (`L_f` the sum of the face's squared edge lengths).
+pub(crate) const PER_FACE: usize = 2;
+
+/// The face summary of one pose (2 #F values, dimensionless): `[c_f for every face, q_f for
+/// every face]` (see [`PER_FACE`]). Zeros for a pose of zero area.
+pub(crate) fn face_summary(topo: &Topology, pose: &[[f64; 3]]) -> Vec<f64> {
+    let nf = topo.n_faces();
+    let mut out = vec![0.0; PER_FACE * nf];
+    let mut total = 0.0;
+    for (fi, f) in topo.faces().iter().enumerate() {
+        let [p, q, r] = f.map(|i| pose[i as usize]);
+        let (e0, e1, e2) = (sub(q, p), sub(r, q), sub(p, r));
+        let area = 0.5 * norm(cross(e0, sub(r, p)));
+        out[fi] = area;
+        out[nf + fi] = dot(e0, e0) + dot(e1, e1) + dot(e2, e2);
+        total += area;
+    }
+    let inv = if total > 0.0 && total.is_finite() {
+        1.0 / total
+    } else {
+        0.0
+    };
+    for v in &mut out {
+        *v *= inv;
+    }
+    out
+}
+
+/// The mean of two face summaries (the frozen values of a path between the two poses).
+pub(crate) fn mean_summary(a: &[f64], b: &[f64]) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect()
+}
+
+/// The frozen face values of a path from `start` to `end` (2 #F).
+pub(crate) fn path_faces(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Vec<f64> {
+    mean_summary(&face_summary(topo, start), &face_summary(topo, end))
+}
+
+/// The face values a segment term uses: the first 2 #F values of `seg.frozen`, or, without
+/// them, those of a path between the segment's own ends.
+pub(crate) fn segment_faces<'a>(topo: &Topology, seg: &Segment<'a>) -> Cow<'a, [f64]> {
+    let n = PER_FACE * topo.n_faces();
+    match seg.frozen {
+        Some(f) if f.len() >= n => Cow::Borrowed(&f[..n]),
+        _ => Cow::Owned(path_faces(topo, seg.a, seg.b)),
+    }
+}
+
+/// The area share of each edge (#E): a third of each adjacent face's share `c_f`, so that the
+/// shares sum to one.
+pub(crate) fn edge_shares(topo: &Topology, faces: &[f64]) -> Vec<f64> {
+    let mut w = vec![0.0; topo.n_edges()];
+    for (fi, fe) in topo.face_edges().iter().enumerate() {
+        for &e in fe {
+            w[e as usize] += faces[fi] / 3.0;
+        }
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests;
