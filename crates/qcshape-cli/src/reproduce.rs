@@ -26,7 +26,6 @@ use crate::progress::{bar, PipelineBars};
 /// (SVG and PNG, the PNGs embedded) and the CSVs. report.md is rewritten after every step (each
 /// metric, Fig. 4, Fig. 5, each noise level), marked "Partial report: still running" until the
 /// last one, so an interrupted run leaves the tables done so far.
-///
 /// --quick: coarse meshes (42 vertices), one inserted pose, N = 2, fewer restarts, one noise level.
 #[derive(Debug, clap::Args)]
 #[command(about = "Reproduce the paper's synthetic tables and figures", long_about)]
@@ -66,14 +65,16 @@ pub struct Args {
         default_value = "rigid,isometric,conformal,quasi-conformal,l2"
     )]
     metrics: Vec<MetricKind>,
-    /// Metric of Table 3, one of --metrics (default: quasi-conformal, the paper's, else the last
-    /// of --metrics). Isometric is ten times faster and noise-robust at the defaults (docs/speed.md).
+    /// Metric of Table 3, one of --metrics (default: quasi-conformal, the paper's, else the last).
     #[arg(long)]
     noise_metric: Option<MetricKind>,
     /// Weight of the L2 regularizer of every metric (eq. 11).
     /// At most 1e6.
     #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
+    /// Scale of every metric's terms: invariant, calibrated (the previous releases') or raw.
+    #[arg(long, default_value = qcshape::defaults::SCALE.label())]
+    scale: qcshape::metric::MetricScale,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
     /// better classification in the measurements, README), parallel (the paper's) or schild.
     #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
@@ -91,8 +92,7 @@ pub struct Args {
     /// Seed of the synthetic amplitudes, k-means and noise.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
-    /// Skip the second Table 1 with the previous configuration (raw scale, lambda 0.1, raw
-    /// quasi-conformal weights) that the report puts beside the default.
+    /// Skip the second Table 1 with the previous configuration (--scale calibrated) beside it.
     #[arg(long)]
     no_previous: bool,
     /// Worker threads (default: all cores).
@@ -117,6 +117,8 @@ fn settings(args: &Args) -> Reproduction {
         metrics: args.metrics.clone(),
         noise_metric: args.noise_metric.filter(|_| !args.skip_noise),
         lambda: args.lambda,
+        scale: args.scale,
+        stretch: qcshape::defaults::STRETCH,
         transport: args.transport,
         align: args.align,
         smoothing: args.smooth,
@@ -146,8 +148,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         manifest.display()
     );
     let bars = PipelineBars::new(defs.len());
-    let cmd: Vec<String> = std::env::args().collect();
-    let cmd = cmd.join(" ");
+    let cmd = std::env::args().collect::<Vec<String>>().join(" ");
     let path = args.out.join("report.md");
     // The report of the steps done so far (`after`: the last one; None: the final report).
     let previous_runs = std::cell::RefCell::new(Vec::new());
@@ -156,16 +157,15 @@ fn run_in_pool(args: &Args) -> Result<()> {
                         figs: [&str; 2],
                         after: Option<String>|
      -> Result<()> {
-        let noise_run = s.noise_reference(runs);
         let mut report = ReproduceReport::new(
             &s,
             &defs,
             runs,
-            (noise_run, noise_rows),
+            (s.noise_reference(runs), noise_rows),
             figs,
             Provenance::current(cmd.clone(), t_all.elapsed().as_secs_f64()),
-        )?;
-        report = report.with_previous(&previous_runs.borrow());
+        )?
+        .with_previous(&previous_runs.borrow());
         if let Some(after) = after {
             report = report.partial(after);
         }

@@ -26,7 +26,7 @@ use crate::embed::{smacof, MdsError, MdsOptions};
 use crate::eval::{tau, EvalError};
 use crate::geodesic::GeodesicOptions;
 use crate::io::{write_atomically, IoError};
-use crate::metric::{MetricKind, MetricSpec};
+use crate::metric::{MetricKind, MetricScale, MetricSpec};
 use crate::plot::PlotError;
 use crate::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Stage};
 use crate::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
@@ -87,6 +87,10 @@ pub struct Reproduction {
     pub noise_metric: Option<MetricKind>,
     /// Weight `lambda` of the L2 regularizer of every metric (eq. 11).
     pub lambda: f64,
+    /// How every metric's terms are scaled ([`MetricScale`]; default invariant).
+    pub scale: MetricScale,
+    /// Weight of the conformal metrics' stretch term on the invariant scale.
+    pub stretch: f64,
     /// Transport to the common base.
     pub transport: Transport,
     /// Placement of each deformation on the base before transfer.
@@ -95,9 +99,9 @@ pub struct Reproduction {
     pub smoothing: usize,
     /// Seed of the synthetic amplitudes, k-means and noise.
     pub seed: u64,
-    /// Also run Table 1 with the previous configuration ([`MetricSpec::previous`]: the raw
-    /// scale in mean-edge units, `lambda` 0.1, the paper's raw quasi-conformal weights), the
-    /// one the README's earlier tables and the paper comparison used, beside the default.
+    /// Also run Table 1 with the previous configuration ([`MetricSpec::calibrated`]: eq. 3's
+    /// and eq. 7's terms on the calibrated scale, no stretch term, the default of the releases
+    /// of 2026-12-04 to 2026-12-06), beside the default.
     pub previous: bool,
 }
 
@@ -123,6 +127,8 @@ impl Reproduction {
             ],
             noise_metric: None,
             lambda: defaults::LAMBDA,
+            scale: defaults::SCALE,
+            stretch: defaults::STRETCH,
             transport: defaults::TRANSPORT,
             align: defaults::ALIGN,
             smoothing: defaults::SMOOTH,
@@ -170,12 +176,20 @@ impl Reproduction {
         })?)
     }
 
+    /// The metric `kind` at this run's `lambda`, scale and stretch weight.
+    pub fn metric(&self, kind: MetricKind) -> MetricSpec {
+        MetricSpec {
+            lambda: self.lambda,
+            scale: self.scale,
+            stretch: self.stretch,
+            ..MetricSpec::new(kind)
+        }
+    }
+
     /// The pipeline options for one metric.
     pub fn pipeline(&self, kind: MetricKind) -> PipelineOptions {
-        let mut spec = MetricSpec::new(kind);
-        spec.lambda = self.lambda;
         PipelineOptions {
-            metric: spec,
+            metric: self.metric(kind),
             geodesic: GeodesicOptions {
                 steps: self.steps,
                 ..Default::default()
@@ -203,8 +217,8 @@ impl Reproduction {
     }
 
     /// [`Reproduction::run_metric`] with the previous configuration of the metric
-    /// ([`MetricSpec::previous`]: raw scale, `lambda` [`defaults::RAW_LAMBDA`], raw
-    /// quasi-conformal weights), everything else as in [`Reproduction::pipeline`].
+    /// ([`MetricSpec::calibrated`]: the calibrated scale, eq. 7's conformal terms, no stretch
+    /// term), everything else as in [`Reproduction::pipeline`].
     pub fn run_previous(
         &self,
         defs: &[Deformation],
@@ -213,7 +227,10 @@ impl Reproduction {
         progress: &(dyn Fn(Stage) + Sync),
     ) -> Result<MetricRun, ReproduceError> {
         let opts = PipelineOptions {
-            metric: MetricSpec::previous(kind),
+            metric: MetricSpec {
+                lambda: self.lambda,
+                ..MetricSpec::calibrated(kind)
+            },
             ..self.pipeline(kind)
         };
         self.run_options(defs, labels, kind, opts, progress)
@@ -248,11 +265,7 @@ impl Reproduction {
                 MetricKind::L2,
             ]
             .into_iter()
-            .map(|k| {
-                let mut spec = MetricSpec::new(k);
-                spec.lambda = self.lambda;
-                spec
-            })
+            .map(|k| self.metric(k))
             .collect(),
             ..Default::default()
         }
@@ -267,6 +280,8 @@ impl Reproduction {
         };
         for m in &mut exp.metrics {
             m.lambda = self.lambda;
+            m.scale = self.scale;
+            m.stretch = self.stretch;
         }
         exp
     }
@@ -807,11 +822,11 @@ impl ReproduceReport {
         writeln!(
             md,
             "\n### Table 1 with the previous configuration\n\nThe same pipeline with every metric on the \
-             raw scale of the releases before 2026-12-04 (the paper's sums in mean-edge units, lambda {}, \
-             the paper's raw quasi-conformal weights), where the L2 regularizer carried almost all of \
-             the energy, beside the default (calibrated) rows above. The paper's literal setting, \
-             lambda = 0 (section 2.1), collapses the conformal metrics (docs/geometry.md).\n",
-            defaults::RAW_LAMBDA
+             calibrated scale of the releases of 2026-12-04 to 2026-12-06 (eq. 3's and eq. 7's sums divided \
+             by their scale at the base, no stretch term), beside the default (scale-invariant) rows above. \
+             With eq. 7's terms the conformal and quasi-conformal geodesics shrink the shape on the way \
+             (docs/method.md \"Scale-invariant forms\"). The paper's literal setting, lambda = 0 (section \
+             2.1), leaves the conformal metrics' null space free (docs/geometry.md).\n"
         )?;
         writeln!(
             md,
