@@ -73,6 +73,8 @@ fn exact_hessian_matches_finite_differences_of_the_gradient() {
     let metrics: Vec<Box<dyn Metric>> = vec![
         reg(Box::new(Isometric)),
         Box::new(Isometric),
+        Box::new(crate::metric::RelativeIsometric),
+        reg(Box::new(crate::metric::RelativeIsometric)),
         reg(Box::new(Conformal::new(ConformalForm::Quadratic))),
         reg(Box::new(QuasiConformal::new(
             ConformalForm::Quadratic,

@@ -219,15 +219,15 @@ impl MetricSpec {
 
     /// A warning for settings that are valid but leave the metric degenerate: `lambda = 0`
     /// with a metric whose null space holds more than rigid motions (conformal and
-    /// quasi-conformal: scalings, conformal fields, every normal motion of a sphere), where
-    /// geodesics are not unique and distances collapse towards 0 (docs/geometry.md).
+    /// quasi-conformal: conformal fields, and scalings unless the invariant scale's stretch
+    /// term charges them), where geodesics are not unique (docs/geometry.md).
     pub fn warning(&self) -> Option<String> {
         (self.lambda == 0.0 && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal)).then(
             || {
                 format!(
-                    "lambda = 0 leaves the {} metric's null space free (rigid motions, scalings, \
-                 conformal fields; every normal motion of a sphere): geodesics are not unique and \
-                 distances collapse towards 0 (docs/geometry.md)",
+                    "lambda = 0 leaves the {} metric's null space free (rigid motions, conformal \
+                 fields, and scalings unless --stretch charges them): geodesics are not unique \
+                 (docs/geometry.md)",
                     self.kind.label()
                 )
             },

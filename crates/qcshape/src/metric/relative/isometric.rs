@@ -2,7 +2,8 @@ use super::{edge_shares, face_summary, mean_summary, path_faces, segment_faces, 
 use crate::mesh::geometry::{dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::{
-    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment,
+    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, SecondOrderSink,
+    Segment,
 };
 
 /// The scale-invariant isometric metric (eq. 3 as a strain, docs/method.md "Scale-invariant
@@ -83,5 +84,46 @@ impl Metric for RelativeIsometric {
                 j.db[2 * ei + 1] = db;
             }
         }
+    }
+
+    /// `r = s <d, e> / |e|^2` (`e = g_p - g_q`, `d = X_p - X_q`): `d2r/dd dd = 0`,
+    /// `d2r/de dd = s (I / l - 2 e e^T / l^2)`, `d2r/de de = s (8 pr e e^T / l^3 - 2 (d e^T +
+    /// e d^T) / l^2 - 2 pr I / l^2)` (`l = |e|^2`, `pr = <d, e>`), mapped to the edge's two
+    /// vertices with signs `+1, -1`.
+    fn add_second_order(
+        &self,
+        topo: &Topology,
+        _p: PatternRef,
+        seg: &Segment,
+        r: &[f64],
+        sink: &mut SecondOrderSink,
+    ) -> bool {
+        let (g, x) = geometry_and_displacement(seg);
+        let faces = segment_faces(topo, seg);
+        let shares = edge_shares(topo, &faces);
+        for (ei, e) in topo.edges().iter().enumerate() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let (de, dx) = (sub(g[p], g[q]), sub(x[p], x[q]));
+            let (l, pr) = (dot(de, de), dot(de, dx));
+            let c = r[ei] * shares[ei].max(0.0).sqrt();
+            let mut hee = [0.0; 9];
+            let mut hed = [0.0; 9];
+            for i in 0..3 {
+                for k in 0..3 {
+                    let delta = if i == k { 1.0 } else { 0.0 };
+                    hed[3 * i + k] = c * (delta / l - 2.0 * de[i] * de[k] / (l * l));
+                    hee[3 * i + k] = c
+                        * (8.0 * pr * de[i] * de[k] / (l * l * l)
+                            - 2.0 * (dx[i] * de[k] + de[i] * dx[k]) / (l * l)
+                            - 2.0 * pr * delta / (l * l));
+                }
+            }
+            let (neg_ee, neg_ed) = (hee.map(|v| -v), hed.map(|v| -v));
+            sink.add(ei, 0, 0, &hee, &hed);
+            sink.add(ei, 1, 1, &hee, &hed);
+            sink.add(ei, 0, 1, &neg_ee, &neg_ed);
+            sink.add(ei, 1, 0, &neg_ee, &neg_ed);
+        }
+        true
     }
 }
