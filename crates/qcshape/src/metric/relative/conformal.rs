@@ -1,7 +1,7 @@
 // Index loops mirror the formulas (corner, face slot) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::{face_summary, mean_summary, path_faces, segment_faces, PER_FACE};
+use super::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FACE};
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::conformal::face_pattern;
@@ -141,11 +141,7 @@ impl Metric for RelativeConformal {
 
     /// The mean face shares of the two ends (2 #F), then the quasi-conformal weights (#V).
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        let nv = topo.n_vertices();
-        if start.len() != nv || end.len() != nv {
-            return None;
-        }
-        let mut f = path_faces(topo, start, end);
+        let mut f = frozen_faces(topo, start, end)?;
         if let Some(qc) = self.qc {
             f.extend(qc.frozen_weights(topo, start, end)?);
         }
@@ -154,10 +150,7 @@ impl Metric for RelativeConformal {
 
     /// The pose's face shares (2 #F), then the quasi-conformal pose summary.
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        if pose.len() != topo.n_vertices() {
-            return None;
-        }
-        let mut s = face_summary(topo, pose);
+        let mut s = pose_faces(topo, pose)?;
         if let Some(qc) = self.qc {
             s.extend(qc.pose_summary(topo, pose)?);
         }

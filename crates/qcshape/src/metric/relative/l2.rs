@@ -1,7 +1,7 @@
 // Index loops mirror the formulas (face slot, coordinate) in this kernel.
 #![allow(clippy::needless_range_loop)]
 
-use super::{face_summary, mean_summary, path_faces, segment_faces, PER_FACE};
+use super::{faces_from, frozen_faces, pose_faces, segment_faces};
 use crate::mesh::geometry::{dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::{
@@ -54,13 +54,12 @@ impl Metric for RelativeL2 {
 
     /// The mean face shares of the two ends (2 #F).
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        let nv = topo.n_vertices();
-        (start.len() == nv && end.len() == nv).then(|| path_faces(topo, start, end))
+        frozen_faces(topo, start, end)
     }
 
     /// The pose's face shares (2 #F).
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        (pose.len() == topo.n_vertices()).then(|| face_summary(topo, pose))
+        pose_faces(topo, pose)
     }
 
     fn frozen_weights_from(
@@ -68,13 +67,9 @@ impl Metric for RelativeL2 {
         topo: &Topology,
         start: &[[f64; 3]],
         end: &[[f64; 3]],
-        [a, b]: [&[f64]; 2],
+        summaries: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
-        let n = PER_FACE * topo.n_faces();
-        if a.len() != n || b.len() != n {
-            return self.frozen_weights(topo, start, end);
-        }
-        Some(mean_summary(a, b))
+        faces_from(topo, start, end, summaries)
     }
 
     fn residuals(

@@ -69,6 +69,34 @@ pub(crate) fn path_faces(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) 
     mean_summary(&face_summary(topo, start), &face_summary(topo, end))
 }
 
+/// [`path_faces`] as a metric's [`super::Metric::frozen_weights`]: `None` unless both ends have
+/// #V vertices.
+pub(crate) fn frozen_faces(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
+    let nv = topo.n_vertices();
+    (start.len() == nv && end.len() == nv).then(|| path_faces(topo, start, end))
+}
+
+/// [`face_summary`] as a metric's [`super::Metric::pose_summary`]: `None` unless the pose has
+/// #V vertices.
+pub(crate) fn pose_faces(topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+    (pose.len() == topo.n_vertices()).then(|| face_summary(topo, pose))
+}
+
+/// [`frozen_faces`] from the two ends' [`pose_faces`] summaries (recomputed from the poses
+/// when a summary is not 2 #F values).
+pub(crate) fn faces_from(
+    topo: &Topology,
+    start: &[[f64; 3]],
+    end: &[[f64; 3]],
+    [a, b]: [&[f64]; 2],
+) -> Option<Vec<f64>> {
+    let n = PER_FACE * topo.n_faces();
+    if a.len() != n || b.len() != n {
+        return frozen_faces(topo, start, end);
+    }
+    Some(mean_summary(a, b))
+}
+
 /// The face values a segment term uses: the first 2 #F values of `seg.frozen`, or, without
 /// them, those of a path between the segment's own ends.
 pub(crate) fn segment_faces<'a>(topo: &Topology, seg: &Segment<'a>) -> Cow<'a, [f64]> {
