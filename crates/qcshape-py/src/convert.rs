@@ -40,7 +40,7 @@ fn rows3(data: &[f64]) -> Vec<[f64; 3]> {
 
 /// `obj` as positions (#V x 3). With `nv`, the row count must be `nv`.
 pub fn points(obj: &Bound<'_, PyAny>, name: &str, nv: Option<usize>) -> PyResult<Vec<[f64; 3]>> {
-    let (shape, data) = float_array(obj, name)?;
+    let (shape, data) = float_array(&crate::meshes::points_arg(obj)?, name)?;
     if shape.len() != 2 || shape[1] != 3 || nv.is_some_and(|n| shape[0] != n) {
         let want = nv.map_or("(nV, 3)".to_string(), |n| format!("({n}, 3)"));
         return Err(PyValueError::new_err(format!(
@@ -64,7 +64,7 @@ pub fn sequence(
     nv: Option<usize>,
     min: usize,
 ) -> PyResult<Vec<Vec<[f64; 3]>>> {
-    let (shape, data) = float_array(obj, name)?;
+    let (shape, data) = float_array(&crate::meshes::poses_arg(obj)?, name)?;
     if shape.len() != 3
         || nv.is_some_and(|n| shape[1] != n)
         || shape[2] != 3
@@ -143,9 +143,10 @@ pub fn deformations_out<'py>(py: Python<'py>, defs: &[Vec<Vec<[f64; 3]>>]) -> Py
         .into_any())
 }
 
-/// `obj` as triangles (#F x 3) of non-negative integer vertex indices.
+/// `obj` as triangles (#F x 3) of non-negative integer vertex indices (a mesh object's faces,
+/// see [`crate::meshes`]).
 pub fn faces(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[u32; 3]>> {
-    let (shape, data) = float_array(obj, name)?;
+    let (shape, data) = float_array(&crate::meshes::faces_arg(obj)?.0, name)?;
     if shape.len() != 2 || shape[1] != 3 || shape[0] == 0 {
         return Err(PyValueError::new_err(format!(
             "{name}: expected an integer array of shape (nF, 3) with nF >= 1, got {}",

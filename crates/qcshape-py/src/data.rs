@@ -57,20 +57,34 @@ pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf, point_data: bool) -> PyRes
     PyTuple::new(py, [v, f, fields.into_any()])
 }
 
-/// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) in the format of
+/// write_mesh(path, V, F, point_data=None): writes V (nV, 3) and F (nF, 3) (or
+/// ``write_mesh(path, mesh)``, a trimesh / pyvista / meshio object) in the format of
 /// the file name's extension, atomically (complete or absent). point_data = {"name": values}
 /// adds named per-vertex fields, each a scalar (nV,) or a vector (nV, 3) (.ply, .vtk, .vtp and
 /// .vtu only; PLY also writes the first scalar as `quality`, VTK as `SCALARS` / `VECTORS`). A path
 /// naming a folder is a ``ValueError``.
 #[pyfunction]
-#[pyo3(signature = (path, vertices, faces, point_data=None))]
+#[pyo3(signature = (path, vertices, faces=None, point_data=None))]
 pub fn write_mesh(
     py: Python<'_>,
     path: PathBuf,
     vertices: &Bound<'_, PyAny>,
-    faces: &Bound<'_, PyAny>,
+    faces: Option<&Bound<'_, PyAny>>,
     point_data: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
+    // write_mesh(path, mesh): a mesh object's own faces.
+    let faces = match faces {
+        Some(f) => f.clone(),
+        None => match crate::meshes::faces_arg(vertices)? {
+            (f, Some(_)) => f,
+            _ => {
+                return Err(PyValueError::new_err(
+                    "faces: missing (give F, or a trimesh, pyvista or meshio mesh as the only argument)",
+                ))
+            }
+        },
+    };
+    let faces = &faces;
     // The one output check of the library and the CLI: here, a path naming a folder.
     qcshape::outputs::refuse_input_overlap(&[], &path, "path")
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
@@ -354,7 +368,7 @@ pub fn run_pipeline(
     let base = &ds.defs[opts.base];
     let space =
         ShapeSpace::new(base.topology.clone(), opts.metric, opts.geodesic.clone()).map_err(errors::space)?;
-    let bar = Progress::new(kw.progress.unwrap_or(true), [n, n, n * (n - 1) / 2]);
+    let bar = Progress::new(crate::run::progress_enabled(kw.progress), [n, n, n * (n - 1) / 2]);
     let defs = ds.defs.clone();
     let template = opts.clone();
     // One run at a time on a journal (released when the call returns).
@@ -396,7 +410,7 @@ pub fn run_pipeline(
 /// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md | "tangent": the metric
 /// linearized at the common base, one feature vector per pose; quasi-conformal weighs each pair
-/// by its own curvature-change weights); threads (None: all cores); progress (True: counts on stderr). Distances are in
+/// by its own curvature-change weights); threads (None: all cores); progress (None: counts on stderr when it is a terminal; True: always, plain lines off a terminal; False: never). Distances are in
 /// normalized units (coordinates divided by the mean edge length of the base pose).
 ///
 /// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the
@@ -418,7 +432,7 @@ pub fn run_pipeline(
 #[pyo3(
     text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn similarity_matrix<'py>(
@@ -449,7 +463,14 @@ pub fn similarity_matrix<'py>(
         }
         None => Sink::Memory,
     };
-    let (r, _) = run_pipeline(py, ds.get(), &kw, sink)?;
+    let (r, opts) = run_pipeline(py, ds.get(), &kw, sink)?;
+    crate::warn::pairs(
+        py,
+        &r.pairs,
+        r.prepared.converged,
+        &opts.metric,
+        opts.geodesic.solver,
+    )?;
     let n = r.matrix.len();
     let d = matrix_out(py, r.matrix.values().to_vec(), n, n)?;
     if !details {
@@ -515,7 +536,7 @@ fn pair_details<'py>(
 #[pyo3(
     text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
 )]
 pub fn pair_contributions<'py>(
     py: Python<'py>,
@@ -576,7 +597,7 @@ pub fn pair_contributions<'py>(
 #[pyo3(
     text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=True)"
+transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
 )]
 pub fn motion_maps<'py>(
     py: Python<'py>,

@@ -8,15 +8,18 @@ mod convert;
 mod data;
 mod distributed;
 mod errors;
+mod meshes;
 mod options;
 mod run;
 mod space;
+mod warn;
 
 use pyo3::prelude::*;
 
 /// Deformation similarity in quasi-conformal shape space (Rust core).
 #[pymodule]
 fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("QcshapeWarning", m.py().get_type::<warn::QcshapeWarning>())?;
     m.add_class::<space::PyShapeSpace>()?;
     m.add_class::<space::PyGeodesic>()?;
     m.add_class::<data::PyDataset>()?;

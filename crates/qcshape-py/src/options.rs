@@ -286,7 +286,7 @@ impl PipelineKw {
                         qcshape::limits::MAX_THREADS,
                     )?)
                 }
-                "progress" => k.progress = Some(value.extract().map_err(bad)?),
+                "progress" => k.progress = value.extract().map_err(bad)?,
                 "approx" => k.approx = Some(value.extract().map_err(bad)?),
                 _ => {
                     return Err(PyTypeError::new_err(format!(

@@ -77,9 +77,18 @@ where
     }
 }
 
-/// Counts of a long call printed to stderr (`\r`-updated, at most 5 times a second).
+/// Whether to print progress: `progress=True` / `False`, or None (the default): only when stderr
+/// is a terminal, so that logs, pipes and notebooks get no progress lines.
+pub fn progress_enabled(progress: Option<bool>) -> bool {
+    use std::io::IsTerminal;
+    progress.unwrap_or_else(|| std::io::stderr().is_terminal())
+}
+
+/// Counts of a long call printed to stderr: on a terminal one `\r`-updated line (at most 5
+/// times a second), elsewhere (progress=True into a log) plain lines, at most one every 5 s.
 pub struct Progress {
     enabled: bool,
+    tty: bool,
     totals: [usize; 3],
     counts: [AtomicUsize; 3],
     last: Mutex<Instant>,
@@ -90,8 +99,10 @@ const LABELS: [&str; 3] = ["interpolating", "transferring", "pairs"];
 impl Progress {
     /// `totals`: deformations to interpolate, to transfer, pairs.
     pub fn new(enabled: bool, totals: [usize; 3]) -> Self {
+        use std::io::IsTerminal;
         Progress {
             enabled,
+            tty: std::io::stderr().is_terminal(),
             totals,
             counts: Default::default(),
             last: Mutex::new(Instant::now() - Duration::from_secs(1)),
@@ -118,10 +129,15 @@ impl Progress {
         let Ok(mut last) = self.last.lock() else {
             return;
         };
-        if n == total || last.elapsed() >= Duration::from_millis(200) {
-            eprint!("\rqcshape: {} {n}/{total}   ", LABELS[s]);
-            if n == total {
-                eprintln!();
+        let every = Duration::from_millis(if self.tty { 200 } else { 5000 });
+        if n == total || last.elapsed() >= every {
+            if self.tty {
+                eprint!("\rqcshape: {} {n}/{total}   ", LABELS[s]);
+                if n == total {
+                    eprintln!();
+                }
+            } else {
+                eprintln!("qcshape: {} {n}/{total}", LABELS[s]);
             }
             *last = Instant::now();
         }

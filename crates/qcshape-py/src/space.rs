@@ -104,6 +104,72 @@ impl PyGeodesic {
     fn seconds(&self) -> f64 {
         self.g.seconds
     }
+    /// Pickle support (Dask, multiprocessing): every field, rebuilt bit for bit by
+    /// ``qcshape._pickle.geodesic``.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let g = &self.g;
+        let state = PyDict::new(py);
+        state.set_item("path", sequence_out(py, &g.poses)?)?;
+        state.set_item("energy", g.energy)?;
+        state.set_item("initial_energy", g.initial_energy)?;
+        state.set_item("geometric_energy", g.geometric_energy)?;
+        state.set_item("regularizer_energy", g.regularizer_energy)?;
+        state.set_item("length", g.length)?;
+        state.set_item("segment_lengths", g.segment_lengths.clone())?;
+        state.set_item("iterations", g.iterations)?;
+        state.set_item("converged", g.converged)?;
+        let (stop, message) = match &g.stop {
+            qcshape::geodesic::StopReason::Other(m) => ("Other".to_string(), Some(m.clone())),
+            s => (format!("{s:?}"), None),
+        };
+        state.set_item("stop", stop)?;
+        state.set_item("stop_message", message)?;
+        state.set_item("gradient_norm", g.gradient_norm)?;
+        state.set_item("scale", g.scale)?;
+        state.set_item("seconds", g.seconds)?;
+        let rebuild = py.import("qcshape._pickle")?.getattr("geodesic")?;
+        PyTuple::new(py, [rebuild, PyTuple::new(py, [state])?.into_any()])
+    }
+
+    /// The inverse of ``__reduce__`` (called by ``qcshape._pickle.geodesic``).
+    #[staticmethod]
+    fn _from_state<'py>(state: &Bound<'py, PyDict>) -> PyResult<Self> {
+        use qcshape::geodesic::StopReason as S;
+        let get = |k: &str| -> PyResult<Bound<'py, PyAny>> {
+            state
+                .get_item(k)?
+                .ok_or_else(|| PyValueError::new_err(format!("Geodesic state: missing {k}")))
+        };
+        let stop: String = get("stop")?.extract()?;
+        let stop = match stop.as_str() {
+            "NothingToOptimize" => S::NothingToOptimize,
+            "GradientTolerance" => S::GradientTolerance,
+            "EnergyTolerance" => S::EnergyTolerance,
+            "LengthTolerance" => S::LengthTolerance,
+            "TargetEnergy" => S::TargetEnergy,
+            "MaxIterations" => S::MaxIterations,
+            "NoProgress" => S::NoProgress,
+            _ => S::Other(get("stop_message")?.extract::<Option<String>>()?.unwrap_or(stop)),
+        };
+        Ok(PyGeodesic {
+            g: Geodesic {
+                poses: sequence(&get("path")?, "path", None, 1)?,
+                energy: get("energy")?.extract()?,
+                initial_energy: get("initial_energy")?.extract()?,
+                geometric_energy: get("geometric_energy")?.extract()?,
+                regularizer_energy: get("regularizer_energy")?.extract()?,
+                length: get("length")?.extract()?,
+                segment_lengths: get("segment_lengths")?.extract()?,
+                iterations: get("iterations")?.extract()?,
+                converged: get("converged")?.extract()?,
+                stop,
+                gradient_norm: get("gradient_norm")?.extract()?,
+                scale: get("scale")?.extract()?,
+                seconds: get("seconds")?.extract()?,
+            },
+        })
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "Geodesic(steps={}, length={:.6e}, energy={:.6e}, iterations={}, converged={})",
@@ -135,7 +201,8 @@ impl PyGeodesic {
 /// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
 /// ``pairwise_distances`` and ``similarity``, stop once the length has settled; 0 = off);
-/// ``n_vertices`` (default max index + 1).
+/// ``n_vertices`` (default: a mesh object's vertex count, else the reference's, else the
+/// largest face index + 1). ``faces`` may be a trimesh, pyvista or meshio mesh.
 ///
 /// Coordinates are normalized before solving, as ``qcshape geodesic`` does: divided by the mean
 /// edge length of the call's reference shapes (both ends for ``geodesic``, ``dist`` and
@@ -156,6 +223,53 @@ pub struct PyShapeSpace {
 impl PyShapeSpace {
     fn nv(&self) -> usize {
         self.space.topology().n_vertices()
+    }
+
+    /// Whether the vertex count came from the faces alone (no n_vertices, mesh or reference).
+    fn inferred_nv(&self, py: Python<'_>) -> bool {
+        let kwargs = self.init.bind(py).get_item(1);
+        !kwargs.is_ok_and(|k| {
+            k.contains("n_vertices").unwrap_or(false) || k.contains("reference").unwrap_or(false)
+        })
+    }
+
+    /// Positions with `rows` vertices for argument `name`: fewer than a vertex count inferred
+    /// from faces that leave vertices unused is a face index past the positions (named), any
+    /// other mismatch a shape error.
+    fn check_rows(&self, py: Python<'_>, name: &str, rows: usize, poses: Option<usize>) -> PyResult<()> {
+        let nv = self.nv();
+        if rows == nv {
+            return Ok(());
+        }
+        // Faces that skip vertex numbers (an index past the mesh, 1-based faces) are to blame, not
+        // positions that are merely short.
+        if rows < nv && self.inferred_nv(py) && !self.space.topology().isolated_vertices().is_empty() {
+            return Err(crate::meshes::index_error(
+                self.space.topology().faces(),
+                rows,
+                name,
+            ));
+        }
+        Err(PyValueError::new_err(match poses {
+            None => format!("{name}: expected an array of shape ({nv}, 3), got ({rows}, 3)"),
+            Some(k) => {
+                format!("{name}: expected an array of shape (K, {nv}, 3) with K >= 1, got ({k}, {rows}, 3)")
+            }
+        }))
+    }
+
+    /// `obj` as a shape of this space (nV, 3).
+    fn points(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f64; 3]>> {
+        let p = points(obj, name, None)?;
+        self.check_rows(obj.py(), name, p.len(), None)?;
+        Ok(p)
+    }
+
+    /// `obj` as poses of this space (K, nV, 3), K >= 1.
+    fn poses(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vec<[f64; 3]>>> {
+        let p = sequence(obj, name, None, 1)?;
+        self.check_rows(obj.py(), name, p[0].len(), Some(p.len()))?;
+        Ok(p)
     }
 
     fn with_steps(&self, steps: Option<usize>) -> PyResult<ShapeSpace> {
@@ -214,6 +328,12 @@ impl PyShapeSpace {
         scale: Option<f64>,
         n_vertices: Option<AnyInt>,
     ) -> PyResult<Self> {
+        // A mesh object (trimesh, pyvista, meshio) gives its faces and its vertex count.
+        let (faces, mesh_nv) = crate::meshes::faces_arg(faces)?;
+        let faces = &faces;
+        let n_vertices = n_vertices.or(mesh_nv.map(|n| AnyInt::new(n as i128)));
+        let reference = reference.map(crate::meshes::points_arg).transpose()?;
+        let reference = reference.as_ref();
         let qc_smooth = opt_count("qc_smooth", qc_smooth, 0, qcshape::limits::MAX_SWEEPS)?;
         let steps = opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?;
         let n_vertices = opt_count("n_vertices", n_vertices, 1, qcshape::limits::MAX_VERTICES)?;
@@ -240,8 +360,12 @@ impl PyShapeSpace {
         let init = PyTuple::new(py, [faces.clone(), kwargs.into_any()])?.unbind();
         let f = crate::convert::faces(faces, "faces")?;
         let max = f.iter().flatten().copied().max().unwrap_or(0) as usize;
-        let nv = n_vertices.unwrap_or(max + 1);
-        let topo = Topology::new(nv, f).map_err(|e| PyValueError::new_err(format!("faces: {e}")))?;
+        // The vertex count: given, the mesh object's, the reference's, else inferred from the faces.
+        let ref_nv = reference
+            .map(|r| points(r, "reference", None).map(|p| p.len()))
+            .transpose()?;
+        let nv = n_vertices.or(ref_nv).unwrap_or(max + 1);
+        let topo = crate::meshes::topology(nv, f, "faces")?;
         let spec = MetricKw {
             metric,
             form,
@@ -255,6 +379,7 @@ impl PyShapeSpace {
             qc_smooth,
         }
         .spec()?;
+        crate::warn::spec(py, &spec)?;
         let geo = SolverKw {
             steps,
             solver,
@@ -334,8 +459,7 @@ impl PyShapeSpace {
     /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (normalized units
     /// squared).
     fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
-        let nv = Some(self.nv());
-        let (b, x) = (points(base, "base", nv)?, points(v, "v", nv)?);
+        let (b, x) = (self.points(base, "base")?, self.points(v, "v")?);
         detached(py, None, |_| {
             self.space.squared_norm(&b, &x).map_err(errors::space)
         })
@@ -354,15 +478,14 @@ impl PyShapeSpace {
         v: &Bound<'_, PyAny>,
         ends: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
     ) -> PyResult<f64> {
-        let nv = Some(self.nv());
         let (b, x, y) = (
-            points(base, "base", nv)?,
-            points(u, "u", nv)?,
-            points(v, "v", nv)?,
+            self.points(base, "base")?,
+            self.points(u, "u")?,
+            self.points(v, "v")?,
         );
         let ends = match ends {
             None => None,
-            Some((s, e)) => Some((points(&s, "ends[0]", nv)?, points(&e, "ends[1]", nv)?)),
+            Some((s, e)) => Some((self.points(&s, "ends[0]")?, self.points(&e, "ends[1]")?)),
         };
         detached(py, None, |_| {
             let e = ends.as_ref().map(|(s, e)| (s.as_slice(), e.as_slice()));
@@ -381,10 +504,10 @@ impl PyShapeSpace {
         b: &Bound<'_, PyAny>,
         steps: Option<AnyInt>,
     ) -> PyResult<PyGeodesic> {
-        let nv = Some(self.nv());
-        let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
+        let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
         let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
         let g = detached(py, None, |_| space.geodesic(&pa, &pb).map_err(errors::space))?;
+        crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
         Ok(PyGeodesic { g })
     }
 
@@ -398,10 +521,14 @@ impl PyShapeSpace {
         b: &Bound<'_, PyAny>,
         steps: Option<AnyInt>,
     ) -> PyResult<f64> {
-        let nv = Some(self.nv());
-        let (pa, pb) = (points(a, "a", nv)?, points(b, "b", nv)?);
+        let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
         let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
-        detached(py, None, |_| space.dist(&pa, &pb).map_err(errors::space))
+        // ShapeSpace::dist's solve, keeping the path for the warnings.
+        let g = detached(py, None, |_| crate::warn::dist_path(&space, &pa, &pb))?;
+        if let Some(g) = &g {
+            crate::warn::geodesic(py, g, space.spec(), space.geodesic_options().solver)?;
+        }
+        Ok(g.map_or(0.0, |g| g.length))
     }
 
     /// log(base, p, steps=None) -> (ndarray (nV, 3), float): the discrete log map
@@ -415,8 +542,7 @@ impl PyShapeSpace {
         p: &Bound<'py, PyAny>,
         steps: Option<AnyInt>,
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
-        let nv = Some(self.nv());
-        let (m, q) = (points(base, "base", nv)?, points(p, "p", nv)?);
+        let (m, q) = (self.points(base, "base")?, self.points(p, "p")?);
         let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
         let (log, d) = detached(py, None, |_| space.log(&m, &q).map_err(errors::space))?;
         Ok((points_out(py, &log)?, d))
@@ -434,8 +560,8 @@ impl PyShapeSpace {
         v: &Bound<'py, PyAny>,
         method: Option<&str>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let c = sequence(curve, "curve", Some(self.nv()), 1)?;
-        let x = points(v, "v", Some(self.nv()))?;
+        let c = self.poses(curve, "curve")?;
+        let x = self.points(v, "v")?;
         // Carrying a vector along a curve: parallel transport unless told otherwise.
         let m = transport(method, Transport::Parallel)?;
         let out = detached(py, None, |_| {
@@ -457,8 +583,8 @@ impl PyShapeSpace {
         max_iterations: Option<AnyInt>,
         tolerance: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
-        let i = init.map(|x| points(x, "init", Some(self.nv()))).transpose()?;
+        let p = self.poses(poses, "poses")?;
+        let i = init.map(|x| self.points(x, "init")).transpose()?;
         let d = KarcherOptions::default();
         let opts = KarcherOptions {
             max_iterations: opt_count(
@@ -491,7 +617,7 @@ impl PyShapeSpace {
         insert: Option<AnyInt>,
         levels: Option<AnyInt>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let p = self.poses(poses, "poses")?;
         let d = InterpolationOptions::default();
         let levels = opt_count("levels", levels, 1, qcshape::limits::MAX_LEVELS)?.unwrap_or(d.levels);
         if levels == 0 {
@@ -518,8 +644,8 @@ impl PyShapeSpace {
         base: &Bound<'py, PyAny>,
         method: Option<&str>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
-        let b = points(base, "base", Some(self.nv()))?;
+        let p = self.poses(poses, "poses")?;
+        let b = self.points(base, "base")?;
         let m = transport(method, qcshape::defaults::TRANSPORT)?;
         let r = detached(py, None, |_| {
             self.space.transfer(&p, &b, m).map_err(errors::space)
@@ -527,21 +653,24 @@ impl PyShapeSpace {
         sequence_out(py, &r.poses)
     }
 
-    /// pairwise_distances(poses, threads=None, progress=True) -> ndarray (n, n): dis(P_i, P_j)
+    /// pairwise_distances(poses, threads=None, progress=None) -> ndarray (n, n): dis(P_i, P_j)
     /// between the shapes poses (n, nV, 3), pairs in parallel, all normalized by the first
     /// shape; symmetric with a zero diagonal.
-    #[pyo3(signature = (poses, threads=None, progress=true))]
+    #[pyo3(signature = (poses, threads=None, progress=None))]
     fn pairwise_distances<'py>(
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: bool,
+        progress: Option<bool>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let p = sequence(poses, "poses", Some(self.nv()), 1)?;
+        let p = self.poses(poses, "poses")?;
         let n = p.len();
         let singles: Vec<Vec<Vec<[f64; 3]>>> = p.into_iter().map(|x| vec![x]).collect();
-        let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let bar = Progress::pairs(
+            crate::run::progress_enabled(progress),
+            n * n.saturating_sub(1) / 2,
+        );
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let d = detached(py, threads, |cancel| {
             self.space
@@ -551,26 +680,29 @@ impl PyShapeSpace {
         matrix_out(py, d, n, n)
     }
 
-    /// similarity(deformations, threads=None, progress=True) -> ndarray (n, n): eq. 13,
+    /// similarity(deformations, threads=None, progress=None) -> ndarray (n, n): eq. 13,
     /// similarity(M, N) = sum_k dis(M_k, N_k), of deformations (n, K, nV, 3) already at one
     /// common base (e.g. from transfer), pairs in parallel. For raw deformations use
     /// qcshape.similarity_matrix, which interpolates and transfers first.
-    #[pyo3(signature = (deformations, threads=None, progress=true))]
+    #[pyo3(signature = (deformations, threads=None, progress=None))]
     fn similarity<'py>(
         &self,
         py: Python<'py>,
         deformations: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: bool,
+        progress: Option<bool>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let list: Vec<Bound<'py, PyAny>> = deformations.try_iter()?.collect::<PyResult<_>>()?;
         let defs: Vec<Vec<Vec<[f64; 3]>>> = list
             .iter()
             .enumerate()
-            .map(|(i, d)| sequence(d, &format!("deformations[{i}]"), Some(self.nv()), 1))
+            .map(|(i, d)| self.poses(d, &format!("deformations[{i}]")))
             .collect::<PyResult<_>>()?;
         let n = defs.len();
-        let bar = Progress::pairs(progress, n * n.saturating_sub(1) / 2);
+        let bar = Progress::pairs(
+            crate::run::progress_enabled(progress),
+            n * n.saturating_sub(1) / 2,
+        );
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let d = detached(py, threads, |cancel| {
             self.space
@@ -584,5 +716,5 @@ impl PyShapeSpace {
 /// Faces from an array argument (for the other modules).
 pub fn topology_from(obj: &Bound<'_, PyAny>, name: &str, nv: usize) -> PyResult<std::sync::Arc<Topology>> {
     let f = faces(obj, name)?;
-    Topology::new(nv, f).map_err(|e| PyValueError::new_err(format!("{name}: {e}")))
+    crate::meshes::topology(nv, f, name)
 }

@@ -14,15 +14,20 @@ A Python layer over the qcshape Rust library (numpy arrays in and out):
     labels = qs.KMedoids(n_clusters=8, n_init=20, random_state=0).fit(D).labels_
     X, stress = qs.mds(D, n_components=2, random_state=0)
     qs.scores(ds.labels, labels)                         # sensitivity, specificity, ari, accuracy
+    space.dist(trimesh_a, trimesh_b)                     # mesh objects wherever V or F go:
+    qs.ShapeSpace(pyvista_mesh); qs.to_trimesh(V, F)     # trimesh, pyvista, meshio (qs.as_arrays)
 
 Every computation releases the GIL, stops at Ctrl-C (KeyboardInterrupt) and, for long calls,
-prints progress on stderr (progress=False turns it off). Bad arguments raise ValueError naming
+prints progress on stderr when it is a terminal (progress=True: always, plain lines off a
+terminal; progress=False: never). Warnings (regularizer share, solver limits) are
+qcshape.QcshapeWarning, a UserWarning, through the warnings module. Results pickle. Bad arguments raise ValueError naming
 the argument; unreadable files OSError, invalid files ValueError with the file name and line.
 """
 
 from ._qcshape import (
     Dataset,
     Geodesic,
+    QcshapeWarning,
     ShapeSpace,
     icosphere,
     mds,
@@ -34,6 +39,7 @@ from ._qcshape import (
     similarity_matrix,
     write_mesh,
 )
+from ._meshes import as_arrays, to_meshio, to_pyvista, to_trimesh
 from .cluster import KMeans, KMedoids
 
 __all__ = [
@@ -41,7 +47,9 @@ __all__ = [
     "Geodesic",
     "KMeans",
     "KMedoids",
+    "QcshapeWarning",
     "ShapeSpace",
+    "as_arrays",
     "icosphere",
     "mds",
     "motion_maps",
@@ -50,6 +58,9 @@ __all__ = [
     "scores",
     "settings",
     "similarity_matrix",
+    "to_meshio",
+    "to_pyvista",
+    "to_trimesh",
     "write_mesh",
 ]
 __version__ = "0.1.0"

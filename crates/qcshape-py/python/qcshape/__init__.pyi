@@ -9,9 +9,12 @@ from typing_extensions import TypedDict, Unpack
 import numpy as _np
 import numpy.typing as _npt
 
-_Points = _npt.ArrayLike  # (nV, 3) float
-_Faces = _npt.ArrayLike  # (nF, 3) int
-_Poses = _npt.ArrayLike  # (K, nV, 3) float
+# Wherever positions or faces go, a trimesh.Trimesh, pyvista.PolyData or meshio.Mesh may go too
+# (typed Any: none of them is a dependency); a list of meshes is a pose sequence.
+_Mesh = Any
+_Points = Union[_npt.ArrayLike, _Mesh]  # (nV, 3) float
+_Faces = Union[_npt.ArrayLike, _Mesh]  # (nF, 3) int, the flat [3, a, b, c, ...] layout, or a mesh
+_Poses = Union[_npt.ArrayLike, Sequence[_Mesh]]  # (K, nV, 3) float
 _Matrix = _npt.ArrayLike  # (n, n) float
 _Path = Union[str, "PathLike[str]"]
 _F64 = _npt.NDArray[_np.float64]
@@ -46,7 +49,11 @@ class _PipelineOptions(TypedDict, total=False):
     base: Optional[Union[int, str]]
     approx: Optional[str]
     threads: Optional[int]
-    progress: Optional[bool]
+    progress: Optional[bool]  # None: only when stderr is a terminal
+
+class QcshapeWarning(UserWarning):
+    """qcshape's warnings (regularizer share above one half, solver iteration limit, lam = 0 with a
+    conformal metric, unconverged pairs), issued through the warnings module."""
 
 @overload
 def read_mesh(path: _Path, point_data: Literal[False] = False) -> Tuple[_F64, _I64]: ...
@@ -58,9 +65,26 @@ def read_mesh(path: _Path, point_data: bool = False) -> Union[Tuple[_F64, _I64],
     float64. ValueError for an invalid file or one with no faces."""
 
 def write_mesh(
-    path: _Path, vertices: _Points, faces: _Faces, point_data: Optional[Dict[str, _npt.ArrayLike]] = None
+    path: _Path,
+    vertices: _Points,
+    faces: Optional[_Faces] = None,
+    point_data: Optional[Dict[str, _npt.ArrayLike]] = None,
 ) -> None:
-    """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp, .vtu)."""
+    """Writes V (nV, 3), F (nF, 3) and named per-vertex fields, each (nV,) or (nV, 3) (.ply, .vtk, .vtp, .vtu);
+    write_mesh(path, mesh) takes a trimesh / pyvista / meshio mesh's own faces."""
+
+def as_arrays(mesh: Any) -> Tuple[_F64, _I64]:
+    """(V (nV, 3) float64, F (nF, 3) int64) of a trimesh.Trimesh, pyvista.PolyData (triangles only),
+    meshio.Mesh ("triangle" cells) or (V, F) pair."""
+
+def to_trimesh(vertices: _npt.ArrayLike, faces: _npt.ArrayLike) -> Any:
+    """A trimesh.Trimesh (process=False); a list of them for poses (K, nV, 3)."""
+
+def to_pyvista(vertices: _npt.ArrayLike, faces: _npt.ArrayLike) -> Any:
+    """A pyvista.PolyData; a list of them for poses (K, nV, 3)."""
+
+def to_meshio(vertices: _npt.ArrayLike, faces: _npt.ArrayLike) -> Any:
+    """A meshio.Mesh with one "triangle" cell block; a list of them for poses (K, nV, 3)."""
 
 def icosphere(level: int = 1) -> Tuple[_F64, _I64]:
     """The unit icosphere, 10 * 4**level + 2 vertices."""
@@ -153,10 +177,10 @@ class ShapeSpace:
         """(K * (insert + 1) + 1, nV, 3)."""
     def transfer(self, poses: _Poses, base: _Points, method: Optional[str] = None) -> _F64:
         """(K + 1, nV, 3), starting at base."""
-    def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: bool = True) -> _F64:
+    def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: Optional[bool] = None) -> _F64:
         """(n, n) dis(P_i, P_j)."""
     def similarity(
-        self, deformations: Sequence[_Poses], threads: Optional[int] = None, progress: bool = True
+        self, deformations: Sequence[_Poses], threads: Optional[int] = None, progress: Optional[bool] = None
     ) -> _F64:
         """(n, n) eq. 13 of deformations at one common base."""
 

@@ -1,0 +1,69 @@
+"""Warnings through Python's warnings module, category qcshape.QcshapeWarning (issue 50, item 3),
+for the CLI's conditions: regularizer share above one half (geodesic, dist, similarity_matrix),
+the solver's iteration limit, the metric's own warning (lam = 0 with a conformal metric)."""
+
+import warnings
+
+import pytest
+
+import qcshape as qs
+
+
+def caught(call):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        out = call()
+    return out, [str(x.message) for x in w if issubclass(x.category, qs.QcshapeWarning)]
+
+
+def test_category_is_a_user_warning():
+    assert issubclass(qs.QcshapeWarning, UserWarning)
+
+
+def test_regularizer_share_warns_on_geodesic_and_dist(pair):
+    VA, VB, F = pair
+    space = qs.ShapeSpace(F, lam=100.0)
+    g, msgs = caught(lambda: space.geodesic(VA, VB, steps=2))
+    assert g.regularizer_share > 0.5
+    assert len(msgs) == 1 and "L2 regularizer carries" in msgs[0] and "lower lam" in msgs[0]
+    _, msgs = caught(lambda: space.dist(VA, VB, steps=2))
+    assert any("L2 regularizer carries" in m for m in msgs)
+    # Filterable like any warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", qs.QcshapeWarning)
+        with pytest.raises(qs.QcshapeWarning):
+            space.dist(VA, VB, steps=2)
+
+
+def test_conformal_advice_does_not_say_lower_lam(pair):
+    VA, VB, F = pair
+    g, msgs = caught(lambda: qs.ShapeSpace(F, metric="conformal", lam=100.0).geodesic(VA, VB, steps=2))
+    assert g.regularizer_share > 0.5
+    assert len(msgs) == 1 and "does not lower the share" in msgs[0]
+
+
+def test_no_warning_when_the_metric_dominates(pair):
+    VA, VB, F = pair
+    g, msgs = caught(lambda: qs.ShapeSpace(F, lam=1e-4).geodesic(VA, VB, steps=2))
+    assert g.regularizer_share <= 0.5 and g.converged
+    assert msgs == []
+
+
+def test_similarity_matrix_warns_for_dominated_pairs(synthetic):
+    _, msgs = caught(lambda: qs.similarity_matrix(synthetic[0:4], metric="isometric", steps=2, lam=100.0, progress=False))
+    assert any("more than half of the energy for" in m for m in msgs)
+
+
+def test_lambda_zero_conformal_warns_at_construction(sphere):
+    _, F = sphere
+    _, msgs = caught(lambda: qs.ShapeSpace(F, metric="conformal", lam=0.0))
+    assert len(msgs) == 1 and "lambda = 0" in msgs[0]
+
+
+def test_iteration_limit_warns(pair):
+    VA, VB, F = pair
+    # With both tolerances 0, L-BFGS runs to its limit (5000 iterations, ~10 s on a 42-vertex mesh).
+    space = qs.ShapeSpace(F, solver="lbfgs", tolerance=0.0, energy_tolerance=0.0)
+    g, msgs = caught(lambda: space.geodesic(VA, VB, steps=3))
+    assert g.stop == "MaxIterations"
+    assert any("iteration limit after 5000 iterations" in m for m in msgs)
