@@ -63,12 +63,15 @@ fn distances_converge_under_mesh_refinement_for_every_metric() {
     }
 }
 
-/// The energy's parts add up to it, and the share is in [0, 1], for every metric.
+/// The energy's parts add up to it and the share is the regularizer's part, for every metric; at
+/// today's defaults the metric's own term carries the path (share measured at most 1 %, rigid),
+/// while the previous configuration's conformal and quasi-conformal were mostly L2 (69 %, 87 %):
+/// the README's "above one half, the metric measures L2".
 #[test]
 fn energy_parts_sum_to_the_energy() {
     let (a, b) = sphere_pair(1);
     for kind in MetricKind::all() {
-        for spec in [MetricSpec::new(kind), MetricSpec::previous(kind)] {
+        for (current, spec) in [(true, MetricSpec::new(kind)), (false, MetricSpec::previous(kind))] {
             let g = geodesic_between(&spec, &a, &b, &opts(4)).unwrap();
             let sum = g.geometric_energy + g.regularizer_energy;
             assert!(
@@ -77,9 +80,17 @@ fn energy_parts_sum_to_the_energy() {
                 spec.label(),
                 g.energy
             );
-            assert!((0.0..=1.0).contains(&g.regularizer_share()));
+            let share = g.regularizer_share();
+            assert!(
+                (share - g.regularizer_energy / g.energy).abs() <= 1e-12,
+                "{}: {share}",
+                spec.label()
+            );
             if kind == MetricKind::L2 {
                 assert_eq!(g.regularizer_energy, 0.0);
+            }
+            if current {
+                assert!(share < 0.05, "{} at the defaults: share {share}", spec.label());
             }
         }
     }
