@@ -37,6 +37,7 @@ pub mod inspect;
 mod interop_tests;
 pub mod nifti;
 pub mod npy;
+mod number;
 mod obj;
 mod off;
 mod ply;
