@@ -33,6 +33,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::io::table::{Table, TableError};
 use crate::io::{self, Format, IoError, MeshData};
 use crate::mesh::{Shape, Topology};
 
@@ -481,48 +482,37 @@ pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"]
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bytes =
-        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
-            DatasetError::Read {
-                path: path.into(),
-                error,
-            }
-        })?;
     let bad = |line: u64, message: String| DatasetError::Manifest {
         path: path.into(),
         line,
         message,
     };
-    let csv_err = |e: csv::Error| {
-        let line = e.position().map_or(0, |p| p.line());
-        bad(line, format!("malformed CSV: {e}"))
+    let table_err = |e: TableError| {
+        e.into_error(
+            |error| DatasetError::Read {
+                path: path.into(),
+                error,
+            },
+            bad,
+        )
     };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes.as_slice());
-    let header = rdr.headers().map_err(csv_err)?.clone();
-    let header_line = header.position().map_or(1, |p| p.line());
+    let mut table = Table::read(path, false).map_err(table_err)?;
+    let header_line = table.header_line;
     let mut col = [0usize; 4];
     for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
-        *slot = header
-            .iter()
-            .position(|h| h.eq_ignore_ascii_case(name))
-            .ok_or_else(|| {
-                bad(
-                    header_line,
-                    format!(
-                        "missing column {name:?}: the header must name the columns {}",
-                        MANIFEST_COLUMNS.join(",")
-                    ),
-                )
-            })?;
+        *slot = table.column(name).ok_or_else(|| {
+            bad(
+                header_line,
+                format!(
+                    "missing column {name:?}: the header must name the columns {}",
+                    MANIFEST_COLUMNS.join(",")
+                ),
+            )
+        })?;
     }
     let mut rows = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(csv_err)?;
-        let line = rec.position().map_or(0, |p| p.line());
+    for rec in table.rows() {
+        let (line, rec) = rec.map_err(table_err)?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let deformation = field(0);
         if deformation.is_empty() {
