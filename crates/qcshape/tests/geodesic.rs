@@ -6,20 +6,11 @@ use qcshape::metric::{
     Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal,
     Regularized, Rigid, L2,
 };
-use qcshape::synth::icosphere;
+use qcshape::synth::{icosphere, twist_along_z};
 
 /// A twisted and stretched copy of `s` (twist `k` radians per unit height about z, stretch in z).
 fn twist_stretch(s: &Shape, k: f64, stretch: f64) -> Shape {
-    let pos = s
-        .positions
-        .iter()
-        .map(|p| {
-            let a = k * p[2];
-            let (c, si) = (a.cos(), a.sin());
-            [c * p[0] - si * p[1], si * p[0] + c * p[1], stretch * p[2]]
-        })
-        .collect();
-    Shape::new(s.topology.clone(), pos).unwrap()
+    Shape::new(s.topology.clone(), twist_along_z(&s.positions, k, stretch)).unwrap()
 }
 
 fn rigid_motion(s: &Shape, angle: f64, t: [f64; 3]) -> Shape {
@@ -468,7 +459,7 @@ fn the_iteration_limit_is_the_one_given() {
 /// The twisted sphere pair at subdivision `level` in the units the solvers work in (scaled by
 /// the pair factor) and `spec`'s metric calibrated on it: (scaled ends, metric).
 fn scaled_sphere_problem(level: u32, spec: &qcshape::metric::MetricSpec) -> (Shape, Shape, Box<dyn Metric>) {
-    let (a, b) = qcshape::experiment::geometry::sphere_pair(level);
+    let (a, b) = qcshape::synth::twisted_sphere(level);
     let f = qcshape::geodesic::pair_factor(&a.positions, &b.positions, &a.topology).unwrap();
     let scaled = |s: &Shape| {
         let pos = s.positions.iter().map(|v| v.map(|c| c * f)).collect();

@@ -3,9 +3,10 @@
 //! shares that add up. Each of these failed with the previous raw scale (lambda 0.1 in
 //! mean-edge units), which is checked too.
 
-use qcshape::experiment::geometry::{centre_line_length, sphere_pair, tube_pair, TUBE_LENGTH};
+use qcshape::experiment::geometry::{centre_line_length, tube_pair, TUBE_LENGTH};
 use qcshape::geodesic::{geodesic_between, GeodesicOptions};
 use qcshape::metric::{MetricKind, MetricSpec};
+use qcshape::synth::twisted_sphere;
 
 fn opts(steps: usize) -> GeodesicOptions {
     GeodesicOptions {
@@ -47,8 +48,8 @@ fn the_default_isometric_geodesic_keeps_the_bent_tubes_length() {
 /// changed them by factors of 3 to 4 (l2 by the vertex ratio).
 #[test]
 fn distances_converge_under_mesh_refinement_for_every_metric() {
-    let (a2, b2) = sphere_pair(2);
-    let (a3, b3) = sphere_pair(3);
+    let (a2, b2) = twisted_sphere(2);
+    let (a3, b3) = twisted_sphere(3);
     for kind in MetricKind::all() {
         let spec = MetricSpec::new(kind);
         let d2 = geodesic_between(&spec, &a2, &b2, &opts(4)).unwrap().length;
@@ -69,7 +70,7 @@ fn distances_converge_under_mesh_refinement_for_every_metric() {
 /// the README's "above one half, the metric measures L2".
 #[test]
 fn energy_parts_sum_to_the_energy() {
-    let (a, b) = sphere_pair(1);
+    let (a, b) = twisted_sphere(1);
     for kind in MetricKind::all() {
         for (current, spec) in [(true, MetricSpec::new(kind)), (false, MetricSpec::previous(kind))] {
             let g = geodesic_between(&spec, &a, &b, &opts(4)).unwrap();
@@ -101,7 +102,7 @@ fn energy_parts_sum_to_the_energy() {
 /// with the paper's raw weights and the previous scale it carried under 1 %.
 #[test]
 fn the_quasi_conformal_term_carries_a_share_of_the_energy() {
-    let (a, b) = sphere_pair(2);
+    let (a, b) = twisted_sphere(2);
     let g = geodesic_between(&MetricSpec::new(MetricKind::QuasiConformal), &a, &b, &opts(4)).unwrap();
     assert!(g.regularizer_share() <= 0.9, "{}", g.regularizer_share());
     let old = geodesic_between(
