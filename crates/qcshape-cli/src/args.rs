@@ -11,7 +11,7 @@ use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNorm
 use qcshape::similarity::{Approx, PipelineOptions};
 use qcshape::transport::Transport;
 
-/// The metric (METHOD.md) and its variants.
+/// The metric (docs/method.md "Metrics") and its variants.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MetricArgs {
     /// Metric: l2, rigid, isometric, conformal, quasi-conformal.

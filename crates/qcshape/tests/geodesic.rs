@@ -316,7 +316,7 @@ fn rigid_motion_of_both_ends_keeps_invariant_distances() {
 fn quasi_conformal_segment_length_shrinks_as_the_path_is_refined() {
     // With the literal `segment` reading the weights K(P_{i+1}) - K(P_i) scale like 1/N, so the
     // form is quartic in the velocity and the length of one fixed curve (here the straight
-    // path from A to B) decreases about like 1/N as it is sampled more finely (METHOD.md). The
+    // path from A to B) decreases about like 1/N as it is sampled more finely (docs/method.md "Metrics"). The
     // frozen `endpoints` reading gives a length that converges. (Optimizing with the segment
     // reading and lambda = 0 is worse still: the solver finds paths of length ~1e-9.)
     let a = icosphere(1);

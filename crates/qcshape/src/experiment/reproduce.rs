@@ -776,7 +776,7 @@ impl ReproduceReport {
         writeln!(
             md,
             "\nClasses come from k-means with intrinsic means (eq. 14: class means are deformations whose \
-             poses are Karcher means, METHOD.md), started from the best of the seeded kernel k-means \
+             poses are Karcher means, docs/method.md), started from the best of the seeded kernel k-means \
              runs on the squared similarities (whose own scores are in the sixth column); {} rounds \
              at most. Sensitivity and specificity follow eq. 15 on the average of the per-class one-vs-rest \
              confusion matrices after Hungarian matching of clusters to classes; with this reading the \
@@ -960,7 +960,7 @@ impl ReproduceReport {
         writeln!(
             md,
             "\nNoise is added to every key pose with per-coordinate variance `level/100 * lbar^2` \
-             (lbar: the pose's mean edge length; METHOD.md); tau (eq. 17) is the share of \
+             (lbar: the pose's mean edge length; docs/method.md); tau (eq. 17) is the share of \
              deformations whose cluster is unchanged against the noise-free run, after Hungarian \
              matching of the clusters.{}",
             if self.noise_metric == MetricKind::QuasiConformal.label() {

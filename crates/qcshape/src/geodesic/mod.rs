@@ -1,4 +1,5 @@
-//! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
+//! Path energy (eq. 12) and discrete geodesics (docs/method.md
+//! "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
 //! path with `N` segments, started from the linear interpolation. Eight solvers, the default
@@ -725,7 +726,8 @@ fn segment_length(energy: f64) -> f64 {
     (energy / 2.0).max(0.0).sqrt()
 }
 
-/// How shapes are scaled before solving (METHOD.md: one common factor for all shapes compared).
+/// How shapes are scaled before solving (docs/method.md "Metrics": one common factor for all shapes
+/// compared).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Normalization {
     /// Divide all coordinates by the mean edge length of the first shape (default).

@@ -158,7 +158,7 @@ pub enum CalibrationError {
     },
 }
 
-/// A metric with its variants (METHOD.md) and regularization `G + lambda * L2`.
+/// A metric with its variants (docs/method.md "Metrics") and regularization `G + lambda * L2`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetricSpec {
     /// The metric.
