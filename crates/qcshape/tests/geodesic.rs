@@ -32,7 +32,7 @@ fn rigid_motion(s: &Shape, angle: f64, t: [f64; 3]) -> Shape {
 fn metrics() -> Vec<Box<dyn Metric>> {
     let reg = |m: Box<dyn Metric>| -> Box<dyn Metric> { Box::new(Regularized::new(m, 0.1)) };
     vec![
-        // The default L2 reading; the per-pose-area L2 degenerates (README, "Findings").
+        // The default L2 reading; the per-pose-area L2 degenerates (docs/log/benchmarks.md).
         Box::new(FrozenL2),
         reg(Box::new(Isometric)),
         reg(Box::new(Rigid)),
@@ -196,7 +196,7 @@ fn vertex_block_weight_changes_the_speed_not_the_geodesic() {
     }
 }
 
-/// What the vertex-block term is for (README "Benchmark"): on the benchmark pair at 2,562
+/// What the vertex-block term is for (docs/log/benchmarks.md): on the benchmark pair at 2,562
 /// vertices the conformal geodesic needs about half the iterations to the same energy with it
 /// (deterministic iteration counts, not timings).
 #[test]

@@ -44,7 +44,7 @@ fn the_default_isometric_geodesic_keeps_the_bent_tubes_length() {
 /// The same smooth deformation of the unit sphere at 162 and 642 vertices: every metric's
 /// distance agrees within 3 % (measured: 0.8 % for l2, rigid and isometric, 1.2 % conformal,
 /// 1.6 % quasi-conformal; the discretization error of a smooth field falls like h^2, and at 642
-/// against 2,562 vertices the gap is 0.2-0.6 %, docs/geometry.md). The previous raw scale
+/// against 2,562 vertices the gap is 0.2-0.6 %, docs/log/geometry.md). The previous raw scale
 /// changed them by factors of 3 to 4 (l2 by the vertex ratio).
 #[test]
 fn distances_converge_under_mesh_refinement_for_every_metric() {

@@ -826,7 +826,7 @@ impl ReproduceReport {
              by their scale at the base, no stretch term), beside the default (scale-invariant) rows above. \
              With eq. 7's terms the conformal and quasi-conformal geodesics shrink the shape on the way \
              (docs/method.md \"Scale-invariant forms\"). The paper's literal setting, lambda = 0 (section \
-             2.1), leaves the conformal metrics' null space free (docs/geometry.md).\n"
+             2.1), leaves the conformal metrics' null space free (docs/method.md \"Metrics\").\n"
         )?;
         writeln!(
             md,
@@ -988,7 +988,7 @@ impl ReproduceReport {
                          mean edge length, so on few, long edges it moves every vertex by a large \
                          share of the deformations themselves, and the short geodesics (N = {}) and \
                          few restarts ({}) of this run add to it (the full run, `qcshape reproduce`, \
-                         uses 162 vertices; docs/speed.md has its Table 3 at the defaults).",
+                         uses 162 vertices; docs/log/speed.md has its Table 3 at the defaults).",
                         self.vertices, self.steps, self.restarts
                     )
                 } else {
@@ -998,7 +998,7 @@ impl ReproduceReport {
                      metric at the calibrated defaults the weights are the normalized change of \
                      angle-defect curvature, which vertex noise dominates: its tau falls well \
                      below the paper's, while the isometric metric (`--noise-metric isometric`) \
-                     keeps nearly every cluster (docs/speed.md)."
+                     keeps nearly every cluster (docs/log/speed.md)."
                         .to_string()
                 }
             )?;

@@ -283,7 +283,7 @@ impl<'m> GeodesicSolver<'m> {
     /// ([`PathEnergy::shifted_start`]); without `near`, the linear path. A start changes the
     /// iterates, not the minimum: lengths agree with [`Self::solve`] to solver tolerance
     /// (measured on the 48-deformation benchmark: at most 1.5e-9 relative, conformal), in
-    /// fewer iterations when the ends move little (docs/speed.md).
+    /// fewer iterations when the ends move little (docs/log/speed.md).
     pub fn solve_near<'s>(
         &'s self,
         ctx: &mut SolveContext<'s>,
@@ -313,7 +313,7 @@ impl<'m> GeodesicSolver<'m> {
     /// callers that use only [`Geodesic::length`] (similarity matrices, the intrinsic k-means
     /// assignment). The returned path is a less converged geodesic than `solve_near_with`'s
     /// (its speed may still be uneven) and its length agrees with it to about the tolerance
-    /// (48-deformation benchmark: docs/speed.md); it is still a good start for the next
+    /// (48-deformation benchmark: docs/log/speed.md); it is still a good start for the next
     /// distance (`near`).
     pub fn distance_near_with<'s>(
         &'s self,
