@@ -33,7 +33,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::io::table::{Table, TableError};
+use crate::io::table::{Table, TableErrors};
 use crate::io::{self, Format, IoError, MeshData};
 use crate::mesh::{Shape, Topology};
 
@@ -477,26 +477,29 @@ pub struct ManifestRow {
     pub path: PathBuf,
 }
 
+impl TableErrors for DatasetError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        DatasetError::Read {
+            path: path.into(),
+            error,
+        }
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        DatasetError::Manifest {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
 /// The manifest's columns, in the order [`write_manifest`] writes them.
 pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"];
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bad = |line: u64, message: String| DatasetError::Manifest {
-        path: path.into(),
-        line,
-        message,
-    };
-    let table_err = |e: TableError| {
-        e.into_error(
-            |error| DatasetError::Read {
-                path: path.into(),
-                error,
-            },
-            bad,
-        )
-    };
-    let mut table = Table::read(path, false).map_err(table_err)?;
+    let bad = |line: u64, message: String| DatasetError::at_line(path, line, message);
+    let mut table = Table::<DatasetError>::read(path, false)?;
     let header_line = table.header_line;
     let mut col = [0usize; 4];
     for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
@@ -512,7 +515,7 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetErro
     }
     let mut rows = Vec::new();
     for rec in table.rows() {
-        let (line, rec) = rec.map_err(table_err)?;
+        let (line, rec) = rec?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let deformation = field(0);
         if deformation.is_empty() {

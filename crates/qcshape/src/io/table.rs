@@ -1,44 +1,31 @@
 //! CSV tables as qcshape reads them (data set manifests, distance matrices, label files,
 //! landmarks, cohort labels): the file read within [`crate::limits::MAX_TABLE_FILE_BYTES`],
 //! fields trimmed, lines starting with `#` skipped, a header row, and every problem at its
-//! 1-based line. The callers turn a [`TableError`] into their own error type.
+//! 1-based line, in the caller's own error type ([`TableErrors`]).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use csv::StringRecord;
 
-/// Why a table could not be read.
-#[derive(Debug)]
-pub(crate) enum TableError {
-    /// The file could not be read (missing, not a regular file, too large).
-    Read(std::io::Error),
-    /// Malformed CSV: the line (0 if unknown) and the message (`malformed CSV: ...`).
-    Line(u64, String),
+/// An error type that a table's problems become.
+pub(crate) trait TableErrors: Sized {
+    /// `path` could not be read (missing, not a regular file, too large).
+    fn unreadable(path: &Path, error: std::io::Error) -> Self;
+    /// A problem on `line` of `path` (1-based; 0 if unknown), e.g. malformed CSV.
+    fn at_line(path: &Path, line: u64, message: String) -> Self;
 }
 
-impl TableError {
-    /// The caller's error: `read` for a file that could not be read, `line` for a line.
-    pub(crate) fn into_error<E>(
-        self,
-        read: impl FnOnce(std::io::Error) -> E,
-        line: impl FnOnce(u64, String) -> E,
-    ) -> E {
-        match self {
-            TableError::Read(e) => read(e),
-            TableError::Line(n, message) => line(n, message),
-        }
-    }
-}
-
-/// A CSV table after its header.
-pub(crate) struct Table {
+/// A CSV table after its header; its problems are `E`s.
+pub(crate) struct Table<E> {
     /// The header row (empty when the file holds no row at all).
     pub(crate) header: StringRecord,
     /// The header's line (1 when unknown).
     pub(crate) header_line: u64,
+    path: PathBuf,
     rdr: csv::Reader<std::io::Cursor<Vec<u8>>>,
     /// Each line's first byte and whether the csv reader skips it (empty, or a `#` comment).
     lines: Lines,
+    errors: std::marker::PhantomData<fn() -> E>,
 }
 
 /// The lines of a file: the csv crate places a record at the start of the empty and comment
@@ -72,17 +59,17 @@ impl Lines {
     }
 }
 
-fn malformed(e: &csv::Error, lines: &Lines, default_line: u64) -> TableError {
+fn malformed<E: TableErrors>(path: &Path, e: &csv::Error, lines: &Lines, default_line: u64) -> E {
     let line = e.position().map_or(default_line, |p| lines.of(p.byte()));
-    TableError::Line(line, format!("malformed CSV: {e}"))
+    E::at_line(path, line, format!("malformed CSV: {e}"))
 }
 
-impl Table {
+impl<E: TableErrors> Table<E> {
     /// Reads `path` and its header. `flexible`: rows may hold any number of fields (else a
     /// row with another count than the header is malformed).
-    pub(crate) fn read(path: &Path, flexible: bool) -> Result<Table, TableError> {
+    pub(crate) fn read(path: &Path, flexible: bool) -> Result<Self, E> {
         let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
-            .map_err(TableError::Read)?;
+            .map_err(|e| E::unreadable(path, e))?;
         let lines = Lines::new(&bytes);
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
@@ -90,13 +77,15 @@ impl Table {
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
             .from_reader(std::io::Cursor::new(bytes));
-        let header = rdr.headers().map_err(|e| malformed(&e, &lines, 1))?.clone();
+        let header = rdr.headers().map_err(|e| malformed(path, &e, &lines, 1))?.clone();
         let header_line = header.position().map_or(1, |p| lines.of(p.byte()));
         Ok(Table {
             header,
             header_line,
+            path: path.into(),
             rdr,
             lines,
+            errors: std::marker::PhantomData,
         })
     }
 
@@ -106,10 +95,10 @@ impl Table {
     }
 
     /// The rows after the header, each with its line.
-    pub(crate) fn rows(&mut self) -> impl Iterator<Item = Result<(u64, StringRecord), TableError>> + '_ {
-        let lines = &self.lines;
+    pub(crate) fn rows(&mut self) -> impl Iterator<Item = Result<(u64, StringRecord), E>> + '_ {
+        let (path, lines) = (&self.path, &self.lines);
         self.rdr.records().map(move |rec| {
-            let rec = rec.map_err(|e| malformed(&e, lines, 0))?;
+            let rec = rec.map_err(|e| malformed(path, &e, lines, 0))?;
             Ok((rec.position().map_or(0, |p| lines.of(p.byte())), rec))
         })
     }
@@ -119,6 +108,25 @@ impl Table {
 mod tests {
     use super::*;
 
+    #[derive(Debug)]
+    enum TableError {
+        Read,
+        Line(u64, String),
+    }
+
+    impl TableErrors for TableError {
+        fn unreadable(_: &Path, _: std::io::Error) -> Self {
+            TableError::Read
+        }
+        fn at_line(_: &Path, line: u64, message: String) -> Self {
+            TableError::Line(line, message)
+        }
+    }
+
+    fn read(path: &Path, flexible: bool) -> Result<Table<TableError>, TableError> {
+        Table::read(path, flexible)
+    }
+
     /// Lines count every line of the file, comments included (the csv crate's own positions
     /// said 1, 3 and 5 here: at the skipped lines before a record, without the comments).
     #[test]
@@ -126,7 +134,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.csv");
         std::fs::write(&path, "# a comment\n Name , Label \n\na, x\n# more\nb ,y\n").unwrap();
-        let mut t = Table::read(&path, false).unwrap();
+        let mut t = read(&path, false).unwrap();
         let head = (t.header_line, t.column("name"), t.column("LABEL"));
         let rows: Vec<(u64, Vec<String>)> = t
             .rows()
@@ -145,21 +153,16 @@ mod tests {
         );
 
         std::fs::write(&path, "name,label\n# c\n\na,x,extra\n").unwrap();
-        let err = Table::read(&path, false)
-            .unwrap()
-            .rows()
-            .next()
-            .unwrap()
-            .unwrap_err();
+        let err = read(&path, false).unwrap().rows().next().unwrap().unwrap_err();
         assert!(
             matches!(&err, TableError::Line(4, m) if m.starts_with("malformed CSV: ")),
             "{err:?}"
         );
-        assert_eq!(Table::read(&path, true).unwrap().rows().count(), 1);
+        assert_eq!(read(&path, true).unwrap().rows().count(), 1);
 
         std::fs::write(&path, "").unwrap();
-        assert!(Table::read(&path, true).unwrap().header.is_empty());
-        let missing = Table::read(&dir.path().join("none.csv"), true);
-        assert!(matches!(missing, Err(TableError::Read(_))));
+        assert!(read(&path, true).unwrap().header.is_empty());
+        let missing = read(&dir.path().join("none.csv"), true);
+        assert!(matches!(missing, Err(TableError::Read)));
     }
 }

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::io::table::{Table, TableError};
+use crate::io::table::{Table, TableErrors};
 use crate::io::write_atomically;
 
 /// Id of the (endocardial) apex landmark.
@@ -129,27 +129,30 @@ impl Landmarks {
     }
 }
 
+impl TableErrors for LandmarkError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        LandmarkError::Read {
+            path: path.into(),
+            error,
+        }
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        LandmarkError::Row {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
 /// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
 pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
-    let row_err = |line: u64, message: String| LandmarkError::Row {
-        path: path.into(),
-        line,
-        message,
-    };
+    let row_err = |line: u64, message: String| LandmarkError::at_line(path, line, message);
     let incomplete = |message: String| LandmarkError::Incomplete {
         path: path.into(),
         message,
     };
-    let table_err = |e: TableError| {
-        e.into_error(
-            |error| LandmarkError::Read {
-                path: path.into(),
-                error,
-            },
-            row_err,
-        )
-    };
-    let mut table = Table::read(path, false).map_err(table_err)?;
+    let mut table = Table::<LandmarkError>::read(path, false)?;
     const COLS: [&str; 5] = ["frame", "landmark", "x", "y", "z"];
     let mut col = [0usize; 5];
     for (slot, name) in col.iter_mut().zip(COLS) {
@@ -162,7 +165,7 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
     }
     let mut rows: Vec<(usize, u32, [f64; 3], u64)> = Vec::new();
     for rec in table.rows() {
-        let (line, rec) = rec.map_err(table_err)?;
+        let (line, rec) = rec?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let frame = field(0).parse::<usize>().map_err(|_| {
             row_err(

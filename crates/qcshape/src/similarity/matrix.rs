@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::dataset::{read_manifest, DatasetError};
-use crate::io::table::{Table, TableError};
+use crate::io::table::{Table, TableErrors};
 use crate::io::{write_atomically, IoError};
 
 /// Relative tolerance of the symmetry and zero-diagonal checks of [`DistanceMatrix::new`]:
@@ -321,22 +321,25 @@ impl DistanceMatrix {
     }
 }
 
+impl TableErrors for MatrixFileError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        MatrixFileError::Read {
+            path: path.into(),
+            error,
+        }
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        MatrixFileError::Line {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
 fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
-    let bad = |line: u64, message: String| MatrixFileError::Line {
-        path: path.into(),
-        line,
-        message,
-    };
-    let table_err = |e: TableError| {
-        e.into_error(
-            |error| MatrixFileError::Read {
-                path: path.into(),
-                error,
-            },
-            bad,
-        )
-    };
-    let mut table = Table::read(path, true).map_err(table_err)?;
+    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let mut table = Table::<MatrixFileError>::read(path, true)?;
     let (header, header_line) = (table.header.clone(), table.header_line);
     if header.is_empty() {
         return Err(MatrixFileError::File {
@@ -355,7 +358,7 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
     let mut lines = Vec::with_capacity(n);
     let mut values = Vec::with_capacity(n * n);
     for rec in table.rows() {
-        let (line, rec) = rec.map_err(table_err)?;
+        let (line, rec) = rec?;
         let i = lines.len();
         if i == n {
             return Err(bad(
@@ -450,21 +453,8 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
 /// Errors name the file and line: no such columns, an empty name or label, a name given two
 /// different labels, or no label at all.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError> {
-    let bad = |line: u64, message: String| MatrixFileError::Line {
-        path: path.into(),
-        line,
-        message,
-    };
-    let table_err = |e: TableError| {
-        e.into_error(
-            |error| MatrixFileError::Read {
-                path: path.into(),
-                error,
-            },
-            bad,
-        )
-    };
-    let mut table = Table::read(path, true).map_err(table_err)?;
+    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let mut table = Table::<MatrixFileError>::read(path, true)?;
     let header_line = table.header_line;
     let mut pairs: Vec<(String, String)> = Vec::new();
     let mut seen: HashMap<String, (usize, u64)> = HashMap::new();
@@ -510,7 +500,7 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
             )
         })?;
         for rec in table.rows() {
-            let (line, rec) = rec.map_err(table_err)?;
+            let (line, rec) = rec?;
             let name = rec.get(name_col).unwrap_or("");
             let label = rec.get(label_col).unwrap_or("");
             if name.is_empty() {
