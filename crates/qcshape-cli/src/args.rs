@@ -11,7 +11,7 @@ use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNorm
 use qcshape::similarity::{Approx, PipelineOptions};
 use qcshape::transport::Transport;
 
-/// The metric (METHOD.md) and its variants.
+/// The metric (docs/method.md "Metrics") and its variants.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MetricArgs {
     /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
@@ -186,7 +186,7 @@ pub struct PipelineArgs {
     #[arg(long, default_value_t = defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
     pub levels: usize,
     /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
-    /// better classification in the measurements, docs/results.md), parallel (the paper's) or schild.
+    /// better classification in the measurements, docs/log/results.md), parallel (the paper's) or schild.
     #[arg(long, default_value = defaults::TRANSPORT.label())]
     pub transport: Transport,
     /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted

@@ -62,24 +62,6 @@ pub struct Args {
     json: bool,
 }
 
-fn demo_pair(level: u32) -> (Shape, Shape) {
-    let a = qcshape::synth::icosphere(level);
-    let pos = a
-        .positions
-        .iter()
-        .map(|p| {
-            let t = 1.2 * p[2];
-            [
-                t.cos() * p[0] - t.sin() * p[1],
-                t.sin() * p[0] + t.cos() * p[1],
-                1.5 * p[2],
-            ]
-        })
-        .collect();
-    let b = Shape::new(a.topology.clone(), pos).expect("demo shape is valid");
-    (a, b)
-}
-
 /// `b - a` per vertex (#V x 3).
 fn displacement(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
     a.iter()
@@ -137,7 +119,7 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let (a, b) = match (&args.a, &args.b) {
         (Some(pa), Some(pb)) => (load(pa)?, load(pb)?),
-        _ if args.demo => demo_pair(args.demo_level),
+        _ if args.demo => qcshape::synth::twisted_sphere(args.demo_level),
         _ => bail!("give two meshes A and B, or --demo"),
     };
     if let Err(e) = a.check_same_topology(&b) {

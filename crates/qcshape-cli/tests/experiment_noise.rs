@@ -34,7 +34,9 @@ fn zero_noise_keeps_every_class_and_noise_is_reported() {
     // Zero noise reproduces the noise-free classification exactly (deterministic pipeline).
     assert_eq!(rows[1], "0,uniform,1.0", "{csv}");
     let tau: f64 = rows[2].split(',').nth(2).unwrap().parse().unwrap();
-    assert!((0.0..=1.0).contains(&tau));
+    // Noise of 20 % of the squared mean edge length moves deformations to other clusters
+    // (measured tau 0.27 at level 0): the noise reaches the classification.
+    assert!(tau < 0.9, "{csv}");
     assert!(std::fs::read_to_string(out.join("noise.md"))
         .unwrap()
         .contains("| 20 |"));

@@ -131,18 +131,10 @@ fn energy_tolerance_option_decides_the_energy_test() {
 fn distance_does_not_depend_on_the_argument_order() {
     let dir = tempfile::tempdir().unwrap();
     let s = qcshape::synth::icosphere(2);
-    let twisted: Vec<[f64; 3]> = s
-        .positions
+    // Twisted, stretched along z and twice as large.
+    let twisted: Vec<[f64; 3]> = qcshape::synth::twist_along_z(&s.positions, 0.8, 1.5)
         .iter()
-        .map(|p| {
-            let t = 0.8 * p[2];
-            // Twisted, stretched along z and twice as large.
-            [
-                2.0 * (t.cos() * p[0] - t.sin() * p[1]),
-                2.0 * (t.sin() * p[0] + t.cos() * p[1]),
-                3.0 * p[2],
-            ]
-        })
+        .map(|p| p.map(|c| 2.0 * c))
         .collect();
     let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
     qcshape::io::write_mesh(&a, &s.positions, s.topology.faces(), &Default::default()).unwrap();

@@ -15,18 +15,7 @@ fn write_sequence(dir: &Path, name: &str, level: u32) -> Vec<std::path::PathBuf>
     (0..3)
         .map(|k| {
             let a = 0.3 * k as f64;
-            let pos: Vec<[f64; 3]> = s
-                .positions
-                .iter()
-                .map(|p| {
-                    let t = a * p[2];
-                    [
-                        t.cos() * p[0] - t.sin() * p[1],
-                        t.sin() * p[0] + t.cos() * p[1],
-                        (1.0 + a) * p[2],
-                    ]
-                })
-                .collect();
+            let pos = qcshape::synth::twist_along_z(&s.positions, a, 1.0 + a);
             let path = dir.join(format!("{name}_{k}.ply"));
             qcshape::io::write_mesh(&path, &pos, s.topology.faces(), &Default::default()).unwrap();
             path

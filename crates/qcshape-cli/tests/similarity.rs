@@ -317,7 +317,7 @@ fn npy_output_holds_the_csv_matrix() {
 }
 
 /// `--details` holds the energy split of every pose's path and the pair's regularizer share
-/// (in [0, 1], the regularizer's part of the pair's summed energy); the distribution of the
+/// (the regularizer's part of the pair's summed energy, checked against the split); the distribution of the
 /// shares is printed, with a warning when the regularizer carries most of the energy of most
 /// pairs: with `--lambda 100`, not with `--lambda 0.001`.
 #[test]
@@ -361,7 +361,7 @@ fn details_hold_the_energy_split_and_a_dominant_regularizer_is_warned() {
             assert_eq!(f.len(), 8, "{line}");
             let num = |k: usize| -> f64 { f[k].parse().unwrap_or_else(|_| panic!("{line}")) };
             let (d, g, reg, share) = (num(3), num(5), num(6), num(7));
-            assert!(g >= 0.0 && reg >= 0.0 && (0.0..=1.0).contains(&share), "{line}");
+            assert!(g >= 0.0 && reg >= 0.0, "{line}");
             if f[2] == "0" {
                 assert_eq!((d, g, reg), (0.0, 0.0, 0.0), "{line}");
             } else {

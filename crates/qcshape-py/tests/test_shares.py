@@ -28,7 +28,6 @@ def test_geodesic_energy_split_sums_to_its_energy(pair):
         assert g.regularizer_energy >= 0.0
         assert g.geometric_energy + g.regularizer_energy == pytest.approx(g.energy, rel=1e-12)
         assert g.regularizer_share == pytest.approx(g.regularizer_energy / g.energy, rel=1e-12)
-        assert 0.0 <= g.regularizer_share <= 1.0
         shares[metric, lam] = g.regularizer_share
     assert shares["l2", None] == 0.0
     assert shares["isometric", 0.001] < 0.5 < shares["isometric", 100.0]
@@ -59,7 +58,9 @@ def test_details_hold_the_pose_distances_and_the_energy_split(synthetic, approx)
     assert np.all(geo[:, 1:] > 0.0) and np.all(reg[:, 1:] > 0.0)
     share = det["regularizer_share"]
     np.testing.assert_allclose(share, reg.sum(axis=1) / (geo + reg).sum(axis=1), rtol=1e-14)
-    assert np.all((share >= 0.0) & (share <= 1.0))
+    # At the default lambda the metric, not the regularizer, carries the energy (README: above
+    # one half, the metric measures L2); measured at most 0.4 %.
+    assert np.all(share < 0.05), share
 
 
 def test_a_large_lambda_gives_shares_above_one_half(synthetic):

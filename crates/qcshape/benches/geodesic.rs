@@ -27,20 +27,7 @@ use qcshape::metric::{
     Conformal, ConformalForm, FrozenRigid, Isometric, Metric, MetricKind, MetricSpec, QcWeights,
     QuasiConformal, Regularized, Rigid, L2,
 };
-use qcshape::synth::icosphere;
-
-fn twist_stretch(s: &Shape) -> Shape {
-    let pos = s
-        .positions
-        .iter()
-        .map(|p| {
-            let a = 1.2 * p[2];
-            let (c, si) = (a.cos(), a.sin());
-            [c * p[0] - si * p[1], si * p[0] + c * p[1], 1.5 * p[2]]
-        })
-        .collect();
-    Shape::new(s.topology.clone(), pos).unwrap()
-}
+use qcshape::synth::twisted_sphere;
 
 /// The metric, triangle form and quasi-conformal weights a bench name stands for (every name
 /// of [`ALL`] but the two raw-only variants `l2-pose` and `rigid-frozen`).
@@ -156,8 +143,7 @@ fn main() {
     println!("| #V | metric | linear energy | E* | precond converged s (its) | precond to E* s (its) | hessian-kronecker to E* s (its) | pose-kronecker to E* s (its) | Newton to E* s (its) | {gn_name} to E* s (its) | L-BFGS (argmin) to E* s (its) | plain L-BFGS to E* s (its) | L-BFGS/precond | plain/precond | L-BFGS/Newton | L-BFGS/{gn_name} |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for level in levels {
-        let a = icosphere(level);
-        let b = twist_stretch(&a);
+        let (a, b) = twisted_sphere(level);
         // The solver's units (Normalization::MeanEdgeOfFirst), where the calibration is taken.
         let unit = 1.0 / qcshape::mesh::geometry::mean_edge_length(&a.topology, &a.positions);
         let scaled =

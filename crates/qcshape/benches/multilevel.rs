@@ -1,4 +1,4 @@
-//! Multilevel geodesic benchmark (issue 39): the twisted sphere (`experiment::geometry::sphere_pair`)
+//! Multilevel geodesic benchmark (issue 39): the twisted sphere (`synth::twisted_sphere`)
 //! at several resolutions and the bent tube, N = 8, for isometric and conformal at the calibrated
 //! defaults: the single-level solve from the straight path (the baseline, measured in the same
 //! run) against coarse-to-fine solves on the mesh hierarchy (each level's metric calibrated on
@@ -11,11 +11,12 @@
 
 use std::time::Instant;
 
-use qcshape::experiment::geometry::{sphere_pair, tube_pair};
+use qcshape::experiment::geometry::tube_pair;
 use qcshape::geodesic::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver, Solver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
+use qcshape::synth::twisted_sphere;
 
 fn arg<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
     args.iter()
@@ -106,7 +107,7 @@ fn main() {
     let mut cases: Vec<(String, Shape, Shape)> = sizes
         .iter()
         .map(|&s| {
-            let (a, b) = sphere_pair(s);
+            let (a, b) = twisted_sphere(s);
             (format!("sphere {}", a.n_vertices()), a, b)
         })
         .collect();

@@ -33,6 +33,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::io::table::{Table, TableErrors};
 use crate::io::{self, Format, IoError, MeshData};
 use crate::mesh::{Shape, Topology};
 
@@ -476,53 +477,45 @@ pub struct ManifestRow {
     pub path: PathBuf,
 }
 
+impl TableErrors for DatasetError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        DatasetError::Read {
+            path: path.into(),
+            error,
+        }
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        DatasetError::Manifest {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
 /// The manifest's columns, in the order [`write_manifest`] writes them.
 pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"];
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bytes =
-        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
-            DatasetError::Read {
-                path: path.into(),
-                error,
-            }
-        })?;
-    let bad = |line: u64, message: String| DatasetError::Manifest {
-        path: path.into(),
-        line,
-        message,
-    };
-    let csv_err = |e: csv::Error| {
-        let line = e.position().map_or(0, |p| p.line());
-        bad(line, format!("malformed CSV: {e}"))
-    };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes.as_slice());
-    let header = rdr.headers().map_err(csv_err)?.clone();
-    let header_line = header.position().map_or(1, |p| p.line());
+    let bad = |line: u64, message: String| DatasetError::at_line(path, line, message);
+    let mut table = Table::<DatasetError>::read(path, false)?;
+    let header_line = table.header_line;
     let mut col = [0usize; 4];
     for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
-        *slot = header
-            .iter()
-            .position(|h| h.eq_ignore_ascii_case(name))
-            .ok_or_else(|| {
-                bad(
-                    header_line,
-                    format!(
-                        "missing column {name:?}: the header must name the columns {}",
-                        MANIFEST_COLUMNS.join(",")
-                    ),
-                )
-            })?;
+        *slot = table.column(name).ok_or_else(|| {
+            bad(
+                header_line,
+                format!(
+                    "missing column {name:?}: the header must name the columns {}",
+                    MANIFEST_COLUMNS.join(",")
+                ),
+            )
+        })?;
     }
     let mut rows = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(csv_err)?;
-        let line = rec.position().map_or(0, |p| p.line());
+    for rec in table.rows() {
+        let (line, rec) = rec?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let deformation = field(0);
         if deformation.is_empty() {

@@ -7,7 +7,7 @@
 //! `similarity::defaults`; a module never imports this index, which sits above them all) and
 //! re-exported here.
 //!
-//! The values are the ones the README's "How the defaults were chosen" section measured; a
+//! The values are the ones docs/defaults.md "How the defaults were chosen" measured; a
 //! command that keeps a different value does so through one of the named exceptions at the end
 //! of this module, each with the reason, and says so in its `--help`.
 
@@ -46,7 +46,7 @@ pub const NOISE_RESTARTS: usize = 10;
 /// `lv run` ([`crate::lv::landmarks::Landmarks::low_pass`]): 2. On five harder phantom cohorts
 /// (`lv phantom --overlap --seed 1..5`, 1 mm landmark noise per frame, 8 frames) it raised the
 /// mean ARI of the 2-cluster split from 0.00 to 0.24 and leave-one-out 1-NN from 66 to 73 %,
-/// and left the default cohort at 100 / 100 (README, "Left ventricle"; docs/lv-clustering.md).
+/// and left the default cohort at 100 / 100 (docs/log/lv-clustering.md).
 /// `None` is the paper's registration of the raw landmarks.
 pub const LANDMARK_HARMONICS: Option<usize> = Some(2);
 
@@ -55,7 +55,7 @@ pub const LANDMARK_HARMONICS: Option<usize> = Some(2);
 /// searched within 4 mm (about four times the landmark noise of the harder phantom). On
 /// phantom cohorts with 1 mm landmark noise it brings the meshes from 1.5 to 0.65 mm RMS off
 /// the true wall (test `image_refinement_brings_carried_meshes_onto_the_true_cavity_wall`);
-/// the 2-means splits: README, "Left ventricle", and docs/lv-clustering.md section 5. `None`
+/// the 2-means splits: docs/log/lv-clustering.md section 5. `None`
 /// is the paper's registration (landmark splines alone).
 pub const LV_REFINE_MM: Option<f64> = Some(4.0);
 

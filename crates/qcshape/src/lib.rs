@@ -1,8 +1,8 @@
 //! # qcshape
 //!
 //! Deformation similarity in quasi-conformal shape space (Kilian-style shape spaces with the
-//! rigid, isometric, conformal, L2 and quasi-conformal metrics of the paper in
-//! `shared/seed/paper.txt`, with the choices fixed by `shared/spec/METHOD.md`).
+//! rigid, isometric, conformal, L2 and quasi-conformal metrics of Taimouri and Hua,
+//! Graphical Models 2014 (cited in the README), with its open choices fixed in docs/method.md).
 //!
 //! Conventions used throughout:
 //! - a [`mesh::Topology`] is an immutable, shared (`Arc`) triangle list `F` (#F x 3);

@@ -5,7 +5,7 @@
 //!
 //! The bounds are far above every setting the documentation uses (the README's runs, the
 //! paper's): they exist to turn a typo (`--steps 80000000`) or a hostile value into a clear
-//! error before anything is allocated. See docs/reliability.md.
+//! error before anything is allocated. See docs/log/reliability.md.
 
 use std::io::Read;
 use std::path::Path;

@@ -399,7 +399,8 @@ impl ShapeSpace {
     }
 
     /// The Karcher mean of `poses` (each #V x 3), started from `init` (default the first pose):
-    /// `mu <- mu + step mean_k log_mu(P_k)`, damped ([`karcher_mean`], METHOD.md). The mean is in input
+    /// `mu <- mu + step mean_k log_mu(P_k)`, damped ([`karcher_mean`], docs/method.md
+    /// "Clustering"). The mean is in input
     /// units, the variance `sum_k dis(mu, P_k)^2` in normalized units squared.
     pub fn karcher_mean(
         &self,

@@ -6,20 +6,11 @@ use qcshape::metric::{
     Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcWeights, QuasiConformal,
     Regularized, Rigid, L2,
 };
-use qcshape::synth::icosphere;
+use qcshape::synth::{icosphere, twist_along_z};
 
 /// A twisted and stretched copy of `s` (twist `k` radians per unit height about z, stretch in z).
 fn twist_stretch(s: &Shape, k: f64, stretch: f64) -> Shape {
-    let pos = s
-        .positions
-        .iter()
-        .map(|p| {
-            let a = k * p[2];
-            let (c, si) = (a.cos(), a.sin());
-            [c * p[0] - si * p[1], si * p[0] + c * p[1], stretch * p[2]]
-        })
-        .collect();
-    Shape::new(s.topology.clone(), pos).unwrap()
+    Shape::new(s.topology.clone(), twist_along_z(&s.positions, k, stretch)).unwrap()
 }
 
 fn rigid_motion(s: &Shape, angle: f64, t: [f64; 3]) -> Shape {
@@ -41,7 +32,7 @@ fn rigid_motion(s: &Shape, angle: f64, t: [f64; 3]) -> Shape {
 fn metrics() -> Vec<Box<dyn Metric>> {
     let reg = |m: Box<dyn Metric>| -> Box<dyn Metric> { Box::new(Regularized::new(m, 0.1)) };
     vec![
-        // The default L2 reading; the per-pose-area L2 degenerates (README, "Findings").
+        // The default L2 reading; the per-pose-area L2 degenerates (docs/log/benchmarks.md).
         Box::new(FrozenL2),
         reg(Box::new(Isometric)),
         reg(Box::new(Rigid)),
@@ -205,7 +196,7 @@ fn vertex_block_weight_changes_the_speed_not_the_geodesic() {
     }
 }
 
-/// What the vertex-block term is for (README "Benchmark"): on the benchmark pair at 2,562
+/// What the vertex-block term is for (docs/log/benchmarks.md): on the benchmark pair at 2,562
 /// vertices the conformal geodesic needs about half the iterations to the same energy with it
 /// (deterministic iteration counts, not timings).
 #[test]
@@ -325,7 +316,7 @@ fn rigid_motion_of_both_ends_keeps_invariant_distances() {
 fn quasi_conformal_segment_length_shrinks_as_the_path_is_refined() {
     // With the literal `segment` reading the weights K(P_{i+1}) - K(P_i) scale like 1/N, so the
     // form is quartic in the velocity and the length of one fixed curve (here the straight
-    // path from A to B) decreases about like 1/N as it is sampled more finely (METHOD.md). The
+    // path from A to B) decreases about like 1/N as it is sampled more finely (docs/method.md "Metrics"). The
     // frozen `endpoints` reading gives a length that converges. (Optimizing with the segment
     // reading and lambda = 0 is worse still: the solver finds paths of length ~1e-9.)
     let a = icosphere(1);
@@ -468,7 +459,7 @@ fn the_iteration_limit_is_the_one_given() {
 /// The twisted sphere pair at subdivision `level` in the units the solvers work in (scaled by
 /// the pair factor) and `spec`'s metric calibrated on it: (scaled ends, metric).
 fn scaled_sphere_problem(level: u32, spec: &qcshape::metric::MetricSpec) -> (Shape, Shape, Box<dyn Metric>) {
-    let (a, b) = qcshape::experiment::geometry::sphere_pair(level);
+    let (a, b) = qcshape::synth::twisted_sphere(level);
     let f = qcshape::geodesic::pair_factor(&a.positions, &b.positions, &a.topology).unwrap();
     let scaled = |s: &Shape| {
         let pos = s.positions.iter().map(|v| v.map(|c| c * f)).collect();

@@ -3,9 +3,10 @@
 //! shares that add up. Each of these failed with the previous raw scale (lambda 0.1 in
 //! mean-edge units), which is checked too.
 
-use qcshape::experiment::geometry::{centre_line_length, sphere_pair, tube_pair, TUBE_LENGTH};
+use qcshape::experiment::geometry::{centre_line_length, tube_pair, TUBE_LENGTH};
 use qcshape::geodesic::{geodesic_between, GeodesicOptions};
 use qcshape::metric::{MetricKind, MetricSpec};
+use qcshape::synth::twisted_sphere;
 
 fn opts(steps: usize) -> GeodesicOptions {
     GeodesicOptions {
@@ -43,12 +44,12 @@ fn the_default_isometric_geodesic_keeps_the_bent_tubes_length() {
 /// The same smooth deformation of the unit sphere at 162 and 642 vertices: every metric's
 /// distance agrees within 3 % (measured: 0.8 % for l2, rigid and isometric, 1.2 % conformal,
 /// 1.6 % quasi-conformal; the discretization error of a smooth field falls like h^2, and at 642
-/// against 2,562 vertices the gap is 0.2-0.6 %, docs/geometry.md). The previous raw scale
+/// against 2,562 vertices the gap is 0.2-0.6 %, docs/log/geometry.md). The previous raw scale
 /// changed them by factors of 3 to 4 (l2 by the vertex ratio).
 #[test]
 fn distances_converge_under_mesh_refinement_for_every_metric() {
-    let (a2, b2) = sphere_pair(2);
-    let (a3, b3) = sphere_pair(3);
+    let (a2, b2) = twisted_sphere(2);
+    let (a3, b3) = twisted_sphere(3);
     for kind in MetricKind::all() {
         let spec = MetricSpec::new(kind);
         let d2 = geodesic_between(&spec, &a2, &b2, &opts(4)).unwrap().length;
@@ -63,12 +64,15 @@ fn distances_converge_under_mesh_refinement_for_every_metric() {
     }
 }
 
-/// The energy's parts add up to it, and the share is in [0, 1], for every metric.
+/// The energy's parts add up to it and the share is the regularizer's part, for every metric; at
+/// today's defaults the metric's own term carries the path (share measured at most 1 %, rigid),
+/// while the previous configuration's conformal and quasi-conformal were mostly L2 (69 %, 87 %):
+/// the README's "above one half, the metric measures L2".
 #[test]
 fn energy_parts_sum_to_the_energy() {
-    let (a, b) = sphere_pair(1);
+    let (a, b) = twisted_sphere(1);
     for kind in MetricKind::all() {
-        for spec in [MetricSpec::new(kind), MetricSpec::previous(kind)] {
+        for (current, spec) in [(true, MetricSpec::new(kind)), (false, MetricSpec::previous(kind))] {
             let g = geodesic_between(&spec, &a, &b, &opts(4)).unwrap();
             let sum = g.geometric_energy + g.regularizer_energy;
             assert!(
@@ -77,9 +81,17 @@ fn energy_parts_sum_to_the_energy() {
                 spec.label(),
                 g.energy
             );
-            assert!((0.0..=1.0).contains(&g.regularizer_share()));
+            let share = g.regularizer_share();
+            assert!(
+                (share - g.regularizer_energy / g.energy).abs() <= 1e-12,
+                "{}: {share}",
+                spec.label()
+            );
             if kind == MetricKind::L2 {
                 assert_eq!(g.regularizer_energy, 0.0);
+            }
+            if current {
+                assert!(share < 0.05, "{} at the defaults: share {share}", spec.label());
             }
         }
     }
@@ -90,7 +102,7 @@ fn energy_parts_sum_to_the_energy() {
 /// with the paper's raw weights and the previous scale it carried under 1 %.
 #[test]
 fn the_quasi_conformal_term_carries_a_share_of_the_energy() {
-    let (a, b) = sphere_pair(2);
+    let (a, b) = twisted_sphere(2);
     let g = geodesic_between(&MetricSpec::new(MetricKind::QuasiConformal), &a, &b, &opts(4)).unwrap();
     assert!(g.regularizer_share() <= 0.9, "{}", g.regularizer_share());
     let old = geodesic_between(

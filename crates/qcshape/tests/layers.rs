@@ -1,6 +1,13 @@
 //! The library's layers, checked: every module may import only modules below it in [`ORDER`]
 //! (`crate::X` paths in its non-test code), so no import runs upward and there is no cycle
 //! between modules. docs/design.md shows the layers.
+//!
+//! Non-test code is the whole file but comments, literals, the bodies of `#[cfg(test)] mod NAME
+//! { ... }` (found by brace matching) and files that are test modules (`#[cfg(test)] mod NAME;`,
+//! `tests.rs`). Checked by planting `use crate::space::ShapeSpace;` at the end of numfmt.rs,
+//! after its inline test module: this test fails on it ("numfmt -> space"), the earlier scanner,
+//! which stopped at a file's first `#[cfg(test)]`, passed; [`the_scanner_reads_past_a_test_module`]
+//! keeps such a plant in a string.
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -80,27 +87,193 @@ fn test_only(files: &[PathBuf]) -> Vec<PathBuf> {
     out
 }
 
-/// The `crate::X` modules the non-test, non-comment code of `text` names.
-fn imports(text: &str) -> Vec<(usize, String)> {
-    let mut out = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.starts_with("#[cfg(test)]") {
-            break; // the test module closes every file that has one
+/// `text` with comments and the contents of string and character literals blanked (newlines kept,
+/// so line numbers stay): braces and `crate::` are then seen only where they are code.
+fn code_only(text: &str) -> String {
+    let c: Vec<char> = text.chars().collect();
+    let at = |k: usize| c.get(k).copied().unwrap_or('\0');
+    let mut out = String::with_capacity(text.len());
+    let blank = |out: &mut String, from: usize, to: usize| {
+        out.extend(
+            c[from..to.min(c.len())]
+                .iter()
+                .map(|&ch| if ch == '\n' { '\n' } else { ' ' }),
+        )
+    };
+    let ident = |ch: char| ch.is_alphanumeric() || ch == '_';
+    let mut i = 0;
+    while i < c.len() {
+        let end = if c[i] == '/' && at(i + 1) == '/' {
+            (i..c.len()).find(|&k| c[k] == '\n').unwrap_or(c.len())
+        } else if c[i] == '/' && at(i + 1) == '*' {
+            // block comments nest
+            let (mut k, mut depth) = (i, 0);
+            loop {
+                if k >= c.len() {
+                    break k;
+                } else if c[k] == '/' && at(k + 1) == '*' {
+                    depth += 1;
+                    k += 2;
+                } else if c[k] == '*' && at(k + 1) == '/' {
+                    depth -= 1;
+                    k += 2;
+                    if depth == 0 {
+                        break k;
+                    }
+                } else {
+                    k += 1;
+                }
+            }
+        } else if (i == 0 || !ident(c[i - 1])) && (c[i] == 'r' || (c[i] == 'b' && at(i + 1) == 'r')) && {
+            let s = if c[i] == 'b' { i + 2 } else { i + 1 };
+            at(s + (s..c.len()).take_while(|&k| c[k] == '#').count()) == '"'
+        } {
+            // a raw string r#"..."#: it ends at a quote followed by as many hashes
+            let s = if c[i] == 'b' { i + 2 } else { i + 1 };
+            let hashes = (s..c.len()).take_while(|&k| c[k] == '#').count();
+            let mut k = s + hashes + 1;
+            while k < c.len() && !(c[k] == '"' && (1..=hashes).all(|h| at(k + h) == '#')) {
+                k += 1;
+            }
+            k + 1 + hashes
+        } else if c[i] == '"' {
+            let mut k = i + 1;
+            while k < c.len() && c[k] != '"' {
+                k += if c[k] == '\\' { 2 } else { 1 };
+            }
+            k + 1
+        } else if c[i] == '\'' && (at(i + 1) == '\\' || (at(i + 1) != '\'' && at(i + 2) == '\'')) {
+            // a character literal ('x', '\n', '\'', '\u{..}'); a lifetime 'a has no closing quote
+            let mut k = i + 1;
+            while k < c.len() && c[k] != '\'' {
+                k += if c[k] == '\\' { 2 } else { 1 };
+            }
+            k + 1
+        } else {
+            out.push(c[i]);
+            i += 1;
+            continue;
+        };
+        blank(&mut out, i, end);
+        i = end;
+    }
+    out
+}
+
+/// `code` (from [`code_only`]) with every `#[cfg(test)] mod NAME { ... }` blanked, found by brace
+/// matching; a `#[cfg(test)] mod NAME;` file is left out by [`test_only`] instead. Everything else
+/// is kept, including code after a test module.
+fn without_test_modules(code: &str) -> String {
+    let c: Vec<char> = code.chars().collect();
+    let mut out = c.clone();
+    let skip_ws = |mut k: usize| {
+        while k < c.len() && c[k].is_whitespace() {
+            k += 1;
         }
-        if t.starts_with("//") {
+        k
+    };
+    let word = |k: usize| -> String {
+        c[k..]
+            .iter()
+            .take_while(|ch| ch.is_alphanumeric() || **ch == '_')
+            .collect()
+    };
+    // the index just past the bracket that closes the one opened at `k`
+    let close = |k: usize, open: char, shut: char| {
+        let mut depth = 0usize;
+        for (j, &ch) in c.iter().enumerate().skip(k) {
+            if ch == open {
+                depth += 1;
+            } else if ch == shut {
+                depth -= 1;
+                if depth == 0 {
+                    return j + 1;
+                }
+            }
+        }
+        c.len()
+    };
+    let attr: Vec<char> = "#[cfg(test)]".chars().collect();
+    let mut i = 0;
+    while i + attr.len() <= c.len() {
+        if c[i..i + attr.len()] != attr[..] {
+            i += 1;
             continue;
         }
-        let code = t.split("//").next().unwrap();
-        let mut rest = code;
-        while let Some(i) = rest.find("crate::") {
-            rest = &rest[i + 7..];
-            let name: String = rest
-                .chars()
-                .take_while(|c| c.is_ascii_lowercase() || *c == '_')
-                .collect();
-            out.push((n + 1, name));
+        // further attributes, a visibility, then `mod NAME {`
+        let mut k = skip_ws(i + attr.len());
+        while c.get(k) == Some(&'#') && c.get(k + 1) == Some(&'[') {
+            k = skip_ws(close(k + 1, '[', ']'));
         }
+        if word(k) == "pub" {
+            k = skip_ws(k + 3);
+            if c.get(k) == Some(&'(') {
+                k = skip_ws(close(k, '(', ')'));
+            }
+        }
+        if word(k) == "mod" {
+            k = skip_ws(k + 3);
+            k = skip_ws(k + word(k).len());
+            if c.get(k) == Some(&'{') {
+                let end = close(k, '{', '}');
+                for ch in &mut out[i..end] {
+                    if *ch != '\n' {
+                        *ch = ' ';
+                    }
+                }
+                i = end;
+                continue;
+            }
+        }
+        i += attr.len();
+    }
+    out.into_iter().collect()
+}
+
+/// The `crate::X` modules (and each `X` of `crate::{X, Y::Z}`) that the code of `text` names,
+/// outside comments, literals and `#[cfg(test)] mod { }` blocks, with their line numbers.
+fn imports(text: &str) -> Vec<(usize, String)> {
+    let code: Vec<char> = without_test_modules(&code_only(text)).chars().collect();
+    let line = |k: usize| 1 + code[..k].iter().filter(|&&ch| ch == '\n').count();
+    let ident = |ch: char| ch.is_alphanumeric() || ch == '_';
+    let name = |k: usize| -> String { code[k..].iter().take_while(|&&ch| ident(ch)).collect() };
+    let key: Vec<char> = "crate::".chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i + key.len() <= code.len() {
+        if code[i..i + key.len()] != key[..] || (i > 0 && ident(code[i - 1])) {
+            i += 1;
+            continue;
+        }
+        let k = i + key.len();
+        if code.get(k) == Some(&'{') {
+            // a group: the first name of each item at its top level
+            let (mut depth, mut j, mut first) = (0usize, k, true);
+            while j < code.len() {
+                match code[j] {
+                    '{' => {
+                        depth += 1;
+                        first = depth == 1;
+                    }
+                    '}' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            break;
+                        }
+                    }
+                    ',' if depth == 1 => first = true,
+                    ch if first && depth == 1 && ident(ch) => {
+                        out.push((line(j), name(j)));
+                        first = false;
+                    }
+                    _ => {}
+                }
+                j += 1;
+            }
+        } else {
+            out.push((line(k), name(k)));
+        }
+        i = k;
     }
     out
 }
@@ -156,4 +329,47 @@ fn every_module_is_placed_once() {
     let mut order: Vec<String> = ORDER.iter().map(|s| s.to_string()).collect();
     order.sort();
     assert_eq!(names, order);
+}
+
+/// The scanner itself, on text with the cases the guard must see: an upward import after an inline
+/// test module (the earlier scanner stopped at the first `#[cfg(test)]` and missed it), a grouped
+/// import, and the places it must not look (the test module, comments, strings).
+#[test]
+fn the_scanner_reads_past_a_test_module() {
+    let text = r#"
+use crate::mesh::Mesh;
+
+#[cfg(test)]
+mod tests {
+    use crate::experiment::Study; // test code: not an import of the library
+    fn f() { let s = "}"; let c = '}'; let _ = (s, c); }
+    /* a } in a comment */
+}
+
+// crate::space in a comment
+const S: &str = "crate::lv in a string";
+
+pub use crate::space::ShapeSpace;
+
+use crate::{io::read, similarity::{matrix, engine}};
+
+#[cfg(test)]
+pub(crate) mod helpers;
+
+pub fn after<'a>(x: &'a str) -> &'a str { crate::eval::f(); x }
+"#;
+    let found = imports(text);
+    let names: Vec<(usize, &str)> = found.iter().map(|(l, n)| (*l, n.as_str())).collect();
+    assert_eq!(
+        names,
+        [
+            (2, "mesh"),
+            (14, "space"),
+            (16, "io"),
+            (16, "similarity"),
+            (21, "eval")
+        ],
+        "{}",
+        without_test_modules(&code_only(text))
+    );
 }

@@ -23,7 +23,7 @@ const NOISE_STEPS: &str = "4";
 /// Classifies the data set (interpolation, transfer, similarity, k-means with intrinsic means
 /// started from seeded kernel k-means), then adds noise to every pose (per-coordinate variance
 /// `level/100 * lbar^2`, lbar the pose's mean edge length; Gaussian or uniform with the same
-/// variance; METHOD.md), classifies again, and reports tau (eq. 17): the share of deformations
+/// variance; docs/method.md), classifies again, and reports tau (eq. 17): the share of deformations
 /// whose cluster is unchanged, after Hungarian matching of the clusters. Writes DIR/noise.csv
 /// and DIR/noise.md.
 #[derive(Debug, clap::Args)]

@@ -77,15 +77,15 @@ pub struct RunArgs {
     /// Low-pass filter of the landmark trajectories before registration: keep the Fourier
     /// harmonics 0..H of the cycle (the frames must cover one whole cycle), which removes
     /// frame-to-frame landmark jitter; `none` registers the raw landmarks (the paper's). Not
-    /// applied with --open. The default was chosen on five harder phantom cohorts (README,
-    /// "Left ventricle").
+    /// applied with --open. The default was chosen on five harder phantom cohorts
+    /// (docs/log/lv-clustering.md).
     #[arg(long, value_name = "H|none", default_value_t = Harmonics(qcshape::defaults::LANDMARK_HARMONICS))]
     pub(crate) harmonics: Harmonics,
     /// Image refinement of every carried frame: each vertex moves along its normal to the
     /// cavity threshold of that frame's own image, searched within MM mm on both sides; `none`
     /// keeps the landmark splines alone (the paper's). Image cohorts only: meshes given as input
-    /// are used as they are. The default was chosen on five harder phantom cohorts (README,
-    /// "Left ventricle").
+    /// are used as they are. The default was chosen on five harder phantom cohorts
+    /// (docs/log/lv-clustering.md).
     #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
     pub(crate) refine: super::Refine,
     /// Name of the subject whose cycle is mapped in Fig. 9 (default: the first).
@@ -116,7 +116,7 @@ pub struct RunArgs {
     /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
     /// (the straight-path length, no optimization) or tangent (the metric linearized at the
     /// common base: one feature vector per pose, cost linear in the subjects; every metric).
-    /// Errors against exact: docs/speed.md.
+    /// Errors against exact: docs/log/speed.md.
     /// Interpolation, transfer and the Fig. 9 map stay exact.
     #[arg(long, default_value = "exact")]
     pub(crate) approx: qcshape::similarity::Approx,

@@ -1,5 +1,5 @@
-//! k-means with intrinsic means (eq. 14, METHOD.md): class means are deformations whose poses
-//! are Karcher means of the members' corresponding poses.
+//! k-means with intrinsic means (eq. 14, docs/method.md "Clustering"): class means are
+//! deformations whose poses are Karcher means of the members' corresponding poses.
 
 use rayon::prelude::*;
 use thiserror::Error;

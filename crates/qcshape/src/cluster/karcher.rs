@@ -1,5 +1,5 @@
-//! Intrinsic (Karcher) means of poses in shape space, with the discrete log map (METHOD.md,
-//! "k-means (eq. 14) with intrinsic means").
+//! Intrinsic (Karcher) means of poses in shape space, with the discrete log map (docs/method.md
+//! "Clustering").
 
 use crate::geodesic::{Geodesic, GeodesicError, GeodesicSolver, SolveContext};
 
@@ -174,7 +174,7 @@ fn stepped(e: &Evaluation, step: f64) -> Pose {
 
 /// The Karcher mean of `poses` (each #V x 3, already scaled by the common normalization factor)
 /// started from `init`: repeats `mu <- mu + step * mean_k log_mu(P_k)` until the mean log is
-/// small relative to the logs (METHOD.md). A step that does not lower the variance (by more
+/// small relative to the logs (docs/method.md "Clustering"). A step that does not lower the variance (by more
 /// than [`VARIANCE_ROUNDOFF`]) is taken back and
 /// retried with half the step (the undamped update overshoots and cycles for the conformal
 /// metrics); once the step falls below [`MIN_STEP_FRACTION`] of the first, or at the iteration

@@ -236,7 +236,7 @@ pub trait CentreModel {
 /// all those costs are zero), and the candidate that lowers the total cost to the nearest centre
 /// most is kept (the earliest on ties). The local trials make a start that merges two classes
 /// and splits a third much rarer than with one draw per centre (measured on the 48-deformation
-/// benchmark, docs/robustness.md). Returns `k` item indices.
+/// benchmark, docs/log/robustness.md). Returns `k` item indices.
 pub fn kmeans_pp_seeds<M: CentreModel>(model: &M, k: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
     let n = model.n_items();
     let trials = 2 + (k as f64).ln().floor().max(0.0) as usize;

@@ -367,7 +367,7 @@ impl ApproxReport {
                 "\n{} {} off by more than half at the median pair: the reference's geodesics are much \
                  shorter than the straight paths these modes measure (tangent: in the metric linearized at \
                  the base); they bend, with the conformal metrics into directions their terms barely \
-                 charge (docs/speed.md), so {} only the order of the distances where \
+                 charge (docs/log/speed.md), so {} only the order of the distances where \
                  the columns above say so, not their values.\n",
                 far.join(", "),
                 if far.len() == 1 { "is" } else { "are" },

@@ -19,7 +19,7 @@ use crate::geodesic::{geodesic_between, GeodesicError, GeodesicOptions};
 use crate::mesh::geometry::{norm, sub};
 use crate::mesh::Shape;
 use crate::metric::MetricSpec;
-use crate::synth::{bend_along_x, icosphere, tube};
+use crate::synth::{bend_along_x, tube, twisted_sphere};
 
 /// Rings and vertices per ring of the bent tube (1,440 vertices).
 pub const TUBE_RINGS: usize = 60;
@@ -71,26 +71,6 @@ pub fn centre_line_length(pose: &[[f64; 3]]) -> f64 {
         .sum()
 }
 
-/// The unit icosphere of `level` and the same smooth deformation of it at every level: a twist
-/// about z by 1.2 z radians and a stretch by 1.5 along z (the `geodesic --demo` pair).
-pub fn sphere_pair(level: u32) -> (Shape, Shape) {
-    let a = icosphere(level);
-    let pos = a
-        .positions
-        .iter()
-        .map(|p| {
-            let t = 1.2 * p[2];
-            [
-                t.cos() * p[0] - t.sin() * p[1],
-                t.sin() * p[0] + t.cos() * p[1],
-                1.5 * p[2],
-            ]
-        })
-        .collect();
-    let b = Shape::new(a.topology.clone(), pos).expect("twisted sphere is valid");
-    (a, b)
-}
-
 /// The bent-tube geodesic of every metric in `specs`, metrics in parallel.
 pub fn tube_rows(specs: &[MetricSpec], options: &GeodesicOptions) -> Result<Vec<GeometryRow>, GeodesicError> {
     let (a, b) = tube_pair();
@@ -125,7 +105,7 @@ pub fn resolution_rows(
         .collect();
     jobs.par_iter()
         .map(|&(level, spec)| {
-            let (a, b) = sphere_pair(level);
+            let (a, b) = twisted_sphere(level);
             let g = geodesic_between(spec, &a, &b, options)?;
             Ok(GeometryRow {
                 case: "sphere".into(),

@@ -16,8 +16,8 @@
 //! poses. Per deformation type (the label; the name if unlabelled) and method the report gives
 //! the mean and the sample standard deviation (`n - 1`; 0 for one case) of the case errors.
 //!
-//! All shapes of one run are scaled by one common factor while solving (METHOD.md): 1 / the mean
-//! edge length of the first pose of the first deformation used.
+//! All shapes of one run are scaled by one common factor while solving (docs/method.md
+//! "Metrics"): 1 / the mean edge length of the first pose of the first deformation used.
 
 mod report;
 

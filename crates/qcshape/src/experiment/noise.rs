@@ -3,9 +3,9 @@
 //! The data set is classified ([`classify_set`]: interpolation, transfer, similarity, k-means
 //! with intrinsic means started from seeded kernel k-means); then noise is added to every pose
 //! ([`noisy_set`]: per-coordinate variance `level/100 * lbar^2`, `lbar` the pose's mean edge
-//! length; Gaussian or uniform with the same variance; METHOD.md), the noisy set is classified
-//! again, and `tau` (eq. 17) is the share of deformations whose cluster is unchanged, after
-//! Hungarian matching of the clusters.
+//! length; Gaussian or uniform with the same variance; docs/method.md "Noise"), the
+//! noisy set is classified again, and `tau` (eq. 17) is the share of deformations whose
+//! cluster is unchanged, after Hungarian matching of the clusters.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -36,8 +36,8 @@ pub enum NoiseError {
     Io(#[from] IoError),
 }
 
-/// `defs` with noise of `kind` and variance `level` % (METHOD.md) added to every pose; each
-/// deformation gets its own seed derived from `seed`, its index, the level and the kind.
+/// `defs` with noise of `kind` and variance `level` % (docs/method.md "Noise") added to every
+/// pose; each deformation gets its own seed derived from `seed`, its index, the level and the kind.
 pub fn noisy_set(defs: &[Deformation], kind: NoiseKind, level: f64, seed: u64) -> Vec<Deformation> {
     defs.iter()
         .enumerate()

@@ -776,7 +776,7 @@ impl ReproduceReport {
         writeln!(
             md,
             "\nClasses come from k-means with intrinsic means (eq. 14: class means are deformations whose \
-             poses are Karcher means, METHOD.md), started from the best of the seeded kernel k-means \
+             poses are Karcher means, docs/method.md), started from the best of the seeded kernel k-means \
              runs on the squared similarities (whose own scores are in the sixth column); {} rounds \
              at most. Sensitivity and specificity follow eq. 15 on the average of the per-class one-vs-rest \
              confusion matrices after Hungarian matching of clusters to classes; with this reading the \
@@ -826,7 +826,7 @@ impl ReproduceReport {
              by their scale at the base, no stretch term), beside the default (scale-invariant) rows above. \
              With eq. 7's terms the conformal and quasi-conformal geodesics shrink the shape on the way \
              (docs/method.md \"Scale-invariant forms\"). The paper's literal setting, lambda = 0 (section \
-             2.1), leaves the conformal metrics' null space free (docs/geometry.md).\n"
+             2.1), leaves the conformal metrics' null space free (docs/method.md \"Metrics\").\n"
         )?;
         writeln!(
             md,
@@ -960,7 +960,7 @@ impl ReproduceReport {
         writeln!(
             md,
             "\nNoise is added to every key pose with per-coordinate variance `level/100 * lbar^2` \
-             (lbar: the pose's mean edge length; METHOD.md); tau (eq. 17) is the share of \
+             (lbar: the pose's mean edge length; docs/method.md); tau (eq. 17) is the share of \
              deformations whose cluster is unchanged against the noise-free run, after Hungarian \
              matching of the clusters.{}",
             if self.noise_metric == MetricKind::QuasiConformal.label() {
@@ -988,7 +988,7 @@ impl ReproduceReport {
                          mean edge length, so on few, long edges it moves every vertex by a large \
                          share of the deformations themselves, and the short geodesics (N = {}) and \
                          few restarts ({}) of this run add to it (the full run, `qcshape reproduce`, \
-                         uses 162 vertices; docs/speed.md has its Table 3 at the defaults).",
+                         uses 162 vertices; docs/log/speed.md has its Table 3 at the defaults).",
                         self.vertices, self.steps, self.restarts
                     )
                 } else {
@@ -998,7 +998,7 @@ impl ReproduceReport {
                      metric at the calibrated defaults the weights are the normalized change of \
                      angle-defect curvature, which vertex noise dominates: its tau falls well \
                      below the paper's, while the isometric metric (`--noise-metric isometric`) \
-                     keeps nearly every cluster (docs/speed.md)."
+                     keeps nearly every cluster (docs/log/speed.md)."
                         .to_string()
                 }
             )?;

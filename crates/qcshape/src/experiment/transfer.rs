@@ -644,7 +644,7 @@ mod tests {
     /// (conformal, and quasi-conformal with its calibrated floor, whose null space is the
     /// conformal one) its doubling does not converge: their geodesics run through the
     /// conformal null space, pinned only by the small L2 regularizer, so the ladder's rungs are
-    /// not unique (docs/geometry.md). They are not asserted here.
+    /// not unique (docs/log/geometry.md). They are not asserted here.
     #[test]
     fn transfer_to_a_translated_copy_is_the_translated_deformation() {
         let mut e = small(vec![DeformationKind::Stretch, DeformationKind::Bend]);

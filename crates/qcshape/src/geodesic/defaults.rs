@@ -8,7 +8,7 @@ use super::Solver;
 pub const STEPS: usize = 8;
 
 /// The geodesic optimizer: the preconditioned L-BFGS, the fastest in the benchmark
-/// (`docs/benchmarks.md`).
+/// (`docs/log/benchmarks.md`).
 pub const SOLVER: Solver = Solver::Preconditioned;
 
 /// Relative gradient tolerance of the geodesic solvers (converged when the gradient norm falls

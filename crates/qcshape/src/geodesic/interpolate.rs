@@ -1,5 +1,5 @@
 //! Temporal interpolation between key poses with spatial multiresolution (paper section 2.2.1,
-//! METHOD.md "Temporal interpolation").
+//! docs/method.md "Temporal interpolation").
 //!
 //! Between key poses `A` and `B`, `n` poses are inserted. On the coarsest level of a
 //! [`Hierarchy`]: start from the midpoint (a path with `N = 2` segments, started linear) and

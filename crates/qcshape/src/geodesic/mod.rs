@@ -1,4 +1,5 @@
-//! Path energy (eq. 12) and discrete geodesics (METHOD.md "Path energy, geodesics, distance").
+//! Path energy (eq. 12) and discrete geodesics (docs/method.md
+//! "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
 //! path with `N` segments, started from the linear interpolation. Eight solvers, the default
@@ -282,7 +283,7 @@ impl<'m> GeodesicSolver<'m> {
     /// ([`PathEnergy::shifted_start`]); without `near`, the linear path. A start changes the
     /// iterates, not the minimum: lengths agree with [`Self::solve`] to solver tolerance
     /// (measured on the 48-deformation benchmark: at most 1.5e-9 relative, conformal), in
-    /// fewer iterations when the ends move little (docs/speed.md).
+    /// fewer iterations when the ends move little (docs/log/speed.md).
     pub fn solve_near<'s>(
         &'s self,
         ctx: &mut SolveContext<'s>,
@@ -312,7 +313,7 @@ impl<'m> GeodesicSolver<'m> {
     /// callers that use only [`Geodesic::length`] (similarity matrices, the intrinsic k-means
     /// assignment). The returned path is a less converged geodesic than `solve_near_with`'s
     /// (its speed may still be uneven) and its length agrees with it to about the tolerance
-    /// (48-deformation benchmark: docs/speed.md); it is still a good start for the next
+    /// (48-deformation benchmark: docs/log/speed.md); it is still a good start for the next
     /// distance (`near`).
     pub fn distance_near_with<'s>(
         &'s self,
@@ -725,7 +726,8 @@ fn segment_length(energy: f64) -> f64 {
     (energy / 2.0).max(0.0).sqrt()
 }
 
-/// How shapes are scaled before solving (METHOD.md: one common factor for all shapes compared).
+/// How shapes are scaled before solving (docs/method.md "Metrics": one common factor for all shapes
+/// compared).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Normalization {
     /// Divide all coordinates by the mean edge length of the first shape (default).

@@ -40,7 +40,7 @@ pub enum Solver {
     /// quasi-conformal metrics at small lambda, where the metric's cheap directions change
     /// along the path and the default stalls at its iteration limit (twisted sphere, 162
     /// vertices, conformal, lambda 1e-5: over 1,000 iterations with the default, 139 with this
-    /// one; docs/speed.md); each iteration costs about twice the default's at 2,562 vertices.
+    /// one; docs/log/speed.md); each iteration costs about twice the default's at 2,562 vertices.
     /// Command-line value `pose-kronecker`.
     PoseKronecker,
     /// [`Solver::Preconditioned`] with the Kronecker model fitted to the exact Hessian (`J^T J`
@@ -49,7 +49,7 @@ pub enum Solver {
     /// The Gauss-Newton matrix leaves out a stress-like part of the Hessian that grows with the
     /// resolution, so the default's iterations double with every subdivision of the mesh; with
     /// the Hessian's model they nearly do not (twisted sphere, isometric, 162 to 10,242
-    /// vertices: 23 / 29 / 39 / 44 iterations against 25 / 41 / 80 / 171; docs/speed.md).
+    /// vertices: 23 / 29 / 39 / 44 iterations against 25 / 41 / 80 / 171; docs/log/speed.md).
     /// Slower than the default for the conformal metrics. Command-line value
     /// `hessian-kronecker`.
     HessianKronecker,
@@ -153,7 +153,7 @@ pub struct GeodesicOptions {
     /// change the path's length `L` (eq. 12) by less than this fraction of it. On coarse
     /// meshes the length settles long before the path (a step that only evens out the speed
     /// along the path lowers the energy but not `L`): at 162 vertices distances move by at
-    /// most 5e-8 relative; at 2,562 and 10,242 by up to 3e-7 and 5e-7 (docs/speed.md, round
+    /// most 5e-8 relative; at 2,562 and 10,242 by up to 3e-7 and 5e-7 (docs/log/speed.md, round
     /// 4). Only the default solver ([`Solver::Preconditioned`]) applies it; 0 disables it.
     /// Default [`super::defaults::LENGTH_TOLERANCE`].
     pub length_tolerance: f64,
@@ -166,7 +166,7 @@ pub struct GeodesicOptions {
     /// every this many iterations (0: only at the start). Default 45 (2,562-vertex benchmark,
     /// one core, time to the converged energy: without refits isometric 1.38 s and conformal
     /// 3.01 s; refitting every 20 / 30 / 45 / 60 iterations: isometric 0.98 / 0.90 / 0.87
-    /// / 0.86 s, conformal 1.90 / 1.56 / 1.43 / 1.49 s; README "Benchmark").
+    /// / 0.86 s, conformal 1.90 / 1.56 / 1.43 / 1.49 s; docs/log/benchmarks.md).
     pub preconditioner_refresh: usize,
     /// Weight `omega` of the vertex-block term of the preconditioned solver:
     /// `M^{-1} = (2 T_c (x) A)^{-1} + omega (2 D)^{-1}`, `D` the 3 x 3 diagonal blocks of
@@ -175,7 +175,7 @@ pub struct GeodesicOptions {
     /// 0.3 / 0.4 / 0.5: conformal 155 / 96 / 70 / 66 / 61, isometric 148 / 155 / 148 / 164 /
     /// 179; at 162 and 642 vertices within +-2 iterations of omega = 0; on the real left
     /// ventricle neutral; isometric runs to convergence can take up to 25 % longer, ending in
-    /// other minima 1e-5 apart; README "Benchmark" and "How the defaults were chosen").
+    /// other minima 1e-5 apart; docs/log/benchmarks.md and docs/defaults.md).
     pub vertex_block_weight: f64,
     /// How long [`GeodesicSolver::solve_in`] keeps one preconditioner fit for the next
     /// geodesics: refit once the solves after the fitting one have together taken more than
@@ -183,7 +183,7 @@ pub struct GeodesicOptions {
     /// with the fit needs more iterations than the one that fitted it). Default 10 (162-vertex benchmark,
     /// 48 deformations x 9 poses, iterations per geodesic fresh / 0 / 4 / 10 / never refit:
     /// quasi-conformal 4.7 / 5.0 / 5.3 / 5.4 / 6.5, conformal 13.0 / 13.2 / 13.8 / 14.3 / 18.6;
-    /// CPU time of the matrix lowest for 4-10; docs/speed.md).
+    /// CPU time of the matrix lowest for 4-10; docs/log/speed.md).
     pub preconditioner_reuse: usize,
 }
 

@@ -43,7 +43,7 @@ pub(crate) enum Model {
 /// Refit interval of [`Model::Hessian`] (iterations; capped by
 /// [`GeodesicOptions::preconditioner_refresh`]): the Hessian's model is worth refitting more often
 /// than `J^T J`'s, since it changes as the path approaches the geodesic (twisted sphere, isometric,
-/// 2,562 vertices: 58 iterations refitting every 45, 39 every 15; docs/speed.md).
+/// 2,562 vertices: 58 iterations refitting every 45, 39 every 15; docs/log/speed.md).
 pub(crate) const HESSIAN_REFRESH: usize = 15;
 
 /// The fitted model of the Hessian's pose part.

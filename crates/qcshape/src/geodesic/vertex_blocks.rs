@@ -4,7 +4,7 @@
 //! path; what it cannot represent is how the stiffness of each vertex changes from pose to
 //! pose. On fine meshes that is where the default solver spent most of its iterations: after the
 //! energy is within about 2e-5 of its minimum, the remaining change of the path is a
-//! vertex-scale adjustment, mostly normal to the surface (README "Benchmark"), in directions the
+//! vertex-scale adjustment, mostly normal to the surface (docs/log/benchmarks.md), in directions the
 //! conformal and isometric forms barely resist. The term added here is the block-Jacobi inverse of
 //! the Gauss-Newton Hessian: per interior pose `j` and vertex `v`, the inverse of the 3 x 3
 //! diagonal block `D_{j,v}` of `J^T J`. The preconditioner becomes the additive (two-level)

@@ -37,6 +37,7 @@ pub mod inspect;
 mod interop_tests;
 pub mod nifti;
 pub mod npy;
+mod number;
 mod obj;
 mod off;
 mod ply;
@@ -44,6 +45,7 @@ mod polygon;
 mod stl;
 #[cfg(test)]
 mod stress;
+pub(crate) mod table;
 #[cfg(test)]
 mod tests;
 mod text;

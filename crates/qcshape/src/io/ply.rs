@@ -14,6 +14,7 @@
 
 use std::io::Write;
 
+use super::number::{Names, Number as Scalar};
 use super::text::{self, Cursor, Float};
 use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, Payload, PointArray};
 
@@ -27,68 +28,6 @@ pub enum PlyEncoding {
     BinaryLittleEndian,
     /// Big-endian binary.
     BinaryBigEndian,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Scalar {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl Scalar {
-    fn parse(name: &[u8]) -> Option<Scalar> {
-        Some(match name {
-            b"char" | b"int8" => Scalar::I8,
-            b"uchar" | b"uint8" => Scalar::U8,
-            b"short" | b"int16" => Scalar::I16,
-            b"ushort" | b"uint16" => Scalar::U16,
-            b"int" | b"int32" => Scalar::I32,
-            b"uint" | b"uint32" => Scalar::U32,
-            b"float" | b"float32" => Scalar::F32,
-            b"double" | b"float64" => Scalar::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Scalar::I8 | Scalar::U8 => 1,
-            Scalar::I16 | Scalar::U16 => 2,
-            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
-            Scalar::F64 => 8,
-        }
-    }
-
-    /// Decodes `b` (exactly `size()` bytes); every PLY scalar is exact in `f64`.
-    fn decode(self, b: &[u8], big: bool) -> f64 {
-        macro_rules! num {
-            ($t:ty, $n:expr) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(b);
-                (if big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as f64
-            }};
-        }
-        match self {
-            Scalar::I8 => b[0] as i8 as f64,
-            Scalar::U8 => b[0] as f64,
-            Scalar::I16 => num!(i16, 2),
-            Scalar::U16 => num!(u16, 2),
-            Scalar::I32 => num!(i32, 4),
-            Scalar::U32 => num!(u32, 4),
-            Scalar::F32 => num!(f32, 4),
-            Scalar::F64 => num!(f64, 8),
-        }
-    }
 }
 
 #[derive(Debug)]
@@ -192,12 +131,12 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
                 };
                 let ty = toks.next().unwrap_or_default();
                 let scalar = |t: &[u8]| {
-                    Scalar::parse(t)
+                    Scalar::parse(Names::Ply, t)
                         .ok_or_else(|| syntax(line, format!("unknown property type {}", text::show(t))))
                 };
                 let prop = if ty == b"list" {
                     let c = scalar(toks.next().unwrap_or_default())?;
-                    if matches!(c, Scalar::F32 | Scalar::F64) {
+                    if c.is_float() {
                         return Err(syntax(line, "a list count must have an integer type".into()));
                     }
                     Property::List(c, scalar(toks.next().unwrap_or_default())?)
@@ -258,7 +197,7 @@ impl Source<'_> {
                         len: bytes.len() as u64,
                     });
                 }
-                let v = ty.decode(&bytes[*pos..*pos + n], *big);
+                let v = ty.read(&bytes[*pos..*pos + n], *big);
                 *pos += n;
                 Ok(v)
             }

@@ -22,74 +22,9 @@ mod attributes;
 
 use attributes::{read_attributes, read_field};
 
+use super::number::{Names, Number as Num};
 use super::text::{self, Cursor, Float};
 use super::{check_finite, check_index, FaceBuilder, FieldValues, MeshData, ParseError, Payload};
-
-#[derive(Debug, Clone, Copy)]
-enum Num {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Num {
-    fn parse(name: &[u8]) -> Option<Num> {
-        let lower = name.to_ascii_lowercase();
-        Some(match lower.as_slice() {
-            b"char" | b"vtktypeint8" => Num::I8,
-            b"unsigned_char" | b"vtktypeuint8" => Num::U8,
-            b"short" | b"vtktypeint16" => Num::I16,
-            b"unsigned_short" | b"vtktypeuint16" => Num::U16,
-            b"int" | b"vtktypeint32" => Num::I32,
-            b"unsigned_int" | b"vtktypeuint32" => Num::U32,
-            b"long" | b"vtktypeint64" | b"vtkidtype" => Num::I64,
-            b"unsigned_long" | b"vtktypeuint64" => Num::U64,
-            b"float" | b"vtktypefloat32" => Num::F32,
-            b"double" | b"vtktypefloat64" => Num::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Num::I8 | Num::U8 => 1,
-            Num::I16 | Num::U16 => 2,
-            Num::I32 | Num::U32 | Num::F32 => 4,
-            Num::I64 | Num::U64 | Num::F64 => 8,
-        }
-    }
-
-    /// Decodes big-endian bytes (exactly `size()` of them). 64-bit integers beyond 2^53 lose
-    /// precision, which only matters for indices that are out of range anyway.
-    fn decode(self, b: &[u8]) -> f64 {
-        macro_rules! be {
-            ($t:ty, $n:expr) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(b);
-                <$t>::from_be_bytes(a) as f64
-            }};
-        }
-        match self {
-            Num::I8 => b[0] as i8 as f64,
-            Num::U8 => b[0] as f64,
-            Num::I16 => be!(i16, 2),
-            Num::U16 => be!(u16, 2),
-            Num::I32 => be!(i32, 4),
-            Num::U32 => be!(u32, 4),
-            Num::I64 => be!(i64, 8),
-            Num::U64 => be!(u64, 8),
-            Num::F32 => be!(f32, 4),
-            Num::F64 => be!(f64, 8),
-        }
-    }
-}
 
 struct Reader<'a> {
     c: Cursor<'a>,
@@ -115,7 +50,7 @@ impl<'a> Reader<'a> {
     fn num_type(&mut self, what: &str) -> Result<Num, ParseError> {
         let tok = self.token(&|| format!("the data type of {what}"))?;
         let line = self.c.line();
-        Num::parse(tok).ok_or_else(|| ParseError::Syntax {
+        Num::parse(Names::Vtk, tok).ok_or_else(|| ParseError::Syntax {
             line,
             message: format!("unknown data type {} for {what}", text::show(tok)),
         })
@@ -135,7 +70,7 @@ impl<'a> Reader<'a> {
                 });
             }
             let raw = self.c.take(needed as usize).unwrap_or_default();
-            let out = raw.chunks_exact(ty.size()).map(|b| ty.decode(b)).collect();
+            let out = raw.chunks_exact(ty.size()).map(|b| ty.read(b, true)).collect();
             self.skip_metadata();
             Ok(out)
         } else {

@@ -22,6 +22,7 @@ use super::surface::SurfaceError;
 use super::tps::{Tps, TpsError};
 use crate::dataset::natural_cmp;
 use crate::io::nifti::{read_series, write_series, write_volume, NiftiError, Volume};
+use crate::io::table::{Table, TableErrors};
 use crate::io::{write_atomically, IoError};
 
 /// The labels file's name.
@@ -77,6 +78,15 @@ pub enum LvError {
     },
 }
 
+impl TableErrors for LvError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        layout(path, format!("cannot read: {error}"))
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        layout(path, format!("line {line}: {message}"))
+    }
+}
+
 fn layout(path: &Path, message: impl Into<String>) -> LvError {
     LvError::Layout {
         path: path.into(),
@@ -97,24 +107,13 @@ pub struct SubjectDir {
 
 /// Reads `labels.csv` (`subject,label`, `#` comments): the subjects in file order.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, Option<String>)>, LvError> {
-    let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
-        .map_err(|e| layout(path, format!("cannot read: {e}")))?;
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes.as_slice());
-    let header = rdr
-        .headers()
-        .map_err(|e| layout(path, format!("malformed CSV: {e}")))?
-        .clone();
-    let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
-    let (Some(cs), Some(cl)) = (col("subject"), col("label")) else {
+    let mut table = Table::<LvError>::read(path, false)?;
+    let (Some(cs), Some(cl)) = (table.column("subject"), table.column("label")) else {
         return Err(layout(path, "the header must be subject,label"));
     };
     let mut out: Vec<(String, Option<String>)> = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| layout(path, format!("malformed CSV: {e}")))?;
-        let line = rec.position().map_or(0, |p| p.line());
+    for rec in table.rows() {
+        let (line, rec) = rec?;
         let name = rec.get(cs).unwrap_or("").to_string();
         if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
             return Err(layout(path, format!("line {line}: bad subject name {name:?}")));

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::io::table::{Table, TableErrors};
 use crate::io::write_atomically;
 
 /// Id of the (endocardial) apex landmark.
@@ -128,52 +129,43 @@ impl Landmarks {
     }
 }
 
+impl TableErrors for LandmarkError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        LandmarkError::Read {
+            path: path.into(),
+            error,
+        }
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        LandmarkError::Row {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
 /// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
 pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
-    let bytes =
-        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
-            LandmarkError::Read {
-                path: path.into(),
-                error,
-            }
-        })?;
-    let row_err = |line: u64, message: String| LandmarkError::Row {
-        path: path.into(),
-        line,
-        message,
-    };
+    let row_err = |line: u64, message: String| LandmarkError::at_line(path, line, message);
     let incomplete = |message: String| LandmarkError::Incomplete {
         path: path.into(),
         message,
     };
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes.as_slice());
-    let header = rdr
-        .headers()
-        .map_err(|e| row_err(1, format!("malformed CSV: {e}")))?
-        .clone();
+    let mut table = Table::<LandmarkError>::read(path, false)?;
     const COLS: [&str; 5] = ["frame", "landmark", "x", "y", "z"];
     let mut col = [0usize; 5];
     for (slot, name) in col.iter_mut().zip(COLS) {
-        *slot = header
-            .iter()
-            .position(|h| h.eq_ignore_ascii_case(name))
-            .ok_or_else(|| {
-                row_err(
-                    1,
-                    format!("missing column {name:?}: the header must be frame,landmark,x,y,z"),
-                )
-            })?;
+        *slot = table.column(name).ok_or_else(|| {
+            row_err(
+                table.header_line,
+                format!("missing column {name:?}: the header must be frame,landmark,x,y,z"),
+            )
+        })?;
     }
     let mut rows: Vec<(usize, u32, [f64; 3], u64)> = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            row_err(line, format!("malformed CSV: {e}"))
-        })?;
-        let line = rec.position().map_or(0, |p| p.line());
+    for rec in table.rows() {
+        let (line, rec) = rec?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let frame = field(0).parse::<usize>().map_err(|_| {
             row_err(

@@ -1,4 +1,4 @@
-//! The left-ventricle pipeline's image side (paper section 4; METHOD.md "Left ventricle"):
+//! The left-ventricle pipeline's image side (paper section 4; docs/method.md "Left ventricle"):
 //! 4D images and landmarks in, one deformation (a pose per frame on one connectivity) per
 //! subject out.
 //!

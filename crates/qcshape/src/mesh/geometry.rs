@@ -47,7 +47,8 @@ pub fn edge_lengths(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
         .collect()
 }
 
-/// Mean edge length `lbar` (the scale used for normalization and noise, METHOD.md).
+/// Mean edge length `lbar` (the scale used for normalization and noise, docs/method.md "Metrics" and
+/// "Noise").
 pub fn mean_edge_length(topo: &Topology, pos: &[[f64; 3]]) -> f64 {
     let l = edge_lengths(topo, pos);
     l.iter().sum::<f64>() / l.len().max(1) as f64
@@ -160,8 +161,8 @@ pub fn vertex_areas(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
 }
 
 /// Angle-defect (discrete Gaussian) curvature `K_p` (#V), radians: `2 pi - sum of corner
-/// angles` at an interior vertex, `pi - sum` at a boundary vertex (METHOD.md; paper section
-/// 2.1). Zero at isolated vertices.
+/// angles` at an interior vertex, `pi - sum` at a boundary vertex (docs/method.md
+/// "Metrics"; paper section 2.1). Zero at isolated vertices.
 pub fn angle_defect(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
     let mut k: Vec<f64> = (0..topo.n_vertices())
         .map(|v| {

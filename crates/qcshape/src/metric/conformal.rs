@@ -9,7 +9,7 @@ use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
 
 /// How the three corner terms `T_p, T_q, T_r` of a triangle enter the squared norm
-/// (METHOD.md "Metrics").
+/// (docs/method.md "Metrics").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ConformalForm {
     /// The paper's eqs. 8-9 with `X = Y`: one residual per face, `|T_p| + |T_q| + |T_r|`, so

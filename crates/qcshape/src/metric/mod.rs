@@ -1,4 +1,4 @@
-//! Shape-space metrics (paper section 2.1, METHOD.md "Metrics").
+//! Shape-space metrics (paper section 2.1, docs/method.md "Metrics").
 //!
 //! Every metric is a squared norm `G_M(X) = <<X, X>>_M = |r|^2` written as a sum of squared
 //! residuals `r`, where `M` is the pose that supplies the geometry and `X` a tangent vector

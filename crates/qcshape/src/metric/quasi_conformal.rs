@@ -1,5 +1,5 @@
 //! The quasi-conformal metric (eq. 10): the conformal corner terms weighted by the change of
-//! angle-defect curvature, in the two readings of METHOD.md ("segment" and "endpoints").
+//! angle-defect curvature, in the two readings of docs/method.md "Metrics" (`segment` and `endpoints`).
 
 use super::conformal::{
     eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values, sign0,
@@ -16,7 +16,7 @@ use crate::mesh::geometry::{add, angle_defect, scale, vertex_areas};
 use crate::mesh::Topology;
 
 /// Which "change of curvature during deformation" weights the quasi-conformal terms
-/// (METHOD.md "Metrics"). `K_v` is the angle defect of
+/// (docs/method.md "Metrics"). `K_v` is the angle defect of
 /// [`crate::mesh::geometry::angle_defect`] (radians).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum QcWeights {
@@ -26,7 +26,7 @@ pub enum QcWeights {
     ///
     /// With this reading `w = O(|X|)`, so the squared norm is quartic in the velocity: a
     /// segment of a path refined into `N` samples has `G = O(N^-4)` and the polyline length
-    /// `sum_i sqrt(G_i)` shrinks like `1/N` as the path is refined (METHOD.md).
+    /// `sum_i sqrt(G_i)` shrinks like `1/N` as the path is refined (docs/method.md "Metrics").
     Segment,
     /// Frozen reading: for a path from `A` to `B`, `w_v = K_v(B) - K_v(A)` is fixed for the
     /// whole path ([`Metric::frozen_weights`], passed back as [`Segment::frozen`]); the metric
@@ -70,10 +70,11 @@ pub struct QuasiConformal {
     pub normalize: Option<QcNormalize>,
 }
 
-/// Normalization of the quasi-conformal `endpoints` weights (METHOD.md "Scale"). The paper's
-/// weight `w_v = K_v(B) - K_v(A)` is an angle-defect change, an *integrated* curvature: it
-/// shrinks like the vertex area (`h^2`) as the mesh is refined and grows with the size of the
-/// motion, so the quasi-conformal term's weight against any other term depends on both.
+/// Normalization of the quasi-conformal `endpoints` weights (docs/method.md
+/// "Scale-invariant forms"). The paper's weight `w_v = K_v(B) - K_v(A)` is an angle-defect
+/// change, an *integrated* curvature: it shrinks like the vertex area (`h^2`) as the mesh is
+/// refined and grows with the size of the motion, so the quasi-conformal term's weight against
+/// any other term depends on both.
 /// Normalized, the weight is the change of the Gaussian curvature density
 /// `d_v = w_v / Abar_v` (`Abar_v` the mean vertex area of the two ends, one-third rule),
 /// optionally smoothed over one-rings (`smooth` passes of the area-weighted average of the

@@ -5,7 +5,7 @@ use super::{
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times
-/// the L2 residuals. Makes conformal-type metrics positive definite (METHOD.md).
+/// the L2 residuals. Makes conformal-type metrics positive definite (docs/method.md "Metrics").
 ///
 /// The L2 part is [`FrozenL2`] (area weights frozen at the path's ends) by default, the
 /// literal [`L2`] (weights of the pose itself) with [`Regularized::with_pose_areas`], or the

@@ -15,9 +15,9 @@ use crate::mesh::Topology;
 /// along the path.
 ///
 /// With the areas of each pose ([`super::Rigid`]) the path energy can be lowered by shrinking
-/// triangles, and geodesics degenerate (README, "Findings"); freezing the areas as for
-/// [`super::FrozenL2`] keeps the metric "L2 modulo infinitesimal rigid motions" while removing
-/// that escape. The motion `aux = [t_x, t_y, t_z, w_x, w_y, w_z]` is carried as 6 auxiliary
+/// triangles, and geodesics degenerate (docs/log/benchmarks.md, its findings);
+/// freezing the areas as for [`super::FrozenL2`] keeps the metric "L2 modulo infinitesimal
+/// rigid motions" while removing that escape. The motion `aux = [t_x, t_y, t_z, w_x, w_y, w_z]` is carried as 6 auxiliary
 /// unknowns per segment term, eliminated in closed form by [`Metric::best_aux`].
 /// Residuals: `sqrt(Abar_v) (X_v - t - w x v)_c`, 3 #V of them, each on one vertex.
 /// Units: length^4.

@@ -60,7 +60,7 @@ impl std::str::FromStr for MetricKind {
     }
 }
 
-/// How a metric's terms are scaled, which fixes what `lambda` means (docs/method.md "Scale").
+/// How a metric's terms are scaled, which fixes what `lambda` means (docs/method.md "Scale-invariant forms").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum MetricScale {
     /// Scale-invariant forms (docs/method.md "Scale-invariant forms"): every term a rate of
@@ -158,7 +158,7 @@ pub enum CalibrationError {
     },
 }
 
-/// A metric with its variants (METHOD.md) and regularization `G + lambda * L2`.
+/// A metric with its variants (docs/method.md "Metrics") and regularization `G + lambda * L2`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetricSpec {
     /// The metric.
@@ -220,14 +220,15 @@ impl MetricSpec {
     /// A warning for settings that are valid but leave the metric degenerate: `lambda = 0`
     /// with a metric whose null space holds more than rigid motions (conformal and
     /// quasi-conformal: conformal fields, and scalings unless the invariant scale's stretch
-    /// term charges them), where geodesics are not unique (docs/geometry.md).
+    /// term charges them), where geodesics are not unique (docs/method.md "Metrics", the
+    /// regularization item).
     pub fn warning(&self) -> Option<String> {
         (self.lambda == 0.0 && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal)).then(
             || {
                 format!(
                     "lambda = 0 leaves the {} metric's null space free (rigid motions, conformal \
                  fields, and scalings unless --stretch charges them): geodesics are not unique \
-                 (docs/geometry.md)",
+                 (docs/method.md \"Metrics\")",
                     self.kind.label()
                 )
             },

@@ -1,5 +1,5 @@
 //! A metric multiplied by a constant: `c G` (the calibrated geometric term of
-//! [`super::MetricSpec::build`], METHOD.md "Scale").
+//! [`super::MetricSpec::build`], docs/method.md "Scale-invariant forms").
 
 use super::{
     GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,

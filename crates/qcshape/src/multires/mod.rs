@@ -1,4 +1,4 @@
-//! Spatial multiresolution for temporal interpolation (paper section 2.2.1, METHOD.md
+//! Spatial multiresolution for temporal interpolation (paper section 2.2.1, docs/method.md
 //! "Temporal interpolation").
 //!
 //! A [`Hierarchy`] holds coarser versions of one mesh (three levels by default), each keeping

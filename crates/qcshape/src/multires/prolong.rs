@@ -1,4 +1,4 @@
-//! Prolongation from a coarse level to the next finer one (paper section 2.2.1, METHOD.md
+//! Prolongation from a coarse level to the next finer one (paper section 2.2.1, docs/method.md
 //! "Temporal interpolation").
 //!
 //! Every fine vertex either is kept in the coarse level (it takes the coarse value directly) or
@@ -109,8 +109,8 @@ impl Prolongation {
             .collect()
     }
 
-    /// Starting interior poses at the fine level from a coarse path (METHOD.md): pose `i` of a
-    /// path with `N = coarse_interior.len() + 1` segments is
+    /// Starting interior poses at the fine level from a coarse path (docs/method.md "Temporal
+    /// interpolation"): pose `i` of a path with `N = coarse_interior.len() + 1` segments is
     /// `fine_linear(t) + apply(coarse_i - coarse_linear(t))` with `t = i / N`, where the linear
     /// paths run from `a` to `b` at each level. Kept vertices thus take the coarse pose exactly,
     /// and a coarse path that is exactly linear gives the fine linear path.

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::dataset::{read_manifest, DatasetError};
+use crate::io::table::{Table, TableErrors};
 use crate::io::{write_atomically, IoError};
 
 /// Relative tolerance of the symmetry and zero-diagonal checks of [`DistanceMatrix::new`]:
@@ -292,14 +293,7 @@ impl DistanceMatrix {
 
     /// Reads the CSV format of the [module docs](self). Errors name the file and line.
     pub fn read_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
-        let bytes =
-            crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
-                MatrixFileError::Read {
-                    path: path.into(),
-                    error,
-                }
-            })?;
-        parse_csv(&bytes, path)
+        parse_csv(path)
     }
 
     /// Writes the CSV format of the [module docs](self) atomically, every value in its
@@ -327,33 +321,32 @@ impl DistanceMatrix {
     }
 }
 
-fn parse_csv(bytes: &[u8], path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
-    let bad = |line: u64, message: String| MatrixFileError::Line {
-        path: path.into(),
-        line,
-        message,
-    };
-    let csv_err = |e: csv::Error| {
-        let line = e.position().map_or(0, |p| p.line());
-        bad(line, format!("malformed CSV: {e}"))
-    };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes);
-    let mut records = rdr.records();
-    let header = match records.next() {
-        Some(h) => h.map_err(csv_err)?,
-        None => {
-            return Err(MatrixFileError::File {
-                path: path.into(),
-                message: "the file is empty: expected a header name,<name_1>,...,<name_n>".into(),
-            })
+impl TableErrors for MatrixFileError {
+    fn unreadable(path: &Path, error: std::io::Error) -> Self {
+        MatrixFileError::Read {
+            path: path.into(),
+            error,
         }
-    };
-    let header_line = header.position().map_or(1, |p| p.line());
+    }
+    fn at_line(path: &Path, line: u64, message: String) -> Self {
+        MatrixFileError::Line {
+            path: path.into(),
+            line,
+            message,
+        }
+    }
+}
+
+fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
+    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let mut table = Table::<MatrixFileError>::read(path, true)?;
+    let (header, header_line) = (table.header.clone(), table.header_line);
+    if header.is_empty() {
+        return Err(MatrixFileError::File {
+            path: path.into(),
+            message: "the file is empty: expected a header name,<name_1>,...,<name_n>".into(),
+        });
+    }
     let names: Vec<String> = header.iter().skip(1).map(str::to_string).collect();
     let n = names.len();
     if n == 0 {
@@ -364,9 +357,8 @@ fn parse_csv(bytes: &[u8], path: &Path) -> Result<DistanceMatrix, MatrixFileErro
     }
     let mut lines = Vec::with_capacity(n);
     let mut values = Vec::with_capacity(n * n);
-    for rec in records {
-        let rec = rec.map_err(csv_err)?;
-        let line = rec.position().map_or(0, |p| p.line());
+    for rec in table.rows() {
+        let (line, rec) = rec?;
         let i = lines.len();
         if i == n {
             return Err(bad(
@@ -461,31 +453,9 @@ fn parse_csv(bytes: &[u8], path: &Path) -> Result<DistanceMatrix, MatrixFileErro
 /// Errors name the file and line: no such columns, an empty name or label, a name given two
 /// different labels, or no label at all.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError> {
-    let bytes =
-        crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES).map_err(|error| {
-            MatrixFileError::Read {
-                path: path.into(),
-                error,
-            }
-        })?;
-    let bad = |line: u64, message: String| MatrixFileError::Line {
-        path: path.into(),
-        line,
-        message,
-    };
-    let csv_err = |e: csv::Error| {
-        let line = e.position().map_or(0, |p| p.line());
-        bad(line, format!("malformed CSV: {e}"))
-    };
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(bytes.as_slice());
-    let header = rdr.headers().map_err(csv_err)?.clone();
-    let header_line = header.position().map_or(1, |p| p.line());
-    let find = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
+    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let mut table = Table::<MatrixFileError>::read(path, true)?;
+    let header_line = table.header_line;
     let mut pairs: Vec<(String, String)> = Vec::new();
     let mut seen: HashMap<String, (usize, u64)> = HashMap::new();
     let mut push = |line: u64, name: String, label: String| -> Result<(), MatrixFileError> {
@@ -508,6 +478,7 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
         }
         Ok(())
     };
+    let find = |name: &str| table.column(name);
     if find("pose").is_some() && find("path").is_some() && find("deformation").is_some() {
         for (line, row) in read_manifest(path)? {
             if let Some(label) = row.label {
@@ -528,9 +499,8 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
                 "no label column: a label file has a header with columns name,label".into(),
             )
         })?;
-        for rec in rdr.records() {
-            let rec = rec.map_err(csv_err)?;
-            let line = rec.position().map_or(0, |p| p.line());
+        for rec in table.rows() {
+            let (line, rec) = rec?;
             let name = rec.get(name_col).unwrap_or("");
             let label = rec.get(label_col).unwrap_or("");
             if name.is_empty() {

@@ -1,7 +1,7 @@
 //! The tangent-space approximation of the pose distances ([`super::Approx::Tangent`]):
 //! `dis(M_k, N_k) ~ |y(M_k) - y(N_k)|` with one feature vector `y(P)` per pose, a fixed linear
 //! map of the displacement `P - B` from the common base `B` such that `|y(P) - y(Q)|^2` is the
-//! metric's squared norm `G_B(P - Q)` at the base (METHOD.md "Metrics"). The metric is
+//! metric's squared norm `G_B(P - Q)` at the base (docs/method.md "Metrics"). The metric is
 //! linearized once at the base: one sparse product per pose (O(N) work for N deformations) and
 //! then one Euclidean distance of two feature vectors per pair and pose, instead of a geodesic.
 //!

@@ -17,5 +17,5 @@ pub use benchmark::{
 pub use deformations::{deform, DeformParams, DeformationKind, Frame};
 pub use noise::{add_noise, noise_sigma, NoiseKind};
 pub use perturb::{perturbed_benchmark, Perturbation, VertexNoise};
-pub use primitives::{bend_along_x, grid, icosphere, torus, tube};
+pub use primitives::{bend_along_x, grid, icosphere, torus, tube, twist_along_z, twisted_sphere};
 pub use shapes::{initial_shape, template, torus_shape, torus_template, InitialShape, TorusShape, MAX_LEVEL};

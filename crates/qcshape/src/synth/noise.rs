@@ -1,5 +1,5 @@
 //! Additive vertex noise for the noise-resistance experiment (paper section 3.5, Table 3,
-//! eq. 17; METHOD.md "Noise").
+//! eq. 17; docs/method.md "Noise").
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -27,7 +27,7 @@ use crate::mesh::Shape;
 pub enum VertexNoise {
     /// No noise.
     None,
-    /// The paper's Table 3 (METHOD.md): per-coordinate variance `v/100 * lbar^2`, `lbar` the
+    /// The paper's Table 3 (docs/method.md "Noise"): per-coordinate variance `v/100 * lbar^2`, `lbar` the
     /// pose's mean edge length; the value is `v` (percent).
     Variance(f64),
     /// Standard deviation as a fraction of the first pose's bounding-box diagonal (the value;

@@ -145,6 +145,29 @@ pub fn bend_along_x(positions: &[[f64; 3]], angle: f64) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// Positions twisted about the z axis by `rate * z` radians and stretched by `stretch` along z:
+/// `(x, y, z)` goes to `(R(rate z) (x, y), stretch z)`.
+pub fn twist_along_z(positions: &[[f64; 3]], rate: f64, stretch: f64) -> Vec<[f64; 3]> {
+    positions
+        .iter()
+        .map(|p| {
+            let (s, c) = (rate * p[2]).sin_cos();
+            [c * p[0] - s * p[1], s * p[0] + c * p[1], stretch * p[2]]
+        })
+        .collect()
+}
+
+/// The twisted sphere: the unit icosphere of `level` and the same smooth deformation of it at
+/// every level, a twist about z by 1.2 z radians and a stretch by 1.5 along z
+/// ([`twist_along_z`]); `qcshape geodesic --demo`, the resolution study of
+/// `qcshape experiment geometry` and the geodesic benches.
+pub fn twisted_sphere(level: u32) -> (Shape, Shape) {
+    let a = icosphere(level);
+    let b = Shape::new(a.topology.clone(), twist_along_z(&a.positions, 1.2, 1.5))
+        .expect("twisted sphere is valid");
+    (a, b)
+}
+
 /// Open planar grid on `[0, 1]^2` (z = 0) with `n x n` vertices: a disk with one boundary loop.
 pub fn grid(n: usize) -> Shape {
     assert!(n >= 2, "grid needs at least 2 x 2 vertices");

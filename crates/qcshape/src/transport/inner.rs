@@ -1,4 +1,5 @@
-//! The metric's inner product `<<U, V>>_S` at a pose `S` (METHOD.md "Deformation transfer").
+//! The metric's inner product `<<U, V>>_S` at a pose `S` (docs/method.md
+//! "Deformation transfer").
 //!
 //! Every metric of the library is a sum of squared residuals `G_S(X) = |r(S, X)|^2`. For all
 //! forms used by the transport the residuals are linear in the tangent vector `X` at fixed
@@ -9,7 +10,7 @@
 //! `X`). The operator `G_S v = J^T (J v)` is applied from the sparsity pattern, one pass over the
 //! Jacobian entries per product.
 //!
-//! Which form (METHOD.md):
+//! Which form (docs/method.md "Deformation transfer"):
 //! - the conformal / quasi-conformal `paper` form `(|T_p| + |T_q| + |T_r|)^2` is not a quadratic
 //!   form; its `quadratic` companion `T_p^2 + T_q^2 + T_r^2` is used ([`quadratic_companion`]);
 //! - the quasi-conformal `segment` reading has weights `K(b) - K(a)` that depend on `X` itself
@@ -35,9 +36,9 @@ use crate::metric::{
 
 /// The metric whose polarization is the transport's inner product: `spec` with the conformal
 /// triangle term set to [`ConformalForm::Quadratic`] and the quasi-conformal weights set to
-/// [`QcWeights::Endpoints`] (METHOD.md: the `paper` form is replaced by its `quadratic`
-/// companion; the `segment` reading by the endpoint weights of the transport curve). `lambda`
-/// and the L2 area choice are kept.
+/// [`QcWeights::Endpoints`] (docs/method.md "Deformation transfer": the `paper` form is replaced
+/// by its `quadratic` companion; the `segment` reading by the endpoint weights of the transport
+/// curve). `lambda` and the L2 area choice are kept.
 pub fn quadratic_companion(spec: &MetricSpec) -> MetricSpec {
     MetricSpec {
         form: ConformalForm::Quadratic,

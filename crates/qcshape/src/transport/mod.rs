@@ -1,4 +1,4 @@
-//! Discrete parallel transport and deformation transfer (paper section 2.2.2, METHOD.md
+//! Discrete parallel transport and deformation transfer (paper section 2.2.2, docs/method.md
 //! "Deformation transfer").
 //!
 //! - [`inner`]: the metric's inner product `<<U, V>>_S` (the polarization of its quadratic form at

@@ -1,4 +1,4 @@
-//! Discrete parallel transport along the samples of a curve (paper section 2.2.2, METHOD.md
+//! Discrete parallel transport along the samples of a curve (paper section 2.2.2, docs/method.md
 //! "Deformation transfer").
 //!
 //! Along samples `S_0 .. S_J` (each #V x 3) of a curve, a tangent vector `V_0` (#V x 3) is

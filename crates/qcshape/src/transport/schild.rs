@@ -1,5 +1,5 @@
-//! Schild's ladder: parallel transport built from geodesics only (METHOD.md "Deformation
-//! transfer", optional method).
+//! Schild's ladder: parallel transport built from geodesics only (docs/method.md
+//! "Deformation transfer", optional method).
 //!
 //! Along samples `S_0 .. S_J` (each #V x 3) with a vector `V_j` at `S_j`, one rung:
 //! 1. the tip `X_j = S_j + eps V_j`;

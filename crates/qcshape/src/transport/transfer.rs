@@ -1,4 +1,4 @@
-//! Deformation transfer (paper section 2.2.2, METHOD.md "Deformation transfer").
+//! Deformation transfer (paper section 2.2.2, docs/method.md "Deformation transfer").
 //!
 //! A deformation `M_0 .. M_K` (poses #V x 3) is carried to a new base `N_0`: for
 //! `k = 0 .. K-1`, the discrete geodesic `gamma_k` from `M_k` to `N_k` is computed, the segment

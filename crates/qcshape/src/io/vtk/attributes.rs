@@ -3,7 +3,7 @@
 //! ids, `FIELD`) and dataset-level `FIELD` data, with the `METADATA` blocks VTK writes after
 //! arrays.
 
-use super::{Num, Reader, SECTIONS};
+use super::{Names, Num, Reader, SECTIONS};
 use crate::io::text;
 use crate::io::{ParseError, PointArray};
 
@@ -176,7 +176,7 @@ pub(super) fn read_field(r: &mut Reader, tuples: Option<u64>) -> Result<Vec<Poin
             line: at,
             message: format!("FIELD array {name}: {n} x {comps} values are too many"),
         })?;
-        let Some(ty) = Num::parse(ty_tok) else {
+        let Some(ty) = Num::parse(Names::Vtk, ty_tok) else {
             // String arrays (ASCII: one token per value) are skipped; anything else is an error.
             if ty_tok.eq_ignore_ascii_case(b"string") && !r.binary {
                 for _ in 0..count {

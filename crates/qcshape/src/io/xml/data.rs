@@ -6,72 +6,8 @@
 use std::io::Read;
 
 use super::scan::line_of;
+pub(super) use crate::io::number::Number as Ty;
 use crate::io::ParseError;
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Ty {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Ty {
-    pub(super) fn parse(s: &[u8]) -> Option<Ty> {
-        Some(match s {
-            b"Int8" | b"Char" => Ty::I8,
-            b"UInt8" | b"UChar" => Ty::U8,
-            b"Int16" => Ty::I16,
-            b"UInt16" => Ty::U16,
-            b"Int32" => Ty::I32,
-            b"UInt32" => Ty::U32,
-            b"Int64" => Ty::I64,
-            b"UInt64" => Ty::U64,
-            b"Float32" => Ty::F32,
-            b"Float64" => Ty::F64,
-            _ => return None,
-        })
-    }
-    fn size(self) -> usize {
-        match self {
-            Ty::I8 | Ty::U8 => 1,
-            Ty::I16 | Ty::U16 => 2,
-            Ty::I32 | Ty::U32 | Ty::F32 => 4,
-            Ty::I64 | Ty::U64 | Ty::F64 => 8,
-        }
-    }
-    fn decode(self, b: &[u8], big: bool) -> f64 {
-        macro_rules! num {
-            ($t:ty, $n:expr) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(b);
-                (if big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as f64
-            }};
-        }
-        match self {
-            Ty::I8 => b[0] as i8 as f64,
-            Ty::U8 => b[0] as f64,
-            Ty::I16 => num!(i16, 2),
-            Ty::U16 => num!(u16, 2),
-            Ty::I32 => num!(i32, 4),
-            Ty::U32 => num!(u32, 4),
-            Ty::I64 => num!(i64, 8),
-            Ty::U64 => num!(u64, 8),
-            Ty::F32 => num!(f32, 4),
-            Ty::F64 => num!(f64, 8),
-        }
-    }
-}
 
 /// File-level settings from the `VTKFile` element.
 #[derive(Debug, Clone, Copy)]
@@ -225,7 +161,7 @@ impl Decoder<'_> {
 
     fn word(&self, b: &[u8]) -> u64 {
         if self.s.header == 4 {
-            Ty::U32.decode(b, self.s.big) as u64
+            Ty::U32.read(b, self.s.big) as u64
         } else {
             let mut a = [0u8; 8];
             a.copy_from_slice(b);
@@ -404,7 +340,7 @@ pub(super) fn read_values(
     };
     Ok(raw
         .chunks_exact(a.ty.size())
-        .map(|c| a.ty.decode(c, s.big))
+        .map(|c| a.ty.read(c, s.big))
         .collect())
 }
 

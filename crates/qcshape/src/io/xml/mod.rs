@@ -343,7 +343,7 @@ fn finish_array<'a>(
     let line = line_of(bytes, tag.pos);
     let bad = |message: String| ParseError::Syntax { line, message };
     let ty_s = tag.attr("type").unwrap_or_default();
-    let ty = Ty::parse(ty_s).ok_or_else(|| {
+    let ty = Ty::parse(crate::io::number::Names::VtkXml, ty_s).ok_or_else(|| {
         bad(format!(
             "unknown DataArray type {:?}",
             String::from_utf8_lossy(ty_s)
