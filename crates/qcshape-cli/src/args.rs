@@ -8,7 +8,7 @@ use qcshape::dataset::Dataset;
 use qcshape::defaults;
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
-use qcshape::similarity::{Approx, PipelineOptions};
+use qcshape::similarity::{Approx, PipelineOptions, Smoothing};
 use qcshape::transport::Transport;
 
 /// The metric (docs/method.md "Metrics") and its variants.
@@ -194,11 +194,8 @@ pub struct PipelineArgs {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = defaults::ALIGN.label())]
     pub align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    pub smooth: usize,
+    #[command(flatten)]
+    pub smooth: SmoothArgs,
     /// Name of the reference deformation whose first pose is the common base (default: the first).
     #[arg(long)]
     pub base: Option<String>,
@@ -232,11 +229,38 @@ impl PipelineArgs {
             transport: self.transport,
             base,
             align: self.align,
-            smoothing: self.smooth,
+            smoothing: self.smooth.smoothing(),
             approx: self.approx,
         };
         opts.validate(data.deformations.len()).map_err(flag_error)?;
         Ok(opts)
+    }
+}
+
+/// The low-pass filter of every pose before comparing ([`Smoothing`]): the length filter, or
+/// Taubin iterations when `--smooth N` is given.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SmoothArgs {
+    /// Taubin smoothing iterations of every pose before comparing, instead of the length filter
+    /// (a filter in mesh units: it smooths a quarter as much of the surface per subdivision; the
+    /// default before --smooth-length was 10; 0 = no smoothing, the paper's pipeline).
+    /// At most 1,000.
+    #[arg(long, alias = "smoothing", conflicts_with = "smooth_length", value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
+    pub smooth: Option<usize>,
+    /// Smoothing length L of every pose before comparing, relative to the area radius R =
+    /// sqrt(area / 4 pi) of the base's first pose: a low-pass filter that takes vertex noise out
+    /// of real data, the same at every mesh resolution (a wave of wavenumber w keeps
+    /// exp(-(w L R)^4) of its amplitude; 0 = none; docs/robustness.md).
+    /// At most 10.
+    #[arg(long, default_value_t = defaults::SMOOTH_LENGTH, value_parser = crate::bounds::real(qcshape::limits::MAX_SMOOTH_LENGTH), allow_negative_numbers = true)]
+    pub smooth_length: f64,
+}
+
+impl SmoothArgs {
+    /// `--smooth N` Taubin iterations if given, else the length filter.
+    pub fn smoothing(&self) -> Smoothing {
+        self.smooth
+            .map_or(Smoothing::Length(self.smooth_length), Smoothing::Iterations)
     }
 }
 

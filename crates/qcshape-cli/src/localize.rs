@@ -63,10 +63,8 @@ pub struct Args {
     /// At most 1,000.
     #[arg(long, default_value_t = 0, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
-    /// Taubin smoothing iterations applied to every pose first (0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = 10, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smoothing: usize,
+    #[command(flatten)]
+    smooth: crate::args::SmoothArgs,
     /// Random relabellings per contrast.
     /// At most 1,000,000.
     #[arg(long, default_value_t = 999, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_PERMUTATIONS as u64), allow_negative_numbers = true)]
@@ -110,7 +108,7 @@ pub fn run(args: &Args) -> Result<()> {
         metric: args.metric.spec()?,
         geodesic: args.solver.options()?,
         insert: args.insert,
-        smoothing: args.smoothing,
+        smoothing: args.smooth.smoothing(),
         ..Default::default()
     };
     let lopts = LocalizeOptions {

@@ -84,11 +84,8 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
+    #[command(flatten)]
+    smooth: crate::args::SmoothArgs,
     /// Seed of the synthetic amplitudes, k-means and noise.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
@@ -121,7 +118,7 @@ fn settings(args: &Args) -> Reproduction {
         stretch: qcshape::defaults::STRETCH,
         transport: args.transport,
         align: args.align,
-        smoothing: args.smooth,
+        smoothing: args.smooth.smoothing(),
         seed: args.seed,
         previous: !args.no_previous,
     }

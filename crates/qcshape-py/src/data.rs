@@ -406,8 +406,10 @@ pub fn run_pipeline(
 /// steps, solver, tolerance, energy_tolerance, length_tolerance (the geodesics; the last
 /// stops each distance once its length has settled, 1e-8, 0 = off); insert (poses inserted between
 /// key poses, 0), levels (1), transport ("euclidean" | "parallel" | "schild"), align ("rigid" |
-/// "similarity" | "none": placement of each deformation on the base), smooth (Taubin iterations
-/// of every pose, 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
+/// "similarity" | "none": placement of each deformation on the base), smooth_length (the
+/// smoothing length of every pose relative to its area radius sqrt(area / 4 pi), 0.18: a
+/// low-pass filter that means the same at every mesh resolution; 0 = none), smooth (N Taubin
+/// iterations instead, the previous default 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md | "tangent": the metric
 /// linearized at the common base, one feature vector per pose; quasi-conformal weighs each pair
 /// by its own curvature-change weights); threads (None: all cores); progress (None: counts on stderr when it is a terminal; True: always, plain lines off a terminal; False: never). Distances are in
@@ -432,7 +434,7 @@ pub fn run_pipeline(
 #[pyo3(
     text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
+transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx=None, threads=None, progress=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn similarity_matrix<'py>(
@@ -536,7 +538,7 @@ fn pair_details<'py>(
 #[pyo3(
     text_signature = "(dataset, a, b, *, metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
+transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx=None, threads=None, progress=None)"
 )]
 pub fn pair_contributions<'py>(
     py: Python<'py>,
@@ -597,7 +599,7 @@ pub fn pair_contributions<'py>(
 #[pyo3(
     text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form=None, weights=None, lam=None, metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None, \
 l2_areas=None, steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None, insert=0, levels=None, \
-transport='euclidean', align='rigid', smooth=10, base=None, approx=None, threads=None, progress=None)"
+transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx=None, threads=None, progress=None)"
 )]
 pub fn motion_maps<'py>(
     py: Python<'py>,

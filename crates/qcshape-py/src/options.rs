@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
-use qcshape::similarity::PipelineOptions;
+use qcshape::similarity::{PipelineOptions, Smoothing};
 use qcshape::transport::Transport;
 
 /// The metric keywords (the CLI's `--metric --form --weights --lambda --l2-areas --scale
@@ -188,6 +188,7 @@ pub struct PipelineKw {
     pub transport: Option<String>,
     pub align: Option<String>,
     pub smooth: Option<usize>,
+    pub smooth_length: Option<f64>,
     pub base: Option<BaseKw>,
     pub threads: Option<usize>,
     pub progress: Option<bool>,
@@ -271,6 +272,7 @@ impl PipelineKw {
                         qcshape::limits::MAX_SWEEPS,
                     )?)
                 }
+                "smooth_length" => k.smooth_length = Some(value.extract().map_err(bad)?),
                 "base" => {
                     k.base = Some(if let Ok(i) = value.extract::<usize>() {
                         BaseKw::Index(i)
@@ -333,7 +335,16 @@ impl PipelineKw {
                     .parse::<qcshape::align::Alignment>()
                     .map_err(|e| PyValueError::new_err(format!("align: {e}")))?,
             },
-            smoothing: self.smooth.unwrap_or(d.smoothing),
+            smoothing: match (self.smooth, self.smooth_length) {
+                (Some(_), Some(_)) => {
+                    return Err(PyValueError::new_err(
+                        "smooth and smooth_length exclude each other: smooth=N is N Taubin iterations instead of the length filter",
+                    ))
+                }
+                (Some(n), None) => Smoothing::Iterations(n),
+                (None, Some(l)) => Smoothing::Length(l),
+                (None, None) => d.smoothing,
+            },
             base,
             approx: match self.approx.as_deref() {
                 None => d.approx,

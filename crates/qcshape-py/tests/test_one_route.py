@@ -117,6 +117,11 @@ def test_out_of_range_values_are_named_by_their_keyword(synthetic, pair):
         qs.ShapeSpace(F, qc_floor=-1.0)
     with pytest.raises(ValueError, match="^length_tolerance must be >= 0"):
         qs.similarity_matrix(synthetic, length_tolerance=-1.0, progress=False)
+    for bad in (-1.0, float("nan"), 11.0):
+        with pytest.raises(ValueError, match="^smooth_length must be >= 0"):
+            qs.similarity_matrix(synthetic, smooth_length=bad, progress=False)
+    with pytest.raises(ValueError, match="^smooth and smooth_length exclude each other"):
+        qs.similarity_matrix(synthetic, smooth=10, smooth_length=0.2, progress=False)
     with pytest.warns(UserWarning, match="lambda = 0 leaves the conformal metric"):
         qs.ShapeSpace(F, metric="conformal", lam=0.0)
 

@@ -15,7 +15,7 @@ pub use crate::geodesic::defaults::{
     ENERGY_TOLERANCE, LENGTH_TOLERANCE, LEVELS, PAPER_INSERT, SOLVER, STEPS, TOLERANCE,
 };
 pub use crate::metric::defaults::{LAMBDA, METRIC, QC_NORMALIZE, RAW_LAMBDA, SCALE, STRETCH};
-pub use crate::similarity::defaults::{INSERT, SMOOTH};
+pub use crate::similarity::defaults::{INSERT, SMOOTH, SMOOTH_LENGTH};
 pub use crate::transport::defaults::{ALIGN, LV_TRANSPORT, TRANSPORT};
 
 /// Seeded clustering runs (kernel k-means restarts; the best starts the intrinsic k-means).
@@ -84,7 +84,7 @@ mod tests {
         assert_eq!(p.levels, LEVELS);
         assert_eq!(p.transport, TRANSPORT);
         assert_eq!(p.align, ALIGN);
-        assert_eq!(p.smoothing, SMOOTH);
+        assert_eq!(p.smoothing, crate::mesh::smooth::Smoothing::Length(SMOOTH_LENGTH));
         assert_eq!(crate::metric::MetricSpec::new(METRIC).lambda, LAMBDA);
     }
 }

@@ -42,6 +42,11 @@ pub const MAX_ITERATIONS: usize = 1_000_000;
 /// `--qc-smooth`): at most 1,000.
 pub const MAX_SWEEPS: usize = 1_000;
 
+/// The smoothing length relative to a pose's area radius (`--smooth-length`, `smooth_length=`):
+/// at most 10 (the default is 0.18; at 1 a sphere keeps `exp(-4)` of its own shape, and the
+/// filter's cost grows with the length).
+pub const MAX_SMOOTH_LENGTH: f64 = 10.0;
+
 /// Poses or frames per deformation that a command generates (`--poses`, `--frames`,
 /// `--real-frames`): at most 10,000.
 pub const MAX_POSES: usize = 10_000;

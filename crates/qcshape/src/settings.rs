@@ -9,7 +9,7 @@
 
 use crate::geodesic::GeodesicOptions;
 use crate::metric::MetricSpec;
-use crate::similarity::PipelineOptions;
+use crate::similarity::{PipelineOptions, Smoothing};
 
 /// Which options struct a setting belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -175,11 +175,24 @@ pub const SETTINGS: &[Setting] = &[
         group: Group::Pipeline,
         default: || Some(pipeline().align.label().to_string()),
     },
+    // Taubin iterations: an override of the length filter, so no default of its own.
     Setting {
         key: "smooth",
         python: "smooth",
         group: Group::Pipeline,
-        default: || Some(pipeline().smoothing.to_string()),
+        default: || match pipeline().smoothing {
+            Smoothing::Iterations(n) => Some(n.to_string()),
+            Smoothing::Length(_) => None,
+        },
+    },
+    Setting {
+        key: "smooth-length",
+        python: "smooth_length",
+        group: Group::Pipeline,
+        default: || match pipeline().smoothing {
+            Smoothing::Length(l) => Some(l.to_string()),
+            Smoothing::Iterations(_) => None,
+        },
     },
     Setting {
         key: "base",
@@ -231,6 +244,11 @@ mod tests {
             (by_key("metric").unwrap().default)().as_deref(),
             Some("isometric")
         );
+        assert_eq!((by_key("smooth").unwrap().default)(), None);
+        assert_eq!(
+            (by_key("smooth-length").unwrap().default)().as_deref(),
+            Some("0.18")
+        );
         PipelineOptions::default().validate(1).unwrap();
     }
 
@@ -265,6 +283,16 @@ mod tests {
             renamed.to_string().starts_with("qc_floor must be >= 0"),
             "{renamed}"
         );
+        for bad in [-0.1, f64::NAN, f64::INFINITY, 11.0] {
+            o = PipelineOptions::default();
+            o.smoothing = Smoothing::Length(bad);
+            let e = o.validate(3).unwrap_err();
+            assert_eq!(e.what(), "smooth-length");
+            assert_eq!(python_name(e.what()), "smooth_length");
+        }
+        o = PipelineOptions::default();
+        o.smoothing = Smoothing::Iterations(1_001);
+        assert_eq!(o.validate(3).unwrap_err().what(), "smooth");
         o = PipelineOptions::default();
         o.metric.stretch = -0.5;
         let e = o.validate(3).unwrap_err();

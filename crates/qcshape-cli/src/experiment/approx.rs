@@ -56,10 +56,8 @@ pub struct Args {
         default_value = "straight,straight-1,exact-2,exact-4"
     )]
     modes: Vec<String>,
-    /// Taubin smoothing iterations of every pose (the pipeline's default).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
+    #[command(flatten)]
+    smooth: crate::args::SmoothArgs,
     /// Clustering restarts of the k-means whose agreement (ARI) is measured.
     /// At most 10,000.
     #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
@@ -123,7 +121,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         geodesic,
         transport: qcshape::defaults::TRANSPORT,
         align: qcshape::defaults::ALIGN,
-        smoothing: args.smooth,
+        smoothing: args.smooth.smoothing(),
         ..Default::default()
     };
     let mut modes = vec![Mode {

@@ -69,11 +69,8 @@ pub struct Args {
     /// a uniform scale) or none (the paper's pipeline).
     #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
     align: Alignment,
-    /// Taubin smoothing iterations applied to every pose before comparing (a low-pass filter that
-    /// takes vertex noise out of real data; 0 = none).
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::SMOOTH, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
-    smooth: usize,
+    #[command(flatten)]
+    smooth: crate::args::SmoothArgs,
     /// Number of classes (default: the number of distinct labels).
     /// At most 10,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
@@ -132,7 +129,7 @@ pub fn run(args: &Args) -> Result<()> {
         levels: qcshape::defaults::LEVELS,
         transport: args.transport,
         align: args.align,
-        smoothing: args.smooth,
+        smoothing: args.smooth.smoothing(),
         base: 0,
         approx: Default::default(),
     };

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
 use qcshape::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
 use qcshape::metric::{MetricKind, MetricSpec};
-use qcshape::similarity::PipelineOptions;
+use qcshape::similarity::{PipelineOptions, Smoothing};
 use qcshape::synth::InitialShape;
 
 use crate::args::SolverArgs;
@@ -46,10 +46,16 @@ pub struct Args {
     )]
     metrics: Vec<MetricKind>,
     /// Taubin smoothing iterations of the pipeline's poses (comma-separated: every metric is run
-    /// with each value; the library's default when not given).
+    /// with each value, and with each --smooth-length; 0 = none).
     /// At most 1,000.
     #[arg(long, value_delimiter = ',', value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     smooth: Vec<usize>,
+    /// Smoothing lengths of the pipeline's poses, relative to each data set's area radius
+    /// (comma-separated: every metric is run with each value, and with each --smooth; the
+    /// library's default, 0.18, when neither is given; 0 = none).
+    /// At most 10.
+    #[arg(long, value_delimiter = ',', value_parser = crate::bounds::real(qcshape::limits::MAX_SMOOTH_LENGTH), allow_negative_numbers = true)]
+    smooth_length: Vec<f64>,
     /// Shapes of the benchmark (comma-separated; default all six).
     #[arg(long, value_delimiter = ',')]
     shapes: Vec<InitialShape>,
@@ -105,12 +111,12 @@ pub fn run_command(args: &Args) -> Result<()> {
             .collect::<Result<_>>()?
     };
     let geodesic = args.solver.options()?;
-    let smooth = if args.smooth.is_empty() {
-        vec![PipelineOptions::default().smoothing]
-    } else {
-        args.smooth.clone()
-    };
-    let pipeline = |kind: MetricKind, align: Alignment, smoothing: usize| PipelineOptions {
+    let mut smooth: Vec<Smoothing> = args.smooth.iter().map(|&n| Smoothing::Iterations(n)).collect();
+    smooth.extend(args.smooth_length.iter().map(|&l| Smoothing::Length(l)));
+    if smooth.is_empty() {
+        smooth.push(PipelineOptions::default().smoothing);
+    }
+    let pipeline = |kind: MetricKind, align: Alignment, smoothing: Smoothing| PipelineOptions {
         metric: MetricSpec {
             lambda: args.lambda,
             ..MetricSpec::new(kind)
@@ -124,7 +130,7 @@ pub fn run_command(args: &Args) -> Result<()> {
     for kind in &args.metrics {
         for &s in &smooth {
             let name = if smooth.len() > 1 {
-                format!("{} (smooth {s})", kind.label())
+                format!("{} ({s})", kind.label())
             } else {
                 kind.label().to_string()
             };
@@ -137,7 +143,11 @@ pub fn run_command(args: &Args) -> Result<()> {
     if args.paper {
         methods.push(Method::Pipeline {
             name: "quasi-conformal (paper: no alignment, no smoothing)".into(),
-            options: Box::new(pipeline(MetricKind::QuasiConformal, Alignment::None, 0)),
+            options: Box::new(pipeline(
+                MetricKind::QuasiConformal,
+                Alignment::None,
+                Smoothing::Iterations(0),
+            )),
         });
     }
     let mut opts = RobustnessOptions {

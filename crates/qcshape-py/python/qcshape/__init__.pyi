@@ -45,7 +45,8 @@ class _PipelineOptions(TypedDict, total=False):
     levels: Optional[int]
     transport: Optional[str]
     align: Optional[str]
-    smooth: Optional[int]
+    smooth: Optional[int]  # Taubin iterations instead of the length filter
+    smooth_length: Optional[float]  # relative to the area radius, 0.18 (default filter)
     base: Optional[Union[int, str]]
     approx: Optional[str]
     threads: Optional[int]

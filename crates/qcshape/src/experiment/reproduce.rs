@@ -28,7 +28,7 @@ use crate::geodesic::GeodesicOptions;
 use crate::io::{write_atomically, IoError};
 use crate::metric::{MetricKind, MetricScale, MetricSpec};
 use crate::plot::PlotError;
-use crate::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Stage};
+use crate::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Smoothing, Stage};
 use crate::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
 use crate::transport::Transport;
 
@@ -95,8 +95,8 @@ pub struct Reproduction {
     pub transport: Transport,
     /// Placement of each deformation on the base before transfer.
     pub align: Alignment,
-    /// Taubin smoothing iterations of every pose before comparing (0 = none).
-    pub smoothing: usize,
+    /// The smoothing of every pose before comparing ([`Smoothing`]; `Iterations(0)` = none).
+    pub smoothing: Smoothing,
     /// Seed of the synthetic amplitudes, k-means and noise.
     pub seed: u64,
     /// Also run Table 1 with the previous configuration ([`MetricSpec::calibrated`]: eq. 3's
@@ -110,7 +110,8 @@ impl Reproduction {
     /// poses, N = [`defaults::PAPER_STEPS`] (4), [`defaults::RESTARTS`] (20) restarts, noise
     /// levels 1, 2.5, 5, 10, 20 %, the metrics rigid, isometric, conformal, quasi-conformal and
     /// l2, and the common defaults for the rest: [`defaults::LAMBDA`], [`defaults::TRANSPORT`]
-    /// (Euclidean), [`defaults::ALIGN`] (rigid), [`defaults::SMOOTH`], [`defaults::SEED`].
+    /// (Euclidean), [`defaults::ALIGN`] (rigid), the length filter of [`defaults::SMOOTH_LENGTH`],
+    /// [`defaults::SEED`].
     pub fn full() -> Reproduction {
         Reproduction {
             level: 2,
@@ -131,7 +132,7 @@ impl Reproduction {
             stretch: defaults::STRETCH,
             transport: defaults::TRANSPORT,
             align: defaults::ALIGN,
-            smoothing: defaults::SMOOTH,
+            smoothing: Smoothing::Length(defaults::SMOOTH_LENGTH),
             seed: defaults::SEED,
             previous: true,
         }

@@ -12,6 +12,7 @@ pub mod shard;
 pub mod shares;
 pub mod tangent;
 
+pub use crate::mesh::smooth::Smoothing;
 pub use engine::{all_pairs, details_csv, pose_distances, Approx, PairDistance, Pose, SimilarityError};
 pub use journal::{fingerprint, Journal, JournalFile};
 pub use matrix::*;

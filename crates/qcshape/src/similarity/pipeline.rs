@@ -18,6 +18,7 @@ use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError
 
 use super::engine::{Approx, Pose, SimilarityError};
 use super::run::Event;
+use super::Smoothing;
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]
@@ -37,14 +38,20 @@ pub struct PipelineOptions {
     pub transport: Transport,
     /// Index of the reference deformation whose first pose is the common base (METHOD.md).
     pub base: usize,
-    /// Taubin iterations ([`crate::mesh::smooth::taubin`]) applied to every pose of every
-    /// deformation (the base included) before anything else: a low-pass filter of the
-    /// positions, the same linear operator for every pose, that takes vertex noise out of real
-    /// data; 0 = none (the paper's pipeline). Default 10, chosen on the robustness benchmark
+    /// The low-pass filter applied to every pose of every deformation (the base included)
+    /// before anything else, one linear operator for every pose, that takes vertex noise out of
+    /// real data ([`Smoothing`]). Default: the length filter
+    /// ([`crate::mesh::smooth::smooth_to_length`]) with the length
+    /// [`super::defaults::SMOOTH_LENGTH`] = 0.18 of the area radius, its cutoff taken from the
+    /// first pose of the base deformation, so that it smooths the same share of the surface at
+    /// every resolution; [`Smoothing::Iterations`] is the previous default (10 Taubin
+    /// iterations, [`crate::mesh::smooth::taubin`]), which smooths a quarter as much of the
+    /// surface per subdivision of the mesh; `Iterations(0)` or `Length(0.0)` is none (the
+    /// paper's pipeline). Smoothing was chosen on the robustness benchmark
     /// (`qcshape experiment robustness`, docs/robustness.md): without it vertex noise of 2 % of
-    /// the bounding-box diagonal drives the quasi-conformal 1-NN accuracy to chance (0.13),
-    /// with it 1.00; 10 and 20 iterations score alike, and clean data loses nothing.
-    pub smoothing: usize,
+    /// the bounding-box diagonal drives the quasi-conformal 1-NN accuracy to chance (0.13), with
+    /// 10 iterations 1.00, and clean data loses nothing.
+    pub smoothing: Smoothing,
     /// How each deformation is placed on the base before interpolation and transfer
     /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
     /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
@@ -64,7 +71,7 @@ impl Default for PipelineOptions {
             transport: crate::transport::defaults::TRANSPORT,
             base: 0,
             align: crate::transport::defaults::ALIGN,
-            smoothing: super::defaults::SMOOTH,
+            smoothing: Smoothing::Length(super::defaults::SMOOTH_LENGTH),
             approx: Approx::Exact,
         }
     }
@@ -75,16 +82,17 @@ impl PipelineOptions {
     /// of the pipeline settings; [`prepare`] calls it): the metric's
     /// ([`MetricSpec::validate`]) and the solver's ([`GeodesicOptions::validate`]) values,
     /// `insert` at most [`crate::limits::MAX_INSERT`], `levels` in
-    /// 1..=[`crate::limits::MAX_LEVELS`], `smoothing` at most [`crate::limits::MAX_SWEEPS`], the
-    /// base one of the deformations. The error names the setting by its key in
-    /// [`crate::settings::SETTINGS`].
+    /// 1..=[`crate::limits::MAX_LEVELS`], `smoothing` by [`Smoothing::validate`] (iterations at
+    /// most [`crate::limits::MAX_SWEEPS`], a length finite in
+    /// 0..=[`crate::limits::MAX_SMOOTH_LENGTH`]), the base one of the deformations. The error
+    /// names the setting by its key in [`crate::settings::SETTINGS`].
     pub fn validate(&self, n: usize) -> Result<(), crate::limits::LimitError> {
-        use crate::limits::{count, MAX_INSERT, MAX_LEVELS, MAX_SWEEPS};
+        use crate::limits::{count, MAX_INSERT, MAX_LEVELS};
         self.metric.validate()?;
         self.geodesic.validate()?;
         count("insert", self.insert, 0, MAX_INSERT)?;
         count("levels", self.levels, 1, MAX_LEVELS)?;
-        count("smooth", self.smoothing, 0, MAX_SWEEPS)?;
+        self.smoothing.validate()?;
         if n > 0 && self.base >= n {
             return Err(crate::limits::LimitError::TooLarge {
                 what: format!("base (the index of the base deformation among {n})"),
@@ -242,9 +250,11 @@ fn check(defs: &[Deformation], base: usize) -> Result<Arc<Topology>, PipelineErr
     Ok(topo)
 }
 
-/// Smooths every pose ([`PipelineOptions::smoothing`]), aligns each deformation to the first
-/// pose of deformation `opts.base` ([`PipelineOptions::align`]), interpolates it (`opts.insert`
-/// poses between key poses) and transfers it to that base, deformations in parallel.
+/// Smooths every pose ([`PipelineOptions::smoothing`]: one operator for all, the length
+/// filter's cutoff from the first pose of deformation `opts.base`), aligns each deformation to
+/// the first pose of deformation `opts.base` ([`PipelineOptions::align`]), interpolates it
+/// (`opts.insert` poses between key poses) and transfers it to that base, deformations in
+/// parallel.
 /// `events` sees an [`Event::Prepared`] as each deformation finishes a stage.
 pub fn prepare(
     defs: &[Deformation],
@@ -254,23 +264,20 @@ pub fn prepare(
     let progress = |stage: Stage, name: &str| events(Event::Prepared { stage, name });
     let topo = check(defs, opts.base)?;
     opts.validate(defs.len())?;
-    let smoothed: Vec<Vec<Pose>> = if opts.smoothing > 0 {
-        defs.par_iter()
-            .map(|d| {
-                d.poses
-                    .iter()
-                    .map(|p| crate::mesh::smooth::taubin(&topo, p, opts.smoothing))
-                    .collect()
-            })
-            .collect()
-    } else {
+    // One linear operator for every pose: the length filter's cutoff from the base's first pose.
+    let smoother = opts.smoothing.smoother(&topo, &defs[opts.base].poses[0]);
+    let smoothed: Vec<Vec<Pose>> = if smoother.is_identity() {
         Vec::new()
+    } else {
+        defs.par_iter()
+            .map(|d| d.poses.iter().map(|p| smoother.apply(&topo, p)).collect())
+            .collect()
     };
     let poses_of = |i: usize| -> &[Pose] {
-        if opts.smoothing > 0 {
-            &smoothed[i]
-        } else {
+        if smoother.is_identity() {
             &defs[i].poses
+        } else {
+            &smoothed[i]
         }
     };
     let base_pose = &poses_of(opts.base)[0];
@@ -397,7 +404,7 @@ pub fn settings_key(opts: &PipelineOptions) -> String {
         opts.transport,
         opts.base,
         opts.align,
-        opts.smoothing,
+        opts.smoothing.key(),
         // Exact runs keep the settings strings (and journal keys) they had before `approx`.
         match opts.approx {
             Approx::Exact => String::new(),
@@ -412,6 +419,24 @@ mod tests {
     use crate::metric::MetricKind;
 
     use crate::synth::{genus0_benchmark, SynthOptions};
+
+    #[test]
+    fn the_settings_key_tells_the_smoothings_apart() {
+        let key = |smoothing| {
+            settings_key(&PipelineOptions {
+                smoothing,
+                ..Default::default()
+            })
+        };
+        // Taubin iterations keep the settings strings (and journals) of the releases before.
+        assert!(key(Smoothing::Iterations(10)).contains("|smoothing=10"));
+        assert!(key(Smoothing::Length(0.18)).contains("|smoothing=length:0.18"));
+        assert_ne!(key(Smoothing::Length(0.18)), key(Smoothing::Length(0.2)));
+        assert_eq!(
+            key(Smoothing::Length(0.18)),
+            settings_key(&PipelineOptions::default())
+        );
+    }
 
     #[test]
     fn synthetic_pipeline_gives_a_symmetric_matrix_that_groups_deformations() {
@@ -452,7 +477,11 @@ mod tests {
         // 3 key poses + 1 inserted between each pair.
         assert_eq!(prepared.is_key, vec![true, false, true, false, true]);
         // The base: the reference's first pose after the default smoothing.
-        let base = crate::mesh::smooth::taubin(&pick[0].topology, &pick[0].poses[0], opts.smoothing);
+        let base = crate::mesh::smooth::smooth_to_length(
+            &pick[0].topology,
+            &pick[0].poses[0],
+            crate::similarity::defaults::SMOOTH_LENGTH,
+        );
         assert_ne!(base, pick[0].poses[0]);
         for (d, t) in pick.iter().zip(&prepared.transferred) {
             assert_eq!(t.len(), 5);
