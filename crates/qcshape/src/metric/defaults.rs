@@ -4,15 +4,13 @@
 
 use super::{MetricKind, MetricScale, QcNormalize};
 
-/// The metric: isometric. Chosen on the calibrated scale (2026-12-04): the metric whose
-/// geometry carried its distances (the L2 regularizer's share of the energy under 1 % on the
-/// synthetic and left-ventricle data), whose geodesics kept lengths (the bent tube's centre line
-/// at 9.70 of 10, against 6.37 for L2 and 3.5-5 for the conformal metrics) and whose 1-NN
-/// accuracy matched the displacement baseline on the robustness benchmark's combined scenario
-/// (0.95); the paper's quasi-conformal metric classified worse (0.67) because its conformal
-/// terms left the regularizer to carry most of the energy (docs/log/geometry.md). It stayed
-/// the default on the invariant scale (100 / 100 % in Table 1; README, "What the measurements
-/// say").
+/// The metric: isometric (edge strain on the invariant scale). Chosen again after the
+/// scale-invariant forms (docs/log/scale-invariant.md, 162 vertices): it classifies the clean
+/// benchmark at 100 / 100 % (Table 1; quasi-conformal 97.6 / 83.3), its middle poses are closer to
+/// the truth than the conformal metrics' (Fig. 4 mean error 0.130 against 0.20), it is as close as
+/// the conformal metric on a real LV cycle (leave-one-frame-out 0.33 against 0.34; quasi-conformal
+/// 0.71), and it separates the overlap LV phantoms better than L2 (1-NN 87 % against 70 %). Its
+/// geodesics keep lengths (the bent tube's centre line at 9.70 of 10, against 6.37 for L2).
 pub const METRIC: MetricKind = MetricKind::Isometric;
 
 /// Weight `lambda` of the L2 regularizer of every metric (eq. 11): on the default invariant
