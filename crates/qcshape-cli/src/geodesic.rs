@@ -8,7 +8,7 @@ use qcshape::geodesic::{geodesic, pair_metric, Normalization, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
 
-use crate::args::{MetricArgs, SolverArgs};
+use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::mesh_format::MeshFormat;
 
 /// Compute the discrete geodesic between two meshes of one connectivity and print the
@@ -60,6 +60,10 @@ pub struct Args {
     /// Print the result as JSON.
     #[arg(long)]
     json: bool,
+    /// Worker threads (default: all cores).
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
+    threads: Option<usize>,
 }
 
 /// `b - a` per vertex (#V x 3).
@@ -113,6 +117,10 @@ fn load(p: &Path) -> Result<Shape> {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    in_pool(args.threads, || run_in_pool(args))
+}
+
+fn run_in_pool(args: &Args) -> Result<()> {
     if let Some(dir) = &args.out {
         let inputs: Vec<&std::path::Path> = args.a.iter().chain(&args.b).map(PathBuf::as_path).collect();
         crate::input::refuse_out_folder(&inputs, dir, "--out")?;

@@ -15,7 +15,7 @@ use qcshape::geodesic::{
 use qcshape::io;
 use qcshape::mesh::Topology;
 
-use crate::args::{flag_error, MetricArgs};
+use crate::args::{flag_error, in_pool, MetricArgs};
 use crate::mesh_format::MeshFormat;
 
 /// Insert poses between consecutive poses of each deformation, along discrete geodesics.
@@ -76,10 +76,18 @@ pub struct Args {
     /// Mesh format of the written poses (OBJ and OFF carry no speed fields).
     #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
     format: MeshFormat,
+    /// Worker threads (default: all cores).
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
+    threads: Option<usize>,
 }
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    in_pool(args.threads, || run_in_pool(args))
+}
+
+fn run_in_pool(args: &Args) -> Result<()> {
     let spec = args.metric.spec()?;
     if args.levels == 0 {
         bail!("--levels must be at least 1");

@@ -8,7 +8,7 @@ use qcshape::geodesic::{normalization_factor, Normalization};
 use qcshape::io;
 use qcshape::transport::{TransferOptions, TransferSetup, Transport};
 
-use crate::args::{MetricArgs, SolverArgs};
+use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::mesh_format::MeshFormat;
 
 /// Transfer deformations to a new base pose (Euclidean by default, parallel transport along
@@ -55,6 +55,10 @@ pub struct Args {
     /// Print the per-deformation summary as JSON.
     #[arg(long)]
     json: bool,
+    /// Worker threads (default: all cores).
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
+    threads: Option<usize>,
 }
 
 fn load_input(input: &[PathBuf]) -> Result<Vec<Deformation>> {
@@ -100,6 +104,10 @@ fn progress(n: usize) -> indicatif::ProgressBar {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    in_pool(args.threads, || run_in_pool(args))
+}
+
+fn run_in_pool(args: &Args) -> Result<()> {
     let spec = args.metric.spec()?;
     let geodesic = args.solver.options()?;
     let base = io::load_shape(&args.to)?;

@@ -514,8 +514,8 @@ fn dataset_cases() -> Vec<Case> {
             .no_output("path"),
         );
     }
-    // geodesic has no --threads or --levels.
-    c.retain(|k| k.name != "geodesic --threads 0" && k.name != "geodesic --levels 0");
+    // geodesic has no --levels.
+    c.retain(|k| k.name != "geodesic --levels 0");
     c.push(
         case(
             "geodesic: meshes of two connectivities",

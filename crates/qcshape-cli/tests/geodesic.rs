@@ -162,3 +162,82 @@ fn distance_does_not_depend_on_the_argument_order() {
         assert!((ab - ba).abs() <= 5e-4 * ab, "{metric}: A B {ab} vs B A {ba}");
     }
 }
+
+/// Every file `geodesic --out` writes (poses and maps), by name.
+fn written_files(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn thread_count_does_not_change_the_output_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    write_sphere(&a, 1, 1.0);
+    write_sphere(&b, 1, 1.3);
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let out_dir = dir.path().join(format!("path{threads}"));
+        let out = qcshape()
+            .args([
+                "geodesic",
+                a.to_str().unwrap(),
+                b.to_str().unwrap(),
+                "--steps",
+                "3",
+            ])
+            .args(["--threads", threads, "--out"])
+            .arg(&out_dir)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let distance = stdout
+            .lines()
+            .find(|l| l.starts_with("distance"))
+            .unwrap()
+            .to_string();
+        outputs.push((distance, written_files(&out_dir)));
+    }
+    assert!(outputs[0].1.len() >= 4 + 2, "{:?}", outputs[0].1.keys());
+    assert_eq!(
+        outputs[0].1.keys().collect::<Vec<_>>(),
+        outputs[1].1.keys().collect::<Vec<_>>()
+    );
+    for (name, bytes) in &outputs[0].1 {
+        assert!(
+            bytes == &outputs[1].1[name],
+            "{name} differs between --threads 1 and 2"
+        );
+    }
+    assert_eq!(outputs[0].0, outputs[1].0);
+}
+
+#[test]
+fn every_geodesic_command_takes_threads() {
+    for cmd in [
+        &["geodesic"][..],
+        &["interpolate"],
+        &["transfer"],
+        &["experiment", "interpolation"],
+    ] {
+        let help = qcshape().args(cmd).arg("--help").output().unwrap();
+        let text = String::from_utf8_lossy(&help.stdout);
+        assert!(text.contains("--threads"), "{cmd:?} --help: {text}");
+        let out = qcshape().args(cmd).args(["--threads", "0"]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{cmd:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--threads") && err.contains("at least 1"),
+            "{cmd:?}: {err}"
+        );
+    }
+}

@@ -12,7 +12,7 @@ use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::MetricKind;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 
-use crate::args::{flag_error, VariantArgs};
+use crate::args::{flag_error, in_pool, VariantArgs};
 
 /// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
 ///
@@ -100,6 +100,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     out: PathBuf,
+    /// Worker threads (default: all cores).
+    /// At most 1,024.
+    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_THREADS as u64), allow_negative_numbers = true)]
+    threads: Option<usize>,
 }
 
 fn progress_bar(n: usize, what: &str) -> ProgressBar {
@@ -144,6 +148,10 @@ fn load_real(dir: &Path, pattern: &str) -> Result<Deformation> {
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<()> {
+    in_pool(args.threads, || run_in_pool(args))
+}
+
+fn run_in_pool(args: &Args) -> Result<()> {
     let given: Vec<&std::path::Path> = args.input.iter().chain(&args.real).map(|p| p.as_path()).collect();
     crate::input::refuse_out_folder(&given, &args.out, "--out")?;
     let t0 = Instant::now();

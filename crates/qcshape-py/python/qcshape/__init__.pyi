@@ -59,11 +59,12 @@ class QcshapeWarning(UserWarning):
 @overload
 def read_mesh(path: _Path, point_data: Literal[False] = False) -> Tuple[_F64, _I64]: ...
 @overload
-def read_mesh(path: _Path, point_data: Literal[True]) -> Tuple[_F64, _I64, Dict[str, _F64]]: ...
-def read_mesh(path: _Path, point_data: bool = False) -> Union[Tuple[_F64, _I64], Tuple[_F64, _I64, Dict[str, _F64]]]:
+def read_mesh(path: _Path, point_data: Literal[True]) -> Tuple[_F64, _I64, Dict[str, _F64]]:
     """(V (nV, 3) float64, F (nF, 3) int64) of a .obj/.ply/.off/.stl/.vtk/.vtp/.vtu file;
     with point_data=True also a dict of its named per-vertex arrays, each (nV,) or (nV, k)
     float64. ValueError for an invalid file or one with no faces."""
+@overload
+def read_mesh(path: _Path, point_data: bool) -> Union[Tuple[_F64, _I64], Tuple[_F64, _I64, Dict[str, _F64]]]: ...
 
 def write_mesh(
     path: _Path,
@@ -333,5 +334,8 @@ class KMeans:
 def mds(d: _Matrix, n_components: Optional[int] = None, random_state: Optional[int] = None) -> Tuple[_F64, float]:
     """(X (n, n_components), raw stress (eq. 16))."""
 
-def scores(true_labels: Sequence[Any], labels: Sequence[Any]) -> Dict[str, float]:
+# Labels: a list (e.g. Dataset.labels, None for unlabelled) or an array (e.g. an estimator's labels_).
+_Labels = Union[Sequence[Any], _npt.ArrayLike]
+
+def scores(true_labels: _Labels, labels: _Labels) -> Dict[str, float]:
     """{"sensitivity", "specificity" (eq. 15), "accuracy", "ari"}."""
