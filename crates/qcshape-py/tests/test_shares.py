@@ -86,8 +86,8 @@ def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
     """The tangent mode weighs each pair by its own curvature-change weights: a symmetric
     matrix with a zero diagonal whose nearest neighbours are of the exact matrix's classes, and
     (on the scale-invariant forms, whose geodesics no longer shrink the shape) whose values
-    are the exact ones to within 15 % (measured: 12 %). Two of the three twists are nearly the
-    same deformation (distance 0.001), so the third's nearest neighbour is a tie: compare
+    are the exact ones to within 25 % (measured: 12 % with 10 Taubin iterations, 21 % with the
+    default length filter of issue 51). Two of the three twists are nearly the same deformation (distance 0.001), so the third's nearest neighbour is a tie: compare
     classes, not indices."""
     ds = small(synthetic)
     T = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, approx="tangent", progress=False)
@@ -102,7 +102,7 @@ def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
     assert np.array_equal(cls[nearest_t], cls[nearest_e]), (nearest_t, nearest_e)
     big = E[off_diag] > 0.01
     rel = np.abs(T[off_diag][big] - E[off_diag][big]) / E[off_diag][big]
-    assert rel.max() < 0.15, rel
+    assert rel.max() < 0.25, rel
 
 
 def test_return_details_must_be_a_bool(synthetic):
