@@ -87,8 +87,8 @@ def test_quasi_conformal_tangent_keeps_the_exact_neighbours(synthetic):
     matrix with a zero diagonal whose nearest neighbours are of the exact matrix's classes, and
     (on the scale-invariant forms, whose geodesics no longer shrink the shape) whose values
     are the exact ones to within 25 % (measured: 12 % with 10 Taubin iterations, 21 % with the
-    default length filter of issue 51). Two of the three twists are nearly the same deformation (distance 0.001), so the third's nearest neighbour is a tie: compare
-    classes, not indices."""
+    default length filter of issue 51). Two of the three twists are nearly the same deformation
+    (distance 0.001), so the third's nearest neighbour is a tie: compare classes, not indices."""
     ds = small(synthetic)
     T = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, approx="tangent", progress=False)
     E = qs.similarity_matrix(ds, metric="quasi-conformal", steps=2, progress=False)
