@@ -115,8 +115,8 @@ pub struct SolverArgs {
     /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
     /// preconditioner), hessian-kronecker (the same model fitted to the exact Hessian:
     /// iterations nearly independent of the resolution for the isometric metric, faster on fine
-    /// meshes), pose-kronecker (each pose's own spatial block: conformal and quasi-conformal
-    /// metrics at small --lambda, where preconditioned stalls), newton
+    /// meshes), pose-kronecker (each pose's own spatial block: fewer iterations for the conformal
+    /// metrics at small --lambda, each about twice as costly), newton
     /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
     /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
     /// (the paper's, through argmin), plain-lbfgs (the preconditioned solver without its

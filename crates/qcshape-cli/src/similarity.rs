@@ -201,7 +201,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
                 opts.geodesic
                     .solver
                     .stall_hint()
-                    .map(|h| format!(" ({h}: --solver pose-kronecker)"))
+                    .map(|h| format!(" ({h})"))
                     .unwrap_or_default()
             )
         } else {

@@ -125,6 +125,43 @@ fn energy_tolerance_option_decides_the_energy_test() {
     );
 }
 
+/// `--max-iterations` is the solve's limit: a solve stopped there says so in the JSON and warns
+/// on stderr with the flag that lifts it; zero is refused by name.
+#[test]
+fn max_iterations_option_is_the_limit_and_the_warning_names_it() {
+    let out = qcshape()
+        .args([
+            "geodesic",
+            "--demo",
+            "--demo-level",
+            "1",
+            "--json",
+            "--max-iterations",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["iterations"], 3, "{v}");
+    assert_eq!(v["stop"], "max-iterations", "{v}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("iteration limit after 3 iterations") && err.contains("--max-iterations"),
+        "{err}"
+    );
+    let out = qcshape()
+        .args(["geodesic", "--demo", "--max-iterations", "0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--max-iterations") && !err.contains("panicked"),
+        "{err}"
+    );
+}
+
 /// `geodesic A B` and `geodesic B A` give the same distance for every metric, on shapes that
 /// are not congruent and differ in size (the normalization factor is symmetric in A and B).
 #[test]

@@ -67,10 +67,7 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver)
         )?;
     }
     if g.stop == StopReason::MaxIterations {
-        let hint = solver
-            .stall_hint()
-            .map(|h| format!(" ({h}: solver=\"pose-kronecker\")"))
-            .unwrap_or_default();
+        let hint = solver.stall_hint().map(|h| format!(" ({h})")).unwrap_or_default();
         warn(
             py,
             &format!(
@@ -107,10 +104,7 @@ pub fn pairs(
     }
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
     if unconverged > 0 || !converged {
-        let hint = solver
-            .stall_hint()
-            .map(|h| format!(" ({h}: solver=\"pose-kronecker\")"))
-            .unwrap_or_default();
+        let hint = solver.stall_hint().map(|h| format!(" ({h})")).unwrap_or_default();
         let what = if unconverged > 0 {
             format!("{unconverged} pair(s) with a geodesic that did not converge")
         } else {

@@ -36,11 +36,12 @@ pub enum Solver {
     Lbfgs,
     /// [`Solver::Preconditioned`] with the pose-wise Kronecker model: each interior pose keeps
     /// its own spatial block of `J^T J` (one sparse Cholesky of size 3 #V per pose and refit)
-    /// and the poses are coupled by the normalized second difference. For the conformal and
-    /// quasi-conformal metrics at small lambda, where the metric's cheap directions change
-    /// along the path and the default stalls at its iteration limit (twisted sphere, 162
-    /// vertices, conformal, lambda 1e-5: over 1,000 iterations with the default, 139 with this
-    /// one; docs/log/speed.md); each iteration costs about twice the default's at 2,562 vertices.
+    /// and the poses are coupled by the normalized second difference. Fewer iterations for the
+    /// conformal metrics at small lambda, where the metric's cheap directions change along the
+    /// path (twisted sphere, invariant scale, conformal, lambda 1e-5: 144 against the default's
+    /// 397 at 162 vertices, 311 against 413 at 642, where each iteration costs about twice the
+    /// default's, so the default is faster; docs/log/scale-invariant.md). On eq. 7's calibrated
+    /// scale at lambda 1e-5 it converges where the default stalls (docs/log/speed.md).
     /// Command-line value `pose-kronecker`.
     PoseKronecker,
     /// [`Solver::Preconditioned`] with the Kronecker model fitted to the exact Hessian (`J^T J`
@@ -104,23 +105,27 @@ impl Solver {
         )
     }
 
-    /// What to try when a solve with this solver stopped at its iteration limit: for the
-    /// default, the pose-wise model ([`Solver::PoseKronecker`]), which converges where the
-    /// default stalls (conformal metrics at small lambda); `None` for the other solvers.
+    /// What to try when a solve with this solver stopped at its iteration limit. For the
+    /// preconditioned L-BFGS solvers: a higher limit. Their iterations grow with the resolution
+    /// (twisted sphere, invariant scale, quasi-conformal: 271, 690 and 1,516 iterations at 642,
+    /// 2,562 and 10,242 vertices; conformal 4,058 at 10,242; docs/log/scale-invariant.md), and
+    /// the other solvers do not converge in fewer at 10,242 vertices. `None` for the others.
     pub fn stall_hint(self) -> Option<&'static str> {
         match self {
-            Solver::Preconditioned => Some(
-                "for the conformal and quasi-conformal metrics at small lambda, the pose-kronecker \
-                 solver converges where the default stalls",
+            Solver::Preconditioned | Solver::PoseKronecker | Solver::HessianKronecker => Some(
+                "the path was still moving; the default limit, 60 sqrt(#V), covers the \
+                 slowest measured (conformal, 10,242 vertices: 4,058 iterations), so a higher \
+                 limit or a coarser mesh lets it converge",
             ),
             _ => None,
         }
     }
 
-    /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`: 100 outer
-    /// steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a linear system),
-    /// 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers
-    /// (`plain-lbfgs`, `lbfgs`), whose steps are cheaper and more numerous.
+    /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`, on the coarsest
+    /// meshes: 100 outer steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a
+    /// linear system), 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned
+    /// L-BFGS solvers (`plain-lbfgs`, `lbfgs`), whose steps are cheaper and more numerous. The
+    /// preconditioned L-BFGS limit grows with the mesh: [`Solver::iteration_limit_for`].
     pub fn default_max_iterations(self) -> usize {
         match self {
             Solver::GaussNewton | Solver::Newton | Solver::LevenbergMarquardt => 100,
@@ -128,7 +133,28 @@ impl Solver {
             Solver::PlainLbfgs | Solver::Lbfgs => 5000,
         }
     }
+
+    /// The default iteration limit on a mesh of `n_vertices` (#V): for the preconditioned
+    /// L-BFGS solvers the larger of [`Solver::default_max_iterations`] and
+    /// [`ITERATIONS_PER_SQRT_VERTEX`] `x sqrt(#V)` (6,073 at 10,242 vertices), since their
+    /// iterations grow about like `sqrt(#V)` (the twisted sphere's conformal geodesic: 4,058
+    /// iterations at 10,242 vertices, about twice per subdivision; docs/log/scale-invariant.md);
+    /// [`Solver::default_max_iterations`] for the others.
+    pub fn iteration_limit_for(self, n_vertices: usize) -> usize {
+        let base = self.default_max_iterations();
+        if self.is_preconditioned_lbfgs() {
+            let grown = (ITERATIONS_PER_SQRT_VERTEX * (n_vertices as f64).sqrt()).ceil() as usize;
+            base.max(grown)
+        } else {
+            base
+        }
+    }
 }
+
+/// Iterations per `sqrt(#V)` of the preconditioned L-BFGS solvers' default limit
+/// ([`Solver::iteration_limit_for`]): 1.5 x the most measured (the conformal geodesic of the
+/// twisted sphere at 10,242 vertices: 4,058 iterations, 40 per `sqrt(#V)`).
+pub const ITERATIONS_PER_SQRT_VERTEX: f64 = 60.0;
 
 /// Options of the geodesic solvers.
 #[derive(Debug, Clone)]
@@ -137,10 +163,10 @@ pub struct GeodesicOptions {
     pub steps: usize,
     /// The optimizer. Default [`Solver::Preconditioned`].
     pub solver: Solver,
-    /// Iteration limit of the solver; `None` (the default): the solver's own limit,
-    /// [`Solver::default_max_iterations`] (100 outer steps for the Gauss-Newton family, 1,000
-    /// for the preconditioned L-BFGS, 5,000 for the unpreconditioned L-BFGS solvers). A `Some`
-    /// value is the limit itself, for every solver.
+    /// Iteration limit of the solver; `None` (the default): the solver's own limit on the mesh,
+    /// [`Solver::iteration_limit_for`] (100 outer steps for the Gauss-Newton family; for the
+    /// preconditioned L-BFGS 1,000, or 60 `sqrt(#V)` on meshes above 278 vertices; 5,000 for the
+    /// unpreconditioned L-BFGS solvers). A `Some` value is the limit itself, for every solver.
     pub max_iterations: Option<usize>,
     /// Converged when the gradient norm falls below this fraction of its value at the start.
     /// Default 1e-6.
@@ -220,10 +246,11 @@ impl GeodesicOptions {
         Ok(())
     }
 
-    /// The iteration limit in force: `max_iterations`, or the solver's default.
-    pub fn iteration_limit(&self) -> usize {
+    /// The iteration limit in force on a mesh of `n_vertices` (#V): `max_iterations`, or the
+    /// solver's default there ([`Solver::iteration_limit_for`]).
+    pub fn iteration_limit(&self, n_vertices: usize) -> usize {
         self.max_iterations
-            .unwrap_or_else(|| self.solver.default_max_iterations())
+            .unwrap_or_else(|| self.solver.iteration_limit_for(n_vertices))
     }
 }
 

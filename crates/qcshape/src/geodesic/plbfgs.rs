@@ -251,7 +251,7 @@ pub(crate) fn minimize<'l>(
     hist.reset_gradient(&g);
     let mut iterations = 0;
     let max_iterations = opts.max_iterations.unwrap_or(if layout.is_some() {
-        super::Solver::Preconditioned.default_max_iterations()
+        super::Solver::Preconditioned.iteration_limit_for(pe.n_vertices())
     } else {
         super::Solver::PlainLbfgs.default_max_iterations()
     });
