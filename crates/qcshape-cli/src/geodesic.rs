@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::contribution::path_contributions;
+use qcshape_studies::contribution::path_contributions;
 use qcshape::geodesic::{geodesic, pair_metric, Normalization, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressStyle;
-use qcshape::contribution::pose_speeds;
+use qcshape_studies::contribution::pose_speeds;
 use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use qcshape::experiment::geometry::{resolution_rows, tube_rows, GeometryReport};
+use qcshape_studies::experiment::geometry::{resolution_rows, tube_rows, GeometryReport};
 use qcshape::metric::{MetricKind, MetricSpec};
 
 use crate::args::{in_pool, SolverArgs, VariantArgs};

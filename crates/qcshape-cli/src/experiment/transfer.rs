@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use qcshape::experiment::transfer::TransferExperiment;
+use qcshape_studies::experiment::transfer::TransferExperiment;
 use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
 use qcshape::synth::{DeformationKind, InitialShape, MAX_LEVEL};
 use qcshape::transport::{SchildOptions, Transport};

@@ -392,7 +392,7 @@ pub fn squared_norm_from_residuals<M: Metric + ?Sized>(
 
 /// The residuals `r` (length `pattern.n_residuals()`) of one segment term with the auxiliary
 /// unknowns at [`Metric::best_aux`] (when the metric has any).
-pub(crate) fn residuals_at_best_aux<M: Metric + ?Sized>(
+pub fn residuals_at_best_aux<M: Metric + ?Sized>(
     metric: &M,
     topo: &Topology,
     pattern: PatternRef,
