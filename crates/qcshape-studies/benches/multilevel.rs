@@ -5,7 +5,7 @@
 //! that level, the coarse path prolonged as the finer level's start). Prints a Markdown table with
 //! time and iteration ratios against the single-level solve and the energy difference.
 //!
-//! `cargo bench -p qcshape --bench multilevel [-- --sizes 3,4,5 --metrics isometric,conformal
+//! `cargo bench -p qcshape-studies --bench multilevel [-- --sizes 3,4,5 --metrics isometric,conformal
 //! --levels 2,3 --lambda 0.01 --tube --solvers preconditioned,pose-kronecker]` (the first solver
 //! is the baseline; `--levels 1` runs single-level solves only). Run with `RAYON_NUM_THREADS=1` for single-core figures.
 
@@ -80,7 +80,7 @@ fn solve(spec: &MetricSpec, a: &Shape, b: &Shape, steps: usize, levels: usize, s
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if !args.iter().any(|a| a == "--bench") {
-        println!("multilevel benchmark: run it with `cargo bench -p qcshape --bench multilevel`");
+        println!("multilevel benchmark: run it with `cargo bench -p qcshape-studies --bench multilevel`");
         return;
     }
     let list = |name: &str, default: &str| -> Vec<String> {
