@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use qcshape::align::Alignment;
-use qcshape_studies::experiment::provenance::Provenance;
-use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 use qcshape::metric::MetricKind;
 use qcshape::synth::write_benchmark;
 use qcshape::transport::Transport;
+use qcshape_studies::experiment::provenance::Provenance;
+use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 
 use crate::args::in_pool;
 use crate::progress::{bar, PipelineBars};

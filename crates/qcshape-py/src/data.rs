@@ -628,8 +628,9 @@ pub fn motion_maps<'py>(
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);
         let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;
-        let m = qcshape_studies::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let m =
+            qcshape_studies::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let nv = prepared.topology.n_vertices();
         Ok((m.len(), nv, m.concat()))
     })?;

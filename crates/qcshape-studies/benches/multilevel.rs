@@ -11,12 +11,12 @@
 
 use std::time::Instant;
 
-use qcshape_studies::experiment::geometry::tube_pair;
 use qcshape::geodesic::{pair_factor, Geodesic, GeodesicOptions, GeodesicSolver, Solver};
 use qcshape::mesh::Shape;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
 use qcshape::synth::twisted_sphere;
+use qcshape_studies::experiment::geometry::tube_pair;
 
 fn arg<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
     args.iter()

@@ -14,9 +14,9 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::contribution::{pair_contributions, ContributionError, PairContributions};
+use crate::render::{render_png, RenderError, RenderOptions};
 use qcshape::geodesic::{GeodesicError, GeodesicSolver};
 use qcshape::io::{self, Field, IoError};
-use crate::render::{render_png, RenderError, RenderOptions};
 use qcshape::similarity::{PipelineOptions, Prepared};
 
 /// Why a pair cannot be explained.

@@ -2,14 +2,14 @@
 //! analysis, checked on their result structs (the CLI's end-to-end tests read the Markdown).
 
 use qcshape::dataset::Deformation;
-use qcshape_studies::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
-use qcshape_studies::experiment::classification::classify_set;
-use qcshape_studies::experiment::provenance::Provenance;
-use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 use qcshape::geodesic::GeodesicOptions;
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
+use qcshape_studies::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
+use qcshape_studies::experiment::classification::classify_set;
+use qcshape_studies::experiment::provenance::Provenance;
+use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 
 #[test]
 fn reproduction_table1_is_far_above_chance() {

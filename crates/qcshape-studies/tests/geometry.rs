@@ -3,10 +3,10 @@
 //! shares that add up. Each of these failed with the previous raw scale (lambda 0.1 in
 //! mean-edge units), which is checked too.
 
-use qcshape_studies::experiment::geometry::{centre_line_length, tube_pair, TUBE_LENGTH};
 use qcshape::geodesic::{geodesic_between, GeodesicOptions};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::synth::twisted_sphere;
+use qcshape_studies::experiment::geometry::{centre_line_length, tube_pair, TUBE_LENGTH};
 
 fn opts(steps: usize) -> GeodesicOptions {
     GeodesicOptions {

@@ -48,5 +48,8 @@ fn no_study_module_is_in_the_core() {
     let core = top_modules(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../qcshape/src"));
     assert!(core.len() > 10, "the core's modules were not found: {core:?}");
     let both: Vec<&String> = core.iter().filter(|m| ORDER.contains(&m.as_str())).collect();
-    assert!(both.is_empty(), "modules in the core and in the studies: {both:?}");
+    assert!(
+        both.is_empty(),
+        "modules in the core and in the studies: {both:?}"
+    );
 }

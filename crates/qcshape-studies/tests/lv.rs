@@ -3,14 +3,16 @@
 use qcshape::io::nifti::{
     parse_nifti, read_series, read_volume, write_series, NiftiError, NiftiParseError, Volume,
 };
+use qcshape::mesh::Shape;
 use qcshape_studies::lv::cohort::Registration;
 use qcshape_studies::lv::freewall::{free_wall, LvAxis, SectorOptions};
-use qcshape_studies::lv::landmarks::{read_landmarks, write_landmarks, LandmarkError, APEX, BASE_CENTRE, SEPTUM};
+use qcshape_studies::lv::landmarks::{
+    read_landmarks, write_landmarks, LandmarkError, APEX, BASE_CENTRE, SEPTUM,
+};
 use qcshape_studies::lv::meshing::{extract_surface, SurfaceOptions};
 use qcshape_studies::lv::phantom::{subject, Group, PhantomOptions, PhantomSubject};
 use qcshape_studies::lv::surface::{isosurface, otsu_thresholds, SurfaceError};
 use qcshape_studies::lv::tps::{Tps, TpsError};
-use qcshape::mesh::Shape;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -510,12 +512,12 @@ fn carried_meshes_share_connectivity_follow_the_wall_and_the_free_wall_is_a_disk
 use qcshape::align::{Alignment, Motion};
 use qcshape::cluster::ClusterMethod;
 use qcshape::geodesic::GeodesicOptions;
+use qcshape::similarity::PipelineOptions;
+use qcshape::transport::Transport;
 use qcshape_studies::lv::cohort::{write_labels, write_subject, LABELS_NAME};
 use qcshape_studies::lv::cohort_mesh::{is_cohort, mesh_cohort, MeshSettings, MeshedCohort};
 use qcshape_studies::lv::phantom::{overlap_model, roster, sample_model};
 use qcshape_studies::lv::study::{analyse, baselines, compare_methods, labels_of, SplitOptions, Tick};
-use qcshape::similarity::PipelineOptions;
-use qcshape::transport::Transport;
 
 #[test]
 fn overlap_phantom_is_deterministic_posed_noisy_and_its_groups_overlap() {

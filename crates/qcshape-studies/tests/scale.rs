@@ -9,11 +9,11 @@
 
 use rayon::prelude::*;
 
-use qcshape_studies::experiment::geometry::tube_pair;
 use qcshape::geodesic::{geodesic_between, GeodesicOptions};
 use qcshape::mesh::{geometry, Shape};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::synth::{genus0_benchmark, genus1_benchmark, SynthOptions};
+use qcshape_studies::experiment::geometry::tube_pair;
 
 fn opts() -> GeodesicOptions {
     GeodesicOptions {

@@ -17,7 +17,9 @@ use qcshape_studies::lv::cohort::{
     self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
 use qcshape_studies::lv::freewall::SectorOptions;
-use qcshape_studies::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
+use qcshape_studies::lv::phantom::{
+    roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER,
+};
 use qcshape_studies::lv::region::{write_abnormal, AbnormalSector, ABNORMAL_NAME};
 
 /// Arguments of `qcshape lv`.

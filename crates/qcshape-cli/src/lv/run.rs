@@ -8,12 +8,12 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use qcshape::align::Alignment;
 use qcshape::cluster::ClusterMethod;
+use qcshape::similarity::PipelineOptions;
+use qcshape::transport::Transport;
 use qcshape_studies::lv::cohort_mesh::MeshSettings;
 use qcshape_studies::lv::freewall::SectorOptions;
 use qcshape_studies::lv::pipeline::{load_input, run_cohort, Event, Input, RunSettings};
 use qcshape_studies::lv::study::SplitOptions;
-use qcshape::similarity::PipelineOptions;
-use qcshape::transport::Transport;
 
 use super::bars::Bars;
 use super::cycle::{args_line, cycle_settings, run_cycle, CycleCommon};

@@ -329,16 +329,16 @@ mod tests {
     #[test]
     fn contributions_sum_to_energy_and_length_for_every_metric() {
         let s = icosphere(1);
-        let b =
-            qcshape::mesh::Shape::new(s.topology.clone(), bumped(&stretched(&s.positions, 0.3), 0.3)).unwrap();
+        let b = qcshape::mesh::Shape::new(s.topology.clone(), bumped(&stretched(&s.positions, 0.3), 0.3))
+            .unwrap();
         let opts = GeodesicOptions {
             steps: 3,
             max_iterations: Some(5),
             ..Default::default()
         };
         for m in metrics() {
-            let g =
-                qcshape::geodesic::geodesic(m.as_ref(), &s, &b, &opts, Normalization::MeanEdgeOfBoth).unwrap();
+            let g = qcshape::geodesic::geodesic(m.as_ref(), &s, &b, &opts, Normalization::MeanEdgeOfBoth)
+                .unwrap();
             let c = path_contributions(m.as_ref(), &s.topology, &g.poses, g.scale).unwrap();
             let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
             let e: f64 = c.energy.iter().sum();

@@ -17,11 +17,11 @@ use super::classification::{
     cluster_intrinsic, score, write_assignments, write_confusion, ClassificationError, Scores,
 };
 use super::provenance::Provenance;
+use crate::plot::PlotError;
 use qcshape::cluster::Clustering;
 use qcshape::dataset::Deformation;
 use qcshape::embed::{smacof, MdsError, MdsOptions};
 use qcshape::io::{write_atomically, IoError};
-use crate::plot::PlotError;
 use qcshape::similarity::{DistanceMatrix, PipelineOptions, Prepared, ShareSummary};
 
 /// Why the analysis failed.

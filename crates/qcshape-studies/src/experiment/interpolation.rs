@@ -29,6 +29,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::plot::PlotError;
 use qcshape::dataset::Deformation;
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, InterpolationError, InterpolationOptions, Interpolator,
@@ -38,7 +39,6 @@ use qcshape::io::IoError;
 use qcshape::mesh::{geometry, Topology};
 use qcshape::metric::{Metric, MetricKind, MetricSpec};
 use qcshape::multires::DEFAULT_RATIO;
-use crate::plot::PlotError;
 
 /// Name of the baseline method: the average of the two known poses (linear interpolation).
 pub const BASELINE: &str = "linear";

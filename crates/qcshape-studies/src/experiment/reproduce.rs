@@ -18,6 +18,7 @@ use super::classification::{classify_set, score, ClassificationError, Classified
 use super::interpolation::InterpolationExperiment;
 use super::provenance::Provenance;
 use super::transfer::TransferExperiment;
+use crate::plot::PlotError;
 use qcshape::align::Alignment;
 use qcshape::cluster::IntrinsicOptions;
 use qcshape::dataset::Deformation;
@@ -27,7 +28,6 @@ use qcshape::eval::{tau, EvalError};
 use qcshape::geodesic::GeodesicOptions;
 use qcshape::io::{write_atomically, IoError};
 use qcshape::metric::{MetricKind, MetricScale, MetricSpec};
-use crate::plot::PlotError;
 use qcshape::similarity::{MatrixFileError, PipelineOptions, ShareSummary, Smoothing, Stage};
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthError, SynthOptions};
 use qcshape::transport::Transport;

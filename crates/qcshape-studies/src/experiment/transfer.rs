@@ -33,13 +33,17 @@ use std::time::Instant;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::plot::PlotError;
 use qcshape::geodesic::{GeodesicOptions, Normalization};
 use qcshape::io::IoError;
 use qcshape::mesh::{geometry, Shape, Topology};
 use qcshape::metric::{MetricKind, MetricSpec};
-use crate::plot::PlotError;
-use qcshape::synth::{deform, initial_shape, template, DeformParams, DeformationKind, InitialShape, MAX_LEVEL};
-use qcshape::transport::{SchildOptions, Transfer, TransferOptions, TransferSetup, Transport, TransportError};
+use qcshape::synth::{
+    deform, initial_shape, template, DeformParams, DeformationKind, InitialShape, MAX_LEVEL,
+};
+use qcshape::transport::{
+    SchildOptions, Transfer, TransferOptions, TransferSetup, Transport, TransportError,
+};
 
 /// A pose: #V x 3 positions.
 use qcshape::mesh::Pose;

@@ -6,8 +6,8 @@ use std::path::Path;
 
 use thiserror::Error;
 
-use qcshape::io::{write_atomically, write_mesh_fields, Field, IoError};
 use crate::render::{render_png, RenderError, RenderOptions};
+use qcshape::io::{write_atomically, write_mesh_fields, Field, IoError};
 
 /// Why a map's files cannot be written.
 #[derive(Debug, Error)]

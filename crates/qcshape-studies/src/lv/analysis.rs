@@ -545,7 +545,8 @@ mod tests {
                     .collect()
             })
             .collect();
-        let metric = MetricSpec::previous(MetricKind::QuasiConformal).build(&qcshape::metric::Calibration::RAW);
+        let metric =
+            MetricSpec::previous(MetricKind::QuasiConformal).build(&qcshape::metric::Calibration::RAW);
         let solver = GeodesicSolver::new(
             metric.as_ref(),
             s.topology.clone(),

@@ -38,9 +38,9 @@ pub mod study_report;
 pub mod surface;
 pub mod tps;
 
-pub use qcshape::io::nifti::{read_series, read_volume, write_series, write_volume, Volume};
 pub use cohort::{LvError, Registration, SubjectDir};
 pub use freewall::{free_wall, LvAxis, SectorOptions, Submesh};
 pub use landmarks::{read_landmarks, write_landmarks, Landmarks};
 pub use meshing::{extract_surface, Surface, SurfaceOptions};
+pub use qcshape::io::nifti::{read_series, read_volume, write_series, write_volume, Volume};
 pub use tps::Tps;

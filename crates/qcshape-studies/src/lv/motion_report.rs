@@ -7,12 +7,12 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::study::{Analysis, StudyError};
-use qcshape::io::Field;
 use crate::localize::{
     motion_contrasts, motion_maps, region_share, write_map, LocalizeOptions, MotionMeasure, MotionScale,
     VertexMap,
 };
 use crate::render::RenderOptions;
+use qcshape::io::Field;
 
 /// Writes `OUT/motion_map.csv` (`vertex,difference,p_value,significant`), `motion_map.vtk`
 /// (the same as point data plus both group means) and `motion_map.png`, and returns the

@@ -12,6 +12,7 @@ use thiserror::Error;
 
 use super::analysis::{close_cycle, drop_closing_pose, radial_features, AnalysisError, Axis};
 use super::cohort::LvError;
+use crate::plot::PlotError;
 use qcshape::cluster::{intrinsic_kmeans, IntrinsicError, IntrinsicOptions};
 use qcshape::cluster::{kernel_kmeans, ClusterError, ClusterMethod, ClusterOptions, Clustering};
 use qcshape::dataset::{DatasetError, Deformation};
@@ -23,7 +24,6 @@ use qcshape::eval::{
 use qcshape::geodesic::{GeodesicError, GeodesicSolver, InterpolationError};
 use qcshape::io::IoError;
 use qcshape::multires::{Hierarchy, HierarchyError};
-use crate::plot::PlotError;
 use qcshape::similarity::{
     compute, prepare, DistanceMatrix, Event, MatrixError, MatrixFileError, PipelineError, PipelineOptions,
     Prepared, Run, ShareSummary, Stage,

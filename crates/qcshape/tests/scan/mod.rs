@@ -237,7 +237,6 @@ pub fn imports(text: &str) -> Vec<(usize, String)> {
     out
 }
 
-
 /// The top-level module of each file under `src` (the first path component, without `.rs`).
 fn top_module(src: &Path, f: &Path) -> String {
     f.strip_prefix(src)

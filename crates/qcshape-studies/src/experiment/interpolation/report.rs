@@ -3,8 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{mean_sd, CaseError, ExperimentError, InterpolationReport, LeaveOneOutReport, Summary, BASELINE};
-use qcshape::io::{heat_colors, write_atomically, write_mesh, VertexAttributes};
 use crate::plot::{error_bars, BarGroup};
+use qcshape::io::{heat_colors, write_atomically, write_mesh, VertexAttributes};
 
 /// The paper's claim checked by [`InterpolationReport::claim`].
 const CLAIM: &str = "quasi-conformal error below isometric for all eight deformations";

@@ -6,9 +6,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{ExperimentError, FigureCase, TransferCase};
+use crate::plot::{error_bars, BarGroup};
 use qcshape::io::{heat_colors, write_atomically, write_mesh, IoError, VertexAttributes};
 use qcshape::metric::MetricSpec;
-use crate::plot::{error_bars, BarGroup};
 use qcshape::synth::DeformationKind;
 use qcshape::transport::Transport;
 /// Mean and sample standard deviation of a set of values.
