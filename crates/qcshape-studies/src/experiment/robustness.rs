@@ -99,7 +99,7 @@ pub enum Baseline {
     /// (k = 1..K, K #V x 3 values per deformation; input units).
     Displacement,
     /// The same after the rigid alignment of each deformation to the base
-    /// ([`qcshape::transport::align`]).
+    /// ([`qcshape::align`]).
     AlignedDisplacement,
     /// Euclidean distance between the concatenated relative edge-length changes
     /// `|e_k| / |e_0| - 1` (k = 1..K, per edge; rigid-invariant).

@@ -2,7 +2,7 @@
 //! 4D images and landmarks in, one deformation (a pose per frame on one connectivity) per
 //! subject out.
 //!
-//! 1. [`nifti`]: NIfTI-1 volumes with their voxel-to-world affine.
+//! 1. [`qcshape::io::nifti`]: NIfTI-1 volumes with their voxel-to-world affine.
 //! 2. [`phantom`] + [`anatomy`]: a CT-like phantom cohort (controls and HCM) with landmarks.
 //! 3. [`tps`]: landmark thin-plate splines from frame 0 to every frame (section 4.2 step 1).
 //! 4. [`surface`] + [`meshing`]: the cavity surface of frame 0 at a threshold (step 2),
@@ -15,7 +15,7 @@
 //!
 //! The analysis (section 4.3): [`cohort_mesh`] puts a whole cohort on one connectivity,
 //! [`study`] runs the classification (Tables 4 and 5; each subject's rigid pose removed by
-//! [`qcshape::transport::align`] before transfer) beside the radial baselines of [`analysis`],
+//! [`qcshape::align`] before transfer) beside the radial baselines of [`analysis`],
 //! [`cycle_map`] maps one cycle (Fig. 9), and [`study_report`] writes their Markdown and CSV;
 //! [`pipeline`] runs them in order, as `qcshape lv run` does.
 
