@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterOptions};
 use qcshape::dataset::Dataset;
-use qcshape::experiment::analysis::dataset_labels;
-use qcshape::experiment::classification::{classify_set, score, write_assignments, write_confusion};
+use qcshape_studies::experiment::analysis::dataset_labels;
+use qcshape_studies::experiment::classification::{classify_set, score, write_assignments, write_confusion};
 
 use crate::args::PipelineArgs;
 use crate::input::{is_matrix, load_labels, load_matrix};

@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::embed::{smacof, MdsOptions};
 use qcshape::eval::encode_labels;
 use qcshape::io::write_atomically;
-use qcshape::plot::{heatmap, scatter_map};
+use qcshape_studies::plot::{heatmap, scatter_map};
 
 use crate::input::{load_labels, load_matrix};
 

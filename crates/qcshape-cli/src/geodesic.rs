@@ -3,10 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::contribution::path_contributions;
 use qcshape::geodesic::{geodesic, pair_metric, GeodesicOptions, Normalization, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
+use qcshape_studies::contribution::path_contributions;
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::mesh_format::MeshFormat;

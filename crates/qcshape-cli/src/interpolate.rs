@@ -6,7 +6,6 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressStyle;
-use qcshape::contribution::pose_speeds;
 use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
@@ -14,6 +13,7 @@ use qcshape::geodesic::{
 };
 use qcshape::io;
 use qcshape::mesh::Topology;
+use qcshape_studies::contribution::pose_speeds;
 
 use crate::args::{flag_error, in_pool, MetricArgs};
 use crate::mesh_format::MeshFormat;

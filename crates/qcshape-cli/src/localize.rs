@@ -5,12 +5,12 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use qcshape::dataset::Dataset;
 use qcshape::io::{self, Field};
-use qcshape::localize::{
+use qcshape::similarity::PipelineOptions;
+use qcshape_studies::localize::{
     file_part, group_labels, localize, motion_title, push_region_row, read_vertex_mask, region_share,
     write_map, LocalizeOptions, MotionMeasure, MotionScale, VertexMap, REGION_SUMMARY_HEADER,
 };
-use qcshape::render::RenderOptions;
-use qcshape::similarity::PipelineOptions;
+use qcshape_studies::render::RenderOptions;
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 

@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use qcshape::align::Alignment;
-use qcshape::experiment::provenance::Provenance;
-use qcshape::experiment::reproduce::{ReproduceReport, Reproduction};
 use qcshape::metric::MetricKind;
 use qcshape::synth::write_benchmark;
 use qcshape::transport::Transport;
+use qcshape_studies::experiment::provenance::Provenance;
+use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 
 use crate::args::in_pool;
 use crate::progress::{bar, PipelineBars};
@@ -149,7 +149,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let path = args.out.join("report.md");
     // The report of the steps done so far (`after`: the last one; None: the final report).
     let previous_runs = std::cell::RefCell::new(Vec::new());
-    let write_report = |runs: &[qcshape::experiment::reproduce::MetricRun],
+    let write_report = |runs: &[qcshape_studies::experiment::reproduce::MetricRun],
                         noise_rows: &[(f64, f64, f64)],
                         figs: [&str; 2],
                         after: Option<String>|

@@ -5,9 +5,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::Dataset;
-use qcshape::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
-use qcshape::experiment::provenance::Provenance;
 use qcshape::similarity::{journal_path, Selection, Sink};
+use qcshape_studies::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
+use qcshape_studies::experiment::provenance::Provenance;
 
 use crate::args::{in_pool, PipelineArgs};
 use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares};

@@ -249,8 +249,8 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
     let Some((a, b)) = pair.split_once(',') else {
         bail!("--explain {pair:?}: give two deformation names separated by a comma");
     };
-    let e = qcshape::explain::explain(prepared, opts, a.trim(), b.trim())?;
-    let stem = qcshape::explain::stem_beside(details, &e.a, &e.b);
+    let e = qcshape_studies::explain::explain(prepared, opts, a.trim(), b.trim())?;
+    let stem = qcshape_studies::explain::stem_beside(details, &e.a, &e.b);
     let base = &prepared.transferred[0][0];
     let files = e.write(&stem, base, prepared.topology.faces(), &opts.metric.label())?;
     eprintln!(

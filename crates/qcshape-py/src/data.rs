@@ -579,7 +579,7 @@ pub fn pair_contributions<'py>(
     let total = detached(py, kw.threads, |_| {
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        qcshape::explain::explain(&prepared, &opts, &na, &nb)
+        qcshape_studies::explain::explain(&prepared, &opts, &na, &nb)
             .map(|e| e.contributions.total)
             .map_err(|e| PyValueError::new_err(e.to_string()))
     })?;
@@ -608,12 +608,12 @@ pub fn motion_maps<'py>(
     scale: &str,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use qcshape::localize::{MotionMeasure, MotionScale};
+    use qcshape_studies::localize::{MotionMeasure, MotionScale};
     let ds = dataset
         .cast::<PyDataset>()
         .map_err(|_| PyValueError::new_err("dataset: expected a qcshape.Dataset"))?;
     let bad = |what: &'static str| {
-        move |e: qcshape::localize::LocalizeError| PyValueError::new_err(format!("{what}: {e}"))
+        move |e: qcshape_studies::localize::LocalizeError| PyValueError::new_err(format!("{what}: {e}"))
     };
     let scale: MotionScale = scale.parse().map_err(bad("scale"))?;
     let kw = PipelineKw::from_kwargs(options)?;
@@ -628,8 +628,9 @@ pub fn motion_maps<'py>(
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);
         let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;
-        let m = qcshape::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let m =
+            qcshape_studies::localize::motion_maps(measure, scale, &prepared.topology, &prepared.scaled())
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let nv = prepared.topology.n_vertices();
         Ok((m.len(), nv, m.concat()))
     })?;

@@ -43,14 +43,14 @@ pub const NOISE_STEPS: usize = 4;
 pub const NOISE_RESTARTS: usize = 10;
 
 /// Fourier harmonics of the cycle kept in every landmark trajectory before the registration of
-/// `lv run` ([`crate::lv::landmarks::Landmarks::low_pass`]): 2. On five harder phantom cohorts
+/// `lv run` (`qcshape_studies::lv::landmarks::Landmarks::low_pass`): 2. On five harder phantom cohorts
 /// (`lv phantom --overlap --seed 1..5`, 1 mm landmark noise per frame, 8 frames) it raised the
 /// mean ARI of the 2-cluster split from 0.00 to 0.24 and leave-one-out 1-NN from 66 to 73 %,
 /// and left the default cohort at 100 / 100 (docs/log/lv-clustering.md).
 /// `None` is the paper's registration of the raw landmarks.
 pub const LANDMARK_HARMONICS: Option<usize> = Some(2);
 
-/// Image refinement of `lv run` and `lv mesh` ([`crate::lv::refine::refine_to_image`]): every
+/// Image refinement of `lv run` and `lv mesh` (`qcshape_studies::lv::refine::refine_to_image`): every
 /// carried frame's vertices move along their normals to the cavity wall of that frame's image,
 /// searched within 4 mm (about four times the landmark noise of the harder phantom). On
 /// phantom cohorts with 1 mm landmark noise it brings the meshes from 1.5 to 0.65 mm RMS off

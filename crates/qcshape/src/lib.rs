@@ -15,25 +15,18 @@
 
 pub mod align;
 pub mod cluster;
-pub mod contribution;
 pub mod dataset;
 pub mod defaults;
 pub mod embed;
 pub mod eval;
-pub mod experiment;
-pub mod explain;
 pub mod geodesic;
 pub mod io;
 pub mod limits;
-pub mod localize;
-pub mod lv;
 pub mod mesh;
 pub mod metric;
 pub mod multires;
 pub mod numfmt;
 pub mod outputs;
-pub mod plot;
-pub mod render;
 pub mod settings;
 pub mod similarity;
 pub mod space;

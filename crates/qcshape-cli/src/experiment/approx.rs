@@ -7,10 +7,10 @@ use anyhow::{bail, Context, Result};
 use qcshape::cluster::ClusterOptions;
 use qcshape::dataset::Dataset;
 use qcshape::eval::encode_labels;
-use qcshape::experiment::approx::{compare_modes, Mode};
-use qcshape::experiment::robustness::Scenario;
 use qcshape::similarity::{Approx, PipelineOptions};
 use qcshape::synth::{genus0_benchmark, perturbed_benchmark, DeformationKind, InitialShape, SynthOptions};
+use qcshape_studies::experiment::approx::{compare_modes, Mode};
+use qcshape_studies::experiment::robustness::Scenario;
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use qcshape::experiment::geometry::{resolution_rows, tube_rows, GeometryReport};
 use qcshape::metric::{MetricKind, MetricSpec};
+use qcshape_studies::experiment::geometry::{resolution_rows, tube_rows, GeometryReport};
 
 use crate::args::{in_pool, SolverArgs, VariantArgs};
 

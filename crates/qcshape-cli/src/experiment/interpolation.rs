@@ -7,10 +7,10 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use qcshape::dataset::{load_sequence, mesh_files, Dataset, Deformation};
-use qcshape::experiment::interpolation::{pick_frames, InterpolationExperiment};
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::MetricKind;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
+use qcshape_studies::experiment::interpolation::{pick_frames, InterpolationExperiment};
 
 use crate::args::{flag_error, in_pool, VariantArgs};
 

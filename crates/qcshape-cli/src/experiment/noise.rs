@@ -7,10 +7,10 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
 use qcshape::dataset::{Dataset, Deformation};
-use qcshape::experiment::noise::NoiseExperiment;
 use qcshape::similarity::PipelineOptions;
 use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
 use qcshape::transport::Transport;
+use qcshape_studies::experiment::noise::NoiseExperiment;
 
 use crate::args::{MetricArgs, SolverArgs};
 use crate::progress::PipelineBars;

@@ -8,10 +8,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
-use qcshape::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::similarity::{PipelineOptions, Smoothing};
 use qcshape::synth::InitialShape;
+use qcshape_studies::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
 
 use crate::args::SolverArgs;
 

@@ -3,10 +3,10 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use qcshape::experiment::transfer::TransferExperiment;
 use qcshape::metric::{ConformalForm, MetricKind, MetricSpec, QcWeights};
 use qcshape::synth::{DeformationKind, InitialShape, MAX_LEVEL};
 use qcshape::transport::{SchildOptions, Transport};
+use qcshape_studies::experiment::transfer::TransferExperiment;
 
 use crate::args::SolverArgs;
 

@@ -1,10 +1,10 @@
-//! Progress bars for the library's progress callbacks ([`qcshape::lv::study::Tick`]): one bar
+//! Progress bars for the library's progress callbacks ([`qcshape_studies::lv::study::Tick`]): one bar
 //! per stage name, created at its first tick, all cleared by `Tick::DONE`.
 
 use std::sync::Mutex;
 
 use indicatif::ProgressBar;
-use qcshape::lv::study::Tick;
+use qcshape_studies::lv::study::Tick;
 
 use crate::progress::bar;
 

@@ -1,5 +1,5 @@
 //! `qcshape lv cycle` (and the single-sequence path of `lv run`): the Fig. 9 map of one
-//! cycle ([`qcshape::lv::cycle_map::study_cycle`], [`qcshape::lv::study_report::cycle_report`]);
+//! cycle ([`qcshape_studies::lv::cycle_map::study_cycle`], [`qcshape_studies::lv::study_report::cycle_report`]);
 //! this module parses the arguments, shows progress and writes the files.
 
 use std::path::{Path, PathBuf};
@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{load_sequence, Deformation};
-use qcshape::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
-use qcshape::lv::pipeline::pattern_files;
-use qcshape::lv::study_report::cycle_report;
+use qcshape_studies::lv::cycle_map::{cycle_title, study_cycle, CycleSettings};
+use qcshape_studies::lv::pipeline::pattern_files;
+use qcshape_studies::lv::study_report::cycle_report;
 
 use super::bars::Bars;
 use crate::args::{in_pool, MetricArgs, SolverArgs};

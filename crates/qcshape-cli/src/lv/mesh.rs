@@ -7,10 +7,10 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
 use qcshape::io;
-use qcshape::lv::cohort::subjects;
-use qcshape::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
-use qcshape::lv::freewall::SectorOptions;
-use qcshape::lv::meshing::SurfaceOptions;
+use qcshape_studies::lv::cohort::subjects;
+use qcshape_studies::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
+use qcshape_studies::lv::freewall::SectorOptions;
+use qcshape_studies::lv::meshing::SurfaceOptions;
 
 use super::progress;
 use crate::mesh_format::MeshFormat;

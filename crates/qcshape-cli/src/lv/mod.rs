@@ -13,12 +13,14 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use qcshape::io;
-use qcshape::lv::cohort::{
+use qcshape_studies::lv::cohort::{
     self, read_subject_landmarks, subjects, write_labels, write_subject, Registration,
 };
-use qcshape::lv::freewall::SectorOptions;
-use qcshape::lv::phantom::{roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER};
-use qcshape::lv::region::{write_abnormal, AbnormalSector, ABNORMAL_NAME};
+use qcshape_studies::lv::freewall::SectorOptions;
+use qcshape_studies::lv::phantom::{
+    roster, subject, PhantomOptions, OVERLAP_LANDMARK_NOISE_MM, SUMMARY_HEADER,
+};
+use qcshape_studies::lv::region::{write_abnormal, AbnormalSector, ABNORMAL_NAME};
 
 /// Arguments of `qcshape lv`.
 #[derive(Debug, clap::Args)]

@@ -1,5 +1,5 @@
 //! `qcshape lv run`: the left-ventricle analysis of section 4.3 from one command (Tables 4
-//! and 5, Fig. 9). The study is [`qcshape::lv::pipeline`]; this module parses the arguments,
+//! and 5, Fig. 9). The study is [`qcshape_studies::lv::pipeline`]; this module parses the arguments,
 //! shows its progress and prints its lines.
 
 use std::path::PathBuf;
@@ -8,12 +8,12 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use qcshape::align::Alignment;
 use qcshape::cluster::ClusterMethod;
-use qcshape::lv::cohort_mesh::MeshSettings;
-use qcshape::lv::freewall::SectorOptions;
-use qcshape::lv::pipeline::{load_input, run_cohort, Event, Input, RunSettings};
-use qcshape::lv::study::SplitOptions;
 use qcshape::similarity::PipelineOptions;
 use qcshape::transport::Transport;
+use qcshape_studies::lv::cohort_mesh::MeshSettings;
+use qcshape_studies::lv::freewall::SectorOptions;
+use qcshape_studies::lv::pipeline::{load_input, run_cohort, Event, Input, RunSettings};
+use qcshape_studies::lv::study::SplitOptions;
 
 use super::bars::Bars;
 use super::cycle::{args_line, cycle_settings, run_cycle, CycleCommon};

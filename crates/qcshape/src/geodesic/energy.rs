@@ -91,6 +91,14 @@ impl<'m> PathEnergy<'m> {
     pub fn pattern(&self) -> &Pattern {
         &self.pattern
     }
+    /// The topology the energy is measured on.
+    pub fn topology(&self) -> &Arc<Topology> {
+        &self.topo
+    }
+    /// The metric `G` of every segment term.
+    pub fn metric(&self) -> &'m dyn Metric {
+        self.metric
+    }
 
     /// Pose `i` (0..=N) of the path given by `x` and `ends`.
     pub fn pose<'a>(&self, x: &'a [f64], ends: &'a Ends, i: usize) -> &'a [[f64; 3]] {

@@ -45,7 +45,7 @@ mod polygon;
 mod stl;
 #[cfg(test)]
 mod stress;
-pub(crate) mod table;
+pub mod table;
 #[cfg(test)]
 mod tests;
 mod text;

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use csv::StringRecord;
 
 /// An error type that a table's problems become.
-pub(crate) trait TableErrors: Sized {
+pub trait TableErrors: Sized {
     /// `path` could not be read (missing, not a regular file, too large).
     fn unreadable(path: &Path, error: std::io::Error) -> Self;
     /// A problem on `line` of `path` (1-based; 0 if unknown), e.g. malformed CSV.
@@ -16,11 +16,11 @@ pub(crate) trait TableErrors: Sized {
 }
 
 /// A CSV table after its header; its problems are `E`s.
-pub(crate) struct Table<E> {
+pub struct Table<E> {
     /// The header row (empty when the file holds no row at all).
-    pub(crate) header: StringRecord,
+    pub header: StringRecord,
     /// The header's line (1 when unknown).
-    pub(crate) header_line: u64,
+    pub header_line: u64,
     path: PathBuf,
     rdr: csv::Reader<std::io::Cursor<Vec<u8>>>,
     /// Each line's first byte and whether the csv reader skips it (empty, or a `#` comment).
@@ -67,7 +67,7 @@ fn malformed<E: TableErrors>(path: &Path, e: &csv::Error, lines: &Lines, default
 impl<E: TableErrors> Table<E> {
     /// Reads `path` and its header. `flexible`: rows may hold any number of fields (else a
     /// row with another count than the header is malformed).
-    pub(crate) fn read(path: &Path, flexible: bool) -> Result<Self, E> {
+    pub fn read(path: &Path, flexible: bool) -> Result<Self, E> {
         let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
             .map_err(|e| E::unreadable(path, e))?;
         let lines = Lines::new(&bytes);
@@ -90,12 +90,12 @@ impl<E: TableErrors> Table<E> {
     }
 
     /// The position of the header's column `name` (without case), if any.
-    pub(crate) fn column(&self, name: &str) -> Option<usize> {
+    pub fn column(&self, name: &str) -> Option<usize> {
         self.header.iter().position(|h| h.eq_ignore_ascii_case(name))
     }
 
     /// The rows after the header, each with its line.
-    pub(crate) fn rows(&mut self) -> impl Iterator<Item = Result<(u64, StringRecord), E>> + '_ {
+    pub fn rows(&mut self) -> impl Iterator<Item = Result<(u64, StringRecord), E>> + '_ {
         let (path, lines) = (&self.path, &self.lines);
         self.rdr.records().map(move |rec| {
             let rec = rec.map_err(|e| malformed(path, &e, lines, 0))?;

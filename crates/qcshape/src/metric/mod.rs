@@ -208,7 +208,7 @@ pub trait Metric: Send + Sync + Debug {
 
     /// The mesh element each residual belongs to, as a pattern with one row per residual: the
     /// vertices of its face (triangle terms), edge (edge terms) or vertex (per-vertex terms).
-    /// [`crate::contribution`] splits each squared residual equally among its row's vertices.
+    /// `qcshape_studies::contribution` splits each squared residual equally among its row's vertices.
     /// The default is [`Metric::pattern`], which is that element for every metric whose
     /// residuals depend only on their own element; metrics whose Jacobian reaches further
     /// (curvature weights of the quasi-conformal `segment` reading depend on one-rings)
@@ -392,7 +392,7 @@ pub fn squared_norm_from_residuals<M: Metric + ?Sized>(
 
 /// The residuals `r` (length `pattern.n_residuals()`) of one segment term with the auxiliary
 /// unknowns at [`Metric::best_aux`] (when the metric has any).
-pub(crate) fn residuals_at_best_aux<M: Metric + ?Sized>(
+pub fn residuals_at_best_aux<M: Metric + ?Sized>(
     metric: &M,
     topo: &Topology,
     pattern: PatternRef,
