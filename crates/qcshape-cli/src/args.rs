@@ -113,9 +113,8 @@ pub struct SolverArgs {
     #[arg(long, default_value_t = defaults::STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
     pub steps: usize,
     /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
-    /// preconditioner), hessian-kronecker (the same model fitted to the exact Hessian:
-    /// iterations nearly independent of the resolution for the isometric metric, faster on fine
-    /// meshes), pose-kronecker (each pose's own spatial block: fewer iterations for the conformal
+    /// preconditioner), hessian-kronecker (the same model fitted to the exact Hessian: fewer
+    /// iterations for the isometric metric on fine meshes), pose-kronecker (each pose's own spatial block: fewer iterations for the conformal
     /// metrics at small --lambda, each about twice as costly), newton
     /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
     /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
