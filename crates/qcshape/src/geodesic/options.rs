@@ -52,7 +52,7 @@ pub enum Solver {
     /// the Hessian's model they nearly do not (twisted sphere, isometric, 162 to 10,242
     /// vertices: 23 / 29 / 39 / 44 iterations against 25 / 41 / 80 / 171; docs/log/speed.md).
     /// On the invariant scale (the default) it still helps the isometric metric on fine meshes
-    /// (375 against 640 iterations at 2,562 vertices, 1,340 against over 5,000 at 10,242) but
+    /// (375 against 640 iterations at 2,562 vertices, 1,340 against 3,772 at 10,242) but
     /// not at 642 (203 against 138), and not the conformal metrics (quasi-conformal at 10,242
     /// vertices: 1,579 against 1,516; docs/log/scale-invariant.md). Command-line value
     /// `hessian-kronecker`.
@@ -119,7 +119,7 @@ impl Solver {
                 "the path was still moving; the default limit, 60 sqrt(#V), covers the \
                  slowest measured (conformal, 10,242 vertices: 4,058 iterations), so a higher \
                  limit or a coarser mesh lets it converge; for the isometric metric on fine \
-                 meshes the hessian-kronecker solver needs fewer (1,340 against over 5,000 at \
+                 meshes the hessian-kronecker solver needs fewer (1,340 against 3,772 at \
                  10,242 vertices)",
             ),
             _ => None,
