@@ -151,7 +151,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     };
     eprintln!(
         "solving {} on {} vertices, N = {} ...",
-        metric.name(),
+        spec.label(),
         a.n_vertices(),
         opts.steps
     );
@@ -186,7 +186,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     }
     if args.json {
         let v = serde_json::json!({
-            "metric": metric.name(),
+            "metric": spec.label(),
             "vertices": a.n_vertices(),
             "steps": opts.steps,
             // The name before `Solver::LevenbergMarquardt` was renamed, kept for compatibility.
@@ -213,7 +213,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         });
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        outln!("metric      {}", metric.name());
+        outln!("metric      {}", spec.label());
         // Six significant digits, fixed-point or engineering notation (--json has every digit).
         let num = |x: f64| qcshape::numfmt::significant(x, 6);
         outln!(

@@ -134,7 +134,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         "interpolating {} deformation(s), {n_pairs} pose pair(s), {} per pair, with {} ...",
         data.deformations.len(),
         args.insert,
-        metric.name()
+        spec.label()
     );
     let bar = crate::progress::new_bar(n_pairs);
     bar.set_style(

@@ -160,7 +160,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.to.display(),
         base.n_vertices(),
         args.transport.label(),
-        setup.metric().name(),
+        spec.label(),
         args.solver.steps
     );
     let pb = progress(deformations.len());
@@ -253,7 +253,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     dataset::write_manifest(&manifest, &rows)?;
     if args.json {
         let v = serde_json::json!({
-            "metric": setup.metric().name(),
+            "metric": spec.label(),
             "transport": args.transport,
             "steps": args.solver.steps,
             "base": args.to,

@@ -67,6 +67,13 @@ fn the_readme_tour_runs_as_written() {
             out.status,
             String::from_utf8_lossy(&out.stderr)
         );
+        for text in [&out.stdout, &out.stderr] {
+            assert_no_coefficient_string(line, &String::from_utf8_lossy(text));
+        }
+    }
+    for report in ["analysis/report.md", "R/report.md"] {
+        let text = std::fs::read_to_string(dir.path().join(report)).unwrap();
+        assert_no_coefficient_string(report, &text);
     }
     // What the lines promise, and what the README's Python example reads.
     for f in [
@@ -83,4 +90,21 @@ fn the_readme_tour_runs_as_written() {
     }
     let header = std::fs::read_to_string(dir.path().join("pairs.csv")).unwrap();
     assert!(header.lines().next().unwrap().contains("regularizer_share"));
+}
+
+/// The metric is described by its name and settings (`isometric (lambda 0.01, ...)`), never by
+/// the built metric's internal coefficient string (`8.07e-4*conformal(quadratic)+...*l2(frozen)`).
+fn assert_no_coefficient_string(what: &str, text: &str) {
+    for bad in [
+        "*l2(",
+        "l2(frozen)",
+        "*stretch",
+        "(relative)",
+        "conformal(quadratic",
+    ] {
+        assert!(
+            !text.contains(bad),
+            "{what}: the output names the metric by its internal coefficients ({bad}):\n{text}"
+        );
+    }
 }

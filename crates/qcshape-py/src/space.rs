@@ -433,7 +433,8 @@ impl PyShapeSpace {
         crate::convert::faces_out(py, self.space.topology().faces())
     }
 
-    /// The metric's name with its variants, e.g. "isometric+0.01*l2(frozen),calibrated".
+    /// The metric with its settings by option name, e.g. "isometric (lambda 0.01, l2-areas frozen,
+    /// scale invariant)" ([`qcshape::metric::MetricSpec::label`]).
     #[getter]
     fn metric(&self) -> String {
         self.space.metric_label()

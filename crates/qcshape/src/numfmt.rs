@@ -56,6 +56,19 @@ pub fn count(n: usize, singular: &str, plural: &str) -> String {
     }
 }
 
+/// A setting's value as the metric's description ([`crate::metric::MetricSpec::label`]) prints it: Rust's shortest round-trip form (`0.01`,
+/// `0.5`, `12`) for magnitudes in `[1e-4, 1e6)` and zero, `1e-5`-style exponent form otherwise.
+pub fn plain(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 {
+        "0".into()
+    } else if (1e-4..1e6).contains(&a) || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

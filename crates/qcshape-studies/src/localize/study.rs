@@ -43,7 +43,7 @@ pub struct Localization {
     pub contrasts: Vec<Contrast>,
     /// One signed motion contrast per pair of labels.
     pub motion: Vec<MotionContrast>,
-    /// The metric's name (for titles).
+    /// The metric's description (for titles; [`qcshape::metric::MetricSpec::label`]).
     pub metric_name: String,
 }
 
@@ -79,7 +79,7 @@ pub fn localize(
     let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
     let motion = motion_contrasts(&m, labels, lopts)?;
     Ok(Localization {
-        metric_name: metric.name(),
+        metric_name: opts.metric.label(),
         prepared,
         maps,
         contrasts: result,

@@ -4,7 +4,7 @@ use thiserror::Error;
 
 use super::{
     Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcNormalize, QcWeights,
-    QuasiConformal, Regularized, RelativeConformal, RelativeIsometric, RelativeL2, Rigid, Weighted, L2,
+    QuasiConformal, Regularized, RelativeConformal, RelativeIsometric, Rigid, Weighted, L2,
 };
 use crate::mesh::geometry::{dot, sub, total_area};
 use crate::mesh::Topology;
@@ -66,11 +66,11 @@ pub enum MetricScale {
     /// Scale-invariant forms (docs/method.md "Scale-invariant forms"): every term a rate of
     /// relative change weighted by its face's area share ([`RelativeIsometric`],
     /// [`RelativeConformal`]: conformal and quasi-conformal as eq. 6's relative rates, not
-    /// eq. 7's; the regularizer [`RelativeL2`]),
+    /// eq. 7's; the regularizer [`super::RelativeL2`]),
     /// so that `G_{sM}(sX) = G_M(X)` for every pose: a geodesic gains nothing by shrinking the
     /// shape. Dimensionless and resolution-consistent; `lambda` a plain ratio. The regularizer
     /// is the calibrated, flat L2 term by default (frozen areas; its share of the energy is
-    /// under 1 %), [`RelativeL2`] with per-pose areas ([`MetricSpec::frozen_areas`] false).
+    /// under 1 %), [`super::RelativeL2`] with per-pose areas ([`MetricSpec::frozen_areas`] false).
     /// The L2 and rigid metrics, the flat displacement baselines, keep their
     /// [`MetricScale::Calibrated`] forms.
     Invariant,
@@ -179,7 +179,7 @@ pub struct MetricSpec {
     /// [`MetricScale::Invariant`] scale the isometric and conformal metrics' regularizer is
     /// then the flat, calibrated [`FrozenL2`] (true: translations cost the same at every size,
     /// so a geodesic between translated copies is the straight translation) or the
-    /// scale-invariant [`RelativeL2`], measured against each pose's own size (false).
+    /// scale-invariant [`super::RelativeL2`], measured against each pose's own size (false).
     pub frozen_areas: bool,
     /// Weight of the stretch term of the conformal and quasi-conformal metrics on the
     /// [`MetricScale::Invariant`] scale (the relative rate of change of each face's area,
@@ -274,24 +274,43 @@ impl MetricSpec {
         }
     }
 
-    /// A short description of the metric as built (the name of [`MetricSpec::build`]'s
-    /// metric without the calibrated factors), e.g.
-    /// `"quasi-conformal(quadratic,endpoints,rms,floor=0.5,smooth=0)+0.01*l2(frozen),calibrated"`.
+    /// The one readable description of the metric, printed by the command line, the reports
+    /// and Python's `ShapeSpace.metric`: its name and every setting that applies to it by its
+    /// option name ([`crate::settings::SETTINGS`]), numbers in one plain format
+    /// ([`crate::numfmt::plain`]), e.g. `"quasi-conformal (stretch 0.1, qc-weights rms, qc-floor 0.5,
+    /// qc-smooth 0, lambda 0.01, l2-areas frozen, scale invariant)"`. Not the built metric's
+    /// [`Metric::name`], whose factors depend on the data (`1.6e-10*l2(frozen)`).
     pub fn label(&self) -> String {
-        let inner = self.inner().name();
-        let core = if self.kind == MetricKind::L2 || self.lambda <= 0.0 {
-            inner
-        } else {
-            let l2 = if self.relative() && !self.frozen_areas {
-                RelativeL2.name()
-            } else if self.frozen_areas {
-                FrozenL2.name()
-            } else {
-                L2.name()
-            };
-            format!("{inner}+{}*{l2}", self.lambda)
-        };
-        format!("{core},{}", self.scale.label())
+        let mut parts: Vec<String> = Vec::new();
+        let conformal = matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal);
+        if conformal && !self.relative() {
+            parts.push(format!("form {}", self.form.label()));
+        }
+        if conformal && self.relative() {
+            parts.push(format!("stretch {}", crate::numfmt::plain(self.stretch)));
+        }
+        if self.kind == MetricKind::QuasiConformal {
+            if !self.relative() {
+                parts.push(format!("weights {}", self.weights.label()));
+            }
+            match self.qc_normalize {
+                Some(q) => {
+                    parts.push("qc-weights rms".into());
+                    parts.push(format!("qc-floor {}", crate::numfmt::plain(q.floor)));
+                    parts.push(format!("qc-smooth {}", q.smooth));
+                }
+                None => parts.push("qc-weights raw".into()),
+            }
+        }
+        if self.kind != MetricKind::L2 {
+            parts.push(format!("lambda {}", crate::numfmt::plain(self.lambda)));
+            if self.lambda > 0.0 {
+                let areas = if self.frozen_areas { "frozen" } else { "pose" };
+                parts.push(format!("l2-areas {areas}"));
+            }
+        }
+        parts.push(format!("scale {}", self.scale.label()));
+        format!("{} ({})", self.kind.label(), parts.join(", "))
     }
 
     /// The factors of this metric for an analysis whose reference pose(s) `refs` (each #V x 3,
@@ -494,6 +513,52 @@ fn corner_scale(topo: &Topology, pose: &[[f64; 3]]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The description names the metric and its settings by their option names, in one plain
+    /// number format, never the built metric's data-dependent factors.
+    #[test]
+    fn the_label_names_the_settings_not_the_factors() {
+        let qc = MetricSpec::new(MetricKind::QuasiConformal);
+        assert_eq!(
+            qc.label(),
+            "quasi-conformal (stretch 0.1, qc-weights rms, qc-floor 0.5, qc-smooth 0, lambda 0.01, \
+             l2-areas frozen, scale invariant)"
+        );
+        assert_eq!(
+            MetricSpec::calibrated(MetricKind::Isometric).label(),
+            "isometric (lambda 0.01, l2-areas frozen, scale calibrated)"
+        );
+        assert_eq!(
+            MetricSpec::previous(MetricKind::QuasiConformal).label(),
+            "quasi-conformal (form quadratic, weights endpoints, qc-weights raw, lambda 0.1, \
+             l2-areas frozen, scale raw)"
+        );
+        assert_eq!(MetricSpec::new(MetricKind::L2).label(), "l2 (scale invariant)");
+        let tiny = MetricSpec {
+            lambda: 1e-5,
+            ..MetricSpec::new(MetricKind::Conformal)
+        };
+        assert_eq!(
+            tiny.label(),
+            "conformal (stretch 0.1, lambda 1e-5, l2-areas frozen, scale invariant)"
+        );
+        // Every setting named in a label is a setting key.
+        for kind in MetricKind::all() {
+            for spec in [
+                MetricSpec::new(kind),
+                MetricSpec::previous(kind),
+                MetricSpec::calibrated(kind),
+            ] {
+                let label = spec.label();
+                assert!(!label.contains('*'), "{label}");
+                let inside = label.split_once('(').unwrap().1.trim_end_matches(')');
+                for part in inside.split(", ") {
+                    let key = part.split(' ').next().unwrap();
+                    assert!(crate::settings::by_key(key).is_some(), "{key} in {label}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn specs_build_the_named_metrics() {
