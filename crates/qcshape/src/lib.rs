@@ -21,6 +21,7 @@ pub mod defaults;
 pub mod embed;
 pub mod eval;
 pub mod experiment;
+pub mod fit;
 pub mod explain;
 pub mod geodesic;
 pub mod io;

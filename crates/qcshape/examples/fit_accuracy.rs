@@ -1,0 +1,65 @@
+//! The fit's accuracy against ground truth (issue 49; docs/fit.md): for each synthetic
+//! deformation, a 162-vertex template fitted to the deformed shape on another, finer
+//! triangulation with noise, against the nearest-point baseline (the same initial alignment,
+//! then each vertex snapped to its closest target point). Errors are distances to the true
+//! positions in template mean edge lengths.
+//!
+//! `cargo run --release -p qcshape --example fit_accuracy [-- FINE_LEVEL [NOISE_PERCENT]]`
+
+#[path = "../tests/fit_fixture/mod.rs"]
+mod fixture;
+
+use std::time::Instant;
+
+use qcshape::align::Motion;
+use qcshape::fit::{fit, initial_alignment, FitOptions, Target};
+use qcshape::synth::{DeformationKind, InitialShape};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let fine: u32 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(4);
+    let noise: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1.0);
+    let opts = FitOptions::default();
+    println!("target level {fine}, noise {noise} %");
+    println!(
+        "{:<9} {:>7} | {:>8} {:>8} {:>8} | {:>8} {:>8} | {:>7} {:>5} {:>7} {:>6}",
+        "motion", "targetV", "fit med", "fit mean", "fit p95", "base med", "base mean", "sym", "flip", "strain", "ms"
+    );
+    let mut all = (Vec::new(), Vec::new());
+    for kind in DeformationKind::all() {
+        let c = fixture::case(InitialShape::Pear, kind, 1.0, fine, noise, 7, Motion::IDENTITY);
+        let target = Target {
+            positions: &c.target,
+            faces: &c.faces,
+        };
+        let t0 = Instant::now();
+        let f = fit(&c.template, &target, &opts).expect("fit");
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let m = initial_alignment(&c.template, &target, &opts).expect("alignment");
+        let e = fixture::errors(&c, &f.positions, m.scale);
+        let b = fixture::errors(&c, &fixture::baseline(&c, &m), m.scale);
+        let (em, ea) = fixture::median_mean(&e);
+        let (bm, ba) = fixture::median_mean(&b);
+        let mut s = e.clone();
+        s.sort_by(f64::total_cmp);
+        println!(
+            "{:<9} {:>7} | {:>8.3} {:>8.3} {:>8.3} | {:>8.3} {:>8.3} | {:>7.3} {:>5} {:>7.3} {:>6.0}",
+            format!("{kind:?}"),
+            c.target.len(),
+            em,
+            ea,
+            s[s.len() * 95 / 100],
+            bm,
+            ba,
+            f.quality.mean,
+            f.quality.flipped,
+            f.quality.strain_rms,
+            ms
+        );
+        all.0.extend(e);
+        all.1.extend(b);
+    }
+    let (em, ea) = fixture::median_mean(&all.0);
+    let (bm, ba) = fixture::median_mean(&all.1);
+    println!("all: fit median {em:.3} mean {ea:.3}; baseline median {bm:.3} mean {ba:.3}");
+}
