@@ -125,10 +125,10 @@ pub struct FitOptions {
     /// Stiffness of the as-rigid-as-possible prior at the first stage, relative to the data
     /// term (default 20).
     pub stiffness_start: f64,
-    /// Stiffness at the last stage (default 0.2); stages in between are geometric.
+    /// Stiffness at the last stage (default 0.1); stages in between are geometric.
     pub stiffness_end: f64,
     /// Weight of the surface-to-point term relative to the point-to-surface term, in total
-    /// (default 1; 0 turns it off).
+    /// (default 2; 0 turns it off).
     pub surface_to_point: f64,
     /// Target points used as surface-to-point samples at most (default 20,000; an even stride
     /// over the target's vertices).
@@ -148,8 +148,8 @@ impl Default for FitOptions {
             stages: 6,
             iterations: 12,
             stiffness_start: 20.0,
-            stiffness_end: 0.2,
-            surface_to_point: 1.0,
+            stiffness_end: 0.1,
+            surface_to_point: 2.0,
             max_samples: 20_000,
             outlier_distance: 2.0,
             normal_angle: 70.0,

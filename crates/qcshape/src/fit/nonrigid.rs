@@ -65,6 +65,11 @@ use crate::mesh::Topology;
 /// Weight of the anchor term (relative to a data weight of 1).
 const ANCHOR: f64 = 1e-6;
 
+/// A template vertex overlaps the target when its correspondence is accepted and lies within
+/// this many outlier distances (`outlier_distance lbar`); fewer than a tenth of the vertices
+/// overlapping at the first iteration is [`FitError::NoOverlap`].
+pub const OVERLAP: f64 = 5.0;
+
 /// A stage ends when no vertex moved more than this many mean edge lengths.
 const CONVERGED: f64 = 1e-3;
 
@@ -316,7 +321,7 @@ fn rotations(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]]) -> Vec<[[f64; 3]; 
 }
 
 /// Builds the terms at `x` (closest points, robust weights, rotations); also returns how many
-/// template vertices found a correspondence.
+/// template vertices found a correspondence within [`OVERLAP`] outlier distances.
 fn terms(
     solver: &Solver,
     p: &[[f64; 3]],
@@ -365,7 +370,9 @@ fn terms(
         }
         c[i] = 1.0;
         y[i] = h.point;
-        matched += 1;
+        if dist(h.distance_sq) <= OVERLAP * opts.outlier_distance * lbar {
+            matched += 1;
+        }
     }
     let mut pulls = Vec::new();
     if opts.surface_to_point > 0.0 {

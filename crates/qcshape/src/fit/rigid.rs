@@ -20,8 +20,8 @@ use crate::mesh::Shape;
 /// ICP rounds per candidate.
 pub const ICP_ITERATIONS: usize = 30;
 
-/// The as-given candidate is kept when its score is at most this factor times the best.
-pub const KEEP_AS_GIVEN: f64 = 1.25;
+/// Candidates scoring at most this factor times the best compete on their rotation angle.
+pub const KEEP_AS_GIVEN: f64 = 1.6;
 
 /// Fraction of closest-point pairs kept by the ICP (the farthest are dropped).
 const TRIM: f64 = 0.9;
@@ -106,7 +106,9 @@ pub(crate) fn initial_alignment(
         1.0
     };
     let mut candidates = vec![Motion::IDENTITY.rotation];
-    for signs in [[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]] {
+    // The eight sign choices of the axes; the four that give a proper rotation are kept.
+    for k in 0..8 {
+        let signs = [0, 1, 2].map(|b| if k >> b & 1 == 1 { -1.0 } else { 1.0 });
         // R = E_t D E_s^T maps the template's axes onto the target's.
         let mut etd = et;
         for row in &mut etd {
@@ -165,14 +167,15 @@ pub(crate) fn initial_alignment(
         best.push((score(&moved, target, &samples), m));
     }
     let min = best.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
-    let (s, m) = if best[0].0 <= KEEP_AS_GIVEN * min {
-        best[0]
-    } else {
-        *best
-            .iter()
-            .find(|b| b.0 == min)
-            .ok_or_else(|| FitError::Solver("no finite alignment score".into()))?
-    };
+    // Among the candidates scoring within KEEP_AS_GIVEN of the best, the smallest turn.
+    // Ties (a target with a mirror symmetry gives two candidates of equal score and angle)
+    // go to the first candidate in the fixed order, whatever the rounding at this scale.
+    let kept = || best.iter().filter(|b| b.0 <= KEEP_AS_GIVEN * min);
+    let smallest = kept().map(|b| b.1.angle()).fold(f64::INFINITY, f64::min);
+    let (s, m) = kept()
+        .find(|b| b.1.angle() <= smallest + 1e-6)
+        .copied()
+        .ok_or_else(|| FitError::Solver("no finite alignment score".into()))?;
     if !(s.is_finite() && m.scale.is_finite() && m.scale > 0.0) {
         return Err(FitError::Solver("the initial alignment did not converge".into()));
     }
