@@ -19,7 +19,10 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let fine: u32 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(4);
     let noise: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1.0);
-    let shape: InitialShape = std::env::var("SHAPE").ok().and_then(|s| s.parse().ok()).unwrap_or(InitialShape::RoundedBox);
+    let shape: InitialShape = std::env::var("SHAPE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(InitialShape::RoundedBox);
     let mut opts = FitOptions::default();
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     if let Some(v) = env("STIFF_END") {
@@ -34,10 +37,23 @@ fn main() {
     if let Ok(a) = std::env::var("ALIGN") {
         opts.alignment = a.parse().expect("rigid, similarity or none");
     }
-    println!("{shape:?}, target level {fine}, noise {noise} %, alignment {}", opts.alignment.label());
+    println!(
+        "{shape:?}, target level {fine}, noise {noise} %, alignment {}",
+        opts.alignment.label()
+    );
     println!(
         "{:<9} {:>7} | {:>8} {:>8} {:>8} | {:>8} {:>8} | {:>7} {:>5} {:>7} {:>6}",
-        "motion", "targetV", "fit med", "fit mean", "fit p95", "base med", "base mean", "sym", "flip", "strain", "ms"
+        "motion",
+        "targetV",
+        "fit med",
+        "fit mean",
+        "fit p95",
+        "base med",
+        "base mean",
+        "sym",
+        "flip",
+        "strain",
+        "ms"
     );
     let mut all = (Vec::new(), Vec::new());
     for kind in DeformationKind::all() {

@@ -62,7 +62,10 @@ fn scaled_and_moved_targets_give_the_same_errors() {
         };
         let (fit_median, base_median, flipped) = run(&[Bulge, Dent], placement, &FitOptions::default());
         eprintln!("scale {s}: fit {fit_median:.3} baseline {base_median:.3}");
-        assert!(fit_median < 0.7 * base_median, "{s}: {fit_median} vs {base_median}");
+        assert!(
+            fit_median < 0.7 * base_median,
+            "{s}: {fit_median} vs {base_median}"
+        );
         assert_eq!(flipped, 0);
         medians.push(fit_median);
     }

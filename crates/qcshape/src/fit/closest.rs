@@ -163,7 +163,10 @@ impl SurfaceIndex {
                 }
             } else {
                 let (l, r) = (node.start as usize, node.count as usize);
-                let (dl, dr) = (box_distance_sq(&self.nodes[l], q), box_distance_sq(&self.nodes[r], q));
+                let (dl, dr) = (
+                    box_distance_sq(&self.nodes[l], q),
+                    box_distance_sq(&self.nodes[r], q),
+                );
                 // Push the farther first so the nearer is searched first.
                 if dl <= dr {
                     stack.push((r, dr));
@@ -266,7 +269,8 @@ mod tests {
         faces
             .iter()
             .map(|f| {
-                let (p, _) = closest_on_triangle(q, pos[f[0] as usize], pos[f[1] as usize], pos[f[2] as usize]);
+                let (p, _) =
+                    closest_on_triangle(q, pos[f[0] as usize], pos[f[1] as usize], pos[f[2] as usize]);
                 dot(sub(p, q), sub(p, q))
             })
             .fold(f64::INFINITY, f64::min)

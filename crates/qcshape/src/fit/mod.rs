@@ -160,7 +160,13 @@ impl Default for FitOptions {
 impl FitOptions {
     /// Errors on the first option out of range.
     pub fn check(&self) -> Result<(), FitError> {
-        let bad = |name, value: f64, expected| Err(FitError::Option { name, value, expected });
+        let bad = |name, value: f64, expected| {
+            Err(FitError::Option {
+                name,
+                value,
+                expected,
+            })
+        };
         if !(1..=MAX_SWEEPS).contains(&self.stages) {
             return bad("stages", self.stages as f64, "1 to 1000");
         }
@@ -305,7 +311,11 @@ pub(crate) fn prepare<'a>(target: &Target<'a>) -> Result<Prepared<'a>, FitError>
             *n = scale(*n, 1.0 / l);
         }
     }
-    let boundary = edges.into_iter().filter(|e| e.1 == 1).map(|e| (e.0, ())).collect();
+    let boundary = edges
+        .into_iter()
+        .filter(|e| e.1 == 1)
+        .map(|e| (e.0, ()))
+        .collect();
     let index = if faces.is_empty() {
         SurfaceIndex::points(pos)
     } else {
@@ -415,7 +425,15 @@ pub fn fit_sequence(
             Some(prev) => {
                 let (positions, iterations) =
                     nonrigid::fit(&solver, &rest, prev.positions.clone(), &prepared, opts)?;
-                finish(&solver, &rest, positions, Motion::IDENTITY, iterations, &prepared, opts)
+                finish(
+                    &solver,
+                    &rest,
+                    positions,
+                    Motion::IDENTITY,
+                    iterations,
+                    &prepared,
+                    opts,
+                )
             }
         };
         out.push(fitted);

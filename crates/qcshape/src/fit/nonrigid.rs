@@ -90,7 +90,12 @@ impl Solver {
         let mut col_ptr = vec![0usize];
         let mut row_idx = Vec::new();
         for v in 0..nv {
-            let mut rows: Vec<usize> = topo.neighbors(v).iter().map(|&u| u as usize).filter(|&u| u < v).collect();
+            let mut rows: Vec<usize> = topo
+                .neighbors(v)
+                .iter()
+                .map(|&u| u as usize)
+                .filter(|&u| u < v)
+                .collect();
             rows.push(v);
             rows.sort_unstable();
             rows.dedup();
@@ -98,9 +103,13 @@ impl Solver {
             col_ptr.push(row_idx.len());
         }
         let sym = SymbolicSparseColMatRef::new_checked(nv, nv, &col_ptr, None, &row_idx);
-        let symbolic =
-            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, CholeskySymbolicParams::default())
-                .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
         let mut boundary = HashSet::new();
         for lp in topo.boundary_loops() {
             for k in 0..lp.len() {
@@ -274,7 +283,11 @@ impl Terms {
                 add_rhs(&mut rhs, j, scale(r, -1.0));
             }
             vals[solver.slot(i, i)] += self.c[i] + ANCHOR;
-            add_rhs(&mut rhs, i, add(scale(self.y[i], self.c[i]), scale(self.anchor[i], ANCHOR)));
+            add_rhs(
+                &mut rhs,
+                i,
+                add(scale(self.y[i], self.c[i]), scale(self.anchor[i], ANCHOR)),
+            );
         }
         for s in &self.samples {
             for m in 0..3 {
@@ -353,7 +366,8 @@ fn terms(
         1.0
     };
     let dist = |d2: f64| d2.sqrt();
-    let tau = (3.0 * median(hits.iter().flatten().map(|h| dist(h.distance_sq)))).max(opts.outlier_distance * lbar);
+    let tau =
+        (3.0 * median(hits.iter().flatten().map(|h| dist(h.distance_sq)))).max(opts.outlier_distance * lbar);
     let mut c = vec![0.0; nv];
     let mut y = x.to_vec();
     let mut matched = 0;
@@ -391,7 +405,9 @@ fn terms(
             if dist(h.distance_sq) > tau2 || solver.on_boundary(face, h.bary) {
                 continue;
             }
-            if target.is_surface() && sigma * dot(target.vertex_normals[k], fnormals[h.primitive as usize]) < cos_max {
+            if target.is_surface()
+                && sigma * dot(target.vertex_normals[k], fnormals[h.primitive as usize]) < cos_max
+            {
                 continue;
             }
             pulls.push(Sample {
@@ -472,7 +488,10 @@ mod tests {
         let s = icosphere(1);
         let solver = Solver::new(&s.topology).unwrap();
         let p = &s.positions;
-        let x: Vec<[f64; 3]> = p.iter().map(|q| [1.2 * q[0] + 0.1 * q[2], q[1] + 0.05, 0.8 * q[2]]).collect();
+        let x: Vec<[f64; 3]> = p
+            .iter()
+            .map(|q| [1.2 * q[0] + 0.1 * q[2], q[1] + 0.05, 0.8 * q[2]])
+            .collect();
         let target: Vec<[f64; 3]> = icosphere(2).positions.iter().map(|q| scale(*q, 1.1)).collect();
         let faces = icosphere(2).topology.faces().to_vec();
         let prepared = prepare(&Target {
@@ -493,7 +512,11 @@ mod tests {
                 a[v][k] += h;
                 b[v][k] -= h;
                 let fd = (t.energy(&s.topology, p, &a) - t.energy(&s.topology, p, &b)) / (2.0 * h);
-                assert!((fd - g[v][k]).abs() < 1e-5 * (1.0 + fd.abs()), "{v} {k}: {fd} vs {}", g[v][k]);
+                assert!(
+                    (fd - g[v][k]).abs() < 1e-5 * (1.0 + fd.abs()),
+                    "{v} {k}: {fd} vs {}",
+                    g[v][k]
+                );
             }
         }
         let min = t.minimize(&solver, p).unwrap();

@@ -50,16 +50,25 @@ impl FitQuality {
     pub fn problems(&self) -> Vec<String> {
         let mut out = Vec::new();
         if self.mean > POOR_MEAN {
-            out.push(format!("mean distance {:.3} edge lengths > {POOR_MEAN}", self.mean));
+            out.push(format!(
+                "mean distance {:.3} edge lengths > {POOR_MEAN}",
+                self.mean
+            ));
         }
         if self.p95 > POOR_P95 {
-            out.push(format!("95th percentile {:.3} edge lengths > {POOR_P95}", self.p95));
+            out.push(format!(
+                "95th percentile {:.3} edge lengths > {POOR_P95}",
+                self.p95
+            ));
         }
         if self.flipped > 0 {
             out.push(format!("{} flipped triangles", self.flipped));
         }
         if self.min_angle < POOR_MIN_ANGLE {
-            out.push(format!("minimum angle {:.2} degrees < {POOR_MIN_ANGLE}", self.min_angle));
+            out.push(format!(
+                "minimum angle {:.2} degrees < {POOR_MIN_ANGLE}",
+                self.min_angle
+            ));
         }
         out
     }
@@ -93,13 +102,22 @@ pub(crate) fn measure(
     let lbar = mean_edge_length(topo, rest).max(f64::MIN_POSITIVE);
     let residual: Vec<f64> = fitted
         .par_iter()
-        .map(|q| target.index.closest(*q).map_or(f64::INFINITY, |c| c.distance_sq.sqrt()))
+        .map(|q| {
+            target
+                .index
+                .closest(*q)
+                .map_or(f64::INFINITY, |c| c.distance_sq.sqrt())
+        })
         .collect();
     let surface = SurfaceIndex::triangles(fitted, topo.faces());
     let samples: Vec<usize> = stride(target.positions.len(), max_samples).collect();
     let back: Vec<f64> = samples
         .par_iter()
-        .map(|&k| surface.closest(target.positions[k]).map_or(f64::INFINITY, |c| c.distance_sq.sqrt()))
+        .map(|&k| {
+            surface
+                .closest(target.positions[k])
+                .map_or(f64::INFINITY, |c| c.distance_sq.sqrt())
+        })
         .collect();
     let mut all: Vec<f64> = residual.iter().chain(&back).map(|d| d / lbar).collect();
     all.sort_by(f64::total_cmp);

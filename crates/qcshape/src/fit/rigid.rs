@@ -151,7 +151,9 @@ pub(crate) fn initial_alignment(
                 .collect();
             let to: Vec<[f64; 3]> = pairs.iter().map(|p| p.0).collect();
             let next = best_motion(&template.positions, &to, &w, with_scale);
-            let change = (0..3).map(|k| (next.translation[k] - m.translation[k]).abs()).sum::<f64>()
+            let change = (0..3)
+                .map(|k| (next.translation[k] - m.translation[k]).abs())
+                .sum::<f64>()
                 + (next.scale - m.scale).abs() * rt.max(f64::MIN_POSITIVE)
                 + (0..3)
                     .flat_map(|i| (0..3).map(move |j| (i, j)))
@@ -226,7 +228,11 @@ mod tests {
     /// An asymmetric blob (no rotation maps it onto itself).
     fn blob(level: u32) -> Shape {
         let s = icosphere(level);
-        let p = s.positions.iter().map(|p| [1.7 * p[0] + 0.3, p[1], 0.6 * p[2] + p[0] * p[0]]).collect();
+        let p = s
+            .positions
+            .iter()
+            .map(|p| [1.7 * p[0] + 0.3, p[1], 0.6 * p[2] + p[0] * p[0]])
+            .collect();
         Shape::new(s.topology, p).unwrap()
     }
 

@@ -25,7 +25,15 @@ fn max_residual(f: &Fitted) -> f64 {
 fn fits_a_surface_of_another_triangulation() {
     let template = icosphere(2);
     let (p, faces) = target_points(1.0);
-    let f = fit(&template, &Target { positions: &p, faces: &faces }, &FitOptions::default()).unwrap();
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &FitOptions::default(),
+    )
+    .unwrap();
     assert!(f.quality.mean < 0.1, "{:?}", f.quality);
     assert!(max_residual(&f) < 0.2, "{}", max_residual(&f));
     assert_eq!(f.quality.flipped, 0);
@@ -37,13 +45,25 @@ fn fits_a_surface_of_another_triangulation() {
 fn scale_invariant() {
     // An asymmetric template, so that the fit is unique (a sphere fits in any orientation).
     let s = icosphere(2);
-    let bent = s.positions.iter().map(|p| [p[0] + 0.3 * p[1] * p[1], p[1], 1.2 * p[2] + 0.2 * p[0]]).collect();
+    let bent = s
+        .positions
+        .iter()
+        .map(|p| [p[0] + 0.3 * p[1] * p[1], p[1], 1.2 * p[2] + 0.2 * p[0]])
+        .collect();
     let template = Shape::new(s.topology.clone(), bent).unwrap();
     let mut means = Vec::new();
     let mut shapes = Vec::new();
     for k in [0.01, 1.0, 100.0] {
         let (p, faces) = target_points(k);
-        let f = fit(&template, &Target { positions: &p, faces: &faces }, &FitOptions::default()).unwrap();
+        let f = fit(
+            &template,
+            &Target {
+                positions: &p,
+                faces: &faces,
+            },
+            &FitOptions::default(),
+        )
+        .unwrap();
         assert!((f.motion.scale / k - 1.0).abs() < 0.05, "{k}: {}", f.motion.scale);
         means.push(f.quality.mean);
         shapes.push(f.positions.iter().map(|x| x.map(|c| c / k)).collect::<Vec<_>>());
@@ -59,7 +79,15 @@ fn scale_invariant() {
 fn point_clouds_use_the_point_terms() {
     let template = icosphere(2);
     let (p, _) = target_points(1.0);
-    let f = fit(&template, &Target { positions: &p, faces: &[] }, &FitOptions::default()).unwrap();
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &[],
+        },
+        &FitOptions::default(),
+    )
+    .unwrap();
     // The distance to a point set includes the gaps between its points (about half an edge
     // of the level-3 target, a quarter of the template's).
     assert!(f.quality.median_vertex < 0.25, "{:?}", f.quality);
@@ -80,8 +108,24 @@ fn a_partial_target_fits_where_it_is() {
         alignment: Alignment::None,
         ..FitOptions::default()
     };
-    let f = fit(&template, &Target { positions: &p, faces: &kept }, &opts).unwrap();
-    let whole = fit(&template, &Target { positions: &p, faces: &faces }, &opts).unwrap();
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &kept,
+        },
+        &opts,
+    )
+    .unwrap();
+    let whole = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &opts,
+    )
+    .unwrap();
     // Where the target is, the partial fit agrees with the fit to the whole surface.
     let mut worst: f64 = 0.0;
     for (i, x) in template.positions.iter().enumerate() {
@@ -106,7 +150,10 @@ fn tracks_a_sequence_and_is_deterministic() {
         .collect();
     let targets: Vec<Target> = frames
         .iter()
-        .map(|(p, f)| Target { positions: p, faces: f })
+        .map(|(p, f)| Target {
+            positions: p,
+            faces: f,
+        })
         .collect();
     let mut seen = Vec::new();
     let a = fit_sequence(&template, &targets, &FitOptions::default(), |k| seen.push(k)).unwrap();
@@ -125,16 +172,31 @@ fn refuses_bad_input_with_one_line() {
     let (p, faces) = target_points(1.0);
     let opts = FitOptions::default();
     let err = |t: Target| fit(&template, &t, &opts).unwrap_err();
-    assert_eq!(err(Target { positions: &[], faces: &[] }), FitError::EmptyTarget);
+    assert_eq!(
+        err(Target {
+            positions: &[],
+            faces: &[]
+        }),
+        FitError::EmptyTarget
+    );
     let mut nan = p.clone();
     nan[3][1] = f64::NAN;
     assert!(matches!(
-        err(Target { positions: &nan, faces: &faces }),
-        FitError::NonFinite { what: "target", vertex: 3 }
+        err(Target {
+            positions: &nan,
+            faces: &faces
+        }),
+        FitError::NonFinite {
+            what: "target",
+            vertex: 3
+        }
     ));
     let bad_faces = vec![[0, 1, 9999]];
     assert!(matches!(
-        err(Target { positions: &p, faces: &bad_faces }),
+        err(Target {
+            positions: &p,
+            faces: &bad_faces
+        }),
         FitError::FaceIndex { index: 9999, .. }
     ));
     // Far away and no alignment: no overlap.
@@ -143,7 +205,15 @@ fn refuses_bad_input_with_one_line() {
         alignment: Alignment::None,
         ..FitOptions::default()
     };
-    let e = fit(&template, &Target { positions: &far, faces: &faces }, &none).unwrap_err();
+    let e = fit(
+        &template,
+        &Target {
+            positions: &far,
+            faces: &faces,
+        },
+        &none,
+    )
+    .unwrap_err();
     assert!(matches!(e, FitError::NoOverlap { .. }), "{e}");
     assert!(!e.to_string().contains('\n'));
     let zero = FitOptions {
@@ -151,13 +221,34 @@ fn refuses_bad_input_with_one_line() {
         ..FitOptions::default()
     };
     assert!(matches!(
-        fit(&template, &Target { positions: &p, faces: &faces }, &zero),
+        fit(
+            &template,
+            &Target {
+                positions: &p,
+                faces: &faces
+            },
+            &zero
+        ),
         Err(FitError::Option { name: "stages", .. })
     ));
     // A template with a bowtie vertex (two fans meeting at vertex 0).
     let bow = Topology::allowing_nonmanifold_vertices(5, vec![[0, 1, 2], [0, 3, 4]]).unwrap();
-    let pos = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]];
+    let pos = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+    ];
     let shape = Shape::new(bow, pos).unwrap();
-    let e = fit(&shape, &Target { positions: &p, faces: &faces }, &opts).unwrap_err();
+    let e = fit(
+        &shape,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &opts,
+    )
+    .unwrap_err();
     assert!(matches!(e, FitError::Template(_)), "{e}");
 }

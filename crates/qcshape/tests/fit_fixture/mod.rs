@@ -12,7 +12,9 @@ use qcshape::align::{rotation_about, Motion};
 use qcshape::fit::closest::SurfaceIndex;
 use qcshape::mesh::geometry::{mean_edge_length, norm, sub};
 use qcshape::mesh::{Shape, Topology};
-use qcshape::synth::{add_noise, icosphere, initial_shape, DeformParams, DeformationKind, InitialShape, NoiseKind};
+use qcshape::synth::{
+    add_noise, icosphere, initial_shape, DeformParams, DeformationKind, InitialShape, NoiseKind,
+};
 
 /// One fixture.
 pub struct Case {
@@ -56,13 +58,26 @@ pub fn case(
     let s = initial_shape(shape, &joint);
     let template = Shape::new(Arc::clone(&coarse.topology), s.positions[..nc].to_vec()).unwrap();
     let params = DeformParams::of(&template);
-    let truth: Vec<[f64; 3]> = template.positions.iter().map(|p| placement.apply(kind.apply(*p, t, &params))).collect();
-    let target: Vec<[f64; 3]> = s.positions[nc..].iter().map(|p| kind.apply(*p, t, &params)).collect();
-    let target = add_noise(&fine_s.topology, &[target], NoiseKind::Gaussian, noise_percent, seed)
-        .remove(0)
-        .into_iter()
-        .map(|p| placement.apply(p))
+    let truth: Vec<[f64; 3]> = template
+        .positions
+        .iter()
+        .map(|p| placement.apply(kind.apply(*p, t, &params)))
         .collect();
+    let target: Vec<[f64; 3]> = s.positions[nc..]
+        .iter()
+        .map(|p| kind.apply(*p, t, &params))
+        .collect();
+    let target = add_noise(
+        &fine_s.topology,
+        &[target],
+        NoiseKind::Gaussian,
+        noise_percent,
+        seed,
+    )
+    .remove(0)
+    .into_iter()
+    .map(|p| placement.apply(p))
+    .collect();
     Case {
         template,
         target,
@@ -75,7 +90,11 @@ pub fn case(
 /// template's mean edge length scaled by `scale` (the placement's scale).
 pub fn errors(case: &Case, fitted: &[[f64; 3]], scale: f64) -> Vec<f64> {
     let lbar = mean_edge_length(&case.template.topology, &case.template.positions) * scale;
-    fitted.iter().zip(&case.truth).map(|(a, b)| norm(sub(*a, *b)) / lbar).collect()
+    fitted
+        .iter()
+        .zip(&case.truth)
+        .map(|(a, b)| norm(sub(*a, *b)) / lbar)
+        .collect()
 }
 
 /// The nearest-point baseline: each template vertex moved by `motion` then snapped to its
