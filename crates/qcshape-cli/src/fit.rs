@@ -53,6 +53,10 @@ pub struct Args {
     /// template is already placed on the targets).
     #[arg(long, default_value = "similarity")]
     pub alignment: Alignment,
+    /// Deformation prior: arap (as-rigid-as-possible, edge strain; the default) or asap
+    /// (as-similar-as-possible: local scaling is free; better for tapers, worse for ripples).
+    #[arg(long, default_value = "arap")]
+    pub prior: qcshape::fit::Prior,
     /// Deformation name when TARGETS are mesh files or a folder.
     #[arg(long, default_value = "fit")]
     pub name: String,
@@ -183,6 +187,7 @@ pub fn run(args: &Args) -> Result<()> {
     let template = io::load_shape(&args.template)?;
     let opts = FitOptions {
         alignment: args.alignment,
+        prior: args.prior,
         stages: args.stages,
         ..FitOptions::default()
     };

@@ -12,7 +12,7 @@ use qcshape::mesh::Shape;
 use crate::convert::{count, faces, points, points_out, AnyInt};
 
 /// fit(template_vertices, template_faces, target_vertices, target_faces=None, *,
-/// alignment="similarity", stages=6, max_samples=20000) -> (V, residual, quality)
+/// alignment="similarity", prior="arap", stages=6, max_samples=20000) -> (V, residual, quality)
 ///
 /// Fits the template (vertices (nV, 3), faces (nF, 3); a trimesh / pyvista / meshio mesh may
 /// stand for either) to the target surface (vertices (nP, 3) and faces (nT, 3) of any
@@ -23,9 +23,9 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// median_vertex (symmetric surface distance in template mean edge lengths), min_angle
 /// (degrees), flipped (triangles), strain_rms, strain_max, edge_length (target units), scale
 /// (of the initial alignment), iterations and poor (bool). alignment: "similarity", "rigid" or
-/// "none". ValueError for bad input (empty target, NaN, a non-manifold template, no overlap).
+/// "none"; prior: "arap" (as-rigid-as-possible) or "asap" (local scaling free). ValueError for bad input (empty target, NaN, a non-manifold template, no overlap).
 #[pyfunction]
-#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", stages=AnyInt::new(6), max_samples=AnyInt::new(20000)))]
+#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="arap", stages=AnyInt::new(6), max_samples=AnyInt::new(20000)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -34,14 +34,19 @@ pub fn fit<'py>(
     target_vertices: &Bound<'py, PyAny>,
     target_faces: Option<&Bound<'py, PyAny>>,
     alignment: &str,
+    prior: &str,
     stages: AnyInt,
     max_samples: AnyInt,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let alignment: Alignment = alignment
         .parse()
         .map_err(|e: String| PyValueError::new_err(format!("alignment: {e}")))?;
+    let prior: qcshape::fit::Prior = prior
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("prior: {e}")))?;
     let opts = FitOptions {
         alignment,
+        prior,
         stages: count("stages", stages, 1, qcshape::limits::MAX_SWEEPS)?,
         max_samples: count("max_samples", max_samples, 1, qcshape::limits::MAX_VERTICES)?,
         ..FitOptions::default()

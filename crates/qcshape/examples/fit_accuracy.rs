@@ -7,7 +7,7 @@
 //! `cargo run --release -p qcshape --example fit_accuracy [-- FINE_LEVEL [NOISE_PERCENT]]`
 //! (target icosphere level, default 4 = 2,562 vertices; noise variance in % of the squared
 //! target edge, default 1). Environment: `SHAPE` (an initial shape, default rounded-box),
-//! `ALIGN` (similarity, rigid or none), `STIFF_START`, `STIFF_END`, `S2P` (the options of the
+//! `ALIGN` (similarity, rigid or none), `PRIOR` (arap or asap), `STIFF_START`, `STIFF_END`, `S2P` (the options of the
 //! same names). Time is wall-clock per fit (`ms`); `sym` is the fit's symmetric surface
 //! distance, `strain` its rms edge strain.
 
@@ -17,6 +17,7 @@ mod fixture;
 use std::time::Instant;
 
 use qcshape::align::Motion;
+use qcshape::io::{write_mesh, VertexAttributes};
 use qcshape::fit::{fit, initial_alignment, FitOptions, Target};
 use qcshape::synth::{DeformationKind, InitialShape};
 
@@ -38,6 +39,9 @@ fn main() {
     }
     if let Some(v) = env("S2P") {
         opts.surface_to_point = v;
+    }
+    if let Ok(a) = std::env::var("PRIOR") {
+        opts.prior = a.parse().expect("arap or asap");
     }
     if let Ok(a) = std::env::var("ALIGN") {
         opts.alignment = a.parse().expect("rigid, similarity or none");
@@ -67,6 +71,16 @@ fn main() {
             positions: &c.target,
             faces: &c.faces,
         };
+        // WRITE_DIR: the fixture as files for scripts/fit_compare.py (template, target, truth).
+        if let Ok(dir) = std::env::var("WRITE_DIR") {
+            let dir = std::path::Path::new(&dir);
+            std::fs::create_dir_all(dir).expect("WRITE_DIR");
+            let none = VertexAttributes::default();
+            let faces = c.template.topology.faces();
+            write_mesh(&dir.join("template.ply"), &c.template.positions, faces, &none).expect("write");
+            write_mesh(&dir.join(format!("{kind:?}-truth.ply")), &c.truth, faces, &none).expect("write");
+            write_mesh(&dir.join(format!("{kind:?}-target.ply")), &c.target, &c.faces, &none).expect("write");
+        }
         let t0 = Instant::now();
         let f = fit(&c.template, &target, &opts).expect("fit");
         let ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -95,6 +95,7 @@ def fit(
     target_faces: Optional[_Faces] = None,
     *,
     alignment: Literal["similarity", "rigid", "none"] = "similarity",
+    prior: Literal["arap", "asap"] = "arap",
     stages: int = 6,
     max_samples: int = 20000,
 ) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:

@@ -111,12 +111,47 @@ pub struct Target<'a> {
     pub faces: &'a [[u32; 3]],
 }
 
+/// The deformation prior of the non-rigid fit ([`nonrigid`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Prior {
+    /// As-rigid-as-possible with uniform edge weights (the default): an edge-strain energy,
+    /// the discrete analogue of the library's default isometric metric.
+    #[default]
+    Arap,
+    /// As-similar-as-possible: ARAP with a free local scale per vertex fan (in `[0.5, 2]`),
+    /// a conformal-like prior for motions that scale parts of the surface.
+    Asap,
+}
+
+impl Prior {
+    /// `"arap"` or `"asap"`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Prior::Arap => "arap",
+            Prior::Asap => "asap",
+        }
+    }
+}
+
+impl std::str::FromStr for Prior {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "arap" => Ok(Prior::Arap),
+            "asap" => Ok(Prior::Asap),
+            _ => Err(format!("unknown prior '{s}' (expected arap or asap)")),
+        }
+    }
+}
+
 /// Settings of a fit. [`FitOptions::default`] is what `qcshape fit` and `qs.fit` use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitOptions {
     /// Initial alignment: similarity (default; the template is scaled to the target), rigid, or
     /// none (the template is already placed on the target).
     pub alignment: Alignment,
+    /// The deformation prior (default as-rigid-as-possible).
+    pub prior: Prior,
     /// Stiffness stages of the non-rigid fit (1-1,000; default 6).
     pub stages: usize,
     /// Iterations (closest points, weights, rotations, one solve) per stage at most (1-1,000;
@@ -145,6 +180,7 @@ impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             alignment: Alignment::Similarity,
+            prior: Prior::Arap,
             stages: 6,
             iterations: 12,
             stiffness_start: 20.0,

@@ -28,6 +28,11 @@
 //! (not cotangent) stay positive on any triangulation. Rotations make it invariant to large
 //! bends and twists, which a linear (Laplacian) prior is not.
 //!
+//! With [`Prior::Asap`] (as-similar-as-possible) each `R_i` is multiplied by the vertex fan's
+//! best scale (bounded to `[0.5, 2]`): local uniform scaling is free, so motions that scale
+//! parts of the surface (a taper's growing end) are followed, at the price of the isometric
+//! cases (docs/fit.md has the measured trade-off).
+//!
 //! # Robust weights
 //!
 //! A point-to-surface pair counts (`c_i = 1`) unless its distance exceeds
@@ -57,7 +62,7 @@ use rayon::prelude::*;
 
 use super::closest::SurfaceIndex;
 use super::rigid::stride;
-use super::{FitError, FitOptions, Prepared};
+use super::{FitError, FitOptions, Prepared, Prior};
 use crate::align::horn_rotation;
 use crate::mesh::geometry::{add, dot, face_normals, mean_edge_length, scale, sub, vertex_normals};
 use crate::mesh::Topology;
@@ -314,21 +319,36 @@ pub(crate) fn median(d: impl Iterator<Item = f64>) -> f64 {
     *d.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
-/// The per-vertex ARAP rotations of `x` against the rest shape `p`.
-fn rotations(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]]) -> Vec<[[f64; 3]; 3]> {
+/// The per-vertex ARAP rotations of `x` against the rest shape `p` (times the best local scale
+/// in `[0.5, 2]` with [`Prior::Asap`]).
+fn rotations(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]], prior: Prior) -> Vec<[[f64; 3]; 3]> {
     (0..x.len())
         .into_par_iter()
         .map(|i| {
             let mut m = [[0.0; 3]; 3];
+            let mut uu = 0.0;
             for &j in topo.neighbors(i) {
                 let (u, v) = (sub(p[i], p[j as usize]), sub(x[i], x[j as usize]));
+                uu += dot(u, u);
                 for a in 0..3 {
                     for b in 0..3 {
                         m[a][b] += u[a] * v[b];
                     }
                 }
             }
-            horn_rotation(&m).unwrap_or(crate::align::Motion::IDENTITY.rotation)
+            let r = horn_rotation(&m).unwrap_or(crate::align::Motion::IDENTITY.rotation);
+            if prior == Prior::Arap || uu <= 0.0 {
+                return r;
+            }
+            let mut tr = 0.0;
+            for a in 0..3 {
+                for b in 0..3 {
+                    tr += r[b][a] * m[a][b];
+                }
+            }
+            // The best local scale, bounded so that a fan cannot collapse or explode.
+            let s = (tr / uu).clamp(0.5, 2.0);
+            r.map(|row| row.map(|c| c * s))
         })
         .collect()
 }
@@ -424,7 +444,7 @@ fn terms(
     }
     let t = Terms {
         alpha,
-        rot: rotations(topo, p, x),
+        rot: rotations(topo, p, x, opts.prior),
         c,
         y,
         samples: pulls,
