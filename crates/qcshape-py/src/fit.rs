@@ -54,7 +54,8 @@ pub fn fit<'py>(
     let tv = points(template_vertices, "template_vertices", None)?;
     let tf = faces(template_faces, "template_faces")?;
     let topo = crate::meshes::topology(tv.len(), tf, "template_faces")?;
-    let template = Shape::new(topo, tv).map_err(|e| PyValueError::new_err(format!("template_vertices: {e}")))?;
+    let template =
+        Shape::new(topo, tv).map_err(|e| PyValueError::new_err(format!("template_vertices: {e}")))?;
     let pv = points(target_vertices, "target_vertices", None)?;
     let pf: Vec<[u32; 3]> = match target_faces {
         Some(f) => faces(f, "target_faces")?,

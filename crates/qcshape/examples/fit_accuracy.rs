@@ -17,8 +17,8 @@ mod fixture;
 use std::time::Instant;
 
 use qcshape::align::Motion;
-use qcshape::io::{write_mesh, VertexAttributes};
 use qcshape::fit::{fit, initial_alignment, FitOptions, Target};
+use qcshape::io::{write_mesh, VertexAttributes};
 use qcshape::synth::{DeformationKind, InitialShape};
 
 fn main() {
@@ -79,7 +79,13 @@ fn main() {
             let faces = c.template.topology.faces();
             write_mesh(&dir.join("template.ply"), &c.template.positions, faces, &none).expect("write");
             write_mesh(&dir.join(format!("{kind:?}-truth.ply")), &c.truth, faces, &none).expect("write");
-            write_mesh(&dir.join(format!("{kind:?}-target.ply")), &c.target, &c.faces, &none).expect("write");
+            write_mesh(
+                &dir.join(format!("{kind:?}-target.ply")),
+                &c.target,
+                &c.faces,
+                &none,
+            )
+            .expect("write");
         }
         let t0 = Instant::now();
         let f = fit(&c.template, &target, &opts).expect("fit");

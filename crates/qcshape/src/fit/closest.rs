@@ -242,7 +242,7 @@ pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -
         return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
     }
     let den = va + vb + vc;
-    if !(den.abs() > 0.0) || !den.is_finite() {
+    if den == 0.0 || !den.is_finite() {
         // Degenerate (collinear) triangle not caught above: the nearest corner.
         let da = dot(ap, ap);
         let (db, dc) = (dot(bp, bp), dot(cp, cp));
@@ -288,8 +288,8 @@ mod tests {
             // The barycentric coordinates reproduce the point.
             let f = s.topology.faces()[c.primitive as usize];
             let mut p = [0.0; 3];
-            for k in 0..3 {
-                p = add(p, scale(s.positions[f[k] as usize], c.bary[k]));
+            for (&v, &b) in f.iter().zip(&c.bary) {
+                p = add(p, scale(s.positions[v as usize], b));
             }
             assert!(dot(sub(p, c.point), sub(p, c.point)) < 1e-20);
             assert!(c.bary.iter().all(|&b| (-1e-12..=1.0 + 1e-12).contains(&b)));

@@ -353,6 +353,7 @@ fn rotations(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]], prior: Prior) -> V
         .collect()
 }
 
+#[allow(clippy::too_many_arguments)]
 /// Builds the terms at `x` (closest points, robust weights, rotations); also returns how many
 /// template vertices found a correspondence within [`OVERLAP`] outlier distances.
 fn terms(

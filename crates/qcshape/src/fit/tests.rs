@@ -141,7 +141,8 @@ fn a_partial_target_fits_where_it_is() {
 #[test]
 fn tracks_a_sequence_and_is_deterministic() {
     let template = icosphere(2);
-    let frames: Vec<(Vec<[f64; 3]>, Vec<[u32; 3]>)> = (0..3)
+    type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+    let frames: Vec<Mesh> = (0..3)
         .map(|k| {
             let (p, f) = target_points(1.0);
             let t = 0.1 * k as f64;
