@@ -159,23 +159,14 @@ fn folder_name(name: &str) -> String {
 /// One CSV row of quality.csv.
 fn quality_row(w: &mut csv::Writer<Vec<u8>>, name: &str, pose: usize, src: &Path, f: &Fitted) -> Result<()> {
     let q = &f.quality;
-    let num = |x: f64| format!("{x:.6}");
-    w.write_record([
-        name.to_string(),
-        pose.to_string(),
-        src.display().to_string(),
-        num(q.mean),
-        num(q.p95),
-        num(q.hausdorff),
-        num(q.median_vertex),
-        num(q.min_angle),
-        q.flipped.to_string(),
-        num(q.strain_rms),
-        num(q.strain_max),
-        num(q.edge_length),
-        num(f.motion.scale),
-        q.poor.to_string(),
-    ])?;
+    let nums = [q.mean, q.p95, q.hausdorff, q.median_vertex, q.min_angle];
+    let mut row = vec![name.to_string(), pose.to_string(), src.display().to_string()];
+    row.extend(nums.iter().map(|x| format!("{x:.6}")));
+    row.push(q.flipped.to_string());
+    let more = [q.strain_rms, q.strain_max, q.edge_length, f.motion.scale];
+    row.extend(more.iter().map(|x| format!("{x:.6}")));
+    row.push(q.poor.to_string());
+    w.write_record(row)?;
     Ok(())
 }
 
