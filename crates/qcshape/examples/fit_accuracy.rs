@@ -7,7 +7,7 @@
 //! `cargo run --release -p qcshape --example fit_accuracy [-- FINE_LEVEL [NOISE_PERCENT]]`
 //! (target icosphere level, default 4 = 2,562 vertices; noise variance in % of the squared
 //! target edge, default 1). Environment: `SHAPE` (an initial shape, default rounded-box),
-//! `ALIGN` (similarity, rigid or none), `PRIOR` (arap or asap), `STIFF_START`, `STIFF_END`, `S2P` (the options of the
+//! `ALIGN` (similarity, rigid or none), `PRIOR` (arap or asap), `STIFF_START`, `STIFF_END`, `S2P`, `SAMPLES` (the options of the
 //! same names). Time is wall-clock per fit (`ms`); `sym` is the fit's symmetric surface
 //! distance, `strain` its rms edge strain.
 
@@ -36,6 +36,9 @@ fn main() {
     }
     if let Some(v) = env("STIFF_START") {
         opts.stiffness_start = v;
+    }
+    if let Some(v) = env("SAMPLES") {
+        opts.max_samples = v as usize;
     }
     if let Some(v) = env("S2P") {
         opts.surface_to_point = v;

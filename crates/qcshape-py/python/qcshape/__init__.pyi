@@ -97,7 +97,7 @@ def fit(
     alignment: Literal["similarity", "rigid", "none"] = "similarity",
     prior: Literal["arap", "asap"] = "arap",
     stages: int = 6,
-    max_samples: int = 20000,
+    max_samples: int = 3000,
 ) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:
     """The template (nV, 3) + (nF, 3) fitted to a target of any triangulation (or a point cloud:
     target_faces None and plain target vertices): (V (nV, 3) on the template's faces in the

@@ -165,8 +165,9 @@ pub struct FitOptions {
     /// Weight of the surface-to-point term relative to the point-to-surface term, in total
     /// (default 2; 0 turns it off).
     pub surface_to_point: f64,
-    /// Target points used as surface-to-point samples at most (default 20,000; an even stride
-    /// over the target's vertices).
+    /// Target points used as surface-to-point samples at most (default 3,000; an even stride
+    /// over the target's vertices). Measured at 10,242 target vertices: 3,000 samples fit as
+    /// well as 20,000 (median error 0.242 against 0.241 edge lengths) in a third of the time.
     pub max_samples: usize,
     /// Correspondences farther than this many template edge lengths (and farther than 3 times
     /// the median) are rejected as outliers (default 2).
@@ -186,7 +187,7 @@ impl Default for FitOptions {
             stiffness_start: 20.0,
             stiffness_end: 0.1,
             surface_to_point: 2.0,
-            max_samples: 20_000,
+            max_samples: 3_000,
             outlier_distance: 2.0,
             normal_angle: 70.0,
         }
@@ -426,7 +427,7 @@ fn finish(
     target: &Prepared,
     opts: &FitOptions,
 ) -> Fitted {
-    let (quality, residual) = quality::measure(solver.topology(), rest, &positions, target, opts.max_samples);
+    let (quality, residual) = quality::measure(solver.topology(), rest, &positions, target, quality::SAMPLES);
     Fitted {
         positions,
         residual,

@@ -9,6 +9,10 @@ use crate::mesh::geometry::{corner_angles, dot, edge_lengths, face_normals, mean
 use crate::mesh::Topology;
 use rayon::prelude::*;
 
+/// Target points (an even stride) whose distance to the fitted surface enters the quality, at
+/// most.
+pub const SAMPLES: usize = 100_000;
+
 /// A fit is poor when the mean symmetric distance exceeds this many template edge lengths.
 pub const POOR_MEAN: f64 = 0.2;
 /// ... or the 95th percentile of the symmetric distance exceeds this many edge lengths.
@@ -21,7 +25,7 @@ pub const POOR_MIN_ANGLE: f64 = 1.0;
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct FitQuality {
     /// Mean of the symmetric surface distance: the distances of the fitted vertices to the
-    /// target and of the target's points (at most `max_samples`) to the fitted surface, pooled.
+    /// target and of the target's points (at most [`SAMPLES`]) to the fitted surface, pooled.
     pub mean: f64,
     /// Its 95th percentile.
     pub p95: f64,
