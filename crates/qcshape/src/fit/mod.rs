@@ -415,7 +415,7 @@ fn fit_prepared(
     let motion = rigid::initial_alignment(template, target, opts)?;
     let rest: Vec<[f64; 3]> = template.positions.iter().map(|p| motion.apply(*p)).collect();
     let (positions, iterations) = nonrigid::fit(solver, &rest, rest.clone(), target, opts)?;
-    Ok(finish(solver, &rest, positions, motion, iterations, target, opts))
+    Ok(finish(solver, &rest, positions, motion, iterations, target))
 }
 
 fn finish(
@@ -425,7 +425,6 @@ fn finish(
     motion: Motion,
     iterations: usize,
     target: &Prepared,
-    opts: &FitOptions,
 ) -> Fitted {
     let (quality, residual) = quality::measure(solver.topology(), rest, &positions, target, quality::SAMPLES);
     Fitted {
@@ -462,15 +461,7 @@ pub fn fit_sequence(
             Some(prev) => {
                 let (positions, iterations) =
                     nonrigid::fit(&solver, &rest, prev.positions.clone(), &prepared, opts)?;
-                finish(
-                    &solver,
-                    &rest,
-                    positions,
-                    Motion::IDENTITY,
-                    iterations,
-                    &prepared,
-                    opts,
-                )
+                finish(&solver, &rest, positions, Motion::IDENTITY, iterations, &prepared)
             }
         };
         out.push(fitted);
