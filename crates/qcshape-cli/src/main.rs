@@ -35,6 +35,7 @@ mod bounds;
 mod classify;
 mod embed;
 mod experiment;
+mod fit;
 mod geodesic;
 mod info;
 mod input;
@@ -82,6 +83,7 @@ enum Command {
     Classify(classify::Args),
     Embed(embed::Args),
     Experiment(experiment::Args),
+    Fit(fit::Args),
     Lv(lv::Args),
     Localize(localize::Args),
 }
@@ -102,6 +104,7 @@ fn main() -> ExitCode {
         Command::Classify(args) => classify::run(args),
         Command::Embed(args) => embed::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Fit(args) => fit::run(args),
         Command::Lv(args) => lv::run(args),
         Command::Localize(args) => localize::run(args),
     };

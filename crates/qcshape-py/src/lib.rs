@@ -8,6 +8,7 @@ mod convert;
 mod data;
 mod distributed;
 mod errors;
+mod fit;
 mod meshes;
 mod options;
 mod run;
@@ -28,6 +29,7 @@ fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(data::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(data::icosphere, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(data::similarity_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::prepare_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::pair_distances, m)?)?;

@@ -47,6 +47,9 @@ TYPICAL_CALLS = textwrap.dedent(
     X, stress = qs.mds(D, n_components=2, random_state=0)
     table = qs.settings()["steps"]["default"]
     qs.write_mesh("mid.ply", g.path[1], F, point_data={"shift": np.linalg.norm(g.path[1] - V, axis=1)})
+    Vt, Ft = qs.icosphere(2)
+    fitted, residual, quality = qs.fit(V, F, 1.2 * Vt, Ft, alignment="rigid", stages=3)
+    worst: float = float(residual.max()) + float(quality["mean"])
     '''
 )
 

@@ -157,7 +157,7 @@ pub fn best_motion(from: &[[f64; 3]], to: &[[f64; 3]], weights: &[f64], with_sca
 /// Horn's closed form: the rotation maximizing `sum <R u_i, v_i>` from the cross-covariance
 /// `m[a][b] = sum u_a v_b`, as the unit quaternion of the largest eigenvalue of Horn's 4 x 4
 /// matrix. `None` if the eigensolver fails or the result is not finite.
-fn horn_rotation(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+pub(crate) fn horn_rotation(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = *m;
     let k = [
         [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],

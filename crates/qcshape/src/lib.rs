@@ -19,6 +19,7 @@ pub mod dataset;
 pub mod defaults;
 pub mod embed;
 pub mod eval;
+pub mod fit;
 pub mod geodesic;
 pub mod io;
 pub mod limits;

@@ -35,6 +35,8 @@ const ORDER: &[&str] = &[
     "metric",
     "geodesic",
     "transport",
+    // fitting a template to meshes of any triangulation
+    "fit",
     // generated data sets
     "synth",
     // the similarity engine (eq. 13) and what works on its matrices

@@ -16,6 +16,7 @@ A Python layer over the qcshape Rust library (numpy arrays in and out):
     qs.scores(ds.labels, labels)                         # sensitivity, specificity, ari, accuracy
     space.dist(trimesh_a, trimesh_b)                     # mesh objects wherever V or F go:
     qs.ShapeSpace(pyvista_mesh); qs.to_trimesh(V, F)     # trimesh, pyvista, meshio (qs.as_arrays)
+    V, residual, quality = qs.fit(VT, FT, scan_V, scan_F)  # template fitted to any triangulation
 
 Every computation releases the GIL, stops at Ctrl-C (KeyboardInterrupt) and, for long calls,
 prints progress on stderr when it is a terminal (progress=True: always, plain lines off a
@@ -29,6 +30,7 @@ from ._qcshape import (
     Geodesic,
     QcshapeWarning,
     ShapeSpace,
+    fit,
     icosphere,
     mds,
     motion_maps,
@@ -50,6 +52,7 @@ __all__ = [
     "QcshapeWarning",
     "ShapeSpace",
     "as_arrays",
+    "fit",
     "icosphere",
     "mds",
     "motion_maps",

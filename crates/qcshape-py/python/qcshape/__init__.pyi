@@ -88,6 +88,23 @@ def to_pyvista(vertices: _npt.ArrayLike, faces: _npt.ArrayLike) -> Any:
 def to_meshio(vertices: _npt.ArrayLike, faces: _npt.ArrayLike) -> Any:
     """A meshio.Mesh with one "triangle" cell block; a list of them for poses (K, nV, 3)."""
 
+def fit(
+    template_vertices: _Points,
+    template_faces: _Faces,
+    target_vertices: _Points,
+    target_faces: Optional[_Faces] = None,
+    *,
+    alignment: Literal["similarity", "rigid", "none"] = "similarity",
+    prior: Literal["arap", "asap"] = "arap",
+    stages: int = 6,
+    max_samples: int = 3000,
+) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:
+    """The template (nV, 3) + (nF, 3) fitted to a target of any triangulation (or a point cloud:
+    target_faces None and plain target vertices): (V (nV, 3) on the template's faces in the
+    target's frame, residual (nV,) distance to the target, quality dict: mean, p95, hausdorff,
+    median_vertex in template edge lengths, min_angle, flipped, strain_rms, strain_max,
+    edge_length, scale, iterations, poor)."""
+
 def icosphere(level: int = 1) -> Tuple[_F64, _I64]:
     """The unit icosphere, 10 * 4**level + 2 vertices."""
 

@@ -1,0 +1,292 @@
+//! `qcshape fit`: one template mesh fitted to targets of any triangulation (issue 49), written
+//! as a data set with the template's connectivity that `similarity` and `run` read.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use qcshape::align::Alignment;
+use qcshape::dataset::{mesh_files, read_manifest, write_manifest, ManifestRow, MANIFEST_NAME};
+use qcshape::fit::{fit, fit_sequence, FitOptions, Fitted, Target};
+use qcshape::io::{self, MeshData, VertexAttributes};
+use qcshape::limits::{MAX_POSES, MAX_SUBJECTS};
+
+use crate::mesh_format::MeshFormat;
+
+/// Arguments of `qcshape fit`.
+#[derive(Debug, clap::Args)]
+#[command(
+    about = "Fit one template mesh to meshes of any triangulation (or point clouds); write a data set",
+    long_about = "Fit one template mesh to target meshes of any triangulation, so that data whose \
+poses do not share one connectivity (segmentations, scans, meshes from other tools) can be \
+compared: each target gets the template's connectivity at positions on its surface.\n\n\
+Each fit: a similarity alignment (centroid, scale, principal axes with their sign choices, \
+refined by ICP; --alignment), then a non-rigid fit under an as-rigid-as-possible prior whose \
+stiffness is annealed from stiff to soft (point-to-surface and surface-to-point terms, outliers, \
+boundaries and opposed normals rejected). Targets without faces are point clouds. docs/fit.md \
+describes the method and its measured accuracy.\n\n\
+TARGETS are mesh files (one deformation, poses in the given order), a folder of mesh files, or \
+a manifest CSV (deformation,label,pose,path; a folder holding manifest.csv counts as one): every \
+deformation's poses are fitted. With --sequence, each deformation's first pose is fitted from \
+the template and each next pose from the previous fit (tracking); without, every pose from the \
+template.\n\n\
+Writes OUT/<deformation>/pose<k>.<ext> (the fitted template; PLY and VTK files carry the \
+per-vertex distance to the target as `residual`), OUT/manifest.csv for `qcshape similarity` \
+and `run`, and OUT/quality.csv: per pose the symmetric surface distance (mean, 95th \
+percentile, Hausdorff, in template mean edge lengths), the smallest angle, flipped triangles, \
+edge strain, and whether the fit is poor (a warning line on stderr names each poor fit).",
+    after_help = "Examples:\n  qcshape fit --template base.ply --out fitted scans/\n  qcshape fit --template base.ply --out fitted --sequence frame*.stl\n  qcshape fit --template base.ply --out fitted cohort/manifest.csv --sequence"
+)]
+pub struct Args {
+    /// The template mesh (a manifold triangle mesh; its connectivity is written).
+    #[arg(long)]
+    pub template: PathBuf,
+    /// Target mesh files, a folder of them, or a manifest CSV.
+    #[arg(required = true)]
+    pub targets: Vec<PathBuf>,
+    /// Output folder (created if missing; must not hold an input).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Track each deformation: pose k + 1 is fitted from the fit of pose k.
+    #[arg(long)]
+    pub sequence: bool,
+    /// Initial alignment: similarity (rotation, translation, scale), rigid, or none (the
+    /// template is already placed on the targets).
+    #[arg(long, default_value = "similarity")]
+    pub alignment: Alignment,
+    /// Deformation prior: arap (as-rigid-as-possible, edge strain; the default) or asap
+    /// (as-similar-as-possible: local scaling is free; better for tapers, worse for ripples).
+    #[arg(long, default_value = "arap")]
+    pub prior: qcshape::fit::Prior,
+    /// Deformation name when TARGETS are mesh files or a folder.
+    #[arg(long, default_value = "fit")]
+    pub name: String,
+    /// Stiffness stages (annealed from stiff to soft). At most 1,000.
+    #[arg(long, default_value_t = 6, value_parser = crate::bounds::count::<usize>(1, 1000), allow_negative_numbers = true)]
+    pub stages: usize,
+    /// Mesh file format of the fitted poses.
+    #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
+    pub format: MeshFormat,
+}
+
+/// One deformation to fit: name, label and pose files in order.
+struct Group {
+    name: String,
+    label: Option<String>,
+    files: Vec<PathBuf>,
+}
+
+/// The deformations of TARGETS, and every input file (for the overlap check).
+fn groups(args: &Args) -> Result<(Vec<Group>, Vec<PathBuf>)> {
+    let mut inputs = vec![args.template.clone()];
+    let manifest = match args.targets.as_slice() {
+        [one] if one.is_dir() && one.join(MANIFEST_NAME).is_file() => Some(one.join(MANIFEST_NAME)),
+        [one] if one.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) => Some(one.clone()),
+        _ => None,
+    };
+    let Some(manifest) = manifest else {
+        let mut files = Vec::new();
+        for t in &args.targets {
+            if t.is_dir() {
+                files.extend(mesh_files(t)?);
+            } else {
+                files.push(t.clone());
+            }
+            if files.len() > MAX_POSES {
+                bail!("more than {MAX_POSES} target files");
+            }
+        }
+        if files.is_empty() {
+            bail!("no mesh files among the targets");
+        }
+        inputs.extend(files.iter().cloned());
+        let g = Group {
+            name: args.name.clone(),
+            label: None,
+            files,
+        };
+        return Ok((vec![g], inputs));
+    };
+    inputs.push(manifest.clone());
+    let base = manifest.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut rows = read_manifest(&manifest)?;
+    if rows.len() > MAX_POSES.saturating_mul(MAX_SUBJECTS) {
+        bail!("{}: too many rows", manifest.display());
+    }
+    rows.sort_by_key(|(_, r)| r.pose);
+    let mut out: Vec<Group> = Vec::new();
+    // Deformations in the order of their first line.
+    let mut first: Vec<(u64, String)> = Vec::new();
+    for (line, r) in &rows {
+        match first.iter_mut().find(|f| f.1 == r.deformation) {
+            Some(f) => f.0 = f.0.min(*line),
+            None => first.push((*line, r.deformation.clone())),
+        }
+    }
+    first.sort();
+    for (_, name) in first {
+        let poses: Vec<&ManifestRow> = rows
+            .iter()
+            .map(|r| &r.1)
+            .filter(|r| r.deformation == name)
+            .collect();
+        let files: Vec<PathBuf> = poses.iter().map(|r| base.join(&r.path)).collect();
+        inputs.extend(files.iter().cloned());
+        let label = poses.iter().find_map(|r| r.label.clone());
+        out.push(Group { name, label, files });
+    }
+    Ok((out, inputs))
+}
+
+/// A file-system-safe folder name for a deformation.
+fn folder_name(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || s.starts_with('.') {
+        format!("_{s}")
+    } else {
+        s
+    }
+}
+
+/// One CSV row of quality.csv.
+fn quality_row(w: &mut csv::Writer<Vec<u8>>, name: &str, pose: usize, src: &Path, f: &Fitted) -> Result<()> {
+    let q = &f.quality;
+    let nums = [q.mean, q.p95, q.hausdorff, q.median_vertex, q.min_angle];
+    let mut row = vec![name.to_string(), pose.to_string(), src.display().to_string()];
+    row.extend(nums.iter().map(|x| format!("{x:.6}")));
+    row.push(q.flipped.to_string());
+    let more = [q.strain_rms, q.strain_max, q.edge_length, f.motion.scale];
+    row.extend(more.iter().map(|x| format!("{x:.6}")));
+    row.push(q.poor.to_string());
+    w.write_record(row)?;
+    Ok(())
+}
+
+/// Runs `qcshape fit`.
+pub fn run(args: &Args) -> Result<()> {
+    let (groups, inputs) = groups(args)?;
+    let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    crate::input::refuse_out_folder(&input_refs, &args.out, "--out")?;
+    let template = io::load_shape(&args.template)?;
+    let opts = FitOptions {
+        alignment: args.alignment,
+        prior: args.prior,
+        stages: args.stages,
+        ..FitOptions::default()
+    };
+    opts.check()?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create", args.out.display()))?;
+    let total: usize = groups.iter().map(|g| g.files.len()).sum();
+    let pb = crate::progress::bar(total, "fitting");
+    let mut manifest = Vec::new();
+    let mut quality = csv::Writer::from_writer(Vec::new());
+    quality.write_record([
+        "deformation",
+        "pose",
+        "source",
+        "mean",
+        "p95",
+        "hausdorff",
+        "median_vertex",
+        "min_angle",
+        "flipped",
+        "strain_rms",
+        "strain_max",
+        "edge_length",
+        "scale",
+        "poor",
+    ])?;
+    let (mut poor, mut worst) = (0usize, 0.0f64);
+    let mut used = std::collections::BTreeSet::new();
+    for g in &groups {
+        let meshes: Vec<MeshData> = g
+            .files
+            .iter()
+            .map(|f| io::read_mesh(f))
+            .collect::<Result<_, _>>()?;
+        let targets: Vec<Target> = meshes
+            .iter()
+            .map(|m| Target {
+                positions: &m.positions,
+                faces: &m.faces,
+            })
+            .collect();
+        let what = |k: usize| format!("{}: ", g.files[k].display());
+        let fitted: Vec<Fitted> = if args.sequence {
+            fit_sequence(&template, &targets, &opts, |_| pb.inc(1))
+                .context(what(0).trim_end_matches(": ").to_string())?
+        } else {
+            let mut v = Vec::with_capacity(targets.len());
+            for (k, t) in targets.iter().enumerate() {
+                v.push(fit(&template, t, &opts).with_context(|| what(k).trim_end_matches(": ").to_string())?);
+                pb.inc(1);
+            }
+            v
+        };
+        let mut folder = folder_name(&g.name);
+        while !used.insert(folder.clone()) {
+            folder.push('_');
+        }
+        std::fs::create_dir_all(args.out.join(&folder))?;
+        for (k, f) in fitted.iter().enumerate() {
+            let rel = PathBuf::from(&folder).join(format!("pose{k}.{}", args.format.extension()));
+            let attrs = VertexAttributes {
+                scalar: args
+                    .format
+                    .has_fields()
+                    .then_some(("residual", f.residual.as_slice())),
+                colors: None,
+            };
+            io::write_mesh(
+                &args.out.join(&rel),
+                &f.positions,
+                template.topology.faces(),
+                &attrs,
+            )?;
+            manifest.push(ManifestRow {
+                deformation: g.name.clone(),
+                label: g.label.clone(),
+                pose: k as i64,
+                path: rel,
+            });
+            quality_row(&mut quality, &g.name, k, &g.files[k], f)?;
+            worst = worst.max(f.quality.mean);
+            if f.quality.poor {
+                poor += 1;
+                pb.suspend(|| {
+                    eprintln!(
+                        "warning: poor fit of {} (deformation {}, pose {k}): {}",
+                        g.files[k].display(),
+                        g.name,
+                        f.quality.problems().join(", ")
+                    )
+                });
+            }
+        }
+    }
+    pb.finish_and_clear();
+    let q = quality
+        .into_inner()
+        .map_err(|e| anyhow::anyhow!("quality.csv: {e}"))?;
+    io::write_atomically(&args.out.join("quality.csv"), |w| w.write_all(&q))?;
+    let manifest_path = args.out.join(MANIFEST_NAME);
+    write_manifest(&manifest_path, &manifest)?;
+    outln!(
+        "fitted {} ({} vertices) to {total} poses of {} deformations{}; worst mean distance {worst:.3} edge lengths, {poor} poor; wrote {} and {}",
+        args.template.display(),
+        template.n_vertices(),
+        groups.len(),
+        if args.sequence { " (tracked)" } else { "" },
+        manifest_path.display(),
+        args.out.join("quality.csv").display()
+    );
+    Ok(())
+}

@@ -1,0 +1,99 @@
+//! `qs.fit`: one template mesh fitted to a target of any triangulation or a point cloud
+//! ([`qcshape::fit`], issue 49).
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use qcshape::align::Alignment;
+use qcshape::fit::{FitOptions, Target};
+use qcshape::mesh::Shape;
+
+use crate::convert::{count, faces, points, points_out, AnyInt};
+
+/// fit(template_vertices, template_faces, target_vertices, target_faces=None, *,
+/// alignment="similarity", prior="arap", stages=6, max_samples=3000) -> (V, residual, quality)
+///
+/// Fits the template (vertices (nV, 3), faces (nF, 3); a trimesh / pyvista / meshio mesh may
+/// stand for either) to the target surface (vertices (nP, 3) and faces (nT, 3) of any
+/// triangulation; a mesh object's own faces when target_faces is None and target_vertices is
+/// a mesh; a plain (nP, 3) array alone is a point cloud). Returns the fitted positions V
+/// (nV, 3) on the template's connectivity in the target's frame and units, the distance of
+/// each fitted vertex to the target (nV,), and the quality as a dict: mean, p95, hausdorff and
+/// median_vertex (symmetric surface distance in template mean edge lengths), min_angle
+/// (degrees), flipped (triangles), strain_rms, strain_max, edge_length (target units), scale
+/// (of the initial alignment), iterations and poor (bool). alignment: "similarity", "rigid" or
+/// "none"; prior: "arap" (as-rigid-as-possible) or "asap" (local scaling free). ValueError for bad input (empty target, NaN, a non-manifold template, no overlap).
+#[pyfunction]
+#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="arap", stages=AnyInt::new(6), max_samples=AnyInt::new(3000)))]
+#[allow(clippy::too_many_arguments)]
+pub fn fit<'py>(
+    py: Python<'py>,
+    template_vertices: &Bound<'py, PyAny>,
+    template_faces: &Bound<'py, PyAny>,
+    target_vertices: &Bound<'py, PyAny>,
+    target_faces: Option<&Bound<'py, PyAny>>,
+    alignment: &str,
+    prior: &str,
+    stages: AnyInt,
+    max_samples: AnyInt,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+    let alignment: Alignment = alignment
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("alignment: {e}")))?;
+    let prior: qcshape::fit::Prior = prior
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("prior: {e}")))?;
+    let opts = FitOptions {
+        alignment,
+        prior,
+        stages: count("stages", stages, 1, qcshape::limits::MAX_SWEEPS)?,
+        max_samples: count("max_samples", max_samples, 1, qcshape::limits::MAX_VERTICES)?,
+        ..FitOptions::default()
+    };
+    let tv = points(template_vertices, "template_vertices", None)?;
+    let tf = faces(template_faces, "template_faces")?;
+    let topo = crate::meshes::topology(tv.len(), tf, "template_faces")?;
+    let template =
+        Shape::new(topo, tv).map_err(|e| PyValueError::new_err(format!("template_vertices: {e}")))?;
+    let pv = points(target_vertices, "target_vertices", None)?;
+    let pf: Vec<[u32; 3]> = match target_faces {
+        Some(f) => faces(f, "target_faces")?,
+        None => match crate::meshes::faces_arg(target_vertices)? {
+            (f, Some(_)) => faces(&f, "target_vertices")?,
+            _ => Vec::new(),
+        },
+    };
+    let fitted = py
+        .detach(|| {
+            qcshape::fit::fit(
+                &template,
+                &Target {
+                    positions: &pv,
+                    faces: &pf,
+                },
+                &opts,
+            )
+        })
+        .map_err(|e| PyValueError::new_err(format!("fit: {e}")))?;
+    let q = &fitted.quality;
+    let d = PyDict::new(py);
+    for (k, v) in [
+        ("mean", q.mean),
+        ("p95", q.p95),
+        ("hausdorff", q.hausdorff),
+        ("median_vertex", q.median_vertex),
+        ("min_angle", q.min_angle),
+        ("strain_rms", q.strain_rms),
+        ("strain_max", q.strain_max),
+        ("edge_length", q.edge_length),
+        ("scale", fitted.motion.scale),
+    ] {
+        d.set_item(k, v)?;
+    }
+    d.set_item("flipped", q.flipped)?;
+    d.set_item("iterations", fitted.iterations)?;
+    d.set_item("poor", q.poor)?;
+    let residual = numpy::PyArray1::from_vec(py, fitted.residual).into_any();
+    Ok((points_out(py, &fitted.positions)?, residual, d))
+}

@@ -1,0 +1,255 @@
+//! Tests of the whole fit (closest points, alignment and the non-rigid solve together) on
+//! small meshes; the ground-truth comparison with the baseline is in `tests/fit.rs`.
+
+use super::*;
+use crate::mesh::Topology;
+use crate::synth::icosphere;
+
+/// A level-3 sphere (642 vertices) stretched into an ellipsoid and dented: a target on another
+/// triangulation than the level-1 or level-2 template.
+fn target_points(scale_by: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let s = icosphere(3);
+    let p = s
+        .positions
+        .iter()
+        .map(|p| [1.3 * p[0], 0.9 * p[1], p[2] + 0.2 * p[0] * p[0]].map(|c| c * scale_by))
+        .collect();
+    (p, s.topology.faces().to_vec())
+}
+
+fn max_residual(f: &Fitted) -> f64 {
+    f.residual.iter().fold(0.0f64, |m, r| m.max(*r)) / f.quality.edge_length
+}
+
+#[test]
+fn fits_a_surface_of_another_triangulation() {
+    let template = icosphere(2);
+    let (p, faces) = target_points(1.0);
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &FitOptions::default(),
+    )
+    .unwrap();
+    assert!(f.quality.mean < 0.1, "{:?}", f.quality);
+    assert!(max_residual(&f) < 0.2, "{}", max_residual(&f));
+    assert_eq!(f.quality.flipped, 0);
+    assert!(!f.quality.poor, "{:?}", f.quality.problems());
+    assert_eq!(f.positions.len(), template.n_vertices());
+}
+
+#[test]
+fn scale_invariant() {
+    // An asymmetric template, so that the fit is unique (a sphere fits in any orientation).
+    let s = icosphere(2);
+    let bent = s
+        .positions
+        .iter()
+        .map(|p| [p[0] + 0.3 * p[1] * p[1], p[1], 1.2 * p[2] + 0.2 * p[0]])
+        .collect();
+    let template = Shape::new(s.topology.clone(), bent).unwrap();
+    let mut means = Vec::new();
+    let mut shapes = Vec::new();
+    for k in [0.01, 1.0, 100.0] {
+        let (p, faces) = target_points(k);
+        let f = fit(
+            &template,
+            &Target {
+                positions: &p,
+                faces: &faces,
+            },
+            &FitOptions::default(),
+        )
+        .unwrap();
+        assert!((f.motion.scale / k - 1.0).abs() < 0.05, "{k}: {}", f.motion.scale);
+        means.push(f.quality.mean);
+        shapes.push(f.positions.iter().map(|x| x.map(|c| c / k)).collect::<Vec<_>>());
+    }
+    for m in &means {
+        assert!((m - means[1]).abs() < 1e-3, "{means:?}");
+    }
+    let d = crate::align::rms_distance(&shapes[0], &shapes[2]);
+    assert!(d < 1e-4, "{d}");
+}
+
+#[test]
+fn point_clouds_use_the_point_terms() {
+    let template = icosphere(2);
+    let (p, _) = target_points(1.0);
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &[],
+        },
+        &FitOptions::default(),
+    )
+    .unwrap();
+    // The distance to a point set includes the gaps between its points (about half an edge
+    // of the level-3 target, a quarter of the template's).
+    assert!(f.quality.median_vertex < 0.25, "{:?}", f.quality);
+    assert_eq!(f.quality.flipped, 0);
+}
+
+#[test]
+fn a_partial_target_fits_where_it_is() {
+    let template = icosphere(2);
+    let (p, faces) = target_points(1.0);
+    // Keep the faces above z = -0.3: about 65 % of the surface, one open boundary.
+    let kept: Vec<[u32; 3]> = faces
+        .iter()
+        .copied()
+        .filter(|f| f.iter().all(|&i| p[i as usize][2] > -0.3))
+        .collect();
+    let opts = FitOptions {
+        alignment: Alignment::None,
+        ..FitOptions::default()
+    };
+    let f = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &kept,
+        },
+        &opts,
+    )
+    .unwrap();
+    let whole = fit(
+        &template,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &opts,
+    )
+    .unwrap();
+    // Where the target is, the partial fit agrees with the fit to the whole surface.
+    let mut worst: f64 = 0.0;
+    for (i, x) in template.positions.iter().enumerate() {
+        if x[2] > 0.0 {
+            let d = crate::mesh::geometry::norm(sub(f.positions[i], whole.positions[i]));
+            worst = worst.max(d / f.quality.edge_length);
+        }
+    }
+    assert!(worst < 0.5, "{worst}");
+    assert_eq!(f.quality.flipped, 0);
+}
+
+#[test]
+fn tracks_a_sequence_and_is_deterministic() {
+    let template = icosphere(2);
+    type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+    let frames: Vec<Mesh> = (0..3)
+        .map(|k| {
+            let (p, f) = target_points(1.0);
+            let t = 0.1 * k as f64;
+            (p.iter().map(|x| [x[0] + t * x[2], x[1], x[2]]).collect(), f)
+        })
+        .collect();
+    let targets: Vec<Target> = frames
+        .iter()
+        .map(|(p, f)| Target {
+            positions: p,
+            faces: f,
+        })
+        .collect();
+    let mut seen = Vec::new();
+    let a = fit_sequence(&template, &targets, &FitOptions::default(), |k| seen.push(k)).unwrap();
+    assert_eq!(seen, [0, 1, 2]);
+    for f in &a {
+        assert!(f.quality.mean < 0.1, "{:?}", f.quality);
+    }
+    assert_eq!(a[1].motion, Motion::IDENTITY);
+    let b = fit_sequence(&template, &targets, &FitOptions::default(), |_| {}).unwrap();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn refuses_bad_input_with_one_line() {
+    let template = icosphere(1);
+    let (p, faces) = target_points(1.0);
+    let opts = FitOptions::default();
+    let err = |t: Target| fit(&template, &t, &opts).unwrap_err();
+    assert_eq!(
+        err(Target {
+            positions: &[],
+            faces: &[]
+        }),
+        FitError::EmptyTarget
+    );
+    let mut nan = p.clone();
+    nan[3][1] = f64::NAN;
+    assert!(matches!(
+        err(Target {
+            positions: &nan,
+            faces: &faces
+        }),
+        FitError::NonFinite {
+            what: "target",
+            vertex: 3
+        }
+    ));
+    let bad_faces = vec![[0, 1, 9999]];
+    assert!(matches!(
+        err(Target {
+            positions: &p,
+            faces: &bad_faces
+        }),
+        FitError::FaceIndex { index: 9999, .. }
+    ));
+    // Far away and no alignment: no overlap.
+    let far: Vec<[f64; 3]> = p.iter().map(|x| [x[0] + 50.0, x[1], x[2]]).collect();
+    let none = FitOptions {
+        alignment: Alignment::None,
+        ..FitOptions::default()
+    };
+    let e = fit(
+        &template,
+        &Target {
+            positions: &far,
+            faces: &faces,
+        },
+        &none,
+    )
+    .unwrap_err();
+    assert!(matches!(e, FitError::NoOverlap { .. }), "{e}");
+    assert!(!e.to_string().contains('\n'));
+    let zero = FitOptions {
+        stages: 0,
+        ..FitOptions::default()
+    };
+    assert!(matches!(
+        fit(
+            &template,
+            &Target {
+                positions: &p,
+                faces: &faces
+            },
+            &zero
+        ),
+        Err(FitError::Option { name: "stages", .. })
+    ));
+    // A template with a bowtie vertex (two fans meeting at vertex 0).
+    let bow = Topology::allowing_nonmanifold_vertices(5, vec![[0, 1, 2], [0, 3, 4]]).unwrap();
+    let pos = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+    ];
+    let shape = Shape::new(bow, pos).unwrap();
+    let e = fit(
+        &shape,
+        &Target {
+            positions: &p,
+            faces: &faces,
+        },
+        &opts,
+    )
+    .unwrap_err();
+    assert!(matches!(e, FitError::Template(_)), "{e}");
+}
