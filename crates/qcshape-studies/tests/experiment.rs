@@ -131,3 +131,86 @@ fn analysis_of_two_motions_recovers_the_classes() {
     assert_eq!(c.shares.pairs, 28);
     assert!(md.contains("Energy share of the L2 regularizer"), "{md}");
 }
+
+/// `experiment robustness` at two resolutions in one run (issue 51): two shapes x two kinds, the
+/// clean scenario, the three baselines and the default (isometric) pipeline at levels 1 and 2.
+#[test]
+fn robustness_at_two_levels_has_a_column_group_per_level() {
+    use qcshape::synth::{DeformationKind, InitialShape};
+    use qcshape_studies::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
+    let clean = Scenario::defaults()
+        .into_iter()
+        .find(|s| s.name == "clean")
+        .unwrap();
+    let mut methods: Vec<Method> = Baseline::all().into_iter().map(Method::Baseline).collect();
+    methods.push(Method::Pipeline {
+        name: "isometric".into(),
+        options: Box::new(PipelineOptions {
+            geodesic: GeodesicOptions {
+                steps: 2,
+                ..Default::default()
+            },
+            ..Default::default()
+        }),
+    });
+    let opts = RobustnessOptions {
+        levels: vec![1, 2],
+        shapes: vec![InitialShape::Sphere, InitialShape::Ellipsoid],
+        kinds: vec![DeformationKind::Twist, DeformationKind::Bulge],
+        poses: 3,
+        scenarios: vec![clean],
+        methods,
+        seed: 0,
+        restarts: 4,
+        max_restarts: 64,
+    };
+    let r = run(&opts, &|_, _, _| {}).unwrap();
+    assert_eq!(r.levels, vec![(1, 42), (2, 162)]);
+    assert_eq!(r.rows.len(), 2 * 4);
+    for level in [1, 2] {
+        for m in ["displacement", "aligned-displacement", "edge-strain", "isometric"] {
+            let row = r.row(level, "clean", m).unwrap_or_else(|| panic!("{level} {m}"));
+            assert_eq!(row.vertices, if level == 1 { 42 } else { 162 });
+            for v in [row.nn, row.kmeans, row.kmedoids, row.sensitivity, row.specificity] {
+                assert!((0.0..=1.0).contains(&v), "{row:?}");
+            }
+            assert!((-1.0..=1.0).contains(&row.ari), "{row:?}");
+            assert!(row.kmeans_restarts >= 4 && row.kmeans_restarts <= 64, "{row:?}");
+            assert!(
+                row.kmedoids_restarts >= 4 && row.kmedoids_restarts <= 64,
+                "{row:?}"
+            );
+        }
+        // A twist and a bulge on two shapes, clean: every method separates the two motions.
+        let iso = r.row(level, "clean", "isometric").unwrap();
+        assert_eq!((iso.nn, iso.kmeans, iso.kmedoids), (1.0, 1.0, 1.0), "{iso:?}");
+        assert!(
+            iso.converged && iso.kmeans_agreed && iso.kmedoids_agreed,
+            "{iso:?}"
+        );
+    }
+    let md = r.to_markdown();
+    assert!(
+        md.contains("level 1 (42 vertices), level 2 (162 vertices)"),
+        "{md}"
+    );
+    for v in [42, 162] {
+        for m in ["best baseline", "displacement", "edge-strain", "isometric"] {
+            assert!(md.contains(&format!("| {m} @ {v} v |")), "{m} @ {v}: {md}");
+        }
+    }
+    let csv = r.to_csv();
+    assert_eq!(csv.lines().count(), 1 + 8);
+    assert!(
+        csv.lines()
+            .skip(1)
+            .any(|l| l.starts_with("1,42,clean,isometric,")),
+        "{csv}"
+    );
+    assert!(
+        csv.lines()
+            .skip(1)
+            .any(|l| l.starts_with("2,162,clean,isometric,")),
+        "{csv}"
+    );
+}

@@ -26,18 +26,22 @@ use crate::args::SolverArgs;
 /// metric (the pipeline's defaults: rigid alignment, Euclidean transfer, eq. 13) and three
 /// baselines (concatenated displacement fields, the same after rigid alignment, edge strain) give
 /// a distance matrix, scored by leave-one-out 1-NN, kernel k-means and k-medoids accuracy
-/// (Hungarian matching), eq. 15 and ARI. Writes DIR/robustness.csv and DIR/robustness.md and
-/// prints the Markdown.
+/// (Hungarian matching), eq. 15 and ARI. The clusterings are stable: the best objective over
+/// restarts doubled from --restarts (up to --max-restarts) until the seeds --seed and --seed + 1
+/// keep the same partition twice in a row; the restarts used are reported. Several --level
+/// values run the same benchmark at each resolution, one column group per level. Writes
+/// DIR/robustness.csv and DIR/robustness.md and prints the Markdown.
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Similarity under rigid motion, noise, amplitude and timing, against baselines",
     long_about
 )]
 pub struct Args {
-    /// Icosphere level (2 = 162 vertices, 3 = 642).
+    /// Icosphere levels (comma-separated: 2 = 162 vertices, 3 = 642, 4 = 2,562; each a column
+    /// group of the tables).
     /// At most 8.
-    #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
-    level: u32,
+    #[arg(long, value_delimiter = ',', default_value = "2", value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
+    level: Vec<u32>,
     /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
     #[arg(
         long,
@@ -76,10 +80,14 @@ pub struct Args {
     /// At most 10,000.
     #[arg(long, default_value_t = 4, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     poses: usize,
-    /// Clustering restarts.
+    /// Clustering restarts per seed in the stable protocol's first round.
     /// At most 10,000.
     #[arg(long, default_value_t = qcshape::defaults::RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
+    /// Most clustering restarts per seed the stable protocol grows to (at least --restarts).
+    /// At most 10,000.
+    #[arg(long, default_value_t = qcshape::cluster::stable::MAX_STABLE_RESTARTS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
+    max_restarts: usize,
     /// Seed of the data and the clusterings.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]
     seed: u64,
@@ -92,6 +100,13 @@ pub struct Args {
 pub fn run_command(args: &Args) -> Result<()> {
     if !(args.lambda >= 0.0 && args.lambda.is_finite()) {
         bail!("--lambda must be a non-negative number");
+    }
+    if args.max_restarts < args.restarts {
+        bail!(
+            "--max-restarts ({}) must be at least --restarts ({})",
+            args.max_restarts,
+            args.restarts
+        );
     }
     let all = Scenario::defaults();
     let scenarios: Vec<Scenario> = if args.scenarios.is_empty() {
@@ -151,25 +166,26 @@ pub fn run_command(args: &Args) -> Result<()> {
         });
     }
     let mut opts = RobustnessOptions {
-        level: args.level,
+        levels: args.level.clone(),
         poses: args.poses,
         scenarios,
         methods,
         seed: args.seed,
         restarts: args.restarts,
+        max_restarts: args.max_restarts,
         ..Default::default()
     };
     if !args.shapes.is_empty() {
         opts.shapes = args.shapes.clone();
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let total = opts.scenarios.len() * opts.methods.len();
+    let total = opts.levels.len() * opts.scenarios.len() * opts.methods.len();
     let done = AtomicUsize::new(0);
     let t0 = Instant::now();
-    let report = run(&opts, &|scenario, method| {
+    let report = run(&opts, &|level, scenario, method| {
         let k = done.fetch_add(1, Ordering::Relaxed) + 1;
         eprintln!(
-            "[{k}/{total}, {:.0} s] {scenario}: {method}",
+            "[{k}/{total}, {:.0} s] level {level}, {scenario}: {method}",
             t0.elapsed().as_secs_f64()
         );
     })?;

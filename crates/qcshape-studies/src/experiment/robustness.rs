@@ -5,8 +5,12 @@
 //!
 //! For every scenario the data set is [`perturbed_benchmark`]; every method gives a distance
 //! matrix; each matrix is scored by leave-one-out 1-NN accuracy, kernel k-means and k-medoids
-//! accuracy after Hungarian matching (seeded restarts), eq. 15 sensitivity / specificity and the
-//! adjusted Rand index of the k-medoids clustering.
+//! accuracy after Hungarian matching, eq. 15 sensitivity / specificity and the adjusted Rand
+//! index of the k-medoids clustering. The clusterings follow the stable protocol
+//! ([`qcshape::cluster::stable`]): the best objective over restarts grown until the seeds `seed`
+//! and `seed + 1` keep the same partition (or a cap), the restarts used reported per row. One
+//! run can cover several mesh resolutions (icosphere levels): the same scenarios, methods and
+//! seeds at each level, one column group per level in the tables.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -15,7 +19,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use qcshape::align::{align_deformation, Alignment};
-use qcshape::cluster::{kernel_kmeans, kmedoids, ClusterError, ClusterOptions, Clustering};
+use qcshape::cluster::{stable_kernel_kmeans, stable_kmedoids, ClusterError, Clustering, StableOptions};
 use qcshape::dataset::Deformation;
 use qcshape::eval::{
     adjusted_rand_index, encode_labels, loo_nearest_neighbour_accuracy, matched_confusion, one_vs_rest,
@@ -216,8 +220,9 @@ impl Method {
 /// Options of [`run`].
 #[derive(Debug, Clone)]
 pub struct RobustnessOptions {
-    /// Icosphere level of the shapes (2 = 162 vertices, 3 = 642).
-    pub level: u32,
+    /// Icosphere levels of the shapes, one resolution each (2 = 162 vertices, 3 = 642,
+    /// 4 = 2,562); at least one, no repeats, each at most [`qcshape::limits::MAX_ICOSPHERE_LEVEL`].
+    pub levels: Vec<u32>,
     /// The initial shapes.
     pub shapes: Vec<InitialShape>,
     /// The deformation kinds (the classes).
@@ -228,16 +233,20 @@ pub struct RobustnessOptions {
     pub scenarios: Vec<Scenario>,
     /// The methods compared (baselines included).
     pub methods: Vec<Method>,
-    /// Seed of the data and of the clusterings.
+    /// Seed of the data and of the clusterings (the stable protocol's seeds are `seed` and
+    /// `seed + 1`).
     pub seed: u64,
-    /// Restarts of each clustering.
+    /// Restarts per seed of the stable protocol's first round.
     pub restarts: usize,
+    /// Most restarts per seed of the stable protocol.
+    pub max_restarts: usize,
 }
 
 impl Default for RobustnessOptions {
     /// 6 shapes x 10 kinds (the paper's eight and two with curved trajectories), 4 poses, at
     /// level 3 (642 vertices), every default scenario, the three baselines and the five
-    /// metrics with the pipeline's defaults, 20 restarts, seed 0.
+    /// metrics with the pipeline's defaults, the stable protocol from 20 restarts up to 1,280,
+    /// seed 0.
     fn default() -> Self {
         let mut methods: Vec<Method> = Baseline::all().into_iter().map(Method::Baseline).collect();
         for kind in qcshape::metric::MetricKind::all() {
@@ -251,7 +260,7 @@ impl Default for RobustnessOptions {
             });
         }
         RobustnessOptions {
-            level: 3,
+            levels: vec![3],
             shapes: InitialShape::all().to_vec(),
             kinds: DeformationKind::extended().to_vec(),
             poses: 4,
@@ -259,6 +268,7 @@ impl Default for RobustnessOptions {
             methods,
             seed: 0,
             restarts: qcshape::defaults::RESTARTS,
+            max_restarts: qcshape::cluster::stable::MAX_STABLE_RESTARTS,
         }
     }
 }
@@ -266,6 +276,10 @@ impl Default for RobustnessOptions {
 /// The scores of one method in one scenario (accuracies in [0, 1]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Row {
+    /// Icosphere level.
+    pub level: u32,
+    /// Vertices per mesh at this level.
+    pub vertices: usize,
     /// Scenario name.
     pub scenario: String,
     /// Method name.
@@ -284,6 +298,14 @@ pub struct Row {
     pub specificity: f64,
     /// Adjusted Rand index of the k-medoids clustering.
     pub ari: f64,
+    /// Restarts per seed the kernel k-means protocol used.
+    pub kmeans_restarts: usize,
+    /// Whether its two seeds agreed (false: stopped at the cap).
+    pub kmeans_agreed: bool,
+    /// Restarts per seed the k-medoids protocol used.
+    pub kmedoids_restarts: usize,
+    /// Whether its two seeds agreed (false: stopped at the cap).
+    pub kmedoids_agreed: bool,
     /// Seconds to compute the matrix.
     pub seconds: f64,
     /// Whether every geodesic converged.
@@ -293,17 +315,19 @@ pub struct Row {
 /// The result of [`run`].
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct RobustnessReport {
-    /// Vertices per mesh.
-    pub vertices: usize,
+    /// The levels, in order, with their vertices per mesh.
+    pub levels: Vec<(u32, usize)>,
     /// Deformations per scenario.
     pub deformations: usize,
     /// Classes.
     pub classes: usize,
-    /// Seed.
+    /// Seed (of the data; the clusterings' seeds are it and the next).
     pub seed: u64,
+    /// The stable protocol's first-round restarts per seed and its cap.
+    pub restarts: (usize, usize),
     /// The scenarios, in order.
     pub scenarios: Vec<Scenario>,
-    /// One row per scenario and method.
+    /// One row per level, scenario and method.
     pub rows: Vec<Row>,
 }
 
@@ -339,33 +363,64 @@ fn clustering_scores(c: &Clustering, classes: &[usize], k: usize) -> Result<(f64
     Ok((cm.accuracy(), ovr.sensitivity, ovr.specificity, ari))
 }
 
-/// Scores a distance matrix against class indices (`k` classes).
+/// The scores of one matrix (see [`Row`] for the fields).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scores {
+    /// Leave-one-out 1-NN accuracy.
+    pub nn: f64,
+    /// Kernel k-means accuracy (stable protocol).
+    pub kmeans: f64,
+    /// k-medoids accuracy (stable protocol).
+    pub kmedoids: f64,
+    /// Eq. 15 sensitivity of the k-medoids clustering.
+    pub sensitivity: f64,
+    /// Eq. 15 specificity of the k-medoids clustering.
+    pub specificity: f64,
+    /// Adjusted Rand index of the k-medoids clustering.
+    pub ari: f64,
+    /// Restarts per seed and agreement of the kernel k-means protocol.
+    pub kmeans_protocol: (usize, bool),
+    /// Restarts per seed and agreement of the k-medoids protocol.
+    pub kmedoids_protocol: (usize, bool),
+}
+
+/// Scores a distance matrix against class indices (`k` classes); the clusterings follow the
+/// stable protocol from `restarts` up to `max_restarts` restarts per seed, seeds `seed` and
+/// `seed + 1`.
 pub fn score(
     d: &DistanceMatrix,
     classes: &[usize],
     k: usize,
-    restarts: usize,
+    (restarts, max_restarts): (usize, usize),
     seed: u64,
-) -> Result<[f64; 6], RobustnessError> {
-    let opts = ClusterOptions {
-        k,
-        restarts,
-        seed,
-        ..Default::default()
+) -> Result<Scores, RobustnessError> {
+    let opts = StableOptions {
+        initial_restarts: restarts,
+        max_restarts,
+        ..StableOptions::from_seed(k, seed)
     };
     let nn = loo_nearest_neighbour_accuracy(d, classes)?;
-    let km = kernel_kmeans(d, &opts)?;
-    let kmed = kmedoids(d, &opts)?;
-    let (km_acc, ..) = clustering_scores(&km, classes, k)?;
-    let (kmed_acc, sens, spec, ari) = clustering_scores(&kmed, classes, k)?;
-    Ok([nn, km_acc, kmed_acc, sens, spec, ari])
+    let km = stable_kernel_kmeans(d, &opts)?;
+    let kmed = stable_kmedoids(d, &opts)?;
+    let (kmeans, ..) = clustering_scores(&km.clustering, classes, k)?;
+    let (kmedoids, sensitivity, specificity, ari) = clustering_scores(&kmed.clustering, classes, k)?;
+    Ok(Scores {
+        nn,
+        kmeans,
+        kmedoids,
+        sensitivity,
+        specificity,
+        ari,
+        kmeans_protocol: (km.restarts, km.agreed),
+        kmedoids_protocol: (kmed.restarts, kmed.agreed),
+    })
 }
 
-/// Runs every method on every scenario. `progress(scenario, method)` is called as each matrix
-/// is done.
+/// Runs every method on every scenario at every level. `progress(level, scenario, method)` is
+/// called as each matrix is scored.
 pub fn run(
     opts: &RobustnessOptions,
-    progress: &(dyn Fn(&str, &str) + Sync),
+    progress: &(dyn Fn(u32, &str, &str) + Sync),
 ) -> Result<RobustnessReport, RobustnessError> {
     if opts.methods.is_empty() || opts.scenarios.is_empty() || opts.kinds.len() < 2 || opts.shapes.is_empty()
     {
@@ -374,64 +429,104 @@ pub fn run(
                 .into(),
         ));
     }
+    let max = qcshape::limits::MAX_ICOSPHERE_LEVEL;
+    if opts.levels.is_empty() || opts.levels.iter().any(|&l| l > max) {
+        return Err(RobustnessError::Input(format!(
+            "the robustness benchmark needs one or more icosphere levels, each at most {max}"
+        )));
+    }
+    if (1..opts.levels.len()).any(|i| opts.levels[..i].contains(&opts.levels[i])) {
+        return Err(RobustnessError::Input("a level is given twice".into()));
+    }
     let mut rows = Vec::new();
-    let mut vertices = 0;
+    let mut levels = Vec::new();
     let mut deformations = 0;
-    for sc in &opts.scenarios {
-        let defs = perturbed_benchmark(
-            opts.level,
-            &opts.shapes,
-            &opts.kinds,
-            opts.poses,
-            &sc.perturbation,
-            opts.seed,
-        )?;
-        vertices = defs[0].topology.n_vertices();
-        deformations = defs.len();
-        let labels: Vec<String> = defs.iter().map(|d| d.label.clone().unwrap_or_default()).collect();
-        let (classes, names) = encode_labels(&labels);
-        for m in &opts.methods {
-            let t0 = Instant::now();
-            let (d, converged) = m.matrix(&defs)?;
-            let seconds = t0.elapsed().as_secs_f64();
-            let [nn, kmeans, kmedoids, sensitivity, specificity, ari] =
-                score(&d, &classes, names.len(), opts.restarts, opts.seed)?;
-            rows.push(Row {
-                scenario: sc.name.clone(),
-                method: m.name(),
-                baseline: matches!(m, Method::Baseline(_)),
-                nn,
-                kmeans,
-                kmedoids,
-                sensitivity,
-                specificity,
-                ari,
-                seconds,
-                converged,
-            });
-            progress(&sc.name, &m.name());
+    for &level in &opts.levels {
+        let mut vertices = 0;
+        for sc in &opts.scenarios {
+            (vertices, deformations) = run_scenario(opts, level, sc, &mut rows, progress)?;
         }
+        levels.push((level, vertices));
     }
     Ok(RobustnessReport {
-        vertices,
+        levels,
         deformations,
         classes: opts.kinds.len(),
         seed: opts.seed,
+        restarts: (opts.restarts, opts.max_restarts),
         scenarios: opts.scenarios.clone(),
         rows,
     })
 }
 
+/// Every method on one scenario at one level: appends the rows; returns the vertices per mesh
+/// and the number of deformations.
+fn run_scenario(
+    opts: &RobustnessOptions,
+    level: u32,
+    sc: &Scenario,
+    rows: &mut Vec<Row>,
+    progress: &(dyn Fn(u32, &str, &str) + Sync),
+) -> Result<(usize, usize), RobustnessError> {
+    let defs = perturbed_benchmark(
+        level,
+        &opts.shapes,
+        &opts.kinds,
+        opts.poses,
+        &sc.perturbation,
+        opts.seed,
+    )?;
+    let vertices = defs[0].topology.n_vertices();
+    let labels: Vec<String> = defs.iter().map(|d| d.label.clone().unwrap_or_default()).collect();
+    let (classes, names) = encode_labels(&labels);
+    for m in &opts.methods {
+        let t0 = Instant::now();
+        let (d, converged) = m.matrix(&defs)?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let sc_ = score(
+            &d,
+            &classes,
+            names.len(),
+            (opts.restarts, opts.max_restarts),
+            opts.seed,
+        )?;
+        rows.push(Row {
+            level,
+            vertices,
+            scenario: sc.name.clone(),
+            method: m.name(),
+            baseline: matches!(m, Method::Baseline(_)),
+            nn: sc_.nn,
+            kmeans: sc_.kmeans,
+            kmedoids: sc_.kmedoids,
+            sensitivity: sc_.sensitivity,
+            specificity: sc_.specificity,
+            ari: sc_.ari,
+            kmeans_restarts: sc_.kmeans_protocol.0,
+            kmeans_agreed: sc_.kmeans_protocol.1,
+            kmedoids_restarts: sc_.kmedoids_protocol.0,
+            kmedoids_agreed: sc_.kmedoids_protocol.1,
+            seconds,
+            converged,
+        });
+        progress(level, &sc.name, &m.name());
+    }
+    Ok((vertices, defs.len()))
+}
+
 impl RobustnessReport {
-    /// One line per row: `scenario,method,baseline,nn,kmeans,kmedoids,sensitivity,specificity,ari,seconds,converged`.
+    /// One line per row: `level,vertices,scenario,method,baseline,nn,kmeans,kmedoids,sensitivity,specificity,ari,kmeans_restarts,kmeans_agreed,kmedoids_restarts,kmedoids_agreed,seconds,converged`.
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "scenario,method,baseline,nn,kmeans,kmedoids,sensitivity,specificity,ari,seconds,converged\n",
+            "level,vertices,scenario,method,baseline,nn,kmeans,kmedoids,sensitivity,specificity,ari,\
+             kmeans_restarts,kmeans_agreed,kmedoids_restarts,kmedoids_agreed,seconds,converged\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.2},{}",
+                "{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{:.2},{}",
+                r.level,
+                r.vertices,
                 r.scenario,
                 r.method,
                 r.baseline,
@@ -441,6 +536,10 @@ impl RobustnessReport {
                 r.sensitivity,
                 r.specificity,
                 r.ari,
+                r.kmeans_restarts,
+                r.kmeans_agreed,
+                r.kmedoids_restarts,
+                r.kmedoids_agreed,
                 r.seconds,
                 r.converged
             );
@@ -448,21 +547,60 @@ impl RobustnessReport {
         s
     }
 
+    /// The row of a level, scenario and method.
+    pub fn row(&self, level: u32, scenario: &str, method: &str) -> Option<&Row> {
+        self.rows
+            .iter()
+            .find(|r| r.level == level && r.scenario == scenario && r.method == method)
+    }
+
     /// Markdown: one table per score (1-NN, k-means, k-medoids, ARI) with a row per scenario
-    /// and a column per method, the best baseline of each row in its own column; then the
-    /// scenarios' definitions.
+    /// and, per level, a column group (the best baseline of the row at that level, then a
+    /// column per method); a table of the clustering restarts per seed; then the scenarios'
+    /// definitions.
     pub fn to_markdown(&self) -> String {
+        let sizes: Vec<String> = self
+            .levels
+            .iter()
+            .map(|(l, v)| format!("level {l} ({v} vertices)"))
+            .collect();
         let mut s = format!(
-            "# Robustness benchmark\n\n{} deformations ({} classes) of {} vertices per scenario, seed {}. \
-             Accuracies after Hungarian matching; `best baseline` is the best of the baselines in the same row.\n",
-            self.deformations, self.classes, self.vertices, self.seed
+            "# Robustness benchmark\n\n{} deformations ({} classes) per scenario at {}, seed {}. \
+             Accuracies after Hungarian matching; `best baseline` is the best of the baselines in the same row \
+             and level. Clusterings: the best objective over restarts, from {} per seed doubled until the seeds \
+             {} and {} keep the same partition in two successive rounds (at most {}).\n",
+            self.deformations,
+            self.classes,
+            sizes.join(", "),
+            self.seed,
+            self.restarts.0,
+            self.seed,
+            self.seed.wrapping_add(1),
+            self.restarts.1
         );
-        let mut methods: Vec<(String, bool)> = Vec::new();
+        let mut methods: Vec<String> = Vec::new();
         for r in &self.rows {
-            if !methods.iter().any(|(m, _)| *m == r.method) {
-                methods.push((r.method.clone(), r.baseline));
+            if !methods.contains(&r.method) {
+                methods.push(r.method.clone());
             }
         }
+        let multi = self.levels.len() > 1;
+        let head = |name: &str, v: usize| {
+            if multi {
+                format!(" {name} @ {v} v |")
+            } else {
+                format!(" {name} |")
+            }
+        };
+        let mut header = String::from("| scenario |");
+        for &(_, v) in &self.levels {
+            header.push_str(&head("best baseline", v));
+            for m in &methods {
+                header.push_str(&head(m, v));
+            }
+        }
+        let columns = self.levels.len() * (methods.len() + 1);
+        let rule = format!("|---|{}\n", "---|".repeat(columns));
         let scores: [(&str, Score); 4] = [
             ("Leave-one-out 1-NN accuracy", |r| r.nn),
             ("Kernel k-means accuracy", |r| r.kmeans),
@@ -470,35 +608,60 @@ impl RobustnessReport {
             ("Adjusted Rand index (k-medoids)", |r| r.ari),
         ];
         for (title, get) in scores {
-            let _ = write!(s, "\n## {title}\n\n| scenario | best baseline |");
-            for (m, _) in &methods {
-                let _ = write!(s, " {m} |");
-            }
-            s.push_str("\n|---|---|");
-            s.push_str(&"---|".repeat(methods.len()));
-            s.push('\n');
+            let _ = write!(s, "\n## {title}\n\n{header}\n{rule}");
             for sc in &self.scenarios {
-                let row = |m: &str| self.rows.iter().find(|r| r.scenario == sc.name && r.method == m);
-                let best = self
-                    .rows
-                    .iter()
-                    .filter(|r| r.scenario == sc.name && r.baseline)
-                    .map(get)
-                    .fold(f64::NAN, f64::max);
-                let _ = write!(s, "| {} | {} |", sc.name, fmt(best));
-                for (m, _) in &methods {
-                    let v = row(m).map(get).unwrap_or(f64::NAN);
-                    let mark = if row(m).is_some_and(|r| !r.converged) {
-                        "*"
-                    } else {
-                        ""
-                    };
-                    let _ = write!(s, " {}{mark} |", fmt(v));
+                let _ = write!(s, "| {} |", sc.name);
+                for &(level, _) in &self.levels {
+                    let best = self
+                        .rows
+                        .iter()
+                        .filter(|r| r.level == level && r.scenario == sc.name && r.baseline)
+                        .map(get)
+                        .fold(f64::NAN, f64::max);
+                    let _ = write!(s, " {} |", fmt(best));
+                    for m in &methods {
+                        let row = self.row(level, &sc.name, m);
+                        let mark = if row.is_some_and(|r| !r.converged) {
+                            "*"
+                        } else {
+                            ""
+                        };
+                        let _ = write!(s, " {}{mark} |", fmt(row.map(get).unwrap_or(f64::NAN)));
+                    }
                 }
                 s.push('\n');
             }
         }
-        s.push_str("\n`*`: some geodesic did not converge.\n\n## Scenarios\n\n| scenario | rotation (deg) | noise | amplitude spread | time warp |\n|---|---|---|---|---|\n");
+        s.push_str("\n`*`: some geodesic did not converge.\n");
+        let _ =
+            write!(
+            s,
+            "\n## Clustering restarts per seed (kernel k-means / k-medoids)\n\n`!`: the seeds did not agree \
+             at the cap; the kept partition is the lower objective of the two.\n\n{}\n{}",
+            header.replace("| best baseline", "| -").replace(" best baseline @", " - @"),
+            rule
+        );
+        for sc in &self.scenarios {
+            let _ = write!(s, "| {} |", sc.name);
+            for &(level, _) in &self.levels {
+                s.push_str(" |");
+                for m in &methods {
+                    let _ = match self.row(level, &sc.name, m) {
+                        Some(r) => write!(
+                            s,
+                            " {}{} / {}{} |",
+                            r.kmeans_restarts,
+                            if r.kmeans_agreed { "" } else { "!" },
+                            r.kmedoids_restarts,
+                            if r.kmedoids_agreed { "" } else { "!" }
+                        ),
+                        None => write!(s, " - |"),
+                    };
+                }
+            }
+            s.push('\n');
+        }
+        s.push_str("\n## Scenarios\n\n| scenario | rotation (deg) | noise | amplitude spread | time warp |\n|---|---|---|---|---|\n");
         for sc in &self.scenarios {
             let p = &sc.perturbation;
             let noise = match p.noise {
@@ -549,7 +712,7 @@ mod tests {
             ..Default::default()
         };
         let opts = RobustnessOptions {
-            level: 1,
+            levels: vec![1],
             shapes: InitialShape::all()[..3].to_vec(),
             kinds: vec![
                 DeformationKind::Twist,
@@ -569,12 +732,16 @@ mod tests {
             ],
             seed: 1,
             restarts: 5,
+            max_restarts: 40,
         };
         let calls = std::sync::Mutex::new(0);
-        let r = run(&opts, &|_, _| *calls.lock().unwrap() += 1).unwrap();
+        let r = run(&opts, &|_, _, _| *calls.lock().unwrap() += 1).unwrap();
         assert_eq!(*calls.lock().unwrap(), 8);
         assert_eq!(r.rows.len(), 8);
-        assert_eq!((r.deformations, r.classes, r.vertices), (9, 3, 42));
+        assert_eq!(
+            (r.deformations, r.classes, r.levels.clone()),
+            (9, 3, vec![(1, 42)])
+        );
         let get = |sc: &str, m: &str| r.rows.iter().find(|x| x.scenario == sc && x.method == m).unwrap();
         // Clean: every method separates three clearly different motions.
         for m in ["displacement", "aligned-displacement", "edge-strain", "qc"] {

@@ -16,9 +16,21 @@ use crate::similarity::DistanceMatrix;
 /// best of `opts.restarts` starts (module docs). `Clustering::medoids` holds the medoid item
 /// of each cluster; every item belongs to its nearest medoid (ties: the lowest cluster).
 pub fn kmedoids(d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
+    pam(d, opts, true)
+}
+
+/// k-medoids (PAM) with every restart, the first included, started from k-means++ random
+/// medoids (no BUILD): runs from different seeds share no start, as the stable protocol
+/// ([`crate::cluster::stable`]) needs.
+pub fn kmedoids_random_starts(d: &DistanceMatrix, opts: &ClusterOptions) -> Result<Clustering, ClusterError> {
+    pam(d, opts, false)
+}
+
+/// PAM, best of `opts.restarts` starts; restart 0 from BUILD when `build_first`.
+fn pam(d: &DistanceMatrix, opts: &ClusterOptions, build_first: bool) -> Result<Clustering, ClusterError> {
     opts.check(d.len())?;
     best_of_restarts(opts.restarts, opts.seed, |r, rng| {
-        let start = if r == 0 {
+        let start = if r == 0 && build_first {
             build(d, opts.k)
         } else {
             random_start(d, opts.k, rng)

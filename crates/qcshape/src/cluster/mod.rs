@@ -24,13 +24,15 @@ pub mod kernel_kmeans;
 pub mod kmedoids;
 pub mod method;
 pub mod spectral;
+pub mod stable;
 
 pub use intrinsic::{intrinsic_kmeans, IntrinsicClustering, IntrinsicError, IntrinsicOptions};
 pub use karcher::{karcher_mean, log_map, KarcherMean, KarcherOptions};
 pub use kernel_kmeans::{kernel_kmeans, KernelKMeans};
-pub use kmedoids::kmedoids;
+pub use kmedoids::{kmedoids, kmedoids_random_starts};
 pub use method::ClusterMethod;
 pub use spectral::{mds_kmeans, median_distance, spectral, spectral_embedding};
+pub use stable::{stable_clustering, stable_kernel_kmeans, stable_kmedoids, StableClustering, StableOptions};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -50,6 +52,21 @@ pub enum ClusterError {
     /// Zero restarts requested.
     #[error("the number of restarts must be at least 1")]
     NoRestarts,
+    /// The stable protocol's restarts are not `1 <= initial <= max <= limit`.
+    #[error(
+        "the stable protocol needs 1 <= initial restarts ({initial}) <= most restarts ({max}) <= {limit}"
+    )]
+    RestartRange {
+        /// Restarts per seed of the first round.
+        initial: usize,
+        /// Most restarts per seed.
+        max: usize,
+        /// The library's limit.
+        limit: usize,
+    },
+    /// The stable protocol's two seeds are equal (their agreement would prove nothing).
+    #[error("the stable protocol needs two different seeds, got {0} twice")]
+    SameSeeds(u64),
     /// A cost came out NaN or infinite.
     #[error("the cost of item {item} to centre {centre} is not finite ({value})")]
     NotFinite {
