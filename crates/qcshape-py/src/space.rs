@@ -339,21 +339,14 @@ impl PyShapeSpace {
         let n_vertices = opt_count("n_vertices", n_vertices, 1, qcshape::limits::MAX_VERTICES)?;
         let py = faces.py();
         let kwargs = PyDict::new(py);
-        put(&kwargs, "metric", metric.clone())?;
-        put(&kwargs, "form", form.clone())?;
-        put(&kwargs, "weights", weights.clone())?;
-        put(&kwargs, "lam", lam)?;
-        put(&kwargs, "l2_areas", l2_areas.clone())?;
-        put(&kwargs, "metric_scale", metric_scale.clone())?;
-        put(&kwargs, "stretch", stretch)?;
-        put(&kwargs, "qc_weights", qc_weights.clone())?;
-        put(&kwargs, "qc_floor", qc_floor)?;
-        put(&kwargs, "qc_smooth", qc_smooth)?;
-        put(&kwargs, "steps", steps)?;
-        put(&kwargs, "solver", solver.clone())?;
-        put(&kwargs, "tolerance", tolerance)?;
-        put(&kwargs, "energy_tolerance", energy_tolerance)?;
-        put(&kwargs, "length_tolerance", length_tolerance)?;
+        // The keywords given, under their own names (the table's Python keywords).
+        macro_rules! put_all {
+            ($($name:ident),*) => { $(put(&kwargs, stringify!($name), $name.clone())?;)* };
+        }
+        put_all!(
+            metric, form, weights, lam, l2_areas, metric_scale, stretch, qc_weights, qc_floor, qc_smooth, steps,
+            solver, tolerance, energy_tolerance, length_tolerance
+        );
         put(&kwargs, "reference", reference)?;
         put(&kwargs, "scale", scale)?;
         put(&kwargs, "n_vertices", n_vertices)?;

@@ -26,29 +26,8 @@ class _PipelineOptions(TypedDict, total=False):
     """The keyword options of the data-set functions (`similarity_matrix`, `motion_maps`,
     `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
 
-    metric: Optional[str]
-    form: Optional[str]
-    weights: Optional[str]
-    lam: Optional[float]
-    metric_scale: Optional[str]  # invariant (default) | calibrated | raw
-    stretch: Optional[float]
-    qc_weights: Optional[str]
-    qc_floor: Optional[float]
-    qc_smooth: Optional[int]
-    l2_areas: Optional[str]
-    steps: Optional[int]
-    solver: Optional[str]
-    tolerance: Optional[float]
-    energy_tolerance: Optional[float]
-    length_tolerance: Optional[float]
-    insert: Optional[int]
-    levels: Optional[int]
-    transport: Optional[str]
-    align: Optional[str]
-    smooth: Optional[int]  # Taubin iterations instead of the length filter
-    smooth_length: Optional[float]  # relative to the area radius, 0.18 (default filter)
-    base: Optional[Union[int, str]]
-    approx: Optional[str]
+    # BEGIN settings: _PipelineOptions (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+    # END settings
     threads: Optional[int]
     progress: Optional[bool]  # None: only when stderr is a terminal
 
@@ -132,20 +111,8 @@ class ShapeSpace:
         faces: _Faces,
         metric: Optional[str] = None,
         *,
-        form: Optional[str] = None,
-        weights: Optional[str] = None,
-        lam: Optional[float] = None,
-        l2_areas: Optional[str] = None,
-        metric_scale: Optional[str] = None,
-        stretch: Optional[float] = None,
-        qc_weights: Optional[str] = None,
-        qc_floor: Optional[float] = None,
-        qc_smooth: Optional[int] = None,
-        steps: Optional[int] = None,
-        solver: Optional[str] = None,
-        tolerance: Optional[float] = None,
-        energy_tolerance: Optional[float] = None,
-        length_tolerance: Optional[float] = None,
+        # BEGIN settings: ShapeSpace (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+        # END settings
         reference: Optional[_Points] = None,
         scale: Optional[float] = None,
         n_vertices: Optional[int] = None,
