@@ -7,6 +7,10 @@ mod settings_gen;
 
 fn main() {
     let root = settings_gen::root();
+    println!(
+        "{}: the texts generated from qcshape::settings",
+        settings_gen::REFRESH
+    );
     for (path, text) in settings_gen::expected() {
         let full = root.join(&path);
         let old = std::fs::read_to_string(&full).unwrap_or_default();

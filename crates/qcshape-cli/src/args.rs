@@ -8,7 +8,9 @@ use clap::builder::{PossibleValue, StringValueParser, TypedValueParser};
 use qcshape::align::Alignment;
 use qcshape::dataset::Dataset;
 use qcshape::geodesic::{GeodesicOptions, Solver};
-use qcshape::metric::{ConformalForm, L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling, QcWeights};
+use qcshape::metric::{
+    ConformalForm, L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling, QcWeights,
+};
 use qcshape::settings::{self as S, Named, Setting, Value};
 use qcshape::similarity::{Approx, PipelineOptions, Smoothing};
 use qcshape::transport::Transport;

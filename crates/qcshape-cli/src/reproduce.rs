@@ -12,8 +12,8 @@ use qcshape_studies::experiment::provenance::Provenance;
 use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 
 use crate::args::{choice, count, in_pool, real};
-use qcshape::settings as S;
 use crate::progress::{bar, PipelineBars};
+use qcshape::settings as S;
 
 /// Reproduce the paper's synthetic experiments and write a report beside the paper's figures.
 ///

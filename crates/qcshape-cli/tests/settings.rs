@@ -93,15 +93,15 @@ const OWN: &[(&str, &str)] = &[
     ("experiment/geometry.rs", "levels"),      // icosphere levels
     ("experiment/robustness.rs", "smooth"),    // lists of values compared
     ("experiment/robustness.rs", "smooth-length"),
-    ("interpolate.rs", "insert"),              // none by default: the poses' own count
-    ("lv/cycle.rs", "insert"),                 // PAPER_INSERT, the LV tables
-    ("lv/cycle.rs", "steps"),                  // PAPER_STEPS (mut_arg)
-    ("lv/run.rs", "smooth"),                   // the meshing's Taubin iterations
-    ("lv/run.rs", "transport"),                // LV_TRANSPORT, the LV tables
-    ("lv/mesh.rs", "smooth"),                  // the meshing's Taubin iterations
-    ("lv/mesh.rs", "lambda"),                  // the landmark spline's smoothing
-    ("lv/mod.rs", "lambda"),                   // the landmark spline's smoothing
-    ("embed.rs", "tolerance"),                 // the MDS stress tolerance
+    ("interpolate.rs", "insert"), // none by default: the poses' own count
+    ("lv/cycle.rs", "insert"),    // PAPER_INSERT, the LV tables
+    ("lv/cycle.rs", "steps"),     // PAPER_STEPS (mut_arg)
+    ("lv/run.rs", "smooth"),      // the meshing's Taubin iterations
+    ("lv/run.rs", "transport"),   // LV_TRANSPORT, the LV tables
+    ("lv/mesh.rs", "smooth"),     // the meshing's Taubin iterations
+    ("lv/mesh.rs", "lambda"),     // the landmark spline's smoothing
+    ("lv/mod.rs", "lambda"),      // the landmark spline's smoothing
+    ("embed.rs", "tolerance"),    // the MDS stress tolerance
 ];
 
 /// Every `#[arg(...)]` of the CLI's sources whose flag is a setting's key: (file, flag, the
@@ -139,8 +139,14 @@ fn setting_args() -> Vec<(String, String, String, bool)> {
             while lines[k].trim_start().starts_with("#[") {
                 k += 1;
             }
-            let field = lines[k].trim_start().trim_start_matches("pub(crate) ").trim_start_matches("pub ");
-            let mut flag: String = field.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            let field = lines[k]
+                .trim_start()
+                .trim_start_matches("pub(crate) ")
+                .trim_start_matches("pub ");
+            let mut flag: String = field
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
             flag = flag.replace('_', "-");
             if let Some(j) = attr.find("long = \"") {
                 flag = attr[j + 8..].chars().take_while(|&c| c != '"').collect();
@@ -192,7 +198,11 @@ fn each_setting_is_declared_once() {
         let text = std::fs::read_to_string(&path).unwrap();
         for (n, line) in text.lines().enumerate() {
             let code = line.split("//").next().unwrap_or("");
-            if code.contains("text_signature") || line.trim_start().starts_with("//") {
+            // `points(x, "base")` names a method's shape argument, not the setting.
+            if code.contains("text_signature")
+                || code.contains("points(")
+                || line.trim_start().starts_with("//")
+            {
                 continue;
             }
             for s in qcshape::settings::SETTINGS {
@@ -210,18 +220,25 @@ fn each_setting_is_declared_once() {
     }
     // ShapeSpace's keyword parameters are exactly the table's metric and solver keywords.
     let space = std::fs::read_to_string(py.join("space.rs")).unwrap();
-    let sig = space.split("#[pyo3(signature = (faces, ").nth(1).expect("ShapeSpace's signature");
+    let sig = space
+        .split("#[pyo3(signature = (faces, ")
+        .nth(1)
+        .expect("ShapeSpace's signature");
     let sig = &sig[..sig.find("))]").unwrap()];
     let mut given: Vec<String> = sig
         .split(',')
         .map(|p| p.trim().split('=').next().unwrap().to_string())
         .filter(|p| !["*", "reference", "scale", "n_vertices", ""].contains(&p.as_str()))
         .collect();
-    let mut table: Vec<String> = of_groups(&[Group::Metric, Group::Solver]).map(|s| s.python.to_string()).collect();
+    let mut table: Vec<String> = of_groups(&[Group::Metric, Group::Solver])
+        .map(|s| s.python.to_string())
+        .collect();
     given.sort();
     table.sort();
     if given != table {
-        problems.push(format!("ShapeSpace's keywords {given:?} differ from the table's {table:?}"));
+        problems.push(format!(
+            "ShapeSpace's keywords {given:?} differ from the table's {table:?}"
+        ));
     }
     // The generated front ends.
     for (path, expected) in settings_gen::expected() {
@@ -244,7 +261,14 @@ fn each_setting_is_declared_once() {
     }
     // The CLI's help shows the declaration's help and default.
     let squash = |t: &str| t.split_whitespace().collect::<Vec<_>>().join(" ");
-    for command in ["similarity", "geodesic", "reproduce", "experiment noise", "transfer", "interpolate"] {
+    for command in [
+        "similarity",
+        "geodesic",
+        "reproduce",
+        "experiment noise",
+        "transfer",
+        "interpolate",
+    ] {
         let text = help(command);
         for s in qcshape::settings::SETTINGS {
             let Some(e) = entry(&text, s.key) else { continue };
@@ -255,7 +279,10 @@ fn each_setting_is_declared_once() {
                 continue;
             }
             if !squash(&e).contains(&squash(s.help())) {
-                problems.push(format!("`qcshape {command}` --{}: help differs from the declaration:\n{e}", s.key));
+                problems.push(format!(
+                    "`qcshape {command}` --{}: help differs from the declaration:\n{e}",
+                    s.key
+                ));
             }
         }
     }

@@ -38,7 +38,9 @@ impl MetricKw {
         };
         let mut spec = MetricSpec::new(kind);
         if let Some(f) = &self.form {
-            spec.form = f.parse().map_err(|e| PyValueError::new_err(format!("form: {e}")))?;
+            spec.form = f
+                .parse()
+                .map_err(|e| PyValueError::new_err(format!("form: {e}")))?;
         }
         if let Some(w) = &self.weights {
             spec.weights = w
@@ -232,7 +234,9 @@ impl PipelineKw {
         let text = || value.extract::<String>().map_err(bad);
         let real = || value.extract::<f64>().map_err(bad);
         let count = || match s.value {
-            Value::Count { min, max } => crate::convert::count(s.python, value.extract().map_err(bad)?, min, max),
+            Value::Count { min, max } => {
+                crate::convert::count(s.python, value.extract().map_err(bad)?, min, max)
+            }
             _ => unreachable!("--{} is a count", s.key),
         };
         match s.id {

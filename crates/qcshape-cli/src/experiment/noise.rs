@@ -13,8 +13,8 @@ use qcshape::transport::Transport;
 use qcshape_studies::experiment::noise::NoiseExperiment;
 
 use crate::args::{choice, count, MetricArgs, SolverArgs};
-use qcshape::settings as S;
 use crate::progress::PipelineBars;
+use qcshape::settings as S;
 
 /// `--steps`' default here: [`qcshape::defaults::NOISE_STEPS`] (a named exception).
 const NOISE_STEPS: &str = "4";

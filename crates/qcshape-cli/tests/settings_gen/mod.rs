@@ -57,7 +57,12 @@ fn defaults_md(text: &str) -> String {
         .lines()
         .map(str::to_string)
         .collect();
-    between(text, "<!-- BEGIN settings table", "<!-- END settings table", &table)
+    between(
+        text,
+        "<!-- BEGIN settings table",
+        "<!-- END settings table",
+        &table,
+    )
 }
 
 /// data.rs with every `text_signature`'s settings (from `metric=` to `, threads=`) generated.
@@ -69,7 +74,9 @@ fn data_rs(text: &str) -> String {
         let (done, tail) = rest.split_at(i);
         out.push_str(done);
         let m = tail.find("metric=").expect("a text_signature with the settings");
-        let t = tail.find(", threads=").expect("a text_signature ending with threads");
+        let t = tail
+            .find(", threads=")
+            .expect("a text_signature ending with threads");
         out.push_str(&tail[..m]);
         out.push_str(&sig);
         rest = &tail[t..];

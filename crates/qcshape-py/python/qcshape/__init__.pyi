@@ -27,6 +27,29 @@ class _PipelineOptions(TypedDict, total=False):
     `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
 
     # BEGIN settings: _PipelineOptions (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+    metric: Optional[str]  # l2 | rigid | isometric | conformal | quasi-conformal; default isometric
+    form: Optional[str]  # quadratic | paper; default quadratic
+    weights: Optional[str]  # endpoints | segment; default endpoints
+    lam: Optional[float]  # default 0.01
+    metric_scale: Optional[str]  # invariant | calibrated | raw; default invariant
+    stretch: Optional[float]  # default 0.1
+    qc_weights: Optional[str]  # rms | raw; default rms
+    qc_floor: Optional[float]  # default 0.5
+    qc_smooth: Optional[int]  # default 0
+    l2_areas: Optional[str]  # frozen | pose; default frozen
+    steps: Optional[int]  # default 8
+    solver: Optional[str]  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+    tolerance: Optional[float]  # default 0.000001
+    energy_tolerance: Optional[float]  # default 0.000000000001
+    length_tolerance: Optional[float]  # default 0.00000001
+    insert: Optional[int]  # default 0
+    levels: Optional[int]  # default 1
+    transport: Optional[str]  # euclidean | parallel | schild; default euclidean
+    align: Optional[str]  # rigid | similarity | none; default rigid
+    smooth: Optional[int]
+    smooth_length: Optional[float]  # default 0.18
+    base: Optional[Union[int, str]]
+    approx: Optional[str]  # exact | straight | tangent; default exact
     # END settings
     threads: Optional[int]
     progress: Optional[bool]  # None: only when stderr is a terminal
@@ -112,6 +135,20 @@ class ShapeSpace:
         metric: Optional[str] = None,
         *,
         # BEGIN settings: ShapeSpace (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+        form: Optional[str] = None,  # quadratic | paper; default quadratic
+        weights: Optional[str] = None,  # endpoints | segment; default endpoints
+        lam: Optional[float] = None,  # default 0.01
+        metric_scale: Optional[str] = None,  # invariant | calibrated | raw; default invariant
+        stretch: Optional[float] = None,  # default 0.1
+        qc_weights: Optional[str] = None,  # rms | raw; default rms
+        qc_floor: Optional[float] = None,  # default 0.5
+        qc_smooth: Optional[int] = None,  # default 0
+        l2_areas: Optional[str] = None,  # frozen | pose; default frozen
+        steps: Optional[int] = None,  # default 8
+        solver: Optional[str] = None,  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+        tolerance: Optional[float] = None,  # default 0.000001
+        energy_tolerance: Optional[float] = None,  # default 0.000000000001
+        length_tolerance: Optional[float] = None,  # default 0.00000001
         # END settings
         reference: Optional[_Points] = None,
         scale: Optional[float] = None,
