@@ -56,7 +56,7 @@ pub struct Args {
     solver: Solver,
     #[arg(long, help = qcshape::settings::TOLERANCE.help(), default_value = qcshape::settings::TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
-    #[arg(long, help = qcshape::settings::ENERGY_TOLERANCE.help(), default_value = qcshape::settings::ENERGY_TOLERANCE.default_text(), value_parser = crate::args::count(&qcshape::settings::ENERGY_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::ENERGY_TOLERANCE.help(), default_value = qcshape::settings::ENERGY_TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::ENERGY_TOLERANCE), allow_negative_numbers = true)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
