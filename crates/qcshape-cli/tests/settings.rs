@@ -93,7 +93,7 @@ const OWN: &[(&str, &str)] = &[
     ("experiment/geometry.rs", "levels"),      // icosphere levels
     ("experiment/robustness.rs", "smooth"),    // lists of values compared
     ("experiment/robustness.rs", "smooth-length"),
-    ("interpolate.rs", "insert"), // none by default: the poses' own count
+    ("interpolate.rs", "insert"), // required: no default
     ("lv/cycle.rs", "insert"),    // PAPER_INSERT, the LV tables
     ("lv/cycle.rs", "steps"),     // PAPER_STEPS (mut_arg)
     ("lv/run.rs", "smooth"),      // the meshing's Taubin iterations
@@ -129,14 +129,16 @@ fn setting_args() -> Vec<(String, String, String, bool)> {
                 i += 1;
                 continue;
             }
-            let doc = i > 0 && lines[i - 1].trim_start().starts_with("///");
+            let mut doc = i > 0 && lines[i - 1].trim_start().starts_with("///");
             let mut attr = lines[i].trim().to_string();
             while !lines[i].trim_end().ends_with(")]") {
                 i += 1;
                 attr.push_str(lines[i].trim());
             }
             let mut k = i + 1;
-            while lines[k].trim_start().starts_with("#[") {
+            // Attributes and doc comments (a doc comment is clap's help) up to the field.
+            while lines[k].trim_start().starts_with("#[") || lines[k].trim_start().starts_with("///") {
+                doc |= lines[k].trim_start().starts_with("///");
                 k += 1;
             }
             let field = lines[k]
