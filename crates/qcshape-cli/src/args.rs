@@ -1,21 +1,67 @@
 //! Options shared by every command that measures lengths: the metric with its variants, the
-//! geodesic solver, and the whole pipeline of a similarity run ([`PipelineArgs`]). The values
-//! are validated by the library, once.
+//! geodesic solver, and the whole pipeline of a similarity run ([`PipelineArgs`]). Each flag's
+//! help, default, range and choices come from its declaration in [`qcshape::settings`] (`S::X`
+//! below); the values are validated by the library, once.
 
 use anyhow::{bail, Context, Result};
+use clap::builder::{PossibleValue, StringValueParser, TypedValueParser};
 use qcshape::align::Alignment;
 use qcshape::dataset::Dataset;
-use qcshape::defaults;
 use qcshape::geodesic::{GeodesicOptions, Solver};
-use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
+use qcshape::metric::{
+    ConformalForm, L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling, QcWeights,
+};
+use qcshape::settings::{self as S, Named, Setting, Value};
 use qcshape::similarity::{Approx, PipelineOptions, Smoothing};
 use qcshape::transport::Transport;
+
+/// The value parser of the real setting `s` (its range from the declaration).
+pub(crate) fn real(s: &Setting) -> crate::bounds::Real {
+    match s.value {
+        Value::Real { max } => crate::bounds::real(max),
+        _ => panic!("--{} is not a real setting", s.key),
+    }
+}
+
+/// The value parser of the whole-number setting `s` (its range from the declaration).
+pub(crate) fn count(s: &Setting) -> crate::bounds::Count<usize> {
+    match s.value {
+        Value::Count { min, max } => crate::bounds::count::<usize>(min as u64, max as u64),
+        _ => panic!("--{} is not a count setting", s.key),
+    }
+}
+
+/// The value parser of a choice setting: the library's `FromStr` (aliases included), its
+/// names ([`Named`]) as the possible values.
+#[derive(Clone)]
+pub(crate) struct Choice<T>(std::marker::PhantomData<T>);
+
+/// [`Choice`] for `T`.
+pub(crate) fn choice<T>() -> Choice<T> {
+    Choice(std::marker::PhantomData)
+}
+
+impl<T: Named + std::str::FromStr<Err = String> + Clone + Send + Sync> TypedValueParser for Choice<T> {
+    type Value = T;
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<T, clap::Error> {
+        StringValueParser::new()
+            .try_map(|v| v.parse::<T>())
+            .parse_ref(cmd, arg, value)
+    }
+    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
+        Some(Box::new(T::ALL.iter().map(|v| PossibleValue::new(v.name()))))
+    }
+}
 
 /// The metric (docs/method.md "Metrics") and its variants.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MetricArgs {
-    /// Metric: l2, rigid, isometric, conformal, quasi-conformal.
-    #[arg(long, default_value = defaults::METRIC.label())]
+    #[arg(long, help = S::METRIC.help(), default_value = S::METRIC.default_text(), value_parser = choice::<MetricKind>())]
     pub metric: MetricKind,
     #[command(flatten)]
     pub variants: VariantArgs,
@@ -31,46 +77,24 @@ impl MetricArgs {
 /// A metric's variants and regularization (shared by every metric a command compares).
 #[derive(Debug, Clone, clap::Args)]
 pub struct VariantArgs {
-    /// Conformal triangle term: quadratic (T_p^2 + T_q^2 + T_r^2) or paper ((|T_p|+|T_q|+|T_r|)^2).
-    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
-    pub form: String,
-    /// Quasi-conformal curvature-change weights: endpoints (frozen K(B) - K(A)) or segment.
-    #[arg(long, default_value = "endpoints", value_parser = ["endpoints", "segment"])]
-    pub weights: String,
-    /// Weight of the L2 regularizer (eq. 11); 0 disables it. On the calibrated scale a ratio of
-    /// two dimensionless terms; on the raw scale the previous releases' weight (their default
-    /// was 0.1).
-    /// At most 1e6.
-    #[arg(long, default_value_t = defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = S::FORM.help(), default_value = S::FORM.default_text(), value_parser = choice::<ConformalForm>())]
+    pub form: ConformalForm,
+    #[arg(long, help = S::WEIGHTS.help(), default_value = S::WEIGHTS.default_text(), value_parser = choice::<QcWeights>())]
+    pub weights: QcWeights,
+    #[arg(long, help = S::LAMBDA.help(), default_value = S::LAMBDA.default_text(), value_parser = real(&S::LAMBDA), allow_negative_numbers = true)]
     pub lambda: f64,
-    /// How the metric's terms are scaled: invariant (every term a relative rate weighted by its
-    /// face's area share: scaling a pose and its motion together changes nothing, so geodesics
-    /// do not shrink the shape; the conformal terms as eq. 6), calibrated (eq. 3's and eq. 7's
-    /// sums divided by their scale at the reference pose: the 2026-12-04 releases') or raw (the
-    /// paper's sums in mean-edge units, the releases before).
-    #[arg(long, default_value = defaults::SCALE.label())]
+    #[arg(long, help = S::SCALE.help(), default_value = S::SCALE.default_text(), value_parser = choice::<MetricScale>())]
     pub scale: MetricScale,
-    /// Weight of the stretch term of the conformal and quasi-conformal metrics on the invariant
-    /// scale: the relative rate of change of each face's area, which the conformal terms leave
-    /// free (uniform scaling); 0 disables it.
-    /// At most 1e6.
-    #[arg(long, default_value_t = defaults::STRETCH, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = S::STRETCH.help(), default_value = S::STRETCH.default_text(), value_parser = real(&S::STRETCH), allow_negative_numbers = true)]
     pub stretch: f64,
-    /// Quasi-conformal endpoint weights: rms (the curvature-change density over its RMS, with
-    /// --qc-floor) or raw (the paper's angle-defect change in radians).
-    #[arg(long, default_value = if defaults::QC_NORMALIZE.is_some() { "rms" } else { "raw" }, value_parser = ["rms", "raw"])]
-    pub qc_weights: String,
-    /// Floor of the rms quasi-conformal weights, sqrt(floor^2 + w^2): no vertex moves for free.
-    /// At most 1e6.
-    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0.0, |n| n.floor), value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = S::QC_WEIGHTS.help(), default_value = S::QC_WEIGHTS.default_text(), value_parser = choice::<QcScaling>())]
+    pub qc_weights: QcScaling,
+    #[arg(long, help = S::QC_FLOOR.help(), default_value = S::QC_FLOOR.default_text(), value_parser = real(&S::QC_FLOOR), allow_negative_numbers = true)]
     pub qc_floor: f64,
-    /// One-ring smoothing passes of the curvature-change density before the rms weights.
-    /// At most 1,000.
-    #[arg(long, default_value_t = defaults::QC_NORMALIZE.map_or(0, |n| n.smooth), value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::QC_SMOOTH.help(), default_value = S::QC_SMOOTH.default_text(), value_parser = count(&S::QC_SMOOTH), allow_negative_numbers = true)]
     pub qc_smooth: usize,
-    /// L2 area weights: frozen at the path's ends, or taken from each pose (degenerates, see docs).
-    #[arg(long, default_value = "frozen", value_parser = ["frozen", "pose"])]
-    pub l2_areas: String,
+    #[arg(long, help = S::L2_AREAS.help(), default_value = S::L2_AREAS.default_text(), value_parser = choice::<L2Areas>())]
+    pub l2_areas: L2Areas,
 }
 
 impl VariantArgs {
@@ -79,22 +103,14 @@ impl VariantArgs {
         let spec = MetricSpec {
             kind,
             scale: self.scale,
-            qc_normalize: (self.qc_weights == "rms").then_some(QcNormalize {
+            qc_normalize: (self.qc_weights == QcScaling::Rms).then_some(QcNormalize {
                 floor: self.qc_floor,
                 smooth: self.qc_smooth,
             }),
-            form: if self.form == "paper" {
-                ConformalForm::Paper
-            } else {
-                ConformalForm::Quadratic
-            },
-            weights: if self.weights == "segment" {
-                QcWeights::Segment
-            } else {
-                QcWeights::Endpoints
-            },
+            form: self.form,
+            weights: self.weights,
             lambda: self.lambda,
-            frozen_areas: self.l2_areas == "frozen",
+            frozen_areas: self.l2_areas == L2Areas::Frozen,
             stretch: self.stretch,
         };
         spec.validate().map_err(flag_error)?;
@@ -108,39 +124,15 @@ impl VariantArgs {
 /// The discrete geodesic solver.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SolverArgs {
-    /// Number of path segments N of each geodesic.
-    /// At most 10,000.
-    #[arg(long, default_value_t = defaults::STEPS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::STEPS.help(), default_value = S::STEPS.default_text(), value_parser = count(&S::STEPS), allow_negative_numbers = true)]
     pub steps: usize,
-    /// Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block
-    /// preconditioner), hessian-kronecker (the same model fitted to the exact Hessian: fewer
-    /// iterations for the isometric metric on fine meshes), pose-kronecker (each pose's own spatial block: fewer iterations for the conformal
-    /// metrics at small --lambda, each about twice as costly), newton
-    /// (truncated: conjugate gradients on the exact Hessian), gauss-newton (truncated, on the
-    /// Gauss-Newton system), gauss-newton-direct (full sparse Cholesky, small meshes only), lbfgs
-    /// (the paper's, through argmin), plain-lbfgs (the preconditioned solver without its
-    /// preconditioner).
-    #[arg(long, default_value = defaults::SOLVER.label())]
+    #[arg(long, help = S::SOLVER.help(), default_value = S::SOLVER.default_text(), value_parser = choice::<Solver>())]
     pub solver: Solver,
-    /// Relative gradient tolerance: converged when the gradient norm falls below this fraction
-    /// of its value at the start.
-    /// At most 1.
-    #[arg(long, default_value_t = defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = S::TOLERANCE.help(), default_value = S::TOLERANCE.default_text(), value_parser = real(&S::TOLERANCE), allow_negative_numbers = true)]
     pub tolerance: f64,
-    /// Relative energy tolerance: also converged when an accepted step lowers the path energy by
-    /// less than this fraction. On flat energies (conformal, isometric on fine meshes) this test
-    /// stops first, with the energy converged but the gradient above --tolerance; 0 disables it,
-    /// so that the gradient test decides (more iterations).
-    /// At most 1.
-    #[arg(long, default_value_t = defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = S::ENERGY_TOLERANCE.help(), default_value = S::ENERGY_TOLERANCE.default_text(), value_parser = real(&S::ENERGY_TOLERANCE), allow_negative_numbers = true)]
     pub energy_tolerance: f64,
-    /// Relative length tolerance of the distances (similarity matrices, the intrinsic k-means
-    /// assignment): also converged when two consecutive steps each change a geodesic's length
-    /// by less than this fraction. The length settles long before the path; 0 disables the
-    /// test (every distance solved to --tolerance / --energy-tolerance, slower). Paths
-    /// (interpolation, transfer, means) never use it.
-    /// At most 1.
-    #[arg(long, default_value_t = defaults::LENGTH_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = S::LENGTH_TOLERANCE.help(), default_value = S::LENGTH_TOLERANCE.default_text(), value_parser = real(&S::LENGTH_TOLERANCE), allow_negative_numbers = true)]
     pub length_tolerance: f64,
 }
 
@@ -166,7 +158,7 @@ pub(crate) fn flag_error(e: qcshape::limits::LimitError) -> anyhow::Error {
     anyhow::Error::new(e.renamed(|key| format!("--{key}")))
 }
 
-/// Every setting of a similarity run, as the library names them
+/// Every setting of a similarity run, as the library declares them
 /// ([`qcshape::settings::SETTINGS`]): the metric, the geodesic solver and the rest of the
 /// pipeline of eq. 13. Every command that computes a similarity matrix from a data set takes
 /// this one group (a test walks their `--help`).
@@ -176,35 +168,19 @@ pub struct PipelineArgs {
     pub metric: MetricArgs,
     #[command(flatten)]
     pub solver: SolverArgs,
-    /// Poses inserted between consecutive key poses before comparing (section 2.2.1).
-    /// At most 1,000.
-    #[arg(long, default_value_t = defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::INSERT.help(), default_value = S::INSERT.default_text(), value_parser = count(&S::INSERT), allow_negative_numbers = true)]
     pub insert: usize,
-    /// Spatial levels of the interpolation (1 = single level, the measured fastest).
-    /// At most 16.
-    #[arg(long, default_value_t = defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::LEVELS.help(), default_value = S::LEVELS.default_text(), value_parser = count(&S::LEVELS), allow_negative_numbers = true)]
     pub levels: usize,
-    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
-    /// better classification in the measurements, docs/log/results.md), parallel (the paper's) or schild.
-    #[arg(long, default_value = defaults::TRANSPORT.label())]
+    #[arg(long, help = S::TRANSPORT.help(), default_value = S::TRANSPORT.default_text(), value_parser = choice::<Transport>())]
     pub transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = defaults::ALIGN.label())]
+    #[arg(long, help = S::ALIGN.help(), default_value = S::ALIGN.default_text(), value_parser = choice::<Alignment>())]
     pub align: Alignment,
     #[command(flatten)]
     pub smooth: SmoothArgs,
-    /// Name of the reference deformation whose first pose is the common base (default: the first).
-    #[arg(long)]
+    #[arg(long, help = S::BASE.help())]
     pub base: Option<String>,
-    /// Pose distances: exact (geodesic lengths, the paper's), straight (the straight-path length
-    /// with the same steps, no optimization: an upper bound, about 20-100x cheaper) or tangent
-    /// (the metric linearized at the common base: one feature vector per pose, then Euclidean
-    /// distances; quasi-conformal weighs each pair by its curvature-change weights). Errors against exact:
-    /// docs/scale.md.
-    /// Interpolation and transfer stay exact.
-    #[arg(long, default_value = "exact")]
+    #[arg(long, help = S::APPROX.help(), default_value = S::APPROX.default_text(), value_parser = choice::<Approx>())]
     pub approx: Approx,
 }
 
@@ -240,18 +216,9 @@ impl PipelineArgs {
 /// Taubin iterations when `--smooth N` is given.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SmoothArgs {
-    /// Taubin smoothing iterations of every pose before comparing, instead of the length filter
-    /// (a filter in mesh units: it smooths a quarter as much of the surface per subdivision; the
-    /// default before --smooth-length was 10; 0 = no smoothing, the paper's pipeline).
-    /// At most 1,000.
-    #[arg(long, alias = "smoothing", conflicts_with = "smooth_length", value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::SMOOTH.help(), alias = "smoothing", conflicts_with = "smooth_length", value_parser = count(&S::SMOOTH), allow_negative_numbers = true)]
     pub smooth: Option<usize>,
-    /// Smoothing length L of every pose before comparing, relative to the area radius R =
-    /// sqrt(area / 4 pi) of the base's first pose: a low-pass filter that takes vertex noise out
-    /// of real data, the same at every mesh resolution (a wave of wavenumber w keeps
-    /// exp(-(w L R)^4) of its amplitude; 0 = none; docs/robustness.md).
-    /// At most 10.
-    #[arg(long, default_value_t = defaults::SMOOTH_LENGTH, value_parser = crate::bounds::real(qcshape::limits::MAX_SMOOTH_LENGTH), allow_negative_numbers = true)]
+    #[arg(long, help = S::SMOOTH_LENGTH.help(), default_value = S::SMOOTH_LENGTH.default_text(), value_parser = real(&S::SMOOTH_LENGTH), allow_negative_numbers = true)]
     pub smooth_length: f64,
 }
 

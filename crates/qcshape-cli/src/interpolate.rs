@@ -45,25 +45,18 @@ pub struct Args {
     /// At most 1,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
     insert: usize,
-    /// Spatial resolution levels (1 = no multiresolution).
-    /// At most 16.
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::LEVELS.help(), default_value = qcshape::settings::LEVELS.default_text(), value_parser = crate::args::count(&qcshape::settings::LEVELS), allow_negative_numbers = true)]
     levels: usize,
     /// Share of vertices kept by each coarsening step.
     #[arg(long, default_value_t = qcshape::multires::DEFAULT_RATIO, allow_negative_numbers = true)]
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,
-    /// Optimizer: preconditioned, hessian-kronecker, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
-    #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
+    #[arg(long, help = qcshape::settings::SOLVER.help(), default_value = qcshape::settings::SOLVER.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Solver>())]
     solver: Solver,
-    /// Relative gradient tolerance.
-    /// At most 1.
-    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::TOLERANCE.help(), default_value = qcshape::settings::TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
-    /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    /// At most 1.
-    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::ENERGY_TOLERANCE.help(), default_value = qcshape::settings::ENERGY_TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::ENERGY_TOLERANCE), allow_negative_numbers = true)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).

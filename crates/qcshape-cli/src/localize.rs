@@ -59,9 +59,7 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Poses inserted between consecutive key poses before transfer.
-    /// At most 1,000.
-    #[arg(long, default_value_t = 0, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::INSERT.help(), default_value = qcshape::settings::INSERT.default_text(), value_parser = crate::args::count(&qcshape::settings::INSERT), allow_negative_numbers = true)]
     insert: usize,
     #[command(flatten)]
     smooth: crate::args::SmoothArgs,

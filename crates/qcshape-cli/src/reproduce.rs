@@ -11,8 +11,9 @@ use qcshape::transport::Transport;
 use qcshape_studies::experiment::provenance::Provenance;
 use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
 
-use crate::args::in_pool;
+use crate::args::{choice, count, in_pool, real};
 use crate::progress::{bar, PipelineBars};
+use qcshape::settings as S;
 
 /// Reproduce the paper's synthetic experiments and write a report beside the paper's figures.
 ///
@@ -42,11 +43,11 @@ pub struct Args {
     level: Option<u32>,
     /// Poses inserted between key poses (default 3 as in section 3.3, not 0; 1 with --quick).
     /// At most 1,000.
-    #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, value_parser = count(&S::INSERT), allow_negative_numbers = true)]
     insert: Option<usize>,
     /// Segments N of every geodesic (default 4 as in Table 1, not 8; 2 with --quick).
     /// At most 10,000.
-    #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_STEPS as u64), allow_negative_numbers = true)]
+    #[arg(long, value_parser = count(&S::STEPS), allow_negative_numbers = true)]
     steps: Option<usize>,
     /// k-means restarts (default 20; 5 with --quick).
     /// At most 10,000.
@@ -68,21 +69,13 @@ pub struct Args {
     /// Metric of Table 3, one of --metrics (default: quasi-conformal, the paper's, else the last).
     #[arg(long)]
     noise_metric: Option<MetricKind>,
-    /// Weight of the L2 regularizer of every metric (eq. 11).
-    /// At most 1e6.
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = S::LAMBDA.help(), default_value = S::LAMBDA.default_text(), value_parser = real(&S::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
-    /// Scale of every metric's terms: invariant, calibrated (the previous releases') or raw.
-    #[arg(long, default_value = qcshape::defaults::SCALE.label())]
+    #[arg(long, help = S::SCALE.help(), default_value = S::SCALE.default_text(), value_parser = choice::<qcshape::metric::MetricScale>())]
     scale: qcshape::metric::MetricScale,
-    /// Transport to the common base: euclidean (the default: it gave the lower transfer error and the
-    /// better classification in the measurements, README), parallel (the paper's) or schild.
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
+    #[arg(long, help = S::TRANSPORT.help(), default_value = S::TRANSPORT.default_text(), value_parser = choice::<Transport>())]
     transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
+    #[arg(long, help = S::ALIGN.help(), default_value = S::ALIGN.default_text(), value_parser = choice::<Alignment>())]
     align: Alignment,
     #[command(flatten)]
     smooth: crate::args::SmoothArgs,

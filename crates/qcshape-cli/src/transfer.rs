@@ -38,10 +38,7 @@ pub struct Args {
     /// endpoint curvature weights of each geodesic).
     #[command(flatten)]
     metric: MetricArgs,
-    /// Transport: euclidean (N_k = N_0 + M_k - M_0; the default of every command: it gave the
-    /// lower transfer error in the measurements, README), parallel (the paper's, along
-    /// geodesics) or schild (Schild's ladder).
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
+    #[arg(long, help = qcshape::settings::TRANSPORT.help(), default_value = qcshape::settings::TRANSPORT.default_text(), value_parser = crate::args::choice::<qcshape::transport::Transport>())]
     transport: Transport,
     /// Geodesics (N = number of transport steps).
     #[command(flatten)]

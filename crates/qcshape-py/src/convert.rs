@@ -280,3 +280,12 @@ pub fn count(name: &str, v: AnyInt, min: usize, max: usize) -> PyResult<usize> {
 pub fn opt_count(name: &str, v: Option<AnyInt>, min: usize, max: usize) -> PyResult<Option<usize>> {
     v.map(|v| count(name, v, min, max)).transpose()
 }
+
+/// [`opt_count`] for the whole-number setting `s` ([`qcshape::settings`]): its keyword and range
+/// from the declaration.
+pub fn opt_setting(s: &qcshape::settings::Setting, v: Option<AnyInt>) -> PyResult<Option<usize>> {
+    match s.value {
+        qcshape::settings::Value::Count { min, max } => opt_count(s.python, v, min, max),
+        _ => unreachable!("--{} is a count", s.key),
+    }
+}

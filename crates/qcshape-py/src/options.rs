@@ -6,7 +6,8 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use qcshape::geodesic::{GeodesicOptions, Solver};
-use qcshape::metric::{ConformalForm, MetricKind, MetricScale, MetricSpec, QcNormalize, QcWeights};
+use qcshape::metric::{L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling};
+use qcshape::settings::{Id, Setting, Value};
 use qcshape::similarity::{PipelineOptions, Smoothing};
 use qcshape::transport::Transport;
 
@@ -37,40 +38,23 @@ impl MetricKw {
         };
         let mut spec = MetricSpec::new(kind);
         if let Some(f) = &self.form {
-            spec.form = match f.as_str() {
-                "quadratic" => ConformalForm::Quadratic,
-                "paper" => ConformalForm::Paper,
-                _ => {
-                    return Err(PyValueError::new_err(format!(
-                        "form: expected 'quadratic' or 'paper', got {f:?}"
-                    )))
-                }
-            };
+            spec.form = f
+                .parse()
+                .map_err(|e| PyValueError::new_err(format!("form: {e}")))?;
         }
         if let Some(w) = &self.weights {
-            spec.weights = match w.as_str() {
-                "endpoints" => QcWeights::Endpoints,
-                "segment" => QcWeights::Segment,
-                _ => {
-                    return Err(PyValueError::new_err(format!(
-                        "weights: expected 'endpoints' or 'segment', got {w:?}"
-                    )))
-                }
-            };
+            spec.weights = w
+                .parse()
+                .map_err(|e| PyValueError::new_err(format!("weights: {e}")))?;
         }
         if let Some(l) = self.lam {
             spec.lambda = l;
         }
         if let Some(a) = &self.l2_areas {
-            spec.frozen_areas = match a.as_str() {
-                "frozen" => true,
-                "pose" => false,
-                _ => {
-                    return Err(PyValueError::new_err(format!(
-                        "l2_areas: expected 'frozen' or 'pose', got {a:?}"
-                    )))
-                }
-            };
+            let a: L2Areas = a
+                .parse()
+                .map_err(|e| PyValueError::new_err(format!("l2_areas: {e}")))?;
+            spec.frozen_areas = a == L2Areas::Frozen;
         }
         if let Some(s) = &self.metric_scale {
             spec.scale = s
@@ -90,15 +74,17 @@ impl MetricKw {
         if let Some(n) = self.qc_smooth {
             qc.smooth = n;
         }
-        spec.qc_normalize = match self.qc_weights.as_deref() {
+        let scaling = match self.qc_weights.as_deref() {
+            None => None,
+            Some(w) => Some(
+                w.parse::<QcScaling>()
+                    .map_err(|e| PyValueError::new_err(format!("qc_weights: {e}")))?,
+            ),
+        };
+        spec.qc_normalize = match scaling {
             None if spec.qc_normalize.is_none() => None,
-            None | Some("rms") => Some(qc),
-            Some("raw") => None,
-            Some(w) => {
-                return Err(PyValueError::new_err(format!(
-                    "qc_weights: expected 'rms' or 'raw', got {w:?}"
-                )))
-            }
+            None | Some(QcScaling::Rms) => Some(qc),
+            Some(QcScaling::Raw) => None,
         };
         spec.validate().map_err(keyword_error)?;
         if let Some(w) = spec.warning() {
@@ -215,71 +201,12 @@ impl PipelineKw {
             if value.is_none() {
                 continue;
             }
+            if let Some(s) = qcshape::settings::by_python(&key) {
+                k.set(s, &key, &value)?;
+                continue;
+            }
             let bad = |e: PyErr| PyValueError::new_err(format!("{key}: {e}"));
             match key.as_str() {
-                "metric" => k.metric.metric = Some(value.extract().map_err(bad)?),
-                "form" => k.metric.form = Some(value.extract().map_err(bad)?),
-                "weights" => k.metric.weights = Some(value.extract().map_err(bad)?),
-                "lam" | "lambda_" => k.metric.lam = Some(value.extract().map_err(bad)?),
-                "l2_areas" => k.metric.l2_areas = Some(value.extract().map_err(bad)?),
-                "metric_scale" => k.metric.metric_scale = Some(value.extract().map_err(bad)?),
-                "stretch" => k.metric.stretch = Some(value.extract().map_err(bad)?),
-                "qc_weights" => k.metric.qc_weights = Some(value.extract().map_err(bad)?),
-                "qc_floor" => k.metric.qc_floor = Some(value.extract().map_err(bad)?),
-                "qc_smooth" => {
-                    k.metric.qc_smooth = Some(crate::convert::count(
-                        "qc_smooth",
-                        value.extract().map_err(bad)?,
-                        0,
-                        qcshape::limits::MAX_SWEEPS,
-                    )?)
-                }
-                "steps" => {
-                    k.solver.steps = Some(crate::convert::count(
-                        "steps",
-                        value.extract().map_err(bad)?,
-                        1,
-                        qcshape::limits::MAX_STEPS,
-                    )?)
-                }
-                "solver" => k.solver.solver = Some(value.extract().map_err(bad)?),
-                "tolerance" => k.solver.tolerance = Some(value.extract().map_err(bad)?),
-                "energy_tolerance" => k.solver.energy_tolerance = Some(value.extract().map_err(bad)?),
-                "length_tolerance" => k.solver.length_tolerance = Some(value.extract().map_err(bad)?),
-                "insert" => {
-                    k.insert = Some(crate::convert::count(
-                        "insert",
-                        value.extract().map_err(bad)?,
-                        0,
-                        qcshape::limits::MAX_INSERT,
-                    )?)
-                }
-                "levels" => {
-                    k.levels = Some(crate::convert::count(
-                        "levels",
-                        value.extract().map_err(bad)?,
-                        1,
-                        qcshape::limits::MAX_LEVELS,
-                    )?)
-                }
-                "transport" => k.transport = Some(value.extract().map_err(bad)?),
-                "align" => k.align = Some(value.extract().map_err(bad)?),
-                "smooth" => {
-                    k.smooth = Some(crate::convert::count(
-                        "smooth",
-                        value.extract().map_err(bad)?,
-                        0,
-                        qcshape::limits::MAX_SWEEPS,
-                    )?)
-                }
-                "smooth_length" => k.smooth_length = Some(value.extract().map_err(bad)?),
-                "base" => {
-                    k.base = Some(if let Ok(i) = value.extract::<usize>() {
-                        BaseKw::Index(i)
-                    } else {
-                        BaseKw::Name(value.extract().map_err(bad)?)
-                    })
-                }
                 "threads" => {
                     k.threads = Some(crate::convert::count(
                         "threads",
@@ -289,7 +216,6 @@ impl PipelineKw {
                     )?)
                 }
                 "progress" => k.progress = value.extract().map_err(bad)?,
-                "approx" => k.approx = Some(value.extract().map_err(bad)?),
                 _ => {
                     return Err(PyTypeError::new_err(format!(
                         "unexpected keyword argument '{key}' (accepted: {})",
@@ -299,6 +225,52 @@ impl PipelineKw {
             }
         }
         Ok(k)
+    }
+
+    /// Sets the setting `s` from the keyword `key`'s value (the one place a Python value
+    /// becomes a setting: an exhaustive `match` on [`Id`]).
+    fn set(&mut self, s: &Setting, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let bad = |e: PyErr| PyValueError::new_err(format!("{key}: {e}"));
+        let text = || value.extract::<String>().map_err(bad);
+        let real = || value.extract::<f64>().map_err(bad);
+        let count = || match s.value {
+            Value::Count { min, max } => {
+                crate::convert::count(s.python, value.extract().map_err(bad)?, min, max)
+            }
+            _ => unreachable!("--{} is a count", s.key),
+        };
+        match s.id {
+            Id::Metric => self.metric.metric = Some(text()?),
+            Id::Form => self.metric.form = Some(text()?),
+            Id::Weights => self.metric.weights = Some(text()?),
+            Id::Lambda => self.metric.lam = Some(real()?),
+            Id::Scale => self.metric.metric_scale = Some(text()?),
+            Id::Stretch => self.metric.stretch = Some(real()?),
+            Id::QcWeights => self.metric.qc_weights = Some(text()?),
+            Id::QcFloor => self.metric.qc_floor = Some(real()?),
+            Id::QcSmooth => self.metric.qc_smooth = Some(count()?),
+            Id::L2Areas => self.metric.l2_areas = Some(text()?),
+            Id::Steps => self.solver.steps = Some(count()?),
+            Id::Solver => self.solver.solver = Some(text()?),
+            Id::Tolerance => self.solver.tolerance = Some(real()?),
+            Id::EnergyTolerance => self.solver.energy_tolerance = Some(real()?),
+            Id::LengthTolerance => self.solver.length_tolerance = Some(real()?),
+            Id::Insert => self.insert = Some(count()?),
+            Id::Levels => self.levels = Some(count()?),
+            Id::Transport => self.transport = Some(text()?),
+            Id::Align => self.align = Some(text()?),
+            Id::Smooth => self.smooth = Some(count()?),
+            Id::SmoothLength => self.smooth_length = Some(real()?),
+            Id::Base => {
+                self.base = Some(if let Ok(i) = value.extract::<usize>() {
+                    BaseKw::Index(i)
+                } else {
+                    BaseKw::Name(text()?)
+                })
+            }
+            Id::Approx => self.approx = Some(text()?),
+        }
+        Ok(())
     }
 
     /// The pipeline options for deformations named `names` (for a base given by name); every
@@ -366,19 +338,12 @@ impl PipelineKw {
 /// these defaults in ``similarity_matrix``, ``ShapeSpace`` and ``KMeans.fit``.
 #[pyfunction]
 pub fn settings(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    use qcshape::settings::{Group, SETTINGS};
+    use qcshape::settings::SETTINGS;
     let out = PyDict::new(py);
     for s in SETTINGS {
         let d = PyDict::new(py);
         d.set_item("flag", format!("--{}", s.key))?;
-        d.set_item(
-            "group",
-            match s.group {
-                Group::Metric => "metric",
-                Group::Solver => "solver",
-                Group::Pipeline => "pipeline",
-            },
-        )?;
+        d.set_item("group", s.group.label())?;
         d.set_item("default", (s.default)())?;
         out.set_item(s.python, d)?;
     }

@@ -6,11 +6,14 @@ use pyo3::types::{PyDict, PyTuple};
 use qcshape::cluster::KarcherOptions;
 use qcshape::geodesic::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::mesh::Topology;
+use qcshape::settings;
 use qcshape::similarity::Stage;
 use qcshape::space::ShapeSpace;
 use qcshape::transport::Transport;
 
-use crate::convert::{faces, matrix_out, opt_count, points, points_out, sequence, sequence_out, AnyInt};
+use crate::convert::{
+    faces, matrix_out, opt_count, opt_setting, points, points_out, sequence, sequence_out, AnyInt,
+};
 use crate::errors;
 use crate::options::{transport, MetricKw, SolverKw};
 use crate::run::{detached, Progress};
@@ -334,26 +337,32 @@ impl PyShapeSpace {
         let n_vertices = n_vertices.or(mesh_nv.map(|n| AnyInt::new(n as i128)));
         let reference = reference.map(crate::meshes::points_arg).transpose()?;
         let reference = reference.as_ref();
-        let qc_smooth = opt_count("qc_smooth", qc_smooth, 0, qcshape::limits::MAX_SWEEPS)?;
-        let steps = opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?;
+        let qc_smooth = opt_setting(&settings::QC_SMOOTH, qc_smooth)?;
+        let steps = opt_setting(&settings::STEPS, steps)?;
         let n_vertices = opt_count("n_vertices", n_vertices, 1, qcshape::limits::MAX_VERTICES)?;
         let py = faces.py();
         let kwargs = PyDict::new(py);
-        put(&kwargs, "metric", metric.clone())?;
-        put(&kwargs, "form", form.clone())?;
-        put(&kwargs, "weights", weights.clone())?;
-        put(&kwargs, "lam", lam)?;
-        put(&kwargs, "l2_areas", l2_areas.clone())?;
-        put(&kwargs, "metric_scale", metric_scale.clone())?;
-        put(&kwargs, "stretch", stretch)?;
-        put(&kwargs, "qc_weights", qc_weights.clone())?;
-        put(&kwargs, "qc_floor", qc_floor)?;
-        put(&kwargs, "qc_smooth", qc_smooth)?;
-        put(&kwargs, "steps", steps)?;
-        put(&kwargs, "solver", solver.clone())?;
-        put(&kwargs, "tolerance", tolerance)?;
-        put(&kwargs, "energy_tolerance", energy_tolerance)?;
-        put(&kwargs, "length_tolerance", length_tolerance)?;
+        // The keywords given, under their own names (the table's Python keywords).
+        macro_rules! put_all {
+            ($($name:ident),*) => { $(put(&kwargs, stringify!($name), $name.clone())?;)* };
+        }
+        put_all!(
+            metric,
+            form,
+            weights,
+            lam,
+            l2_areas,
+            metric_scale,
+            stretch,
+            qc_weights,
+            qc_floor,
+            qc_smooth,
+            steps,
+            solver,
+            tolerance,
+            energy_tolerance,
+            length_tolerance
+        );
         put(&kwargs, "reference", reference)?;
         put(&kwargs, "scale", scale)?;
         put(&kwargs, "n_vertices", n_vertices)?;
@@ -506,7 +515,7 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<PyGeodesic> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
-        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
+        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
         let g = detached(py, None, |_| space.geodesic(&pa, &pb).map_err(errors::space))?;
         crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
         Ok(PyGeodesic { g })
@@ -523,7 +532,7 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<f64> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
-        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
+        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
         // ShapeSpace::dist's solve, keeping the path for the warnings.
         let g = detached(py, None, |_| crate::warn::dist_path(&space, &pa, &pb))?;
         if let Some(g) = &g {
@@ -544,7 +553,7 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
         let (m, q) = (self.points(base, "base")?, self.points(p, "p")?);
-        let space = self.with_steps(opt_count("steps", steps, 1, qcshape::limits::MAX_STEPS)?)?;
+        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
         let (log, d) = detached(py, None, |_| space.log(&m, &q).map_err(errors::space))?;
         Ok((points_out(py, &log)?, d))
     }
@@ -620,11 +629,11 @@ impl PyShapeSpace {
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = self.poses(poses, "poses")?;
         let d = InterpolationOptions::default();
-        let levels = opt_count("levels", levels, 1, qcshape::limits::MAX_LEVELS)?.unwrap_or(d.levels);
+        let levels = opt_setting(&settings::LEVELS, levels)?.unwrap_or(d.levels);
         if levels == 0 {
             return Err(PyValueError::new_err("levels: must be at least 1"));
         }
-        let insert = opt_count("insert", insert, 0, qcshape::limits::MAX_INSERT)?.unwrap_or(d.insert);
+        let insert = opt_setting(&settings::INSERT, insert)?.unwrap_or(d.insert);
         let r = detached(py, None, |_| {
             self.space
                 .interpolate(&p, insert, levels, &|| {})

@@ -12,7 +12,8 @@ use qcshape::metric::MetricKind;
 use qcshape::synth::{genus0_benchmark, SynthOptions};
 use qcshape_studies::experiment::interpolation::{pick_frames, InterpolationExperiment};
 
-use crate::args::{flag_error, in_pool, VariantArgs};
+use crate::args::{choice, count, flag_error, in_pool, real, VariantArgs};
+use qcshape::settings as S;
 
 /// Interpolation accuracy per metric (paper section 3.1, Fig. 4).
 ///
@@ -61,22 +62,15 @@ pub struct Args {
     variants: VariantArgs,
     /// Poses inserted between the two known poses (odd; the middle one is compared).
     /// At most 1,000.
-    #[arg(long, default_value_t = 1, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1, value_parser = count(&S::INSERT), allow_negative_numbers = true)]
     insert: usize,
-    /// Spatial resolution levels of the interpolation (1 = no multiresolution).
-    /// At most 16.
-    #[arg(long, default_value_t = qcshape::defaults::LEVELS, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_LEVELS as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::LEVELS.help(), default_value = S::LEVELS.default_text(), value_parser = count(&S::LEVELS), allow_negative_numbers = true)]
     levels: usize,
-    /// Optimizer: preconditioned, hessian-kronecker, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs, plain-lbfgs.
-    #[arg(long, default_value = qcshape::defaults::SOLVER.label())]
+    #[arg(long, help = S::SOLVER.help(), default_value = S::SOLVER.default_text(), value_parser = choice::<Solver>())]
     solver: Solver,
-    /// Relative gradient tolerance.
-    /// At most 1.
-    #[arg(long, default_value_t = qcshape::defaults::TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = S::TOLERANCE.help(), default_value = S::TOLERANCE.default_text(), value_parser = real(&S::TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
-    /// Relative energy tolerance (0 disables it; see `qcshape geodesic --help`).
-    /// At most 1.
-    #[arg(long, default_value_t = qcshape::defaults::ENERGY_TOLERANCE, value_parser = crate::bounds::real(qcshape::limits::MAX_TOLERANCE), allow_negative_numbers = true)]
+    #[arg(long, help = S::ENERGY_TOLERANCE.help(), default_value = S::ENERGY_TOLERANCE.default_text(), value_parser = real(&S::ENERGY_TOLERANCE), allow_negative_numbers = true)]
     energy_tolerance: f64,
     /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
     /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).

@@ -12,8 +12,9 @@ use qcshape::synth::{genus0_benchmark, NoiseKind, SynthOptions};
 use qcshape::transport::Transport;
 use qcshape_studies::experiment::noise::NoiseExperiment;
 
-use crate::args::{MetricArgs, SolverArgs};
+use crate::args::{choice, count, MetricArgs, SolverArgs};
 use crate::progress::PipelineBars;
+use qcshape::settings as S;
 
 /// `--steps`' default here: [`qcshape::defaults::NOISE_STEPS`] (a named exception).
 const NOISE_STEPS: &str = "4";
@@ -57,17 +58,11 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Poses inserted between consecutive key poses.
-    /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, help = S::INSERT.help(), default_value = S::INSERT.default_text(), value_parser = count(&S::INSERT), allow_negative_numbers = true)]
     insert: usize,
-    /// Transport to the common base: euclidean (the measured best), parallel or schild.
-    #[arg(long, default_value = qcshape::defaults::TRANSPORT.label())]
+    #[arg(long, help = S::TRANSPORT.help(), default_value = S::TRANSPORT.default_text(), value_parser = choice::<Transport>())]
     transport: Transport,
-    /// Placement of each deformation on the base before transfer: rigid (the default: area-weighted
-    /// Procrustes of its first pose onto the base, the same motion for all its poses), similarity (also
-    /// a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
+    #[arg(long, help = S::ALIGN.help(), default_value = S::ALIGN.default_text(), value_parser = choice::<Alignment>())]
     align: Alignment,
     #[command(flatten)]
     smooth: crate::args::SmoothArgs,

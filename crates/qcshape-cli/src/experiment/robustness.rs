@@ -70,9 +70,7 @@ pub struct Args {
     /// noise-var-20, noise-diag-1, noise-diag-2, amplitude, time-warp, combined.
     #[arg(long, value_delimiter = ',')]
     scenarios: Vec<String>,
-    /// Weight of the L2 regularizer of every metric (eq. 11).
-    /// At most 1e6.
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::LAMBDA.help(), default_value = qcshape::settings::LAMBDA.default_text(), value_parser = crate::args::real(&qcshape::settings::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     #[command(flatten)]
     solver: SolverArgs,

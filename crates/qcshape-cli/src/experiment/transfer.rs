@@ -57,13 +57,10 @@ pub struct Args {
     /// At most 10,000.
     #[arg(long, default_value_t = 3, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_POSES as u64), allow_negative_numbers = true)]
     poses: usize,
-    /// Weight of the L2 regularizer (eq. 11) of every metric; 0 disables it.
-    /// At most 1e6.
-    #[arg(long, default_value_t = qcshape::defaults::LAMBDA, value_parser = crate::bounds::real(qcshape::limits::MAX_LAMBDA), allow_negative_numbers = true)]
+    #[arg(long, help = qcshape::settings::LAMBDA.help(), default_value = qcshape::settings::LAMBDA.default_text(), value_parser = crate::args::real(&qcshape::settings::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
-    /// Conformal triangle term: quadratic or paper.
-    #[arg(long, default_value = "quadratic", value_parser = ["quadratic", "paper"])]
-    form: String,
+    #[arg(long, help = qcshape::settings::FORM.help(), default_value = qcshape::settings::FORM.default_text(), value_parser = crate::args::choice::<qcshape::metric::ConformalForm>())]
+    form: ConformalForm,
     /// Fixed-point corrections of each Schild rung's doubling.
     /// At most 1,000,000.
     #[arg(long, default_value_t = SchildOptions::default().doubling_iterations, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
@@ -89,11 +86,7 @@ pub fn run(args: &Args) -> Result<()> {
         .iter()
         .map(|&kind| MetricSpec {
             lambda: args.lambda,
-            form: if args.form == "paper" {
-                ConformalForm::Paper
-            } else {
-                ConformalForm::Quadratic
-            },
+            form: args.form,
             weights: QcWeights::Endpoints,
             ..MetricSpec::new(kind)
         })

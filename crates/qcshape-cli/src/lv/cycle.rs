@@ -30,7 +30,7 @@ pub struct CycleCommon {
     /// Poses inserted between consecutive frames (default 3, the paper's section 4 setting, not
     /// the other commands' 0).
     /// At most 1,000.
-    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_INSERT as u64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = qcshape::defaults::PAPER_INSERT, value_parser = crate::args::count(&qcshape::settings::INSERT), allow_negative_numbers = true)]
     pub insert: usize,
     /// The geodesic solver (`--steps` defaults to 4 here, the setting the README's LV tables
     /// were measured with, not the other commands' 8).

@@ -104,21 +104,13 @@ pub struct RunArgs {
         default_value = "kmeans,kmedoids,spectral,mds-kmeans:2,mds-kmeans:3"
     )]
     pub(crate) compare: Vec<ClusterMethod>,
-    /// Placement of every subject on the base before transfer: rigid (area-weighted
-    /// Procrustes of its frame 0 onto the base's, the same motion on every frame), similarity
-    /// (also a uniform scale) or none (the paper's pipeline).
-    #[arg(long, default_value = qcshape::defaults::ALIGN.label())]
+    #[arg(long, help = qcshape::settings::ALIGN.help(), default_value = qcshape::settings::ALIGN.default_text(), value_parser = crate::args::choice::<qcshape::align::Alignment>())]
     pub(crate) align: Alignment,
     /// Transport of every subject's cycle to the base: parallel (the paper's section 4
     /// pipeline, the default here), schild or euclidean (the other commands' default).
     #[arg(long, default_value = qcshape::defaults::LV_TRANSPORT.label())]
     pub(crate) transport: Transport,
-    /// Pose distances of the similarity matrix: exact (geodesic lengths, the paper's), straight
-    /// (the straight-path length, no optimization) or tangent (the metric linearized at the
-    /// common base: one feature vector per pose, cost linear in the subjects; every metric).
-    /// Errors against exact: docs/log/speed.md.
-    /// Interpolation, transfer and the Fig. 9 map stay exact.
-    #[arg(long, default_value = "exact")]
+    #[arg(long, help = qcshape::settings::APPROX.help(), default_value = qcshape::settings::APPROX.default_text(), value_parser = crate::args::choice::<qcshape::similarity::Approx>())]
     pub(crate) approx: qcshape::similarity::Approx,
     /// Clustering restarts.
     /// At most 10,000.

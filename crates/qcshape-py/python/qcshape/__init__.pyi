@@ -26,29 +26,31 @@ class _PipelineOptions(TypedDict, total=False):
     """The keyword options of the data-set functions (`similarity_matrix`, `motion_maps`,
     `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
 
-    metric: Optional[str]
-    form: Optional[str]
-    weights: Optional[str]
-    lam: Optional[float]
-    metric_scale: Optional[str]  # invariant (default) | calibrated | raw
-    stretch: Optional[float]
-    qc_weights: Optional[str]
-    qc_floor: Optional[float]
-    qc_smooth: Optional[int]
-    l2_areas: Optional[str]
-    steps: Optional[int]
-    solver: Optional[str]
-    tolerance: Optional[float]
-    energy_tolerance: Optional[float]
-    length_tolerance: Optional[float]
-    insert: Optional[int]
-    levels: Optional[int]
-    transport: Optional[str]
-    align: Optional[str]
-    smooth: Optional[int]  # Taubin iterations instead of the length filter
-    smooth_length: Optional[float]  # relative to the area radius, 0.18 (default filter)
+    # BEGIN settings: _PipelineOptions (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+    metric: Optional[str]  # l2 | rigid | isometric | conformal | quasi-conformal; default isometric
+    form: Optional[str]  # quadratic | paper; default quadratic
+    weights: Optional[str]  # endpoints | segment; default endpoints
+    lam: Optional[float]  # default 0.01
+    metric_scale: Optional[str]  # invariant | calibrated | raw; default invariant
+    stretch: Optional[float]  # default 0.1
+    qc_weights: Optional[str]  # rms | raw; default rms
+    qc_floor: Optional[float]  # default 0.5
+    qc_smooth: Optional[int]  # default 0
+    l2_areas: Optional[str]  # frozen | pose; default frozen
+    steps: Optional[int]  # default 8
+    solver: Optional[str]  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+    tolerance: Optional[float]  # default 0.000001
+    energy_tolerance: Optional[float]  # default 0.000000000001
+    length_tolerance: Optional[float]  # default 0.00000001
+    insert: Optional[int]  # default 0
+    levels: Optional[int]  # default 1
+    transport: Optional[str]  # euclidean | parallel | schild; default euclidean
+    align: Optional[str]  # rigid | similarity | none; default rigid
+    smooth: Optional[int]
+    smooth_length: Optional[float]  # default 0.18
     base: Optional[Union[int, str]]
-    approx: Optional[str]
+    approx: Optional[str]  # exact | straight | tangent; default exact
+    # END settings
     threads: Optional[int]
     progress: Optional[bool]  # None: only when stderr is a terminal
 
@@ -149,20 +151,22 @@ class ShapeSpace:
         faces: _Faces,
         metric: Optional[str] = None,
         *,
-        form: Optional[str] = None,
-        weights: Optional[str] = None,
-        lam: Optional[float] = None,
-        l2_areas: Optional[str] = None,
-        metric_scale: Optional[str] = None,
-        stretch: Optional[float] = None,
-        qc_weights: Optional[str] = None,
-        qc_floor: Optional[float] = None,
-        qc_smooth: Optional[int] = None,
-        steps: Optional[int] = None,
-        solver: Optional[str] = None,
-        tolerance: Optional[float] = None,
-        energy_tolerance: Optional[float] = None,
-        length_tolerance: Optional[float] = None,
+        # BEGIN settings: ShapeSpace (generated from qcshape::settings: cargo run -p qcshape-cli --example gen-settings)
+        form: Optional[str] = None,  # quadratic | paper; default quadratic
+        weights: Optional[str] = None,  # endpoints | segment; default endpoints
+        lam: Optional[float] = None,  # default 0.01
+        metric_scale: Optional[str] = None,  # invariant | calibrated | raw; default invariant
+        stretch: Optional[float] = None,  # default 0.1
+        qc_weights: Optional[str] = None,  # rms | raw; default rms
+        qc_floor: Optional[float] = None,  # default 0.5
+        qc_smooth: Optional[int] = None,  # default 0
+        l2_areas: Optional[str] = None,  # frozen | pose; default frozen
+        steps: Optional[int] = None,  # default 8
+        solver: Optional[str] = None,  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+        tolerance: Optional[float] = None,  # default 0.000001
+        energy_tolerance: Optional[float] = None,  # default 0.000000000001
+        length_tolerance: Optional[float] = None,  # default 0.00000001
+        # END settings
         reference: Optional[_Points] = None,
         scale: Optional[float] = None,
         n_vertices: Optional[int] = None,

@@ -40,7 +40,7 @@ pub use relative::{RelativeConformal, RelativeIsometric, RelativeL2};
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;
-pub use spec::{Calibration, CalibrationError, MetricKind, MetricScale, MetricSpec};
+pub use spec::{Calibration, CalibrationError, L2Areas, MetricKind, MetricScale, MetricSpec, QcScaling};
 pub use weighted::Weighted;
 
 use std::fmt::Debug;

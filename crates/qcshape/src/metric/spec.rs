@@ -116,6 +116,41 @@ impl std::str::FromStr for MetricScale {
     }
 }
 
+/// Which quasi-conformal endpoint weights ([`MetricSpec::qc_normalize`]): the value of the
+/// `qc-weights` setting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QcScaling {
+    /// The curvature-change density over its RMS, floored ([`QcNormalize`]).
+    Rms,
+    /// The paper's angle-defect change in radians (no normalization).
+    Raw,
+}
+
+/// Where the L2 area weights come from ([`MetricSpec::frozen_areas`]): the value of the
+/// `l2-areas` setting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum L2Areas {
+    /// Frozen at the path's ends.
+    Frozen,
+    /// Taken from each pose.
+    Pose,
+}
+
+macro_rules! named_from_str {
+    ($t:ty, $what:literal) => {
+        impl std::str::FromStr for $t {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                crate::settings::parse_named(s, $what)
+            }
+        }
+    };
+}
+named_from_str!(ConformalForm, "form");
+named_from_str!(QcWeights, "weights");
+named_from_str!(QcScaling, "qc-weights");
+named_from_str!(L2Areas, "l2-areas");
+
 /// The constant factors of one analysis's metric ([`MetricSpec::calibrate`]): the metric is
 /// `geometric * G + lambda * l2 * L2` (the L2 metric itself: `l2 * L2`). Computed once from
 /// the reference pose(s) in the solver's coordinates, so one analysis uses one metric.
