@@ -135,8 +135,13 @@ fn citations(text: &str) -> Vec<(String, Option<String>)> {
     out
 }
 
-/// The name in quotes that follows `rest` after at most a backtick, a comma and spaces.
+/// The name in quotes that follows `rest` after at most a backtick, a comma and spaces. A quote
+/// right after the path closes a string literal that holds the path (`let md =
+/// "docs/defaults.md";`): no section.
 fn quoted_after(rest: &str) -> Option<String> {
+    if rest.starts_with('"') || rest.starts_with("\\\"") {
+        return None;
+    }
     let rest = rest.strip_prefix('`').unwrap_or(rest);
     let rest = rest.strip_prefix(',').unwrap_or(rest).trim_start();
     let rest = rest.strip_prefix('\\').unwrap_or(rest);
@@ -227,7 +232,8 @@ fn the_checks_find_what_they_look_for() {
         "/// see docs/method.md \"Metrics\" and (docs/log/speed.md).\n\
          //! broken over lines: docs/method.md\n//! \"Path energy, geodesics, distance\"\n\
          let s = \"(docs/method.md \\\"Noise\\\")\";\n\
-         crates/x/docs/not-a-citation.md; README, \"What the measurements say\"",
+         crates/x/docs/not-a-citation.md; README, \"What the measurements say\"\n\
+         let md = \"docs/defaults.md\";\n    let data = \"crates/x.rs\";",
     );
     let c = citations(&text);
     let want: Vec<(String, Option<String>)> = vec![
@@ -238,6 +244,7 @@ fn the_checks_find_what_they_look_for() {
             Some("Path energy, geodesics, distance".into()),
         ),
         ("docs/method.md".into(), Some("Noise".into())),
+        ("docs/defaults.md".into(), None),
         ("README.md".into(), Some("What the measurements say".into())),
     ];
     assert_eq!(c, want);
