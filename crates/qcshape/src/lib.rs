@@ -26,6 +26,7 @@ pub mod limits;
 pub mod mesh;
 pub mod metric;
 pub mod multires;
+pub mod named;
 pub mod numfmt;
 pub mod outputs;
 pub mod settings;

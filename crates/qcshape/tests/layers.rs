@@ -24,6 +24,7 @@ const ORDER: &[&str] = &[
     // foundation: bounds, number formatting, output paths
     "limits",
     "numfmt",
+    "named",
     "outputs",
     // meshes, their rigid alignment and their files
     "mesh",

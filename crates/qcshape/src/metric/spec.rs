@@ -141,7 +141,7 @@ macro_rules! named_from_str {
         impl std::str::FromStr for $t {
             type Err = String;
             fn from_str(s: &str) -> Result<Self, String> {
-                crate::settings::parse_named(s, $what)
+                crate::named::parse_named(s, $what)
             }
         }
     };
