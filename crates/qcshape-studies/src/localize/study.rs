@@ -43,7 +43,8 @@ pub struct Localization {
     pub contrasts: Vec<Contrast>,
     /// One signed motion contrast per pair of labels.
     pub motion: Vec<MotionContrast>,
-    /// The metric's description (for titles; [`qcshape::metric::MetricSpec::label`]).
+    /// The metric's name (`isometric`, for the maps' titles; the full description with its
+    /// settings is [`qcshape::metric::MetricSpec::label`]).
     pub metric_name: String,
 }
 
@@ -79,7 +80,7 @@ pub fn localize(
     let m = motion_maps(measure, scale, &prepared.topology, &scaled)?;
     let motion = motion_contrasts(&m, labels, lopts)?;
     Ok(Localization {
-        metric_name: opts.metric.label(),
+        metric_name: opts.metric.kind.label().to_string(),
         prepared,
         maps,
         contrasts: result,
