@@ -137,25 +137,6 @@ fn groups(args: &Args) -> Result<(Vec<Group>, Vec<PathBuf>)> {
     Ok((out, inputs))
 }
 
-/// A file-system-safe folder name for a deformation.
-fn folder_name(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| {
-            if c.is_alphanumeric() || "-_.".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() || s.starts_with('.') {
-        format!("_{s}")
-    } else {
-        s
-    }
-}
-
 /// One CSV row of quality.csv.
 fn quality_row(w: &mut csv::Writer<Vec<u8>>, name: &str, pose: usize, src: &Path, f: &Fitted) -> Result<()> {
     let q = &f.quality;
@@ -231,7 +212,7 @@ pub fn run(args: &Args) -> Result<()> {
             }
             v
         };
-        let mut folder = folder_name(&g.name);
+        let mut folder = crate::input::folder_for(&g.name);
         while !used.insert(folder.clone()) {
             folder.push('_');
         }

@@ -69,3 +69,24 @@ pub(crate) fn all_inputs<'a>(given: &'a [PathBuf], data: &'a qcshape::dataset::D
         )
         .collect()
 }
+
+/// A file-name-safe folder name for a deformation (`interpolate`, `fit`): letters, digits,
+/// `-`, `_`, `.` kept, the rest `_`; a name that is empty or starts with `.` gets a `d` in
+/// front (no hidden folder, no `..`).
+pub(crate) fn folder_for(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || s.starts_with('.') {
+        format!("d{s}")
+    } else {
+        s
+    }
+}

@@ -192,25 +192,6 @@ fn has_mesh_extension(p: &Path) -> bool {
     io::Format::from_path(p).is_some()
 }
 
-/// A file-name-safe version of a deformation name.
-fn folder_for(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| {
-            if c.is_alphanumeric() || "-_.".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() || s.starts_with('.') {
-        format!("d{s}")
-    } else {
-        s
-    }
-}
-
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) || s.starts_with('#') || s.trim() != s {
         format!("\"{}\"", s.replace('"', "\"\""))
@@ -231,7 +212,7 @@ fn write_outputs(
     let mut segments = String::from("deformation,segment,from,to,length\n");
     let mut used: HashMap<String, usize> = HashMap::new();
     for (d, r) in data.deformations.iter().zip(results) {
-        let mut folder = folder_for(&d.name);
+        let mut folder = crate::input::folder_for(&d.name);
         let count = used.entry(folder.clone()).or_insert(0);
         *count += 1;
         if *count > 1 {

@@ -8,7 +8,7 @@
 //! the barycentric coordinates of the answer (surface-to-point terms spread a pull over a
 //! triangle's corners), 200 lines, deterministic, no `unsafe`.
 
-use crate::mesh::geometry::{add, dot, scale, sub};
+use crate::mesh::geometry::{add, closest_point_on_triangle, dot, scale, sub};
 
 /// Primitives per leaf.
 const LEAF: usize = 4;
@@ -144,7 +144,7 @@ impl SurfaceIndex {
             if node.leaf {
                 for &i in &self.order[node.start as usize..(node.start + node.count) as usize] {
                     let t = &self.tris[i as usize];
-                    let (p, bary) = closest_on_triangle(q, t[0], t[1], t[2]);
+                    let (p, bary) = closest_point_on_triangle(q, t[0], t[1], t[2]);
                     let e = sub(p, q);
                     let dd = dot(e, e);
                     let better = match best {
@@ -202,63 +202,6 @@ fn box_distance_sq(n: &Node, q: [f64; 3]) -> f64 {
         .sum()
 }
 
-/// The closest point of triangle `(a, b, c)` to `p` and its barycentric coordinates (Ericson,
-/// Real-Time Collision Detection, 5.1.5: Voronoi regions of the corners, edges and face).
-/// Degenerate triangles (a point or a segment) are handled by the same region tests.
-pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, [1.0, 0.0, 0.0]);
-    }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, [0.0, 1.0, 0.0]);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
-        let v = d1 / (d1 - d3);
-        return (add(a, scale(ab, v)), [1.0 - v, v, 0.0]);
-    }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, [0.0, 0.0, 1.0]);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
-        let w = d2 / (d2 - d6);
-        return (add(a, scale(ac, w)), [1.0 - w, 0.0, w]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
-    }
-    let den = va + vb + vc;
-    if den == 0.0 || !den.is_finite() {
-        // Degenerate (collinear) triangle not caught above: the nearest corner.
-        let da = dot(ap, ap);
-        let (db, dc) = (dot(bp, bp), dot(cp, cp));
-        return if da <= db && da <= dc {
-            (a, [1.0, 0.0, 0.0])
-        } else if db <= dc {
-            (b, [0.0, 1.0, 0.0])
-        } else {
-            (c, [0.0, 0.0, 1.0])
-        };
-    }
-    let v = vb / den;
-    let w = vc / den;
-    (add(a, add(scale(ab, v), scale(ac, w))), [1.0 - v - w, v, w])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -270,7 +213,7 @@ mod tests {
             .iter()
             .map(|f| {
                 let (p, _) =
-                    closest_on_triangle(q, pos[f[0] as usize], pos[f[1] as usize], pos[f[2] as usize]);
+                    closest_point_on_triangle(q, pos[f[0] as usize], pos[f[1] as usize], pos[f[2] as usize]);
                 dot(sub(p, q), sub(p, q))
             })
             .fold(f64::INFINITY, f64::min)
@@ -310,11 +253,14 @@ mod tests {
     #[test]
     fn triangle_regions() {
         let (a, b, c) = ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
-        let (p, _) = closest_on_triangle([0.2, 0.2, 1.0], a, b, c);
+        let (p, _) = closest_point_on_triangle([0.2, 0.2, 1.0], a, b, c);
         assert!(dot(sub(p, [0.2, 0.2, 0.0]), sub(p, [0.2, 0.2, 0.0])) < 1e-30);
-        assert_eq!(closest_on_triangle([-1.0, -1.0, 0.0], a, b, c).0, a);
-        assert_eq!(closest_on_triangle([0.5, -1.0, 0.0], a, b, c).0, [0.5, 0.0, 0.0]);
-        let (p, w) = closest_on_triangle([1.0, 1.0, 0.0], a, b, c);
+        assert_eq!(closest_point_on_triangle([-1.0, -1.0, 0.0], a, b, c).0, a);
+        assert_eq!(
+            closest_point_on_triangle([0.5, -1.0, 0.0], a, b, c).0,
+            [0.5, 0.0, 0.0]
+        );
+        let (p, w) = closest_point_on_triangle([1.0, 1.0, 0.0], a, b, c);
         assert_eq!(p, [0.5, 0.5, 0.0]);
         assert_eq!(w, [0.0, 0.5, 0.5]);
     }

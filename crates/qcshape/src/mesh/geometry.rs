@@ -215,3 +215,62 @@ pub fn sqrt_third_area_gradient(p: [f64; 3], q: [f64; 3], r: [f64; 3]) -> (f64, 
         [cross(sub(q, r), n), cross(sub(r, p), n), cross(sub(p, q), n)].map(|v| scale(v, k)),
     )
 }
+
+/// The closest point of triangle `(a, b, c)` to `p` and its barycentric coordinates (Ericson,
+/// Real-Time Collision Detection, 5.1.5: Voronoi regions of the corners, edges and face).
+/// Degenerate triangles (a point or a segment) are handled by the same region tests, falling
+/// back to the nearest corner: never a NaN. Used by the mesh hierarchy's prolongation and the
+/// fit's closest-point queries.
+pub fn closest_point_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = sub(p, b);
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
+        let v = d1 / (d1 - d3);
+        return (add(a, scale(ab, v)), [1.0 - v, v, 0.0]);
+    }
+    let cp = sub(p, c);
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
+        let w = d2 / (d2 - d6);
+        return (add(a, scale(ac, w)), [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
+    }
+    let den = va + vb + vc;
+    if den == 0.0 || !den.is_finite() {
+        // Degenerate (collinear) triangle not caught above: the nearest corner.
+        let da = dot(ap, ap);
+        let (db, dc) = (dot(bp, bp), dot(cp, cp));
+        return if da <= db && da <= dc {
+            (a, [1.0, 0.0, 0.0])
+        } else if db <= dc {
+            (b, [0.0, 1.0, 0.0])
+        } else {
+            (c, [0.0, 0.0, 1.0])
+        };
+    }
+    let v = vb / den;
+    let w = vc / den;
+    (add(a, add(scale(ab, v), scale(ac, w))), [1.0 - v - w, v, w])
+}

@@ -264,7 +264,7 @@ impl TriangleGrid {
                             }
                             stamp[t as usize] = query;
                             let [a, b, cc] = faces[t as usize].map(|i| pos[i as usize]);
-                            let (q, bary) = closest_point_on_triangle(p, a, b, cc);
+                            let (q, bary) = geometry::closest_point_on_triangle(p, a, b, cc);
                             let dq = geometry::sub(p, q);
                             let d2 = geometry::dot(dq, dq);
                             if d2 < best.2 {
@@ -284,71 +284,6 @@ impl TriangleGrid {
     }
 }
 
-/// Closest point of triangle `abc` to `p` and its barycentric coordinates (Ericson,
-/// "Real-Time Collision Detection", 5.1.5). Degenerate triangles fall back to a corner or edge.
-pub(crate) fn closest_point_on_triangle(
-    p: [f64; 3],
-    a: [f64; 3],
-    b: [f64; 3],
-    c: [f64; 3],
-) -> ([f64; 3], [f64; 3]) {
-    use geometry::{add, dot, scale, sub};
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, [1.0, 0.0, 0.0]);
-    }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, [0.0, 1.0, 0.0]);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (add(a, scale(ab, v)), [1.0 - v, v, 0.0]);
-    }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, [0.0, 0.0, 1.0]);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (add(a, scale(ac, w)), [1.0 - w, 0.0, w]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
-    }
-    let denom = va + vb + vc;
-    if denom == 0.0 || !denom.is_finite() {
-        // Degenerate triangle (all regions' tests failed numerically): nearest corner.
-        let corners = [a, b, c];
-        let k = (0..3)
-            .min_by(|&i, &j| {
-                let di = sub(p, corners[i]);
-                let dj = sub(p, corners[j]);
-                dot(di, di).total_cmp(&dot(dj, dj))
-            })
-            .unwrap_or(0);
-        let mut bary = [0.0; 3];
-        bary[k] = 1.0;
-        return (corners[k], bary);
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    let u = 1.0 - v - w;
-    (add(a, add(scale(ab, v), scale(ac, w))), [u, v, w])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -365,7 +300,7 @@ mod tests {
             [0.0, 2.0, 0.0],
             [1.0, 1.0, -0.4],
         ] {
-            let (q, bary) = closest_point_on_triangle(p, a, b, c);
+            let (q, bary) = geometry::closest_point_on_triangle(p, a, b, c);
             assert!(bary.iter().all(|&x| x >= -1e-12) && (bary.iter().sum::<f64>() - 1.0).abs() < 1e-12);
             let rebuilt = [0, 1, 2].map(|k| bary[0] * a[k] + bary[1] * b[k] + bary[2] * c[k]);
             assert!(geometry::norm(geometry::sub(rebuilt, q)) < 1e-12);
@@ -395,7 +330,10 @@ mod tests {
                     let p = fine.positions[v];
                     let dist = |f: usize| {
                         let [a, b, c] = coarse.topology.faces()[f].map(|i| coarse.positions[i as usize]);
-                        geometry::norm(geometry::sub(p, closest_point_on_triangle(p, a, b, c).0))
+                        geometry::norm(geometry::sub(
+                            p,
+                            geometry::closest_point_on_triangle(p, a, b, c).0,
+                        ))
                     };
                     let brute = (0..coarse.topology.n_faces())
                         .map(dist)
