@@ -9,7 +9,7 @@ use qcshape::metric::MetricKind;
 use qcshape::synth::write_benchmark;
 use qcshape::transport::Transport;
 use qcshape_studies::experiment::provenance::Provenance;
-use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
+use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction, Table3Row};
 
 use crate::args::{choice, count, in_pool, real};
 use crate::progress::{bar, PipelineBars};
@@ -22,8 +22,8 @@ use qcshape::settings as S;
 /// the first pose of the first deformation (--transport), the similarity matrix (eq. 13),
 /// k-means into 8 classes (Table 1: eq. 15 sensitivity and specificity, plus leave-one-out 1-NN
 /// accuracy and the adjusted Rand index), the MDS map (Fig. 6) and a heat map; the time of each
-/// step (Table 2); and the noise resistance of the --noise-metric classification (Table 3,
-/// eq. 17). Writes DIR/report.md with every table beside the paper's numbers, the figures
+/// step (Table 2); and the noise resistance of each --noise-metrics classification (Table 3,
+/// eq. 17: every metric by default, each a Table 1 run per noise level and kind). Writes DIR/report.md with every table beside the paper's numbers, the figures
 /// (SVG and PNG, the PNGs embedded) and the CSVs. report.md is rewritten after every step (each
 /// metric, Fig. 4, Fig. 5, each noise level), marked "Partial report: still running" until the
 /// last one, so an interrupted run leaves the tables done so far.
@@ -66,9 +66,10 @@ pub struct Args {
         default_value = "rigid,isometric,conformal,quasi-conformal,l2"
     )]
     metrics: Vec<MetricKind>,
-    /// Metric of Table 3, one of --metrics (default: quasi-conformal, the paper's, else the last).
-    #[arg(long)]
-    noise_metric: Option<MetricKind>,
+    /// Metrics of Table 3 (comma-separated), each one of --metrics (default: every metric of
+    /// --metrics; each costs a Table 1 run per noise level and kind).
+    #[arg(long, alias = "noise-metric", value_delimiter = ',')]
+    noise_metrics: Vec<MetricKind>,
     #[arg(long, help = S::LAMBDA.help(), default_value = S::LAMBDA.default_text(), value_parser = real(&S::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
     #[arg(long, help = S::SCALE.help(), default_value = S::SCALE.default_text(), value_parser = choice::<qcshape::metric::MetricScale>())]
@@ -105,7 +106,7 @@ fn settings(args: &Args) -> Reproduction {
         restarts: args.restarts.unwrap_or(base.restarts),
         noise_levels: args.noise_levels.clone().unwrap_or(base.noise_levels),
         metrics: args.metrics.clone(),
-        noise_metric: args.noise_metric.filter(|_| !args.skip_noise),
+        noise_metrics: args.noise_metrics.clone(),
         lambda: args.lambda,
         scale: args.scale,
         stretch: qcshape::defaults::STRETCH,
@@ -143,7 +144,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     // The report of the steps done so far (`after`: the last one; None: the final report).
     let previous_runs = std::cell::RefCell::new(Vec::new());
     let write_report = |runs: &[qcshape_studies::experiment::reproduce::MetricRun],
-                        noise_rows: &[(f64, f64, f64)],
+                        noise_rows: &[Table3Row],
                         figs: [&str; 2],
                         after: Option<String>|
      -> Result<()> {
@@ -151,7 +152,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             &s,
             &defs,
             runs,
-            (s.noise_reference(runs), noise_rows),
+            noise_rows,
             figs,
             Provenance::current(cmd.clone(), t_all.elapsed().as_secs_f64()),
         )?
@@ -239,43 +240,48 @@ fn run_in_pool(args: &Args) -> Result<()> {
         write_report(&runs, &[], [&fig4, &fig5], Some("Fig. 5".into()))?;
     }
 
-    // Table 3 with --noise-metric (checked to be among the metrics run).
-    let noise_run = s.noise_reference(&runs);
+    // Table 3 for each --noise-metrics metric (checked to be among the metrics run), level by
+    // level, so an interrupted run has every metric at the first levels.
     let mut noise_rows = Vec::new();
     if !args.skip_noise {
-        let reference = &runs[noise_run];
-        let name = reference.kind.label();
+        let references: Vec<_> = s
+            .noise_kinds()
+            .into_iter()
+            .filter_map(|k| runs.iter().find(|r| r.kind == k))
+            .collect();
+        let cells = s.noise_levels.len() * references.len();
         for &level in &s.noise_levels {
-            let row = s.noise_row(
-                &defs,
-                &labels,
-                reference,
-                level,
-                &|stage| bars.tick(name, stage),
-                &|kind, t| {
-                    bars.finish();
-                    if let Some(t) = t {
-                        eprintln!(
-                            "{:>16}: {level} % {} noise, tau {:.1} %",
-                            "noise",
-                            kind.name(),
-                            100.0 * t
-                        );
-                    }
-                },
-            )?;
-            noise_rows.push(row);
-            if noise_rows.len() < s.noise_levels.len() {
-                write_report(
-                    &runs,
-                    &noise_rows,
-                    [&fig4, &fig5],
-                    Some(format!(
-                        "Table 3, {} of {} noise levels",
-                        noise_rows.len(),
-                        s.noise_levels.len()
-                    )),
+            for reference in &references {
+                let name = reference.kind.label();
+                let row = s.noise_row(
+                    &defs,
+                    &labels,
+                    reference,
+                    level,
+                    &|stage| bars.tick(name, stage),
+                    &|kind, t| {
+                        bars.finish();
+                        if let Some(t) = t {
+                            eprintln!(
+                                "{name:>16}: {level} % {} noise, tau {:.1} %",
+                                kind.name(),
+                                100.0 * t
+                            );
+                        }
+                    },
                 )?;
+                noise_rows.push(row);
+                if noise_rows.len() < cells {
+                    write_report(
+                        &runs,
+                        &noise_rows,
+                        [&fig4, &fig5],
+                        Some(format!(
+                            "Table 3, {} of {cells} metric and noise level runs",
+                            noise_rows.len()
+                        )),
+                    )?;
+                }
             }
         }
     }

@@ -55,19 +55,19 @@ fn a_killed_reproduction_leaves_a_partial_report_with_table_1() {
     assert!(on_disk.contains("Partial report"));
 }
 
-/// `--noise-metric` must name a metric of `--metrics` (its Table 1 run is Table 3's reference):
+/// `--noise-metrics` must name metrics of `--metrics` (its Table 1 run is Table 3's reference):
 /// refused before any work, with the reason and no output folder.
 #[test]
 fn a_noise_metric_outside_the_metrics_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let o = quick_reproduction(&out, &["--noise-metric", "isometric"])
+    let o = quick_reproduction(&out, &["--noise-metrics", "l2,isometric"])
         .output()
         .unwrap();
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("--noise-metric isometric is not among --metrics"),
+        err.contains("--noise-metrics isometric is not among --metrics"),
         "{err}"
     );
     assert!(!out.join("report.md").exists());

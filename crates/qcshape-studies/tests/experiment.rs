@@ -9,7 +9,7 @@ use qcshape::synth::{genus0_benchmark, SynthOptions};
 use qcshape_studies::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
 use qcshape_studies::experiment::classification::classify_set;
 use qcshape_studies::experiment::provenance::Provenance;
-use qcshape_studies::experiment::reproduce::{ReproduceReport, Reproduction};
+use qcshape_studies::experiment::reproduce::{paper_table3, ReproduceReport, Reproduction, Table3Row};
 
 #[test]
 fn reproduction_table1_is_far_above_chance() {
@@ -18,7 +18,7 @@ fn reproduction_table1_is_far_above_chance() {
         metrics: vec![MetricKind::Isometric],
         ..Reproduction::quick()
     };
-    s.check().unwrap();
+    s.validate().unwrap();
     let defs = s.benchmark().unwrap();
     assert_eq!(defs.len(), 48);
     let labels: Vec<String> = defs.iter().map(|d| d.label.clone().unwrap()).collect();
@@ -32,7 +32,13 @@ fn reproduction_table1_is_far_above_chance() {
         &s,
         &defs,
         &runs,
-        (s.noise_reference(&runs), &[(1.0, 0.9, 0.8)]),
+        &[Table3Row {
+            metric: "isometric".into(),
+            level: 1.0,
+            uniform: 0.9,
+            gaussian: 0.8,
+            paper: paper_table3(1.0),
+        }],
         ["", ""],
         Provenance::current("test".into(), 1.0),
     )
@@ -48,7 +54,7 @@ fn reproduction_table1_is_far_above_chance() {
     assert!(row.nn_accuracy >= 0.95 && row.ari >= 0.9, "{row:?}");
     assert_eq!(report.table2.len(), 1);
     assert_eq!(report.table3[0].paper, Some((97.9, 97.9)));
-    assert_eq!(report.noise_metric, "isometric");
+    assert_eq!(report.noise_metrics, ["isometric"]);
     assert_eq!(report.poses, 5, "3 key poses, one inserted between each");
     let md = report.to_markdown();
     assert!(
@@ -63,6 +69,13 @@ fn reproduction_table1_is_far_above_chance() {
         "{shares:?}"
     );
     assert!(md.contains("Energy share of the L2 regularizer"), "{md}");
+    // Table 3: one column per metric (uniform / Gaussian), the paper's beside.
+    assert!(
+        md.contains("| noise variance (%) | isometric | paper (quasi-conformal) |")
+            && md.contains("| 1 | 90.0 / 80.0 | 97.9 / 97.9 |")
+            && md.contains("Below the paper's tau: isometric at 1 %."),
+        "{md}"
+    );
 }
 
 #[test]

@@ -40,9 +40,30 @@ pub const CLASSES: usize = 8;
 /// Why a step of the reproduction failed.
 #[derive(Debug, Error)]
 pub enum ReproduceError {
-    /// Bad settings.
-    #[error("invalid reproduction: {0}")]
-    Input(String),
+    /// `metrics` is empty.
+    #[error("invalid reproduction: --metrics is empty")]
+    NoMetrics,
+    /// `lambda` is negative or NaN.
+    #[error("invalid reproduction: --lambda must be non-negative, got {0}")]
+    Lambda(f64),
+    /// `steps` or `restarts` is 0.
+    #[error("invalid reproduction: --steps and --restarts must be at least 1, got {steps} and {restarts}")]
+    Count {
+        /// The segments of every geodesic.
+        steps: usize,
+        /// The k-means restarts.
+        restarts: usize,
+    },
+    /// A metric of Table 3 is not among the metrics of Table 1.
+    #[error(
+        "invalid reproduction: --noise-metrics {} is not among --metrics: Table 3 needs that metric's \
+         Table 1 run as its noise-free reference",
+        .0.label()
+    )]
+    NoiseMetric(MetricKind),
+    /// A report was asked for without a metric run or a deformation.
+    #[error("a reproduction report needs at least one metric run and one deformation")]
+    EmptyReport,
     /// The synthetic benchmark cannot be made.
     #[error(transparent)]
     Synth(#[from] SynthError),
@@ -81,10 +102,11 @@ pub struct Reproduction {
     pub noise_levels: Vec<f64>,
     /// The metrics of Table 1, in order.
     pub metrics: Vec<MetricKind>,
-    /// The metric of Table 3; its Table 1 run is the noise-free reference, so it must be one of
-    /// [`Reproduction::metrics`] ([`Reproduction::validate`]). `None`: the paper's,
-    /// quasi-conformal, when it is run, else the last metric.
-    pub noise_metric: Option<MetricKind>,
+    /// The metrics of Table 3, each classified again under every noise level and kind; each
+    /// one's Table 1 run is its noise-free reference, so each must be one of
+    /// [`Reproduction::metrics`] ([`Reproduction::validate`]). Empty: every metric of
+    /// [`Reproduction::metrics`] ([`Reproduction::noise_kinds`]).
+    pub noise_metrics: Vec<MetricKind>,
     /// Weight `lambda` of the L2 regularizer of every metric (eq. 11).
     pub lambda: f64,
     /// How every metric's terms are scaled ([`MetricScale`]; default invariant).
@@ -126,7 +148,7 @@ impl Reproduction {
                 MetricKind::QuasiConformal,
                 MetricKind::L2,
             ],
-            noise_metric: None,
+            noise_metrics: Vec::new(),
             lambda: defaults::LAMBDA,
             scale: defaults::SCALE,
             stretch: defaults::STRETCH,
@@ -149,22 +171,6 @@ impl Reproduction {
             noise_levels: vec![1.0],
             ..Reproduction::full()
         }
-    }
-
-    /// Checks the settings.
-    pub fn check(&self) -> Result<(), ReproduceError> {
-        if self.metrics.is_empty() {
-            return Err(ReproduceError::Input("no metrics".into()));
-        }
-        if self.lambda.is_nan() || self.lambda < 0.0 {
-            return Err(ReproduceError::Input("lambda must be non-negative".into()));
-        }
-        if self.steps == 0 || self.restarts == 0 {
-            return Err(ReproduceError::Input(
-                "steps and restarts must be at least 1".into(),
-            ));
-        }
-        Ok(())
     }
 
     /// The 48 synthetic deformations (6 shapes x 8 deformations x 3 poses) at
@@ -287,13 +293,14 @@ impl Reproduction {
         exp
     }
 
-    /// The run Table 3 uses: the one of [`Reproduction::noise_metric`] (default
-    /// quasi-conformal), or the last.
-    pub fn noise_reference(&self, runs: &[MetricRun]) -> usize {
-        let kind = self.noise_metric.unwrap_or(MetricKind::QuasiConformal);
-        runs.iter()
-            .position(|r| r.kind == kind)
-            .unwrap_or(runs.len().saturating_sub(1))
+    /// The metrics of Table 3, in the order of [`Reproduction::metrics`]:
+    /// [`Reproduction::noise_metrics`], or every metric when that is empty.
+    pub fn noise_kinds(&self) -> Vec<MetricKind> {
+        self.metrics
+            .iter()
+            .copied()
+            .filter(|m| self.noise_metrics.is_empty() || self.noise_metrics.contains(m))
+            .collect()
     }
 
     /// `tau` (eq. 17) of one Table 3 cell: `defs` with noise of `kind` at `level` % classified
@@ -315,9 +322,9 @@ impl Reproduction {
         )?)
     }
 
-    /// One Table 3 row at `level` %: `(level, tau uniform, tau Gaussian)` ([`Self::noise_tau`]
-    /// for [`NoiseKind::Uniform`], then [`NoiseKind::Gaussian`]); `done` is called after each
-    /// cell with its kind and `tau` (or the error it ends with).
+    /// One Table 3 row of `reference`'s metric at `level` % ([`Self::noise_tau`] for
+    /// [`NoiseKind::Uniform`], then [`NoiseKind::Gaussian`]), beside the paper's numbers;
+    /// `done` is called after each cell with its kind and `tau` (or the error it ends with).
     pub fn noise_row(
         &self,
         defs: &[Deformation],
@@ -326,41 +333,44 @@ impl Reproduction {
         level: f64,
         progress: &(dyn Fn(Stage) + Sync),
         done: &dyn Fn(NoiseKind, Option<f64>),
-    ) -> Result<(f64, f64, f64), ReproduceError> {
-        let mut row = (level, 0.0, 0.0);
+    ) -> Result<Table3Row, ReproduceError> {
+        let mut row = Table3Row {
+            metric: reference.kind.label().to_string(),
+            level,
+            uniform: 0.0,
+            gaussian: 0.0,
+            paper: paper_table3(level),
+        };
         for kind in [NoiseKind::Uniform, NoiseKind::Gaussian] {
             let t = self.noise_tau(defs, labels, reference, kind, level, progress);
             done(kind, t.as_ref().ok().copied());
             let t = t?;
             if kind == NoiseKind::Uniform {
-                row.1 = t;
+                row.uniform = t;
             } else {
-                row.2 = t;
+                row.gaussian = t;
             }
         }
         Ok(row)
     }
 
     /// Checks the settings: at least one metric, a non-negative `lambda`, at least one step
-    /// and one restart, a Table 3 metric among the metrics.
+    /// and one restart, every Table 3 metric among the metrics.
     pub fn validate(&self) -> Result<(), ReproduceError> {
         if self.metrics.is_empty() {
-            return Err(ReproduceError::Input("--metrics is empty".into()));
+            return Err(ReproduceError::NoMetrics);
         }
         if self.lambda.is_nan() || self.lambda < 0.0 {
-            return Err(ReproduceError::Input("--lambda must be non-negative".into()));
+            return Err(ReproduceError::Lambda(self.lambda));
         }
         if self.steps == 0 || self.restarts == 0 {
-            return Err(ReproduceError::Input(
-                "--steps and --restarts must be at least 1".into(),
-            ));
+            return Err(ReproduceError::Count {
+                steps: self.steps,
+                restarts: self.restarts,
+            });
         }
-        if let Some(m) = self.noise_metric.filter(|m| !self.metrics.contains(m)) {
-            return Err(ReproduceError::Input(format!(
-                "--noise-metric {} is not among --metrics: Table 3 needs that metric's Table 1 run as \
-                 its noise-free reference",
-                m.label()
-            )));
+        if let Some(&m) = self.noise_metrics.iter().find(|m| !self.metrics.contains(m)) {
+            return Err(ReproduceError::NoiseMetric(m));
         }
         Ok(())
     }
@@ -534,6 +544,8 @@ pub struct Table2Row {
 /// A row of Table 3 (`tau` in [0, 1]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Table3Row {
+    /// The metric's label.
+    pub metric: String,
     /// Noise variance in percent.
     pub level: f64,
     /// `tau` with uniform noise.
@@ -590,9 +602,9 @@ pub struct ReproduceReport {
     pub prepared_converged: bool,
     /// Table 2, one row per metric.
     pub table2: Vec<Table2Row>,
-    /// The metric label of Table 3.
-    pub noise_metric: String,
-    /// Table 3 (empty when skipped).
+    /// The metric labels of Table 3, in order.
+    pub noise_metrics: Vec<String>,
+    /// Table 3, one row per metric and noise level done (empty when skipped).
     pub table3: Vec<Table3Row>,
     /// The Fig. 4 experiment's Markdown.
     pub fig4: String,
@@ -607,20 +619,18 @@ pub struct ReproduceReport {
 
 impl ReproduceReport {
     /// Assembles the report of `runs` (one per metric, non-empty) on the benchmark `defs`, with
-    /// Table 3 rows `noise` (`(level, uniform tau, Gaussian tau)`) of the run `noise_run`
-    /// ([`Reproduction::noise_reference`]) and the Markdown of Fig. 4 and Fig. 5.
+    /// the Table 3 rows done so far (`noise`, [`Reproduction::noise_row`]) and the Markdown of
+    /// Fig. 4 and Fig. 5.
     pub fn new(
         settings: &Reproduction,
         defs: &[Deformation],
         runs: &[MetricRun],
-        (noise_run, noise): (usize, &[(f64, f64, f64)]),
+        noise: &[Table3Row],
         [fig4, fig5]: [&str; 2],
         provenance: Provenance,
     ) -> Result<ReproduceReport, ReproduceError> {
-        if runs.is_empty() || defs.is_empty() || noise_run >= runs.len() {
-            return Err(ReproduceError::Input(
-                "a report needs at least one metric run".into(),
-            ));
+        if runs.is_empty() || defs.is_empty() {
+            return Err(ReproduceError::EmptyReport);
         }
         let table1 = table1_rows(runs);
         let table2 = runs
@@ -637,15 +647,7 @@ impl ReproduceReport {
                 }
             })
             .collect();
-        let table3 = noise
-            .iter()
-            .map(|&(level, uniform, gaussian)| Table3Row {
-                level,
-                uniform,
-                gaussian,
-                paper: paper_table3(level),
-            })
-            .collect();
+        let table3 = noise.to_vec();
         Ok(ReproduceReport {
             provenance,
             deformations: defs.len(),
@@ -668,7 +670,11 @@ impl ReproduceReport {
             unconverged: runs.iter().map(|r| r.classified.unconverged).sum(),
             prepared_converged: runs.iter().all(|r| r.classified.prepared.converged),
             table2,
-            noise_metric: runs[noise_run].kind.label().to_string(),
+            noise_metrics: settings
+                .noise_kinds()
+                .iter()
+                .map(|k| k.label().to_string())
+                .collect(),
             table3,
             fig4: fig4.to_string(),
             fig5: fig5.to_string(),
@@ -932,79 +938,91 @@ impl ReproduceReport {
         )
     }
 
+    /// The noise levels of Table 3's rows, in the order they were run.
+    fn table3_levels(&self) -> Vec<f64> {
+        let mut levels: Vec<f64> = Vec::new();
+        for r in &self.table3 {
+            if !levels.contains(&r.level) {
+                levels.push(r.level);
+            }
+        }
+        levels
+    }
+
     fn write_table3(&self, md: &mut String) -> std::fmt::Result {
         if self.table3.is_empty() {
             return Ok(());
         }
-        writeln!(
-            md,
-            "\n## Table 3: noise resistance ({} metric)\n",
-            self.noise_metric
-        )?;
-        writeln!(
-            md,
-            "| noise variance (%) | uniform tau (%) | Gaussian tau (%) | paper uniform | paper Gaussian |"
-        )?;
-        writeln!(md, "|---|---|---|---|---|")?;
-        for r in &self.table3 {
-            let p = r.paper;
-            writeln!(
-                md,
-                "| {} | {:.1} | {:.1} | {} | {} |",
-                r.level,
-                100.0 * r.uniform,
-                100.0 * r.gaussian,
-                p.map_or("-".into(), |p| format!("{:.1}", p.0)),
-                p.map_or("-".into(), |p| format!("{:.1}", p.1))
-            )?;
+        writeln!(md, "\n## Table 3: noise resistance, tau (%) uniform / Gaussian\n")?;
+        write!(md, "| noise variance (%) |")?;
+        for m in &self.noise_metrics {
+            write!(md, " {m} |")?;
+        }
+        writeln!(md, " paper (quasi-conformal) |")?;
+        writeln!(md, "|---|{}---|", "---|".repeat(self.noise_metrics.len()))?;
+        for level in self.table3_levels() {
+            write!(md, "| {} |", qcshape::numfmt::plain(level))?;
+            for m in &self.noise_metrics {
+                match self.table3.iter().find(|r| r.level == level && &r.metric == m) {
+                    Some(r) => write!(md, " {:.1} / {:.1} |", 100.0 * r.uniform, 100.0 * r.gaussian)?,
+                    None => write!(md, " - |")?,
+                }
+            }
+            match paper_table3(level) {
+                Some((u, g)) => writeln!(md, " {u:.1} / {g:.1} |")?,
+                None => writeln!(md, " - |")?,
+            }
         }
         writeln!(
             md,
             "\nNoise is added to every key pose with per-coordinate variance `level/100 * lbar^2` \
              (lbar: the pose's mean edge length; docs/method.md); tau (eq. 17) is the share of \
-             deformations whose cluster is unchanged against the noise-free run, after Hungarian \
-             matching of the clusters.{}",
-            if self.noise_metric == MetricKind::QuasiConformal.label() {
-                ""
-            } else {
-                " The paper's columns are its quasi-conformal metric's."
-            }
+             deformations whose cluster is unchanged against the same metric's noise-free run \
+             (Table 1), after Hungarian matching of the clusters. Each cell is one seeded run: one \
+             deformation moving costs 2.1 points (1/48). The paper reports Table 3 for its \
+             quasi-conformal metric only."
         )?;
-        let below = self
-            .table3
+        let below: Vec<String> = self
+            .noise_metrics
             .iter()
-            .filter(|r| {
-                r.paper
-                    .is_some_and(|(u, g)| 100.0 * r.uniform < u || 100.0 * r.gaussian < g)
+            .filter_map(|m| {
+                let levels: Vec<String> = self
+                    .table3
+                    .iter()
+                    .filter(|r| &r.metric == m)
+                    .filter(|r| {
+                        r.paper.is_some_and(|(u, g)| {
+                            100.0 * r.uniform < u - 1e-9 || 100.0 * r.gaussian < g - 1e-9
+                        })
+                    })
+                    .map(|r| format!("{} %", qcshape::numfmt::plain(r.level)))
+                    .collect();
+                (!levels.is_empty()).then(|| format!("{m} at {}", levels.join(", ")))
             })
-            .count();
-        if below > 0 {
-            writeln!(
+            .collect();
+        if below.is_empty() {
+            return writeln!(
                 md,
-                "\nWhy tau is below the paper's at {below} of {} here: {}",
-                qcshape::numfmt::count(self.table3.len(), "level", "levels"),
-                if self.vertices < 162 {
-                    format!(
-                        "these meshes are coarse ({} vertices). The noise is defined relative to the \
-                         mean edge length, so on few, long edges it moves every vertex by a large \
-                         share of the deformations themselves, and the short geodesics (N = {}) and \
-                         few restarts ({}) of this run add to it (the full run, `qcshape reproduce`, \
-                         uses 162 vertices; docs/log/speed.md has its Table 3 at the defaults).",
-                        self.vertices, self.steps, self.restarts
-                    )
-                } else {
-                    "the noise-free classification (the reference of eq. 17) or the noisy ones \
-                     differ from the paper's; the per-level tau are single seeded runs, one \
-                     deformation moving costs 2.1 points (1/48). With the quasi-conformal \
-                     metric at the calibrated defaults the weights are the normalized change of \
-                     angle-defect curvature, which vertex noise dominates: its tau falls well \
-                     below the paper's, while the isometric metric (`--noise-metric isometric`) \
-                     keeps nearly every cluster (docs/log/speed.md)."
-                        .to_string()
-                }
-            )?;
+                "\nEvery metric's tau is at least the paper's at every level run."
+            );
         }
-        Ok(())
+        writeln!(
+            md,
+            "\nBelow the paper's tau: {}.{}",
+            below.join("; "),
+            if self.vertices < 162 {
+                format!(
+                    " These meshes are coarse ({} vertices). The noise is defined relative to the \
+                     mean edge length, so on few, long edges it moves every vertex by a large share \
+                     of the deformations themselves, and the short geodesics (N = {}) and few \
+                     restarts ({}) of this run add to it; the full run, `qcshape reproduce`, uses \
+                     162 vertices (docs/results.md).",
+                    self.vertices, self.steps, self.restarts
+                )
+            } else {
+                " docs/results.md measures why for the quasi-conformal metric.".to_string()
+            }
+        )
     }
 
     fn write_figures(&self, md: &mut String) -> std::fmt::Result {
@@ -1091,10 +1109,21 @@ mod validate_tests {
         })
         .contains("--steps"));
         let other = Reproduction {
-            noise_metric: Some(MetricKind::Isometric),
+            noise_metrics: vec![MetricKind::QuasiConformal, MetricKind::Isometric],
             ..ok.clone()
         };
-        assert!(msg(other).contains("--noise-metric isometric is not among --metrics"));
+        assert!(msg(other).contains("--noise-metrics isometric is not among --metrics"));
+        // Empty: every metric of Table 1, in its order.
+        let all = Reproduction {
+            metrics: vec![MetricKind::L2, MetricKind::Isometric],
+            ..ok.clone()
+        };
+        assert_eq!(all.noise_kinds(), [MetricKind::L2, MetricKind::Isometric]);
+        let one = Reproduction {
+            noise_metrics: vec![MetricKind::Isometric],
+            ..all
+        };
+        assert_eq!(one.noise_kinds(), [MetricKind::Isometric]);
         assert!(msg(Reproduction { restarts: 0, ..ok }).contains("--restarts"));
     }
 }
