@@ -86,14 +86,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let defs = match (&args.input, &args.scenario) {
         (Some(path), _) => Dataset::load(path)?.deformations,
         (None, Some(name)) => {
-            let all = Scenario::defaults();
-            let sc = all.iter().find(|s| s.name == *name).with_context(|| {
-                let names: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-                format!(
-                    "--scenario: unknown scenario '{name}' (expected {})",
-                    names.join(", ")
-                )
-            })?;
+            let sc = Scenario::named(name).context("--scenario")?;
             perturbed_benchmark(
                 args.level,
                 &InitialShape::all(),

@@ -66,8 +66,9 @@ pub struct Args {
     /// Also run the paper's pipeline (no alignment) with the quasi-conformal metric.
     #[arg(long)]
     paper: bool,
-    /// Scenarios (comma-separated; default all): clean, rigid, noise-var-1, noise-var-5,
-    /// noise-var-20, noise-diag-1, noise-diag-2, amplitude, time-warp, combined.
+    /// Scenarios (comma-separated; default all but combined-noiseless): clean, rigid, noise-var-1,
+    /// noise-var-5, noise-var-20, noise-diag-1, noise-diag-2, amplitude, time-warp, combined,
+    /// combined-noiseless (the combined scenario without its noise).
     #[arg(long, value_delimiter = ',')]
     scenarios: Vec<String>,
     #[arg(long, help = qcshape::settings::LAMBDA.help(), default_value = qcshape::settings::LAMBDA.default_text(), value_parser = crate::args::real(&qcshape::settings::LAMBDA), allow_negative_numbers = true)]
@@ -106,21 +107,12 @@ pub fn run_command(args: &Args) -> Result<()> {
             args.restarts
         );
     }
-    let all = Scenario::defaults();
     let scenarios: Vec<Scenario> = if args.scenarios.is_empty() {
-        all
+        Scenario::defaults()
     } else {
         args.scenarios
             .iter()
-            .map(|n| {
-                all.iter().find(|s| s.name == *n).cloned().with_context(|| {
-                    let names: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-                    format!(
-                        "--scenarios: unknown scenario '{n}' (expected {})",
-                        names.join(", ")
-                    )
-                })
-            })
+            .map(|n| Scenario::named(n).context("--scenarios"))
             .collect::<Result<_>>()?
     };
     let geodesic = args.solver.options()?;

@@ -82,17 +82,52 @@ impl Scenario {
                     ..base
                 },
             ),
-            with(
-                "combined",
-                Perturbation {
-                    max_rotation_deg: 35.0,
-                    noise: VertexNoise::Diagonal(0.02),
-                    amplitude_spread: 0.5,
-                    time_warp: 1.0,
-                },
-            ),
+            with("combined", Self::combined(VertexNoise::Diagonal(0.02))),
         ]
     }
+
+    /// Every perturbation of the combined scenario (rigid placement up to 35 degrees, amplitude
+    /// spread +-50 %, time warps of strength 1) with this vertex noise.
+    fn combined(noise: VertexNoise) -> Perturbation {
+        Perturbation {
+            max_rotation_deg: 35.0,
+            noise,
+            amplitude_spread: 0.5,
+            time_warp: 1.0,
+        }
+    }
+
+    /// Scenarios a run can name besides [`Scenario::defaults`]: `combined-noiseless`, the
+    /// combined scenario without its vertex noise, which splits a method's loss on the combined
+    /// scenario into what the noise costs and what the other perturbations cost.
+    pub fn extras() -> Vec<Scenario> {
+        vec![Scenario {
+            name: "combined-noiseless".to_string(),
+            perturbation: Self::combined(VertexNoise::None),
+        }]
+    }
+
+    /// The scenario called `name`, among [`Scenario::defaults`] and [`Scenario::extras`].
+    pub fn named(name: &str) -> Result<Scenario, UnknownScenario> {
+        let all: Vec<Scenario> = Self::defaults().into_iter().chain(Self::extras()).collect();
+        all.iter()
+            .find(|s| s.name == name)
+            .cloned()
+            .ok_or_else(|| UnknownScenario {
+                name: name.to_string(),
+                expected: all.into_iter().map(|s| s.name).collect(),
+            })
+    }
+}
+
+/// A scenario name that is none of [`Scenario::defaults`] and [`Scenario::extras`].
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("unknown scenario '{name}' (expected {})", .expected.join(", "))]
+pub struct UnknownScenario {
+    /// The name asked for.
+    pub name: String,
+    /// The names there are.
+    pub expected: Vec<String>,
 }
 
 /// A similarity that needs no shape space: what the metrics are judged against.
@@ -700,6 +735,26 @@ mod tests {
     use super::*;
     use qcshape::geodesic::GeodesicOptions;
     use qcshape::metric::{MetricKind, MetricSpec};
+
+    #[test]
+    fn scenarios_are_found_by_name_and_the_noiseless_combined_one_has_no_noise() {
+        let combined = Scenario::named("combined").unwrap();
+        let noiseless = Scenario::named("combined-noiseless").unwrap();
+        assert_eq!(combined.perturbation.noise, VertexNoise::Diagonal(0.02));
+        assert_eq!(
+            noiseless.perturbation,
+            Perturbation {
+                noise: VertexNoise::None,
+                ..combined.perturbation
+            }
+        );
+        assert!(!Scenario::defaults().contains(&noiseless));
+        let e = Scenario::named("combined-nosie").unwrap_err();
+        assert!(
+            e.to_string().contains("'combined-nosie'") && e.expected.len() == 11,
+            "{e}"
+        );
+    }
 
     #[test]
     fn baselines_and_a_metric_on_a_small_set() {
