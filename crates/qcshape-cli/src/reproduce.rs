@@ -263,9 +263,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
                         bars.finish();
                         if let Some(t) = t {
                             eprintln!(
-                                "{name:>16}: {level} % {} noise, tau {:.1} %",
+                                "{name:>16}: {level} % {} noise, tau {:.1} %, accuracy {:.1} %",
                                 kind.name(),
-                                100.0 * t
+                                100.0 * t.tau,
+                                100.0 * t.accuracy
                             );
                         }
                     },

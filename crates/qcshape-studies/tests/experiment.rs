@@ -38,6 +38,8 @@ fn reproduction_table1_is_far_above_chance() {
             uniform: 0.9,
             gaussian: 0.8,
             paper: paper_table3(1.0),
+            accuracy: (1.0, 0.75),
+            reference_accuracy: 0.9,
         }],
         ["", ""],
         Provenance::current("test".into(), 1.0),
@@ -73,7 +75,9 @@ fn reproduction_table1_is_far_above_chance() {
     assert!(
         md.contains("| noise variance (%) | isometric | paper (quasi-conformal) |")
             && md.contains("| 1 | 90.0 / 80.0 | 97.9 / 97.9 |")
-            && md.contains("Below the paper's tau: isometric at 1 %."),
+            && md.contains("Below the paper's tau: isometric at 1 %.")
+            && md.contains("| 0 (reference) | 90.0 |")
+            && md.contains("| 1 | 100.0 / 75.0 |"),
         "{md}"
     );
 }
