@@ -49,6 +49,7 @@ mod reproduce;
 mod run;
 mod similarity;
 mod synth;
+mod template;
 mod transfer;
 
 /// Deformation similarity in quasi-conformal shape space.
