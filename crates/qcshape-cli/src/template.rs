@@ -167,20 +167,18 @@ pub(crate) fn quality_beside(output: &Path) -> PathBuf {
 /// `e` with a suggestion of `--template` when it is a connectivity mismatch (poses or
 /// deformations on different triangulations); other errors unchanged.
 pub(crate) fn hint(e: anyhow::Error) -> anyhow::Error {
+    let meshes = |m: &MeshError| {
+        matches!(
+            m,
+            MeshError::TopologyMismatch(_) | MeshError::VertexCountMismatch { .. }
+        )
+    };
     let mismatch = e.chain().any(|c| {
         matches!(
             c.downcast_ref::<DatasetError>(),
             Some(DatasetError::TopologyMismatch { .. })
-        ) || matches!(
-            c.downcast_ref::<PipelineError>(),
-            Some(PipelineError::Mesh {
-                error: MeshError::TopologyMismatch(_),
-                ..
-            })
-        ) || matches!(
-            c.downcast_ref::<MeshError>(),
-            Some(MeshError::TopologyMismatch(_))
-        )
+        ) || matches!(c.downcast_ref::<PipelineError>(), Some(PipelineError::Mesh { error, .. }) if meshes(error))
+            || c.downcast_ref::<MeshError>().is_some_and(meshes)
     });
     if mismatch {
         anyhow::anyhow!(
