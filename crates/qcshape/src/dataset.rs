@@ -940,6 +940,47 @@ mod tests {
         assert!(!ds.shares_topology());
     }
 
+    /// `Dataset::files` lists what `Dataset::load` reads (names, labels, files in pose order),
+    /// and lists poses of different connectivity, which `load` refuses, without reading them.
+    #[test]
+    fn files_list_the_layout_without_reading_the_meshes() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(2);
+        let g = synth::grid(3);
+        for def in ["b", "a"] {
+            write(d.path(), &format!("{def}/pose10.ply"), &poses[1], &faces);
+            write(d.path(), &format!("{def}/pose2.ply"), &poses[0], &faces);
+        }
+        let same = |p: &Path| {
+            let listed = Dataset::files(p).unwrap();
+            let loaded = Dataset::load(p).unwrap();
+            assert_eq!(listed.len(), loaded.deformations.len());
+            for (f, l) in listed.iter().zip(&loaded.deformations) {
+                assert_eq!((&f.name, &f.label, &f.files), (&l.name, &l.label, &l.paths));
+            }
+        };
+        same(d.path());
+        same(&d.path().join("a"));
+        let manifest = d.path().join(MANIFEST_NAME);
+        std::fs::write(
+            &manifest,
+            "deformation,label,pose,path\nb,x,1,b/pose10.ply\nb,x,0,b/pose2.ply\na,y,0,a/pose2.ply\na,y,1,a/pose10.ply\n",
+        )
+        .unwrap();
+        same(&manifest);
+        same(d.path());
+        // Another triangulation in a pose: listed, refused by load.
+        write(d.path(), "a/pose10.ply", &g.positions, g.topology.faces());
+        assert_eq!(Dataset::files(&manifest).unwrap()[1].files.len(), 2);
+        assert!(Dataset::load(&manifest).is_err());
+        let seq = sequence_files(&[d.path().join("a")]).unwrap();
+        assert_eq!(seq.name, "a");
+        assert_eq!(
+            seq.files,
+            [d.path().join("a/pose2.ply"), d.path().join("a/pose10.ply")]
+        );
+    }
+
     #[test]
     fn mismatched_poses_name_the_file_and_the_difference() {
         let d = tempfile::tempdir().unwrap();
