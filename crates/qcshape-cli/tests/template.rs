@@ -1,8 +1,8 @@
 //! End-to-end test of `--template` (issue 49 item 2): synthetic deformations remeshed at a finer
 //! resolution (642 vertices instead of 162, so no pose shares the template's triangulation)
 //! are refused without `--template` with a hint, and with it fitted and measured by
-//! `similarity` and `interpolate`; the distances are compared with those on the original
-//! meshes.
+//! `similarity`, `interpolate` and `transfer`; the distances are compared with those on the
+//! original meshes.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -166,6 +166,29 @@ fn remeshed_poses_are_fitted_measured_and_close_to_the_originals() {
     );
     let q = std::fs::read_to_string(out.join("quality.csv")).unwrap();
     assert_eq!(q.lines().count(), 1 + 9, "{q}");
+
+    // transfer --template: a base of another triangulation is fitted too (its row is `--to`).
+    let moved = dir.path().join("moved");
+    let base = remeshed.parent().unwrap().join(NAMES[1]).join("pose001.ply");
+    let r = qcshape(&[
+        "transfer",
+        s(&remeshed),
+        "--to",
+        s(&base),
+        "--template",
+        s(&template),
+        "--threads",
+        "1",
+        "--out",
+        s(&moved),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let q = std::fs::read_to_string(moved.join("quality.csv")).unwrap();
+    assert_eq!(q.lines().count(), 1 + 9 + 1, "{q}");
+    assert!(q.lines().last().unwrap().starts_with("--to,0,"), "{q}");
+    let moved = Dataset::load(&moved.join("manifest.csv")).unwrap();
+    assert_eq!(moved.deformations.len(), 3);
+    assert_eq!(moved.deformations[0].topology.n_vertices(), 162);
 
     // The quality table never goes over an input: refused before anything is read or fitted.
     let folder = remeshed.parent().unwrap().join(NAMES[0]);
