@@ -5,9 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
-use qcshape::dataset::{mesh_files, read_manifest, write_manifest, ManifestRow, MANIFEST_NAME};
-use qcshape::fit::{fit, fit_sequence, FitOptions, Fitted, Target};
-use qcshape::io::{self, MeshData, VertexAttributes};
+use qcshape::dataset::{mesh_files, write_manifest, Dataset, DeformationFiles, ManifestRow, MANIFEST_NAME};
+use qcshape::fit::data::{fit_deformation, write_quality};
+use qcshape::fit::FitOptions;
+use qcshape::io::{self, VertexAttributes};
 use qcshape::limits::{MAX_POSES, MAX_SUBJECTS};
 
 use crate::mesh_format::MeshFormat;
@@ -68,15 +69,8 @@ pub struct Args {
     pub format: MeshFormat,
 }
 
-/// One deformation to fit: name, label and pose files in order.
-struct Group {
-    name: String,
-    label: Option<String>,
-    files: Vec<PathBuf>,
-}
-
 /// The deformations of TARGETS, and every input file (for the overlap check).
-fn groups(args: &Args) -> Result<(Vec<Group>, Vec<PathBuf>)> {
+fn groups(args: &Args) -> Result<(Vec<DeformationFiles>, Vec<PathBuf>)> {
     let mut inputs = vec![args.template.clone()];
     let manifest = match args.targets.as_slice() {
         [one] if one.is_dir() && one.join(MANIFEST_NAME).is_file() => Some(one.join(MANIFEST_NAME)),
@@ -99,7 +93,7 @@ fn groups(args: &Args) -> Result<(Vec<Group>, Vec<PathBuf>)> {
             bail!("no mesh files among the targets");
         }
         inputs.extend(files.iter().cloned());
-        let g = Group {
+        let g = DeformationFiles {
             name: args.name.clone(),
             label: None,
             files,
@@ -107,48 +101,13 @@ fn groups(args: &Args) -> Result<(Vec<Group>, Vec<PathBuf>)> {
         return Ok((vec![g], inputs));
     };
     inputs.push(manifest.clone());
-    let base = manifest.parent().unwrap_or(Path::new("")).to_path_buf();
-    let mut rows = read_manifest(&manifest)?;
-    if rows.len() > MAX_POSES.saturating_mul(MAX_SUBJECTS) {
+    // The manifest's deformations in the order of their first line, poses checked 0..K-1.
+    let out = Dataset::files(&manifest)?;
+    if out.iter().map(|g| g.files.len()).sum::<usize>() > MAX_POSES.saturating_mul(MAX_SUBJECTS) {
         bail!("{}: too many rows", manifest.display());
     }
-    rows.sort_by_key(|(_, r)| r.pose);
-    let mut out: Vec<Group> = Vec::new();
-    // Deformations in the order of their first line.
-    let mut first: Vec<(u64, String)> = Vec::new();
-    for (line, r) in &rows {
-        match first.iter_mut().find(|f| f.1 == r.deformation) {
-            Some(f) => f.0 = f.0.min(*line),
-            None => first.push((*line, r.deformation.clone())),
-        }
-    }
-    first.sort();
-    for (_, name) in first {
-        let poses: Vec<&ManifestRow> = rows
-            .iter()
-            .map(|r| &r.1)
-            .filter(|r| r.deformation == name)
-            .collect();
-        let files: Vec<PathBuf> = poses.iter().map(|r| base.join(&r.path)).collect();
-        inputs.extend(files.iter().cloned());
-        let label = poses.iter().find_map(|r| r.label.clone());
-        out.push(Group { name, label, files });
-    }
+    inputs.extend(out.iter().flat_map(|g| g.files.iter().cloned()));
     Ok((out, inputs))
-}
-
-/// One CSV row of quality.csv.
-fn quality_row(w: &mut csv::Writer<Vec<u8>>, name: &str, pose: usize, src: &Path, f: &Fitted) -> Result<()> {
-    let q = &f.quality;
-    let nums = [q.mean, q.p95, q.hausdorff, q.median_vertex, q.min_angle];
-    let mut row = vec![name.to_string(), pose.to_string(), src.display().to_string()];
-    row.extend(nums.iter().map(|x| format!("{x:.6}")));
-    row.push(q.flipped.to_string());
-    let more = [q.strain_rms, q.strain_max, q.edge_length, f.motion.scale];
-    row.extend(more.iter().map(|x| format!("{x:.6}")));
-    row.push(q.poor.to_string());
-    w.write_record(row)?;
-    Ok(())
 }
 
 /// Runs `qcshape fit`.
@@ -168,50 +127,12 @@ pub fn run(args: &Args) -> Result<()> {
     let total: usize = groups.iter().map(|g| g.files.len()).sum();
     let pb = crate::progress::bar(total, "fitting");
     let mut manifest = Vec::new();
-    let mut quality = csv::Writer::from_writer(Vec::new());
-    quality.write_record([
-        "deformation",
-        "pose",
-        "source",
-        "mean",
-        "p95",
-        "hausdorff",
-        "median_vertex",
-        "min_angle",
-        "flipped",
-        "strain_rms",
-        "strain_max",
-        "edge_length",
-        "scale",
-        "poor",
-    ])?;
     let (mut poor, mut worst) = (0usize, 0.0f64);
     let mut used = std::collections::BTreeSet::new();
+    let mut data = Dataset::default();
+    let mut fits = Vec::with_capacity(groups.len());
     for g in &groups {
-        let meshes: Vec<MeshData> = g
-            .files
-            .iter()
-            .map(|f| io::read_mesh(f))
-            .collect::<Result<_, _>>()?;
-        let targets: Vec<Target> = meshes
-            .iter()
-            .map(|m| Target {
-                positions: &m.positions,
-                faces: &m.faces,
-            })
-            .collect();
-        let what = |k: usize| format!("{}: ", g.files[k].display());
-        let fitted: Vec<Fitted> = if args.sequence {
-            fit_sequence(&template, &targets, &opts, |_| pb.inc(1))
-                .context(what(0).trim_end_matches(": ").to_string())?
-        } else {
-            let mut v = Vec::with_capacity(targets.len());
-            for (k, t) in targets.iter().enumerate() {
-                v.push(fit(&template, t, &opts).with_context(|| what(k).trim_end_matches(": ").to_string())?);
-                pb.inc(1);
-            }
-            v
-        };
+        let (deformation, fitted) = fit_deformation(&template, g, &opts, args.sequence, |_| pb.inc(1))?;
         let mut folder = crate::input::folder_for(&g.name);
         while !used.insert(folder.clone()) {
             folder.push('_');
@@ -238,7 +159,6 @@ pub fn run(args: &Args) -> Result<()> {
                 pose: k as i64,
                 path: rel,
             });
-            quality_row(&mut quality, &g.name, k, &g.files[k], f)?;
             worst = worst.max(f.quality.mean);
             if f.quality.poor {
                 poor += 1;
@@ -252,12 +172,11 @@ pub fn run(args: &Args) -> Result<()> {
                 });
             }
         }
+        data.deformations.push(deformation);
+        fits.push(fitted);
     }
     pb.finish_and_clear();
-    let q = quality
-        .into_inner()
-        .map_err(|e| anyhow::anyhow!("quality.csv: {e}"))?;
-    io::write_atomically(&args.out.join("quality.csv"), |w| w.write_all(&q))?;
+    write_quality(&args.out.join("quality.csv"), &data, &fits)?;
     let manifest_path = args.out.join(MANIFEST_NAME);
     write_manifest(&manifest_path, &manifest)?;
     outln!(

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use indicatif::ProgressStyle;
-use qcshape::dataset::{load_sequence, Dataset, MANIFEST_NAME};
+use qcshape::dataset::{Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
     Solver,
@@ -17,6 +17,7 @@ use qcshape_studies::contribution::pose_speeds;
 
 use crate::args::{flag_error, in_pool, MetricArgs};
 use crate::mesh_format::MeshFormat;
+use crate::template::Source;
 
 /// Insert poses between consecutive poses of each deformation, along discrete geodesics.
 ///
@@ -52,6 +53,8 @@ pub struct Args {
     ratio: f64,
     #[command(flatten)]
     metric: MetricArgs,
+    #[command(flatten)]
+    template: crate::template::TemplateArgs,
     #[arg(long, help = qcshape::settings::SOLVER.help(), default_value = qcshape::settings::SOLVER.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Solver>())]
     solver: Solver,
     #[arg(long, help = qcshape::settings::TOLERANCE.help(), default_value = qcshape::settings::TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::TOLERANCE), allow_negative_numbers = true)]
@@ -85,17 +88,17 @@ fn run_in_pool(args: &Args) -> Result<()> {
     if args.levels == 0 {
         bail!("--levels must be at least 1");
     }
-    let data = if let [one] = args.input.as_slice() {
+    let source = if let [one] = args.input.as_slice() {
         if one.is_dir() || !has_mesh_extension(one) {
-            Dataset::load(one)?
+            Source::Dataset(one)
         } else {
             bail!("{} is a single mesh: give two or more poses", one.display());
         }
     } else {
-        Dataset {
-            deformations: vec![load_sequence(&args.input)?],
-        }
+        Source::Sequence(&args.input)
     };
+    let quality = args.out.join("quality.csv");
+    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out))?;
     crate::input::refuse_out_folder(&crate::input::all_inputs(&args.input, &data), &args.out, "--out")?;
     let Some(first) = data.deformations.first() else {
         bail!("the input has no deformations");

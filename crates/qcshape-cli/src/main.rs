@@ -5,7 +5,7 @@
 //! a `run(&Args) -> anyhow::Result<()>`. The analysis itself is in the library (`qcshape::
 //! experiment`, `qcshape::similarity`, ...); the modules here parse arguments, show progress,
 //! name the output files and print. Helpers shared by several commands: `args.rs`, `input.rs`,
-//! `pipeline.rs`, `progress.rs`.
+//! `pipeline.rs`, `progress.rs`, `template.rs` (`--template`: fitting the input meshes first).
 //! Errors are printed to stderr as `error: ...` with exit status 1; clap's usage errors exit
 //! with status 2.
 
@@ -49,6 +49,7 @@ mod reproduce;
 mod run;
 mod similarity;
 mod synth;
+mod template;
 mod transfer;
 
 /// Deformation similarity in quasi-conformal shape space.

@@ -14,7 +14,8 @@ use crate::progress::PipelineBars;
 /// Interpolation and transfer with progress bars.
 pub(crate) fn prepare_with_progress(data: &Dataset, opts: &PipelineOptions) -> Result<Prepared> {
     let bars = PipelineBars::new(data.deformations.len());
-    let prepared = prepare(&data.deformations, opts, &|e| bars.event("pairs", &e))?;
+    let prepared = prepare(&data.deformations, opts, &|e| bars.event("pairs", &e))
+        .map_err(|e| crate::template::hint(e.into()))?;
     bars.finish();
     Ok(prepared)
 }

@@ -4,7 +4,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::dataset::Dataset;
 use qcshape::similarity::{journal_path, Selection, Sink};
 use qcshape_studies::experiment::analysis::{analyse, class_count, dataset_labels, AnalysisReport};
 use qcshape_studies::experiment::provenance::Provenance;
@@ -33,6 +32,8 @@ pub struct Args {
     out: PathBuf,
     #[command(flatten)]
     pipeline: PipelineArgs,
+    #[command(flatten)]
+    template: crate::template::TemplateArgs,
     /// Number of classes (default: the number of distinct labels).
     /// At most 10,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_CLUSTERS as u64), allow_negative_numbers = true)]
@@ -60,7 +61,9 @@ pub fn run(args: &Args) -> Result<()> {
 
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
-    let data = Dataset::load(&args.input)?;
+    let source = crate::template::Source::Dataset(&args.input);
+    let quality = args.out.join("quality.csv");
+    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out))?;
     crate::input::refuse_out_folder(&data.input_paths(&args.input), &args.out, "--out")?;
     let n = data.deformations.len();
     if n < 2 {

@@ -4,7 +4,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::dataset::Dataset;
 use qcshape::similarity::{
     journal_path, merge_shards, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Selection, Shard,
     Sink,
@@ -38,6 +37,8 @@ pub struct Args {
     input: PathBuf,
     #[command(flatten)]
     pipeline: PipelineArgs,
+    #[command(flatten)]
+    template: crate::template::TemplateArgs,
     /// Worker threads (default: all cores). The results are bit-identical for any count, so a run
     /// can be resumed with another one.
     /// At most 1,024.
@@ -99,7 +100,9 @@ pub fn run(args: &Args) -> Result<()> {
 
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
-    let data = Dataset::load(&args.input)?;
+    let source = crate::template::Source::Dataset(&args.input);
+    let quality = crate::template::quality_beside(&args.output);
+    let (data, _) = args.template.load(source, &[], &quality, None)?;
     for (file, what) in matrix_files(&args.output) {
         data.refuse_overwrite(&args.input, &file, what)?;
     }

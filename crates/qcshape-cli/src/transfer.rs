@@ -3,13 +3,15 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::dataset::{self, Dataset, Deformation, ManifestRow};
+use qcshape::dataset::{self, Deformation, ManifestRow};
 use qcshape::geodesic::{normalization_factor, Normalization};
 use qcshape::io;
+use qcshape::mesh::Shape;
 use qcshape::transport::{TransferOptions, TransferSetup, Transport};
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 use crate::mesh_format::MeshFormat;
+use crate::template::{Extra, Source};
 
 /// Transfer deformations to a new base pose (Euclidean by default, parallel transport along
 /// geodesics with --transport parallel).
@@ -31,9 +33,12 @@ pub struct Args {
     /// mesh files of one deformation in pose order.
     #[arg(required = true, num_args = 1..)]
     input: Vec<PathBuf>,
-    /// The base pose N_0 (a mesh with the deformations' connectivity).
+    /// The base pose N_0 (a mesh with the deformations' connectivity; with --template, any
+    /// mesh: fitted too unless it has the template's connectivity).
     #[arg(long)]
     to: PathBuf,
+    #[command(flatten)]
+    template: crate::template::TemplateArgs,
     /// Metric of the geodesics (the transport always uses the quadratic conformal form and the
     /// endpoint curvature weights of each geodesic).
     #[command(flatten)]
@@ -58,17 +63,26 @@ pub struct Args {
     threads: Option<usize>,
 }
 
-fn load_input(input: &[PathBuf]) -> Result<Vec<Deformation>> {
-    let set = match input {
+/// The deformations of INPUT and the base `--to` (both fitted with `--template` when given).
+fn load_input(args: &Args) -> Result<(Vec<Deformation>, Shape)> {
+    let input = args.input.as_slice();
+    let source = match input {
         [one] if one.is_dir() || one.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) => {
-            Dataset::load(one)?.deformations
+            Source::Dataset(one)
         }
-        _ => vec![dataset::load_sequence(input)?],
+        _ => Source::Sequence(input),
     };
-    if set.is_empty() {
+    let base = Extra {
+        name: "--to",
+        path: &args.to,
+    };
+    let quality = args.out.join("quality.csv");
+    let (data, mut extra) = args.template.load(source, &[base], &quality, Some(&args.out))?;
+    if data.deformations.is_empty() {
         bail!("{}: no deformations to transfer", input[0].display());
     }
-    Ok(set)
+    let base = extra.pop().context("the base pose --to")?;
+    Ok((data.deformations, base))
 }
 
 /// A folder name for a deformation: letters, digits, `-`, `_`, `.` kept, the rest `_`.
@@ -107,8 +121,7 @@ pub fn run(args: &Args) -> Result<()> {
 fn run_in_pool(args: &Args) -> Result<()> {
     let spec = args.metric.spec()?;
     let geodesic = args.solver.options()?;
-    let base = io::load_shape(&args.to)?;
-    let deformations = load_input(&args.input)?;
+    let (deformations, base) = load_input(args)?;
     let mut inputs: Vec<&std::path::Path> = args.input.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.to);
     inputs.extend(
@@ -121,12 +134,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
     for d in &deformations {
         let probe = d.shape(0);
         if let Err(e) = base.check_same_topology(&probe) {
-            bail!(
-                "deformation {:?} ({}) cannot be transferred to {}: {e}",
+            return Err(crate::template::hint(anyhow::Error::new(e).context(format!(
+                "deformation {:?} ({}) cannot be transferred to {}",
                 d.name,
                 d.paths[0].display(),
                 args.to.display()
-            );
+            ))));
         }
         if !names.insert(folder_for(&d.name)) {
             bail!(

@@ -85,9 +85,18 @@ fn the_readme_tour_runs_as_written() {
         "map.svg",
         "analysis/report.md",
         "R/report.md",
+        "fitted/fit/pose2.ply",
+        "fitted/quality.csv",
     ] {
         assert!(dir.path().join(f).is_file(), "the tour did not write {f}");
     }
+    // The remeshed poses' fit: a quality row per pose, none poor.
+    let quality = std::fs::read_to_string(dir.path().join("fitted/quality.csv")).unwrap();
+    assert_eq!(quality.lines().count(), 1 + 3, "{quality}");
+    assert!(
+        quality.lines().skip(1).all(|l| l.ends_with(",false")),
+        "{quality}"
+    );
     let header = std::fs::read_to_string(dir.path().join("pairs.csv")).unwrap();
     assert!(header.lines().next().unwrap().contains("regularizer_share"));
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyList, PyTuple};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::io::{self, VertexAttributes};
 use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink, Stage};
@@ -148,6 +148,9 @@ pub fn icosphere<'py>(py: Python<'py>, level: AnyInt) -> PyResult<(Bound<'py, Py
 #[pyclass(name = "Dataset", module = "qcshape", frozen)]
 pub struct PyDataset {
     pub defs: Arc<Vec<Deformation>>,
+    /// With ``load(path, template=...)``: the fit's quality, one dict per pose (the columns of
+    /// ``qcshape fit``'s quality.csv); None otherwise.
+    pub fit_quality: Option<Py<PyList>>,
 }
 
 #[pymethods]
@@ -207,29 +210,58 @@ impl PyDataset {
                 warnings: Vec::new(),
             });
         }
-        Ok(PyDataset { defs: Arc::new(defs) })
+        Ok(PyDataset {
+            defs: Arc::new(defs),
+            fit_quality: None,
+        })
     }
 
-    /// Dataset.from_manifest(path): a manifest CSV (deformation,label,pose,path; paths relative
-    /// to the manifest). OSError / ValueError name the file and line.
+    /// Dataset.from_manifest(path, template=None): a manifest CSV (deformation,label,pose,path;
+    /// paths relative to the manifest). With ``template`` see ``Dataset.load``. OSError /
+    /// ValueError name the file and line.
     #[staticmethod]
-    fn from_manifest(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (path, template=None))]
+    fn from_manifest(py: Python<'_>, path: PathBuf, template: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        if template.is_some() {
+            return fitted(py, &path, template);
+        }
         let d = py
             .detach(|| Dataset::from_manifest(&path))
             .map_err(errors::dataset)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
+            fit_quality: None,
         })
     }
 
-    /// Dataset.load(path): a manifest, or a folder (its manifest.csv, else one folder per
-    /// deformation), as ``qcshape similarity`` reads its input.
+    /// Dataset.load(path, template=None): a manifest, or a folder (its manifest.csv, else one
+    /// folder per deformation), as ``qcshape similarity`` reads its input. With ``template`` (a
+    /// mesh file, a (vertices (nV, 3), faces (nF, 3)) pair or a trimesh / pyvista / meshio mesh)
+    /// the poses may have any triangulation: each deformation's poses are fitted with the
+    /// template first, tracked from pose to pose (``qcshape similarity --template``, the method
+    /// and defaults of ``qs.fit``), and the data set is on the template's connectivity;
+    /// ``fit_quality`` then lists each pose's fit quality (a dict with quality.csv's columns)
+    /// and a poor fit issues a QcshapeWarning.
     #[staticmethod]
-    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (path, template=None))]
+    fn load(py: Python<'_>, path: PathBuf, template: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        if template.is_some() {
+            return fitted(py, &path, template);
+        }
         let d = py.detach(|| Dataset::load(&path)).map_err(errors::dataset)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
+            fit_quality: None,
         })
+    }
+
+    /// With ``Dataset.load(path, template=...)``: each fitted pose's quality, a list of dicts
+    /// (keys: quality.csv's columns: deformation, pose, source, mean, p95, hausdorff,
+    /// median_vertex (in template mean edge lengths), min_angle (degrees), flipped,
+    /// strain_rms, strain_max, edge_length (target units), scale, poor); None otherwise.
+    #[getter]
+    fn fit_quality(&self, py: Python<'_>) -> Option<Py<PyList>> {
+        self.fit_quality.as_ref().map(|q| q.clone_ref(py))
     }
 
     /// Dataset.synthetic(level=1, poses=None, seed=None, jitter=None): the paper's synthetic
@@ -253,7 +285,10 @@ impl PyDataset {
             jitter: jitter.unwrap_or(d.jitter),
         };
         let defs = genus0_benchmark(&opts).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(PyDataset { defs: Arc::new(defs) })
+        Ok(PyDataset {
+            defs: Arc::new(defs),
+            fit_quality: None,
+        })
     }
 
     fn __len__(&self) -> usize {
@@ -277,6 +312,7 @@ impl PyDataset {
                 py,
                 PyDataset {
                     defs: Arc::new(picked),
+                    fit_quality: None,
                 },
             )?
             .into_any());
@@ -629,4 +665,96 @@ pub fn motion_maps<'py>(
         Ok((m.len(), nv, m.concat()))
     })?;
     matrix_out(py, values, rows, nv)
+}
+
+/// The template of ``Dataset.load(path, template=...)``: a mesh file, a (vertices, faces) pair
+/// or a mesh object.
+fn template_shape(obj: &Bound<'_, PyAny>) -> PyResult<qcshape::mesh::Shape> {
+    if let Ok(path) = obj.extract::<PathBuf>() {
+        return io::load_shape(&path).map_err(|e| errors::dataset(e.into()));
+    }
+    let (v, f) = match obj.cast::<PyTuple>() {
+        Ok(t) if t.len() == 2 => (
+            crate::convert::points(&t.get_item(0)?, "template", None)?,
+            crate::convert::faces(&t.get_item(1)?, "template")?,
+        ),
+        _ => (
+            crate::convert::points(obj, "template", None)?,
+            crate::convert::faces(obj, "template")?,
+        ),
+    };
+    let topo = crate::meshes::topology(v.len(), f, "template")?;
+    qcshape::mesh::Shape::new(topo, v).map_err(|e| PyValueError::new_err(format!("template: {e}")))
+}
+
+/// ``Dataset.load(path, template=...)``: the data set's files ([`Dataset::files`]) fitted with
+/// the template by the library ([`qcshape::fit::data::fit_dataset`], tracked).
+fn fitted(
+    py: Python<'_>,
+    path: &std::path::Path,
+    template: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PyDataset> {
+    let Some(template) = template else {
+        return Err(PyValueError::new_err("template: missing"));
+    };
+    let template = template_shape(template)?;
+    let (data, fits) = py
+        .detach(|| -> Result<_, String> {
+            let files = Dataset::files(path).map_err(|e| e.to_string())?;
+            qcshape::fit::data::fit_dataset(
+                &template,
+                &files,
+                &qcshape::fit::FitOptions::default(),
+                true,
+                |_, _| {},
+            )
+            .map_err(|e| e.to_string())
+        })
+        .map_err(PyValueError::new_err)?;
+    let rows = PyList::empty(py);
+    let columns = qcshape::fit::data::QUALITY_COLUMNS;
+    for (d, fitted) in data.deformations.iter().zip(&fits) {
+        for (k, (f, src)) in fitted.iter().zip(&d.paths).enumerate() {
+            let row = PyDict::new(py);
+            let q = &f.quality;
+            row.set_item(columns[0], &d.name)?;
+            row.set_item(columns[1], k)?;
+            row.set_item(columns[2], src.display().to_string())?;
+            for (c, v) in [
+                (columns[3], q.mean),
+                (columns[4], q.p95),
+                (columns[5], q.hausdorff),
+                (columns[6], q.median_vertex),
+                (columns[7], q.min_angle),
+            ] {
+                row.set_item(c, v)?;
+            }
+            row.set_item(columns[8], q.flipped)?;
+            for (c, v) in [
+                (columns[9], q.strain_rms),
+                (columns[10], q.strain_max),
+                (columns[11], q.edge_length),
+                (columns[12], f.motion.scale),
+            ] {
+                row.set_item(c, v)?;
+            }
+            row.set_item(columns[13], q.poor)?;
+            if q.poor {
+                crate::warn::warn(
+                    py,
+                    &format!(
+                        "poor fit of {} (deformation {}, pose {k}): {}",
+                        src.display(),
+                        d.name,
+                        q.problems().join(", ")
+                    ),
+                )?;
+            }
+            rows.append(row)?;
+        }
+    }
+    Ok(PyDataset {
+        defs: Arc::new(data.deformations),
+        fit_quality: Some(rows.unbind()),
+    })
 }

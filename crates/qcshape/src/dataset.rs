@@ -146,91 +146,11 @@ impl Dataset {
 
     /// Loads the deformations listed by a manifest CSV.
     pub fn from_manifest(path: &Path) -> Result<Dataset, DatasetError> {
-        let rows = read_manifest(path)?;
-        let base = path.parent().unwrap_or(Path::new(""));
-        // Group by deformation in order of first appearance.
-        let mut order: Vec<String> = Vec::new();
-        let mut groups: HashMap<String, Vec<(u64, ManifestRow)>> = HashMap::new();
-        for (line, row) in rows {
-            let group = groups.entry(row.deformation.clone()).or_insert_with(|| {
-                order.push(row.deformation.clone());
-                Vec::new()
-            });
-            group.push((line, row));
-        }
-        let bad = |line: u64, message: String| DatasetError::Manifest {
-            path: path.into(),
-            line,
-            message,
-        };
         let mut cache = TopologyCache::default();
-        let mut deformations = Vec::with_capacity(order.len());
-        for name in order {
-            let mut group = groups.remove(&name).unwrap_or_default();
-            group.sort_by_key(|(line, row)| (row.pose, *line));
-            for w in group.windows(2) {
-                if w[0].1.pose == w[1].1.pose {
-                    return Err(bad(
-                        w[1].0,
-                        format!(
-                            "deformation {name:?} has pose {} twice (lines {} and {})",
-                            w[0].1.pose, w[0].0, w[1].0
-                        ),
-                    ));
-                }
-            }
-            // Poses are numbered 0..K-1 without gaps.
-            for (k, (line, row)) in group.iter().enumerate() {
-                if row.pose < 0 {
-                    return Err(bad(
-                        *line,
-                        format!(
-                            "deformation {name:?} has the negative pose index {}: poses are numbered 0, 1, ..., K-1",
-                            row.pose
-                        ),
-                    ));
-                }
-                if row.pose != k as i64 {
-                    return Err(bad(
-                        *line,
-                        format!(
-                            "deformation {name:?} has no pose {k} (the next one is pose {} here): poses are numbered 0, 1, ..., K-1 without gaps",
-                            row.pose
-                        ),
-                    ));
-                }
-            }
-            let (first_line, first) = &group[0];
-            let label = first.label.clone();
-            for (line, row) in &group {
-                if row.label != label {
-                    return Err(bad(
-                        *line,
-                        format!(
-                            "deformation {name:?} has label {:?} here but {:?} on line {first_line}",
-                            row.label.as_deref().unwrap_or(""),
-                            label.as_deref().unwrap_or("")
-                        ),
-                    ));
-                }
-            }
-            let mut files = Vec::with_capacity(group.len());
-            for (line, row) in &group {
-                let file = base.join(&row.path);
-                if !file.is_file() {
-                    return Err(bad(
-                        *line,
-                        format!(
-                            "pose {} of deformation {name:?}: file {} does not exist",
-                            row.pose,
-                            file.display()
-                        ),
-                    ));
-                }
-                files.push(file);
-            }
-            let lines: Vec<u64> = group.iter().map(|(line, _)| *line).collect();
-            let d = load_deformation(name, label, files.clone(), &mut cache).map_err(|e| match e {
+        let mut deformations = Vec::new();
+        for (d, lines) in manifest_files(path)? {
+            let files = d.files.clone();
+            let d = load_deformation(d.name, d.label, d.files, &mut cache).map_err(|e| match e {
                 // Name the manifest line of the pose file, too.
                 DatasetError::TopologyMismatch { path: file, message } => {
                     let at = files.iter().position(|f| *f == file).map_or(String::new(), |k| {
@@ -248,6 +168,127 @@ impl Dataset {
         Ok(Dataset { deformations })
     }
 
+    /// The deformations of a data set (a manifest, or a folder as [`Dataset::load`] reads it)
+    /// with their pose files, checked like [`Dataset::load`] checks the layout, without reading
+    /// a mesh: for poses of any triangulation, which [`crate::fit`] fits to one template first.
+    pub fn files(path: &Path) -> Result<Vec<DeformationFiles>, DatasetError> {
+        let meta = std::fs::metadata(path).map_err(|error| DatasetError::Read {
+            path: path.into(),
+            error,
+        })?;
+        if !meta.is_dir() {
+            return Ok(manifest_files(path)?.into_iter().map(|(d, _)| d).collect());
+        }
+        let manifest = path.join(MANIFEST_NAME);
+        if manifest.is_file() {
+            return Ok(manifest_files(&manifest)?.into_iter().map(|(d, _)| d).collect());
+        }
+        folder_files(path)
+    }
+}
+
+/// One deformation's pose files, in pose order, before any mesh is read ([`Dataset::files`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeformationFiles {
+    /// Its name (manifest `deformation` column, or folder name).
+    pub name: String,
+    /// Its class label, if the manifest gives one.
+    pub label: Option<String>,
+    /// The pose files in pose order.
+    pub files: Vec<PathBuf>,
+}
+
+/// The deformations a manifest lists, each with the manifest line of each pose.
+fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, DatasetError> {
+    let rows = read_manifest(path)?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    // Group by deformation in order of first appearance.
+    let mut order: Vec<String> = Vec::new();
+    let mut groups: HashMap<String, Vec<(u64, ManifestRow)>> = HashMap::new();
+    for (line, row) in rows {
+        let group = groups.entry(row.deformation.clone()).or_insert_with(|| {
+            order.push(row.deformation.clone());
+            Vec::new()
+        });
+        group.push((line, row));
+    }
+    let bad = |line: u64, message: String| DatasetError::Manifest {
+        path: path.into(),
+        line,
+        message,
+    };
+    let mut deformations = Vec::with_capacity(order.len());
+    for name in order {
+        let mut group = groups.remove(&name).unwrap_or_default();
+        group.sort_by_key(|(line, row)| (row.pose, *line));
+        for w in group.windows(2) {
+            if w[0].1.pose == w[1].1.pose {
+                return Err(bad(
+                    w[1].0,
+                    format!(
+                        "deformation {name:?} has pose {} twice (lines {} and {})",
+                        w[0].1.pose, w[0].0, w[1].0
+                    ),
+                ));
+            }
+        }
+        // Poses are numbered 0..K-1 without gaps.
+        for (k, (line, row)) in group.iter().enumerate() {
+            if row.pose < 0 {
+                return Err(bad(
+                        *line,
+                        format!(
+                            "deformation {name:?} has the negative pose index {}: poses are numbered 0, 1, ..., K-1",
+                            row.pose
+                        ),
+                    ));
+            }
+            if row.pose != k as i64 {
+                return Err(bad(
+                        *line,
+                        format!(
+                            "deformation {name:?} has no pose {k} (the next one is pose {} here): poses are numbered 0, 1, ..., K-1 without gaps",
+                            row.pose
+                        ),
+                    ));
+            }
+        }
+        let (first_line, first) = &group[0];
+        let label = first.label.clone();
+        for (line, row) in &group {
+            if row.label != label {
+                return Err(bad(
+                    *line,
+                    format!(
+                        "deformation {name:?} has label {:?} here but {:?} on line {first_line}",
+                        row.label.as_deref().unwrap_or(""),
+                        label.as_deref().unwrap_or("")
+                    ),
+                ));
+            }
+        }
+        let mut files = Vec::with_capacity(group.len());
+        for (line, row) in &group {
+            let file = base.join(&row.path);
+            if !file.is_file() {
+                return Err(bad(
+                    *line,
+                    format!(
+                        "pose {} of deformation {name:?}: file {} does not exist",
+                        row.pose,
+                        file.display()
+                    ),
+                ));
+            }
+            files.push(file);
+        }
+        let lines: Vec<u64> = group.iter().map(|(line, _)| *line).collect();
+        deformations.push((DeformationFiles { name, label, files }, lines));
+    }
+    Ok(deformations)
+}
+
+impl Dataset {
     /// Every file this data set was read from: `source` (the manifest or folder) and each
     /// pose file, for [`crate::outputs::refuse_input_overlap`] and
     /// [`crate::outputs::refuse_folder_overlap`].
@@ -319,58 +360,12 @@ impl Dataset {
     /// Loads a folder with one sub-folder of mesh files per deformation, or a folder of mesh
     /// files as a single deformation.
     pub fn from_folder(dir: &Path) -> Result<Dataset, DatasetError> {
-        let (subdirs, files) = list_dir(dir)?;
-        let mut groups = Vec::new();
-        let mut empty = Vec::new();
-        for sub in subdirs {
-            let meshes = mesh_files(&sub)?;
-            if meshes.is_empty() {
-                empty.push(sub);
-            } else {
-                groups.push((folder_name(&sub), meshes));
-            }
-        }
-        let layout = |message: String| DatasetError::Layout {
-            path: dir.into(),
-            message,
-        };
-        // Every sub-folder is a deformation: one without poses among others is a mistake (a
-        // failed export, a typo), not something to drop silently.
-        if let (false, Some(sub)) = (groups.is_empty(), empty.first()) {
-            return Err(layout(format!(
-                "sub-folder {} holds no mesh files ({}), while {} other sub-folder(s) do; every                  sub-folder is a deformation: add its poses or move it out",
-                folder_name(sub),
-                known_extensions(),
-                groups.len()
-            )));
-        }
-        match (groups.is_empty(), files.is_empty()) {
-            (true, true) => Err(layout(format!(
-                "contains no mesh files ({}) and no sub-folders with mesh files",
-                known_extensions()
-            ))),
-            (false, false) => Err(layout(
-                "has both mesh files and sub-folders of mesh files; put each deformation in its own \
-                 sub-folder (or list its files explicitly)"
-                    .into(),
-            )),
-            (true, false) => Ok(Dataset {
-                deformations: vec![load_deformation(
-                    folder_name(dir),
-                    None,
-                    files,
-                    &mut TopologyCache::default(),
-                )?],
-            }),
-            (false, true) => {
-                let mut cache = TopologyCache::default();
-                let deformations = groups
-                    .into_iter()
-                    .map(|(name, files)| load_deformation(name, None, files, &mut cache))
-                    .collect::<Result<_, _>>()?;
-                Ok(Dataset { deformations })
-            }
-        }
+        let mut cache = TopologyCache::default();
+        let deformations = folder_files(dir)?
+            .into_iter()
+            .map(|d| load_deformation(d.name, d.label, d.files, &mut cache))
+            .collect::<Result<_, _>>()?;
+        Ok(Dataset { deformations })
     }
 
     /// Each deformation's label (`None` where the manifest leaves it empty), in order.
@@ -395,6 +390,13 @@ impl Dataset {
 /// (sorted with [`natural_cmp`]). Its name is the folder's name (the common parent folder of
 /// the files, else the first file's stem).
 pub fn load_sequence(files: &[PathBuf]) -> Result<Deformation, DatasetError> {
+    let d = sequence_files(files)?;
+    load_deformation(d.name, d.label, d.files, &mut TopologyCache::default())
+}
+
+/// The one deformation [`load_sequence`] reads from `files` (its name and pose files), without
+/// reading a mesh.
+pub fn sequence_files(files: &[PathBuf]) -> Result<DeformationFiles, DatasetError> {
     if let [dir] = files {
         if dir.is_dir() {
             let meshes = mesh_files(dir)?;
@@ -404,7 +406,11 @@ pub fn load_sequence(files: &[PathBuf]) -> Result<Deformation, DatasetError> {
                     message: format!("contains no mesh files ({})", known_extensions()),
                 });
             }
-            return load_deformation(folder_name(dir), None, meshes, &mut TopologyCache::default());
+            return Ok(DeformationFiles {
+                name: folder_name(dir),
+                label: None,
+                files: meshes,
+            });
         }
     }
     let Some(first) = files.first() else {
@@ -425,7 +431,65 @@ pub fn load_sequence(files: &[PathBuf]) -> Result<Deformation, DatasetError> {
             .file_stem()
             .map_or_else(|| "sequence".into(), |s| s.to_string_lossy().into_owned())
     };
-    load_deformation(name, None, files.to_vec(), &mut TopologyCache::default())
+    Ok(DeformationFiles {
+        name,
+        label: None,
+        files: files.to_vec(),
+    })
+}
+
+/// The deformations of a folder of deformation folders, or of a folder of mesh files (one
+/// deformation named after the folder).
+fn folder_files(dir: &Path) -> Result<Vec<DeformationFiles>, DatasetError> {
+    let (subdirs, files) = list_dir(dir)?;
+    let mut groups = Vec::new();
+    let mut empty = Vec::new();
+    for sub in subdirs {
+        let meshes = mesh_files(&sub)?;
+        if meshes.is_empty() {
+            empty.push(sub);
+        } else {
+            groups.push((folder_name(&sub), meshes));
+        }
+    }
+    let layout = |message: String| DatasetError::Layout {
+        path: dir.into(),
+        message,
+    };
+    // Every sub-folder is a deformation: one without poses among others is a mistake (a
+    // failed export, a typo), not something to drop silently.
+    if let (false, Some(sub)) = (groups.is_empty(), empty.first()) {
+        return Err(layout(format!(
+                "sub-folder {} holds no mesh files ({}), while {} other sub-folder(s) do; every                  sub-folder is a deformation: add its poses or move it out",
+                folder_name(sub),
+                known_extensions(),
+                groups.len()
+            )));
+    }
+    match (groups.is_empty(), files.is_empty()) {
+        (true, true) => Err(layout(format!(
+            "contains no mesh files ({}) and no sub-folders with mesh files",
+            known_extensions()
+        ))),
+        (false, false) => Err(layout(
+            "has both mesh files and sub-folders of mesh files; put each deformation in its own \
+                 sub-folder (or list its files explicitly)"
+                .into(),
+        )),
+        (true, false) => Ok(vec![DeformationFiles {
+            name: folder_name(dir),
+            label: None,
+            files,
+        }]),
+        (false, true) => Ok(groups
+            .into_iter()
+            .map(|(name, files)| DeformationFiles {
+                name,
+                label: None,
+                files,
+            })
+            .collect()),
+    }
 }
 
 /// The mesh files (known extensions, not hidden) directly in `dir`, in natural order.
@@ -874,6 +938,47 @@ mod tests {
         }
         let ds = Dataset::load(d.path()).unwrap();
         assert!(!ds.shares_topology());
+    }
+
+    /// `Dataset::files` lists what `Dataset::load` reads (names, labels, files in pose order),
+    /// and lists poses of different connectivity, which `load` refuses, without reading them.
+    #[test]
+    fn files_list_the_layout_without_reading_the_meshes() {
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(2);
+        let g = synth::grid(3);
+        for def in ["b", "a"] {
+            write(d.path(), &format!("{def}/pose10.ply"), &poses[1], &faces);
+            write(d.path(), &format!("{def}/pose2.ply"), &poses[0], &faces);
+        }
+        let same = |p: &Path| {
+            let listed = Dataset::files(p).unwrap();
+            let loaded = Dataset::load(p).unwrap();
+            assert_eq!(listed.len(), loaded.deformations.len());
+            for (f, l) in listed.iter().zip(&loaded.deformations) {
+                assert_eq!((&f.name, &f.label, &f.files), (&l.name, &l.label, &l.paths));
+            }
+        };
+        same(d.path());
+        same(&d.path().join("a"));
+        let manifest = d.path().join(MANIFEST_NAME);
+        std::fs::write(
+            &manifest,
+            "deformation,label,pose,path\nb,x,1,b/pose10.ply\nb,x,0,b/pose2.ply\na,y,0,a/pose2.ply\na,y,1,a/pose10.ply\n",
+        )
+        .unwrap();
+        same(&manifest);
+        same(d.path());
+        // Another triangulation in a pose: listed, refused by load.
+        write(d.path(), "a/pose10.ply", &g.positions, g.topology.faces());
+        assert_eq!(Dataset::files(&manifest).unwrap()[1].files.len(), 2);
+        assert!(Dataset::load(&manifest).is_err());
+        let seq = sequence_files(&[d.path().join("a")]).unwrap();
+        assert_eq!(seq.name, "a");
+        assert_eq!(
+            seq.files,
+            [d.path().join("a/pose2.ply"), d.path().join("a/pose10.ply")]
+        );
     }
 
     #[test]

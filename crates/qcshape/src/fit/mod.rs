@@ -25,6 +25,7 @@
 //! the data.
 
 pub mod closest;
+pub mod data;
 pub mod nonrigid;
 pub mod quality;
 pub mod rigid;
