@@ -18,7 +18,7 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::PipelineKw;
-use crate::run::{detached, Progress};
+use crate::run::{detached, detached_with, Progress};
 use crate::space::topology_from;
 
 /// read_mesh(path, point_data=False) -> (V, F), or (V, F, fields) with point_data=True: a
@@ -368,7 +368,11 @@ pub fn run_pipeline(
     let base = &ds.defs[opts.base];
     let space =
         ShapeSpace::new(base.topology.clone(), opts.metric, opts.geodesic.clone()).map_err(errors::space)?;
-    let bar = Progress::new(crate::run::progress_enabled(kw.progress), [n, n, n * (n - 1) / 2]);
+    let bar = Progress::new(
+        py,
+        kw.progress.as_ref().map(|p| p.bind(py)),
+        [n, n, n * (n - 1) / 2],
+    )?;
     let defs = ds.defs.clone();
     let template = opts.clone();
     // One run at a time on a journal (released when the call returns).
@@ -379,7 +383,7 @@ pub fn run_pipeline(
         ),
         Sink::Memory => None,
     };
-    let r = detached(py, kw.threads, |cancel| {
+    let r = detached_with(py, kw.threads, Some(&bar), |cancel| {
         let events = |e: Event<'_>| match e {
             Event::Prepared { stage, .. } => bar.tick(stage),
             Event::Pair(_) => bar.tick(Stage::Similarity),
@@ -412,8 +416,10 @@ pub fn run_pipeline(
 /// iterations instead, the previous default 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md | "tangent": the metric
 /// linearized at the common base, one feature vector per pose; quasi-conformal weighs each pair
-/// by its own curvature-change weights); threads (None: all cores); progress (None: counts on stderr when it is a terminal; True: always, plain lines off a terminal; False: never). Distances are in
-/// normalized units (coordinates divided by the mean edge length of the base pose).
+/// by its own curvature-change weights); threads (None: all cores); progress (None: a bar on a
+/// terminal or in Jupyter, tqdm's when installed, plain lines at most every 10 s in a log; True:
+/// also each stage's last count in a log; False: nothing; a callable: called with (stage, done,
+/// total)). Distances are in normalized units (coordinates divided by the mean edge length of the base pose).
 ///
 /// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the
 /// journal of ``qcshape similarity``); if the call is interrupted (Ctrl-C, a killed kernel or

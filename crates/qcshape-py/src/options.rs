@@ -177,7 +177,8 @@ pub struct PipelineKw {
     pub smooth_length: Option<f64>,
     pub base: Option<BaseKw>,
     pub threads: Option<usize>,
-    pub progress: Option<bool>,
+    /// `progress=`: None (auto), True, False or a callable (see `qcshape._progress`).
+    pub progress: Option<std::sync::Arc<Py<PyAny>>>,
     pub approx: Option<String>,
 }
 
@@ -215,7 +216,7 @@ impl PipelineKw {
                         qcshape::limits::MAX_THREADS,
                     )?)
                 }
-                "progress" => k.progress = value.extract().map_err(bad)?,
+                "progress" => k.progress = Some(std::sync::Arc::new(value.clone().unbind())),
                 _ => {
                     return Err(PyTypeError::new_err(format!(
                         "unexpected keyword argument '{key}' (accepted: {})",

@@ -16,7 +16,7 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::{transport, MetricKw, SolverKw};
-use crate::run::{detached, Progress};
+use crate::run::{detached, detached_with, Progress};
 
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
@@ -665,42 +665,32 @@ impl PyShapeSpace {
 
     /// pairwise_distances(poses, threads=None, progress=None) -> ndarray (n, n): dis(P_i, P_j)
     /// between the shapes poses (n, nV, 3), pairs in parallel, all normalized by the first
-    /// shape; symmetric with a zero diagonal.
+    /// shape; symmetric with a zero diagonal. Warns (QcshapeWarning) as similarity_matrix does.
     #[pyo3(signature = (poses, threads=None, progress=None))]
     fn pairwise_distances<'py>(
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: Option<bool>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = self.poses(poses, "poses")?;
-        let n = p.len();
         let singles: Vec<Vec<Vec<[f64; 3]>>> = p.into_iter().map(|x| vec![x]).collect();
-        let bar = Progress::pairs(
-            crate::run::progress_enabled(progress),
-            n * n.saturating_sub(1) / 2,
-        );
-        let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
-        let d = detached(py, threads, |cancel| {
-            self.space
-                .similarity(&singles, Some(cancel), &|_| bar.tick(Stage::Similarity))
-                .map_err(errors::space)
-        })?;
-        matrix_out(py, d, n, n)
+        self.matrix(py, &singles, threads, progress)
     }
 
     /// similarity(deformations, threads=None, progress=None) -> ndarray (n, n): eq. 13,
     /// similarity(M, N) = sum_k dis(M_k, N_k), of deformations (n, K, nV, 3) already at one
     /// common base (e.g. from transfer), pairs in parallel. For raw deformations use
-    /// qcshape.similarity_matrix, which interpolates and transfers first.
+    /// qcshape.similarity_matrix, which interpolates and transfers first. Warns (QcshapeWarning)
+    /// as similarity_matrix does.
     #[pyo3(signature = (deformations, threads=None, progress=None))]
     fn similarity<'py>(
         &self,
         py: Python<'py>,
         deformations: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: Option<bool>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let list: Vec<Bound<'py, PyAny>> = deformations.try_iter()?.collect::<PyResult<_>>()?;
         let defs: Vec<Vec<Vec<[f64; 3]>>> = list
@@ -708,17 +698,43 @@ impl PyShapeSpace {
             .enumerate()
             .map(|(i, d)| self.poses(d, &format!("deformations[{i}]")))
             .collect::<PyResult<_>>()?;
+        self.matrix(py, &defs, threads, progress)
+    }
+}
+
+impl PyShapeSpace {
+    /// The matrix of `pairwise_distances` and `similarity`: pairs in parallel with progress and
+    /// Ctrl-C, then the warnings of `qcshape similarity` (regularizer share, unconverged pairs)
+    /// from the pairs' details.
+    fn matrix<'py>(
+        &self,
+        py: Python<'py>,
+        defs: &[Vec<Vec<[f64; 3]>>],
+        threads: Option<AnyInt>,
+        progress: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let n = defs.len();
-        let bar = Progress::pairs(
-            crate::run::progress_enabled(progress),
-            n * n.saturating_sub(1) / 2,
-        );
+        let bar = Progress::pairs(py, progress, n * n.saturating_sub(1) / 2)?;
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
-        let d = detached(py, threads, |cancel| {
+        let pairs = std::sync::Mutex::new(Vec::new());
+        let d = detached_with(py, threads, Some(&bar), |cancel| {
             self.space
-                .similarity(&defs, Some(cancel), &|_| bar.tick(Stage::Similarity))
+                .similarity(defs, Some(cancel), &|p| {
+                    bar.tick(Stage::Similarity);
+                    if let Ok(mut v) = pairs.lock() {
+                        v.push(p.clone());
+                    }
+                })
                 .map_err(errors::space)
         })?;
+        let pairs = pairs.into_inner().unwrap_or_default();
+        crate::warn::pairs(
+            py,
+            &pairs,
+            true,
+            self.space.spec(),
+            self.space.geodesic_options().solver,
+        )?;
         matrix_out(py, d, n, n)
     }
 }
