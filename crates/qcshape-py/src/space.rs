@@ -21,7 +21,7 @@ use crate::run::{detached, detached_with, Progress};
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
 /// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
-/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in normalized units (coordinates times
+/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in mean-edge units (coordinates times
 /// ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
 /// ``regularizer_energy`` (the energy's split into the metric's own term and the L2
 /// regularizer; they sum to ``energy``), ``regularizer_share`` (the regularizer's part, in
@@ -41,12 +41,12 @@ impl PyGeodesic {
     fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         sequence_out(py, &self.g.poses)
     }
-    /// dis(A, B): the path's length (normalized units).
+    /// dis(A, B): the path's length (mean-edge units).
     #[getter]
     fn length(&self) -> f64 {
         self.g.length
     }
-    /// Path energy (eq. 12) at the solution (normalized units).
+    /// Path energy (eq. 12) at the solution (mean-edge units).
     #[getter]
     fn energy(&self) -> f64 {
         self.g.energy
@@ -56,7 +56,7 @@ impl PyGeodesic {
     fn initial_energy(&self) -> f64 {
         self.g.initial_energy
     }
-    /// The part of ``energy`` carried by the metric's geometric term (normalized units).
+    /// The part of ``energy`` carried by the metric's geometric term (mean-edge units).
     #[getter]
     fn geometric_energy(&self) -> f64 {
         self.g.geometric_energy
@@ -175,10 +175,10 @@ impl PyGeodesic {
 
     fn __repr__(&self) -> String {
         format!(
-            "Geodesic(steps={}, length={:.6e}, energy={:.6e}, iterations={}, converged={})",
+            "Geodesic(steps={}, length={}, energy={}, iterations={}, converged={})",
             self.g.poses.len() - 1,
-            self.g.length,
-            self.g.energy,
+            qcshape::numfmt::significant(self.g.length, 7),
+            qcshape::numfmt::significant(self.g.energy, 7),
             self.g.iterations,
             self.g.converged
         )
@@ -466,7 +466,7 @@ impl PyShapeSpace {
     }
 
     /// squared_norm(base, v) -> float: G_M(X) = <<X, X>>_M of the tangent vector v (nV, 3) at
-    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (normalized units
+    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (mean-edge units
     /// squared).
     fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
         let (b, x) = (self.points(base, "base")?, self.points(v, "v")?);
@@ -522,7 +522,7 @@ impl PyShapeSpace {
     }
 
     /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
-    /// (normalized units); exactly 0 for identical shapes.
+    /// (mean-edge units); exactly 0 for identical shapes.
     #[pyo3(signature = (a, b, steps=None))]
     fn dist(
         &self,
