@@ -208,7 +208,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "stop": g.stop,
             "gradient_norm": g.gradient_norm,
             "scale": g.scale,
-            "normalization": "mean-edge units: coordinates x scale, scale = 1 / mean of the mean edge lengths of A and B",
+            "normalization": "mean-edge units: coordinates times scale, scale = 1 / mean of the mean edge lengths of A and B",
             "seconds": g.seconds,
         });
         outln!("{}", serde_json::to_string_pretty(&v)?);

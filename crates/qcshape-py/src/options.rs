@@ -216,7 +216,16 @@ impl PipelineKw {
                         qcshape::limits::MAX_THREADS,
                     )?)
                 }
-                "progress" => k.progress = Some(std::sync::Arc::new(value.clone().unbind())),
+                "progress" => {
+                    if !(value.is_instance_of::<pyo3::types::PyBool>() || value.is_callable()) {
+                        return Err(PyValueError::new_err(format!(
+                            "progress: expected None (auto), True, False or a callable \
+                             (stage, done, total), got {}",
+                            value.repr()?
+                        )));
+                    }
+                    k.progress = Some(std::sync::Arc::new(value.clone().unbind()))
+                }
                 _ => {
                     return Err(PyTypeError::new_err(format!(
                         "unexpected keyword argument '{key}' (accepted: {})",

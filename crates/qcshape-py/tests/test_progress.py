@@ -78,6 +78,8 @@ def test_progress_bad_value_names_the_keyword(sphere, synthetic):
         qs.ShapeSpace(F).pairwise_distances([V, 1.1 * V], progress="yes")
     with pytest.raises(ValueError, match="progress"):
         qs.similarity_matrix(synthetic[0:2], steps=2, progress=3)
+    with pytest.raises(ValueError, match="progress"):
+        qs.motion_maps(synthetic[0:2], steps=2, progress="no")
 
 
 def on_a_terminal(prelude=""):
