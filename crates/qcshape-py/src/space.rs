@@ -180,7 +180,8 @@ impl PyGeodesic {
             qcshape::numfmt::significant(self.g.length, 7),
             qcshape::numfmt::significant(self.g.energy, 7),
             self.g.iterations,
-            self.g.converged
+            // Python's spelling of the bool, as the attribute prints.
+            if self.g.converged { "True" } else { "False" }
         )
     }
 }
