@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyTuple};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::io::{self, VertexAttributes};
-use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink, Stage};
+use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink};
 use qcshape::space::{ShapeSpace, SimilarityResult};
 use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
 
@@ -18,7 +18,7 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::PipelineKw;
-use crate::run::{detached, detached_with, Progress};
+use crate::run::{detached_with, Progress};
 use crate::space::topology_from;
 
 /// read_mesh(path, point_data=False) -> (V, F), or (V, F, fields) with point_data=True: a
@@ -350,6 +350,12 @@ impl PyDataset {
     }
 }
 
+/// The progress of a preparation (interpolation and transfer of `n` deformations) for the
+/// `progress=` keyword of `kw`.
+fn preparation_progress(py: Python<'_>, kw: &PipelineKw, n: usize) -> PyResult<Progress> {
+    Progress::new(py, kw.progress.as_ref().map(|p| p.bind(py)), [n, n, 0])
+}
+
 /// The pipeline of `qcshape similarity` on a data set, GIL released, with progress and Ctrl-C.
 pub fn run_pipeline(
     py: Python<'_>,
@@ -384,11 +390,7 @@ pub fn run_pipeline(
         Sink::Memory => None,
     };
     let r = detached_with(py, kw.threads, Some(&bar), |cancel| {
-        let events = |e: Event<'_>| match e {
-            Event::Prepared { stage, .. } => bar.tick(stage),
-            Event::Pair(_) => bar.tick(Stage::Similarity),
-            Event::Journal { .. } => {}
-        };
+        let events = |e: Event<'_>| bar.event(e);
         let run = Run {
             selection: Selection::All,
             sink,
@@ -579,8 +581,9 @@ pub fn pair_contributions<'py>(
     };
     let (na, nb) = (name_of(a, "a")?, name_of(b, "b")?);
     let opts = kw.options(&names)?;
-    let total = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
+    let bar = preparation_progress(py, &kw, defs.len())?;
+    let total = detached_with(py, kw.threads, Some(&bar), |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         qcshape_studies::explain::explain(&prepared, &opts, &na, &nb)
             .map(|e| e.contributions.total)
@@ -624,8 +627,9 @@ pub fn motion_maps<'py>(
     // The measure's name is checked before the pipeline runs (with an uncalibrated metric).
     let raw = opts.metric.build(&qcshape::metric::Calibration::RAW);
     MotionMeasure::parse(measure, raw.as_ref()).map_err(bad("measure"))?;
-    let (rows, nv, values) = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
+    let bar = preparation_progress(py, &kw, defs.len())?;
+    let (rows, nv, values) = detached_with(py, kw.threads, Some(&bar), |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);
         let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use qcshape::similarity::Stage;
+use qcshape::similarity::{Event, Stage};
 
 /// Runs `work(cancel)` on `threads` worker threads (None: rayon's global pool, all cores) with
 /// the GIL released, honouring Ctrl-C.
@@ -160,6 +160,15 @@ impl Progress {
             Stage::Similarity => 2,
         };
         self.counts[s].fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a pipeline event: a prepared deformation or a finished pair.
+    pub fn event(&self, e: Event<'_>) {
+        match e {
+            Event::Prepared { stage, .. } => self.tick(stage),
+            Event::Pair(_) => self.tick(Stage::Similarity),
+            Event::Journal { .. } => {}
+        }
     }
 
     /// Hands the counts that changed since the last report to the reporter, stage by stage.

@@ -59,6 +59,9 @@ def test_progress_callable_sees_every_stage(synthetic, capfd):
     seen.clear()
     qs.ShapeSpace(F).pairwise_distances([V, 1.1 * V, 1.2 * V], progress=lambda *a: seen.append(a))
     assert seen[-1] == ("pairs", 3, 3)
+    seen.clear()
+    qs.motion_maps(synthetic[0:3], steps=2, progress=lambda *a: seen.append(a))
+    assert [s for s in seen if s[1] == s[2]] == [("interpolating", 3, 3), ("transferring", 3, 3)]
     assert "qcshape:" not in capfd.readouterr().err
 
 
