@@ -187,8 +187,8 @@ pub fn run(args: &Args) -> Result<()> {
         args.seed
     );
     outln!(
-        "objective    {:.6e}  (restart {}, {} iterations, {})",
-        c.objective,
+        "objective    {}  (restart {}, {} iterations, {})",
+        qcshape::numfmt::significant(c.objective, 7),
         c.restart,
         c.iterations,
         if c.converged { "converged" } else { "not converged" }

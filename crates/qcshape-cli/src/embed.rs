@@ -154,11 +154,12 @@ pub fn run(args: &Args) -> Result<()> {
     } else {
         outln!("deformations {}", d.len());
         outln!("dimensions   {}", opts.dims);
+        let num = |x: f64| qcshape::numfmt::significant(x, 7);
         outln!(
-            "stress       {:.6e} raw, {:.6} normalized (stress-1); classical start {:.6e}",
-            e.raw_stress,
-            e.normalized_stress,
-            e.history[0]
+            "stress       {} (raw), {} normalized (stress-1); classical start {}",
+            num(e.raw_stress),
+            num(e.normalized_stress),
+            num(e.history[0])
         );
         outln!(
             "iterations   {} ({})",

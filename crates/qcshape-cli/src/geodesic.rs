@@ -208,7 +208,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "stop": g.stop,
             "gradient_norm": g.gradient_norm,
             "scale": g.scale,
-            "normalization": "coordinates x scale, scale = 1 / mean of the mean edge lengths of A and B",
+            "normalization": "mean-edge units: coordinates times scale, scale = 1 / mean of the mean edge lengths of A and B",
             "seconds": g.seconds,
         });
         outln!("{}", serde_json::to_string_pretty(&v)?);
@@ -217,9 +217,11 @@ fn run_in_pool(args: &Args) -> Result<()> {
         // Six significant digits, fixed-point or engineering notation (--json has every digit).
         let num = |x: f64| qcshape::numfmt::significant(x, 6);
         outln!(
-            "distance    {}  (normalized units: coordinates x {})",
+            "distance    {}  ({}: coordinates divided by {}, the mean of A's and B's mean edge \
+             lengths)",
             num(g.length),
-            num(g.scale)
+            qcshape::numfmt::UNITS,
+            num(1.0 / g.scale)
         );
         outln!(
             "energy      {}  (linear path {})",

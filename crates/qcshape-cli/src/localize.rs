@@ -240,11 +240,11 @@ impl Output<'_> {
             picture,
         )?;
         outln!(
-            "{title}: {n_sig} of {} vertices significant (FDR {}), max {:.4e}, min p {:.4}",
+            "{title}: {n_sig} of {} vertices significant (FDR {}), max {}, min p {}",
             map.values.len(),
-            self.alpha,
-            map.values.iter().copied().fold(f64::MIN, f64::max),
-            map.p_value.iter().copied().fold(1.0, f64::min)
+            qcshape::numfmt::plain(self.alpha),
+            qcshape::numfmt::significant(map.values.iter().copied().fold(f64::MIN, f64::max), 5),
+            qcshape::numfmt::significant(map.p_value.iter().copied().fold(1.0, f64::min), 4)
         );
         Ok(())
     }

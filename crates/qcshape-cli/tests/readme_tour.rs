@@ -69,11 +69,13 @@ fn the_readme_tour_runs_as_written() {
         );
         for text in [&out.stdout, &out.stderr] {
             assert_no_coefficient_string(line, &String::from_utf8_lossy(text));
+            assert_plain_numbers(line, &String::from_utf8_lossy(text));
         }
     }
     for report in ["analysis/report.md", "R/report.md"] {
         let text = std::fs::read_to_string(dir.path().join(report)).unwrap();
         assert_no_coefficient_string(report, &text);
+        assert_plain_numbers(report, &text);
     }
     // What the lines promise, and what the README's Python example reads.
     for f in [
@@ -116,4 +118,93 @@ fn assert_no_coefficient_string(what: &str, text: &str) {
             "{what}: the output names the metric by its internal coefficients ({bad}):\n{text}"
         );
     }
+}
+
+/// Numbers in one plain format and distances in one unit wording (issue 50, item 7): no
+/// engineering notation (`411.077e-6`), no `e0` exponent (`1.944768e0 raw`), no negative zero
+/// (`-0.0`), and the unit called "mean-edge units", not "normalized units", "units of the base
+/// pose's mean edge length" or "normalized units: coordinates x 1.672".
+fn assert_plain_numbers(what: &str, text: &str) {
+    for bad in [
+        "normalized units",
+        "units of the base pose's mean edge length",
+        "coordinates x ",
+        "(dimensionless)",
+    ] {
+        assert!(
+            !text.contains(bad),
+            "{what}: the old unit wording {bad:?}:\n{text}"
+        );
+    }
+    let chars: Vec<char> = text.chars().collect();
+    let mut i = 0;
+    while i < chars.len() {
+        let starts = chars[i].is_ascii_digit()
+            && (i == 0
+                || !(chars[i - 1].is_ascii_alphanumeric() || chars[i - 1] == '.' || chars[i - 1] == '_'));
+        if !starts {
+            i += 1;
+            continue;
+        }
+        let begin = if i > 0 && chars[i - 1] == '-' { i - 1 } else { i };
+        let mut j = i;
+        while j < chars.len() && (chars[j].is_ascii_digit() || chars[j] == '.') {
+            j += 1;
+        }
+        let mantissa: String = chars[i..j].iter().collect();
+        let mut k = j;
+        if k < chars.len() && chars[k] == 'e' {
+            k += 1;
+            if k < chars.len() && chars[k] == '-' {
+                k += 1;
+            }
+            let digits = k;
+            while k < chars.len() && chars[k].is_ascii_digit() {
+                k += 1;
+            }
+            let followed = k < chars.len() && (chars[k].is_ascii_alphanumeric() || chars[k] == '_');
+            // A commit hash of digits and one `e` (`15e8678`) is no number.
+            let hash = k - i >= 7 && chars[i..k].iter().all(|c| c.is_ascii_hexdigit());
+            if k > digits && !followed && !hash {
+                let number: String = chars[begin..k].iter().collect();
+                let exponent: String = chars[digits..k].iter().collect();
+                let lead = mantissa.split('.').next().unwrap_or("");
+                assert!(
+                    lead.len() == 1 && lead != "0",
+                    "{what}: {number} is not in the plain exponent form (one digit before the point)"
+                );
+                assert!(exponent != "0", "{what}: {number} has an e0 exponent");
+            }
+        }
+        let number: String = chars[begin..j].iter().collect();
+        if begin < i && j > i {
+            let zero = number
+                .trim_start_matches('-')
+                .trim_end_matches('.')
+                .chars()
+                .all(|c| c == '0' || c == '.');
+            let dash_is_minus =
+                begin == 0 || chars[begin - 1].is_whitespace() || "(,=[|:".contains(chars[begin - 1]);
+            assert!(!(zero && dash_is_minus), "{what}: a negative zero {number}");
+        }
+        i = k.max(j);
+    }
+}
+
+#[test]
+fn the_plain_number_check_fails_on_the_old_formats() {
+    for old in [
+        "distance    411.077e-6  (mean-edge units)",
+        "stress       1.944768e0 raw",
+        "axis -0.0 ",
+        "distance (normalized units)",
+        "Distances are in units of the base pose's mean edge length.",
+    ] {
+        let caught = std::panic::catch_unwind(|| assert_plain_numbers("test", old));
+        assert!(caught.is_err(), "not caught: {old}");
+    }
+    assert_plain_numbers(
+        "test",
+        "distance 0.000411077 (mean-edge units), stress 1.944768 (raw), 4.111e-5, -0.25, 0, 2026-12-06, v1e3x",
+    );
 }

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyList, PyTuple};
 use qcshape::dataset::{Dataset, Deformation};
 use qcshape::io::{self, VertexAttributes};
-use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink, Stage};
+use qcshape::similarity::{Event, PipelineOptions, Run, Selection, Sink};
 use qcshape::space::{ShapeSpace, SimilarityResult};
 use qcshape::synth::{genus0_benchmark, icosphere as ico, SynthOptions};
 
@@ -18,7 +18,7 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::PipelineKw;
-use crate::run::{detached, Progress};
+use crate::run::{detached_with, Progress};
 use crate::space::topology_from;
 
 /// read_mesh(path, point_data=False) -> (V, F), or (V, F, fields) with point_data=True: a
@@ -386,6 +386,12 @@ impl PyDataset {
     }
 }
 
+/// The progress of a preparation (interpolation and transfer of `n` deformations) for the
+/// `progress=` keyword of `kw`.
+fn preparation_progress(py: Python<'_>, kw: &PipelineKw, n: usize) -> PyResult<Progress> {
+    Progress::new(py, kw.progress.as_ref().map(|p| p.bind(py)), [n, n, 0])
+}
+
 /// The pipeline of `qcshape similarity` on a data set, GIL released, with progress and Ctrl-C.
 pub fn run_pipeline(
     py: Python<'_>,
@@ -404,7 +410,11 @@ pub fn run_pipeline(
     let base = &ds.defs[opts.base];
     let space =
         ShapeSpace::new(base.topology.clone(), opts.metric, opts.geodesic.clone()).map_err(errors::space)?;
-    let bar = Progress::new(crate::run::progress_enabled(kw.progress), [n, n, n * (n - 1) / 2]);
+    let bar = Progress::new(
+        py,
+        kw.progress.as_ref().map(|p| p.bind(py)),
+        [n, n, n * (n - 1) / 2],
+    )?;
     let defs = ds.defs.clone();
     let template = opts.clone();
     // One run at a time on a journal (released when the call returns).
@@ -415,12 +425,8 @@ pub fn run_pipeline(
         ),
         Sink::Memory => None,
     };
-    let r = detached(py, kw.threads, |cancel| {
-        let events = |e: Event<'_>| match e {
-            Event::Prepared { stage, .. } => bar.tick(stage),
-            Event::Pair(_) => bar.tick(Stage::Similarity),
-            Event::Journal { .. } => {}
-        };
+    let r = detached_with(py, kw.threads, Some(&bar), |cancel| {
+        let events = |e: Event<'_>| bar.event(e);
         let run = Run {
             selection: Selection::All,
             sink,
@@ -448,8 +454,11 @@ pub fn run_pipeline(
 /// iterations instead, the previous default 10; 0 = the paper's pipeline), base (name or index, 0), approx ("exact" |
 /// "straight": straight-path lengths, much cheaper, see docs/scale.md | "tangent": the metric
 /// linearized at the common base, one feature vector per pose; quasi-conformal weighs each pair
-/// by its own curvature-change weights); threads (None: all cores); progress (None: counts on stderr when it is a terminal; True: always, plain lines off a terminal; False: never). Distances are in
-/// normalized units (coordinates divided by the mean edge length of the base pose).
+/// by its own curvature-change weights); threads (None: all cores); progress (None: a bar on a
+/// terminal or in Jupyter, tqdm's when installed, plain lines at most every 10 s in a log; True:
+/// also each stage's last count in a log; False: nothing; a callable: called with (stage, done,
+/// total)). Distances are in mean-edge units (coordinates divided by the mean edge length of the
+/// base pose).
 ///
 /// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the
 /// journal of ``qcshape similarity``); if the call is interrupted (Ctrl-C, a killed kernel or
@@ -608,8 +617,9 @@ pub fn pair_contributions<'py>(
     };
     let (na, nb) = (name_of(a, "a")?, name_of(b, "b")?);
     let opts = kw.options(&names)?;
-    let total = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
+    let bar = preparation_progress(py, &kw, defs.len())?;
+    let total = detached_with(py, kw.threads, Some(&bar), |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         qcshape_studies::explain::explain(&prepared, &opts, &na, &nb)
             .map(|e| e.contributions.total)
@@ -653,8 +663,9 @@ pub fn motion_maps<'py>(
     // The measure's name is checked before the pipeline runs (with an uncalibrated metric).
     let raw = opts.metric.build(&qcshape::metric::Calibration::RAW);
     MotionMeasure::parse(measure, raw.as_ref()).map_err(bad("measure"))?;
-    let (rows, nv, values) = detached(py, kw.threads, |_| {
-        let prepared = qcshape::similarity::prepare(&defs, &opts, &|_| {})
+    let bar = preparation_progress(py, &kw, defs.len())?;
+    let (rows, nv, values) = detached_with(py, kw.threads, Some(&bar), |_| {
+        let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);
         let measure = MotionMeasure::parse(measure, metric.as_ref()).map_err(bad("measure"))?;

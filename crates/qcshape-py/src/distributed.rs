@@ -58,7 +58,7 @@ pub fn prepare_pairs<'py>(
 
 /// pair_distances(poses, faces, pairs, **options) -> (distances, converged): `similarity(i, j)`
 /// (eq. 13) for every row `(i, j)` of `pairs` (m, 2), from the output of `prepare_pairs` with the same
-/// options: distances (m,) float64 in normalized units, and whether every geodesic of the batch
+/// options: distances (m,) float64 in mean-edge units, and whether every geodesic of the batch
 /// converged. Only the metric, solver and approx options matter here.
 #[pyfunction]
 #[pyo3(signature = (poses, faces, pairs, **options))]

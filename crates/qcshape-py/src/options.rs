@@ -177,7 +177,8 @@ pub struct PipelineKw {
     pub smooth_length: Option<f64>,
     pub base: Option<BaseKw>,
     pub threads: Option<usize>,
-    pub progress: Option<bool>,
+    /// `progress=`: None (auto), True, False or a callable (see `qcshape._progress`).
+    pub progress: Option<std::sync::Arc<Py<PyAny>>>,
     pub approx: Option<String>,
 }
 
@@ -215,7 +216,16 @@ impl PipelineKw {
                         qcshape::limits::MAX_THREADS,
                     )?)
                 }
-                "progress" => k.progress = value.extract().map_err(bad)?,
+                "progress" => {
+                    if !(value.is_instance_of::<pyo3::types::PyBool>() || value.is_callable()) {
+                        return Err(PyValueError::new_err(format!(
+                            "progress: expected None (auto), True, False or a callable \
+                             (stage, done, total), got {}",
+                            value.repr()?
+                        )));
+                    }
+                    k.progress = Some(std::sync::Arc::new(value.clone().unbind()))
+                }
                 _ => {
                     return Err(PyTypeError::new_err(format!(
                         "unexpected keyword argument '{key}' (accepted: {})",

@@ -1,20 +1,38 @@
 //! Running library calls without the GIL: the work runs on a worker thread (in a rayon pool of
 //! the requested size) while the calling thread, GIL released, polls for Ctrl-C; an interrupt
 //! sets the cancel flag the library checks between pairs, waits for the worker and raises
-//! `KeyboardInterrupt`. Progress goes to stderr.
+//! `KeyboardInterrupt`. Progress: the workers count finished items ([`Progress::tick`], atomics
+//! only) and the polling thread hands the counts to the Python reporter of
+//! `qcshape._progress` (a tqdm bar, a line, plain log lines or the user's callable) with the GIL.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use qcshape::similarity::Stage;
+use qcshape::similarity::{Event, Stage};
 
 /// Runs `work(cancel)` on `threads` worker threads (None: rayon's global pool, all cores) with
 /// the GIL released, honouring Ctrl-C.
 pub fn detached<T, F>(py: Python<'_>, threads: Option<usize>, work: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&AtomicBool) -> PyResult<T> + Send,
+{
+    detached_with(py, threads, None, work)
+}
+
+/// [`detached`] that also shows `progress` (its counts, ticked by `work`) every 50 ms and once
+/// more at the end. An exception of the progress reporter (a user's callable) stops the work as
+/// Ctrl-C does and is raised.
+pub fn detached_with<T, F>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    progress: Option<&Progress>,
+    work: F,
+) -> PyResult<T>
 where
     T: Send,
     F: FnOnce(&AtomicBool) -> PyResult<T> + Send,
@@ -56,7 +74,14 @@ where
                     Ok(()) | Err(mpsc::RecvTimeoutError::Disconnected) => break,
                     Err(mpsc::RecvTimeoutError::Timeout) => {
                         if interrupt.is_none() {
-                            if let Err(e) = Python::attach(|py| py.check_signals()) {
+                            let polled = Python::attach(|py| {
+                                py.check_signals()?;
+                                match progress {
+                                    Some(p) => p.report(py),
+                                    None => Ok(()),
+                                }
+                            });
+                            if let Err(e) = polled {
                                 cancel.store(true, Ordering::Relaxed);
                                 interrupt = Some(e);
                             }
@@ -71,52 +96,62 @@ where
             (out, interrupt)
         })
     });
-    match interrupt {
-        Some(e) => Err(e),
-        None => out,
+    if let Some(e) = interrupt {
+        if let Some(p) = progress {
+            // The display is closed; an error of the reporter itself loses to the interrupt.
+            let _ = p.close(py);
+        }
+        return Err(e);
     }
+    if let Some(p) = progress {
+        if out.is_ok() {
+            p.report(py)?;
+        }
+        p.close(py)?;
+    }
+    out
 }
 
-/// Whether to print progress: `progress=True` / `False`, or None (the default): only when stderr
-/// is a terminal, so that logs, pipes and notebooks get no progress lines.
-pub fn progress_enabled(progress: Option<bool>) -> bool {
-    use std::io::IsTerminal;
-    progress.unwrap_or_else(|| std::io::stderr().is_terminal())
-}
-
-/// Counts of a long call printed to stderr: on a terminal one `\r`-updated line (at most 5
-/// times a second), elsewhere (progress=True into a log) plain lines, at most one every 5 s.
-pub struct Progress {
-    enabled: bool,
-    tty: bool,
-    totals: [usize; 3],
-    counts: [AtomicUsize; 3],
-    last: Mutex<Instant>,
-}
-
+/// The stages of a long call, in order, as the reporter names them.
 const LABELS: [&str; 3] = ["interpolating", "transferring", "pairs"];
 
+/// The counts of a long call and the Python reporter that shows them (`progress=`: None for
+/// auto, True, False or a callable `(stage, done, total)`; see `qcshape._progress`).
+pub struct Progress {
+    reporter: Option<Py<PyAny>>,
+    totals: [usize; 3],
+    counts: [AtomicUsize; 3],
+    shown: Mutex<[usize; 3]>,
+}
+
 impl Progress {
-    /// `totals`: deformations to interpolate, to transfer, pairs.
-    pub fn new(enabled: bool, totals: [usize; 3]) -> Self {
-        use std::io::IsTerminal;
-        Progress {
-            enabled,
-            tty: std::io::stderr().is_terminal(),
+    /// `totals`: deformations to interpolate, to transfer, pairs. `progress`: the keyword's value
+    /// (None: auto); a value that is neither None, a bool nor a callable is a `ValueError`.
+    pub fn new(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, totals: [usize; 3]) -> PyResult<Self> {
+        let arg = match progress {
+            Some(p) => p.clone(),
+            None => py.None().into_bound(py),
+        };
+        let r = py
+            .import("qcshape._progress")?
+            .getattr("reporter")?
+            .call1((arg,))?;
+        Ok(Progress {
+            reporter: if r.is_none() { None } else { Some(r.unbind()) },
             totals,
             counts: Default::default(),
-            last: Mutex::new(Instant::now() - Duration::from_secs(1)),
-        }
+            shown: Mutex::new([0; 3]),
+        })
     }
 
     /// Only pairs (pairwise distances).
-    pub fn pairs(enabled: bool, n: usize) -> Self {
-        Progress::new(enabled, [0, 0, n])
+    pub fn pairs(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, n: usize) -> PyResult<Self> {
+        Progress::new(py, progress, [0, 0, n])
     }
 
-    /// One more item of `stage` done.
+    /// One more item of `stage` done (from any thread; no GIL, no output).
     pub fn tick(&self, stage: Stage) {
-        if !self.enabled {
+        if self.reporter.is_none() {
             return;
         }
         let s = match stage {
@@ -124,22 +159,42 @@ impl Progress {
             Stage::Transfer => 1,
             Stage::Similarity => 2,
         };
-        let n = self.counts[s].fetch_add(1, Ordering::Relaxed) + 1;
-        let total = self.totals[s];
-        let Ok(mut last) = self.last.lock() else {
-            return;
+        self.counts[s].fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a pipeline event: a prepared deformation or a finished pair.
+    pub fn event(&self, e: Event<'_>) {
+        match e {
+            Event::Prepared { stage, .. } => self.tick(stage),
+            Event::Pair(_) => self.tick(Stage::Similarity),
+            Event::Journal { .. } => {}
+        }
+    }
+
+    /// Hands the counts that changed since the last report to the reporter, stage by stage.
+    fn report(&self, py: Python<'_>) -> PyResult<()> {
+        let Some(r) = &self.reporter else {
+            return Ok(());
         };
-        let every = Duration::from_millis(if self.tty { 200 } else { 5000 });
-        if n == total || last.elapsed() >= every {
-            if self.tty {
-                eprint!("\rqcshape: {} {n}/{total}   ", LABELS[s]);
-                if n == total {
-                    eprintln!();
-                }
-            } else {
-                eprintln!("qcshape: {} {n}/{total}", LABELS[s]);
+        let Ok(mut shown) = self.shown.lock() else {
+            return Ok(());
+        };
+        for s in 0..3 {
+            let n = self.counts[s].load(Ordering::Relaxed).min(self.totals[s]);
+            if n != shown[s] {
+                shown[s] = n;
+                r.bind(py)
+                    .call_method1("update", (LABELS[s], n, self.totals[s]))?;
             }
-            *last = Instant::now();
+        }
+        Ok(())
+    }
+
+    /// Closes the display (a bar's last line).
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        match &self.reporter {
+            Some(r) => r.bind(py).call_method0("close").map(|_| ()),
+            None => Ok(()),
         }
     }
 }

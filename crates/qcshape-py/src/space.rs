@@ -16,12 +16,12 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::{transport, MetricKw, SolverKw};
-use crate::run::{detached, Progress};
+use crate::run::{detached, detached_with, Progress};
 
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
 /// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
-/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in normalized units (coordinates times
+/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in mean-edge units (coordinates times
 /// ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
 /// ``regularizer_energy`` (the energy's split into the metric's own term and the L2
 /// regularizer; they sum to ``energy``), ``regularizer_share`` (the regularizer's part, in
@@ -41,12 +41,12 @@ impl PyGeodesic {
     fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         sequence_out(py, &self.g.poses)
     }
-    /// dis(A, B): the path's length (normalized units).
+    /// dis(A, B): the path's length (mean-edge units).
     #[getter]
     fn length(&self) -> f64 {
         self.g.length
     }
-    /// Path energy (eq. 12) at the solution (normalized units).
+    /// Path energy (eq. 12) at the solution (mean-edge units).
     #[getter]
     fn energy(&self) -> f64 {
         self.g.energy
@@ -56,7 +56,7 @@ impl PyGeodesic {
     fn initial_energy(&self) -> f64 {
         self.g.initial_energy
     }
-    /// The part of ``energy`` carried by the metric's geometric term (normalized units).
+    /// The part of ``energy`` carried by the metric's geometric term (mean-edge units).
     #[getter]
     fn geometric_energy(&self) -> f64 {
         self.g.geometric_energy
@@ -175,12 +175,13 @@ impl PyGeodesic {
 
     fn __repr__(&self) -> String {
         format!(
-            "Geodesic(steps={}, length={:.6e}, energy={:.6e}, iterations={}, converged={})",
+            "Geodesic(steps={}, length={}, energy={}, iterations={}, converged={})",
             self.g.poses.len() - 1,
-            self.g.length,
-            self.g.energy,
+            qcshape::numfmt::significant(self.g.length, 7),
+            qcshape::numfmt::significant(self.g.energy, 7),
             self.g.iterations,
-            self.g.converged
+            // Python's spelling of the bool, as the attribute prints.
+            if self.g.converged { "True" } else { "False" }
         )
     }
 }
@@ -466,7 +467,7 @@ impl PyShapeSpace {
     }
 
     /// squared_norm(base, v) -> float: G_M(X) = <<X, X>>_M of the tangent vector v (nV, 3) at
-    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (normalized units
+    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (mean-edge units
     /// squared).
     fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
         let (b, x) = (self.points(base, "base")?, self.points(v, "v")?);
@@ -522,7 +523,7 @@ impl PyShapeSpace {
     }
 
     /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
-    /// (normalized units); exactly 0 for identical shapes.
+    /// (mean-edge units); exactly 0 for identical shapes.
     #[pyo3(signature = (a, b, steps=None))]
     fn dist(
         &self,
@@ -665,42 +666,32 @@ impl PyShapeSpace {
 
     /// pairwise_distances(poses, threads=None, progress=None) -> ndarray (n, n): dis(P_i, P_j)
     /// between the shapes poses (n, nV, 3), pairs in parallel, all normalized by the first
-    /// shape; symmetric with a zero diagonal.
+    /// shape; symmetric with a zero diagonal. Warns (QcshapeWarning) as similarity_matrix does.
     #[pyo3(signature = (poses, threads=None, progress=None))]
     fn pairwise_distances<'py>(
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: Option<bool>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = self.poses(poses, "poses")?;
-        let n = p.len();
         let singles: Vec<Vec<Vec<[f64; 3]>>> = p.into_iter().map(|x| vec![x]).collect();
-        let bar = Progress::pairs(
-            crate::run::progress_enabled(progress),
-            n * n.saturating_sub(1) / 2,
-        );
-        let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
-        let d = detached(py, threads, |cancel| {
-            self.space
-                .similarity(&singles, Some(cancel), &|_| bar.tick(Stage::Similarity))
-                .map_err(errors::space)
-        })?;
-        matrix_out(py, d, n, n)
+        self.matrix(py, &singles, threads, progress)
     }
 
     /// similarity(deformations, threads=None, progress=None) -> ndarray (n, n): eq. 13,
     /// similarity(M, N) = sum_k dis(M_k, N_k), of deformations (n, K, nV, 3) already at one
     /// common base (e.g. from transfer), pairs in parallel. For raw deformations use
-    /// qcshape.similarity_matrix, which interpolates and transfers first.
+    /// qcshape.similarity_matrix, which interpolates and transfers first. Warns (QcshapeWarning)
+    /// as similarity_matrix does.
     #[pyo3(signature = (deformations, threads=None, progress=None))]
     fn similarity<'py>(
         &self,
         py: Python<'py>,
         deformations: &Bound<'py, PyAny>,
         threads: Option<AnyInt>,
-        progress: Option<bool>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let list: Vec<Bound<'py, PyAny>> = deformations.try_iter()?.collect::<PyResult<_>>()?;
         let defs: Vec<Vec<Vec<[f64; 3]>>> = list
@@ -708,17 +699,43 @@ impl PyShapeSpace {
             .enumerate()
             .map(|(i, d)| self.poses(d, &format!("deformations[{i}]")))
             .collect::<PyResult<_>>()?;
+        self.matrix(py, &defs, threads, progress)
+    }
+}
+
+impl PyShapeSpace {
+    /// The matrix of `pairwise_distances` and `similarity`: pairs in parallel with progress and
+    /// Ctrl-C, then the warnings of `qcshape similarity` (regularizer share, unconverged pairs)
+    /// from the pairs' details.
+    fn matrix<'py>(
+        &self,
+        py: Python<'py>,
+        defs: &[Vec<Vec<[f64; 3]>>],
+        threads: Option<AnyInt>,
+        progress: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let n = defs.len();
-        let bar = Progress::pairs(
-            crate::run::progress_enabled(progress),
-            n * n.saturating_sub(1) / 2,
-        );
+        let bar = Progress::pairs(py, progress, n * n.saturating_sub(1) / 2)?;
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
-        let d = detached(py, threads, |cancel| {
+        let pairs = std::sync::Mutex::new(Vec::new());
+        let d = detached_with(py, threads, Some(&bar), |cancel| {
             self.space
-                .similarity(&defs, Some(cancel), &|_| bar.tick(Stage::Similarity))
+                .similarity(defs, Some(cancel), &|p| {
+                    bar.tick(Stage::Similarity);
+                    if let Ok(mut v) = pairs.lock() {
+                        v.push(p.clone());
+                    }
+                })
                 .map_err(errors::space)
         })?;
+        let pairs = pairs.into_inner().unwrap_or_default();
+        crate::warn::pairs(
+            py,
+            &pairs,
+            true,
+            self.space.spec(),
+            self.space.geodesic_options().solver,
+        )?;
         matrix_out(py, d, n, n)
     }
 }

@@ -29,6 +29,8 @@ TYPICAL_CALLS = textwrap.dedent(
     log, r = space.log(V, B)
     mean = space.karcher_mean(np.stack([V, B]), max_iterations=5)
     pd = space.pairwise_distances(np.stack([V, B, mean]), threads=1, progress=False)
+    counts: List[int] = []
+    pd2 = space.pairwise_distances([V, B], progress=lambda stage, done, total: counts.append(done))
     moved = space.transfer([V, B], V)
     ds = qs.Dataset.synthetic(level=1)
     small = qs.Dataset([ds[0], ds[1]], F, names=["a", "b"], labels=["x", None])

@@ -1,5 +1,6 @@
 """Warnings through Python's warnings module, category qcshape.QcshapeWarning (issue 50, item 3),
-for the CLI's conditions: regularizer share above one half (geodesic, dist, similarity_matrix),
+for the CLI's conditions: regularizer share above one half (geodesic, dist, similarity_matrix,
+ShapeSpace.pairwise_distances and ShapeSpace.similarity),
 the solver's iteration limit, the metric's own warning (lam = 0 with a conformal metric)."""
 
 import warnings
@@ -52,6 +53,18 @@ def test_no_warning_when_the_metric_dominates(pair):
 def test_similarity_matrix_warns_for_dominated_pairs(synthetic):
     _, msgs = caught(lambda: qs.similarity_matrix(synthetic[0:4], metric="isometric", steps=2, lam=100.0, progress=False))
     assert any("more than half of the energy for" in m for m in msgs)
+
+
+def test_pairwise_distances_and_similarity_warn_for_dominated_pairs(pair):
+    VA, VB, F = pair
+    C = 0.5 * (VA + VB)
+    space = qs.ShapeSpace(F, lam=100.0, steps=2)
+    _, msgs = caught(lambda: space.pairwise_distances([VA, VB, C], progress=False))
+    assert len(msgs) == 1 and "more than half of the energy for 3 of 3 pairs" in msgs[0] and "lower lam" in msgs[0]
+    _, msgs = caught(lambda: space.similarity([[VA, C], [VB, VB], [C, VA]], progress=False))
+    assert len(msgs) == 1 and "more than half of the energy for" in msgs[0]
+    _, msgs = caught(lambda: qs.ShapeSpace(F, lam=1e-4, steps=2).pairwise_distances([VA, VB, C], progress=False))
+    assert msgs == []
 
 
 def test_lambda_zero_conformal_warns_at_construction(sphere):

@@ -585,18 +585,10 @@ fn register_font() {
     });
 }
 
-/// A tick value printed compactly (3 significant digits).
+/// A colour bar's tick value: 3 significant digits in the one plain format of
+/// [`qcshape::numfmt`] (`0` for zero of either sign).
 fn tick(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if v.abs() >= 1e-2 && v.abs() < 1e4 {
-        format!("{:.3}", v)
-            .trim_end_matches('0')
-            .trim_end_matches('.')
-            .to_string()
-    } else {
-        format!("{v:.2e}")
-    }
+    qcshape::numfmt::significant(v, 3)
 }
 
 /// Draws the title, the view names and the colour bar.

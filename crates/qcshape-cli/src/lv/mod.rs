@@ -269,10 +269,11 @@ fn register(a: &RegisterArgs) -> Result<()> {
         let worst = reg.max_landmark_residual(&lm).context("landmark subset")?;
         bar.suspend(|| -> anyhow::Result<()> {
             outln!(
-                "{}: {} frames, {} landmarks, max landmark residual {worst:.3e} mm -> {}",
+                "{}: {} frames, {} landmarks, max landmark residual {} mm -> {}",
                 s.name,
                 reg.maps.len(),
                 a.landmarks,
+                qcshape::numfmt::significant(worst, 4),
                 out.display()
             );
             Ok(())

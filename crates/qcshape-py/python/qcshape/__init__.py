@@ -18,9 +18,10 @@ A Python layer over the qcshape Rust library (numpy arrays in and out):
     qs.ShapeSpace(pyvista_mesh); qs.to_trimesh(V, F)     # trimesh, pyvista, meshio (qs.as_arrays)
     V, residual, quality = qs.fit(VT, FT, scan_V, scan_F)  # template fitted to any triangulation
 
-Every computation releases the GIL, stops at Ctrl-C (KeyboardInterrupt) and, for long calls,
-prints progress on stderr when it is a terminal (progress=True: always, plain lines off a
-terminal; progress=False: never). Warnings (regularizer share, solver limits) are
+Every computation releases the GIL and stops at Ctrl-C (KeyboardInterrupt). Long calls take
+progress=: None (the default) shows a bar on a terminal or in Jupyter (tqdm's when tqdm is
+installed) and plain lines at most every 10 s in a log; True also logs each stage's last count;
+False shows nothing; a callable receives (stage, done, total). Warnings (regularizer share, solver limits) are
 qcshape.QcshapeWarning, a UserWarning, through the warnings module. Results pickle. Bad arguments raise ValueError naming
 the argument; unreadable files OSError, invalid files ValueError with the file name and line.
 """

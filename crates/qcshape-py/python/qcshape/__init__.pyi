@@ -2,7 +2,7 @@
 nV vertices, nF faces, K + 1 poses, n items."""
 
 from os import PathLike
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 from typing_extensions import TypedDict, Unpack
 
@@ -19,6 +19,10 @@ _Matrix = _npt.ArrayLike  # (n, n) float
 _Path = Union[str, "PathLike[str]"]
 _F64 = _npt.NDArray[_np.float64]
 _I64 = _npt.NDArray[_np.int64]
+# progress=: None (auto: a tqdm bar on a terminal or in Jupyter, plain lines at most every 10 s in
+# a log), True (as None, plus each stage's last count in a log), False (nothing) or a callable
+# (stage, done, total), stage "interpolating" | "transferring" | "pairs".
+_Progress = Union[None, bool, Callable[[str, int, int], object]]
 
 __version__: str
 
@@ -52,7 +56,7 @@ class _PipelineOptions(TypedDict, total=False):
     approx: Optional[str]  # exact | straight | tangent; default exact
     # END settings
     threads: Optional[int]
-    progress: Optional[bool]  # None: only when stderr is a terminal
+    progress: _Progress
 
 class QcshapeWarning(UserWarning):
     """qcshape's warnings (regularizer share above one half, solver iteration limit, lam = 0 with a
@@ -200,10 +204,10 @@ class ShapeSpace:
         """(K * (insert + 1) + 1, nV, 3)."""
     def transfer(self, poses: _Poses, base: _Points, method: Optional[str] = None) -> _F64:
         """(K + 1, nV, 3), starting at base."""
-    def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: Optional[bool] = None) -> _F64:
+    def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: _Progress = None) -> _F64:
         """(n, n) dis(P_i, P_j)."""
     def similarity(
-        self, deformations: Sequence[_Poses], threads: Optional[int] = None, progress: Optional[bool] = None
+        self, deformations: Sequence[_Poses], threads: Optional[int] = None, progress: _Progress = None
     ) -> _F64:
         """(n, n) eq. 13 of deformations at one common base."""
 

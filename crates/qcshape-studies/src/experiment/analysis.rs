@@ -165,7 +165,7 @@ impl Analysis {
                 &order,
                 Some(labels),
                 &format!("{metric} distances of {n} deformations (by class)"),
-                "distance (normalized units)",
+                "distance (mean-edge units)",
             )?;
             files.push(path);
         }
@@ -226,8 +226,8 @@ impl AnalysisReport {
         writeln!(
             md,
             "{n} deformations, {} key poses each, {} vertices; metric `{}`; {} between key \
-             poses; {} transport to the first pose of `{}`; geodesics with N = {}. Distances are in units of \
-             the base pose's mean edge length.\n",
+             poses; {} transport to the first pose of `{}`; geodesics with N = {}. Distances are in mean-edge \
+             units (coordinates divided by the base pose's mean edge length).\n",
             self.key_poses,
             self.vertices,
             self.metric,

@@ -99,7 +99,7 @@ pub fn motion_section(
         md,
         "Each subject's motion per vertex: how far the vertex moves along the surface normal over \
          the transferred cycle (sum of |normal . step| over the poses), times its area on the base \
-         (normalized units). The map is the mean of the {neg} subjects minus the mean of the {pos} \
+         (mean-edge units). The map is the mean of the {neg} subjects minus the mean of the {pos} \
          subjects: red where {pos} moves less (hypokinetic), blue where it moves more. Two-sided \
          p-values from 999 relabellings (seed {seed}), Benjamini-Hochberg at 0.05: {n_sig} of {} \
          vertices significant. The similarity itself (eq. 13) does not say where: this map does \

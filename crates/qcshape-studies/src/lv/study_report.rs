@@ -194,7 +194,7 @@ pub fn run_report(
                 "Cycle distances (eq. 13) of {} subjects, by group",
                 main.matrix.len()
             ),
-            "distance (normalized units)",
+            "distance (mean-edge units)",
         )?;
     }
     let e = qcshape::embed::smacof(
@@ -457,7 +457,7 @@ fn fig9_text(md: &mut String, map: &CycleMap) -> std::fmt::Result {
          by number in the figure; `fig9_mds.csv` names every pose by its position in frames (`3` = \
          frame 3, `3.25` = a quarter of the way to frame 4). Length \
          of the path through the poses in order: {:.3}; largest distance {:.3} between `{}` and `{}` \
-         (normalized units). Files: `fig9_mds.svg|png`, `fig9_mds.csv`, `fig9_distances.csv`.",
+         (mean-edge units). Files: `fig9_mds.svg|png`, `fig9_mds.csv`, `fig9_distances.csv`.",
         map.n_poses,
         map.n_keys,
         map.n_poses - map.n_keys,

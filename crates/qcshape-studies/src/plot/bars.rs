@@ -127,6 +127,7 @@ impl Figure for Bars<'_> {
             .x_labels(ng)
             .x_label_formatter(&group_name)
             .y_desc(self.y_label.as_str())
+            .y_label_formatter(&|v| super::axis_label(*v, self.y_range.1 - self.y_range.0, 10))
             .label_style((FAMILY, 13))
             .axis_desc_style((FAMILY, 14))
             .bold_line_style(RGBColor(225, 225, 225))

@@ -200,6 +200,7 @@ impl Figure for Heatmap {
             .disable_mesh()
             .disable_x_axis()
             .y_labels(6)
+            .y_label_formatter(&|v| super::axis_label(*v, top, 6))
             .y_label_style((FAMILY, 11))
             .y_desc(self.value_label.as_str())
             .axis_desc_style((FAMILY, 13))

@@ -251,6 +251,12 @@ pub(crate) fn render<F: Figure>(path: &Path, fig: &F) -> Result<(), PlotError> {
     Ok(())
 }
 
+/// The label of the value `v` on an axis spanning `span` with about `n` labels: plain numbers
+/// ([`qcshape::numfmt::tick`]), so a tick at a rounding error of zero reads `0`, never `-0.0`.
+pub(crate) fn axis_label(v: f64, span: f64, n: usize) -> String {
+    qcshape::numfmt::tick(v, span / n.max(1) as f64)
+}
+
 /// An axis range `[lo, hi]` padded by `pad` of its span (a unit span around a single value).
 pub(crate) fn padded(lo: f64, hi: f64, pad: f64) -> (f64, f64) {
     let span = hi - lo;

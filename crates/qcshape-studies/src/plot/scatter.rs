@@ -170,6 +170,8 @@ impl Figure for Scatter<'_> {
             .max_light_lines(0)
             .x_labels(8)
             .y_labels(8)
+            .x_label_formatter(&|v| super::axis_label(*v, x1 - x0, 8))
+            .y_label_formatter(&|v| super::axis_label(*v, y1 - y0, 8))
             .draw()
             .map_err(msg)?;
         let groups: Vec<Vec<usize>> = match &self.classes {
@@ -225,6 +227,43 @@ mod tests {
             .map(|i| ["walk", "run", "jump"][i / 3].to_string())
             .collect();
         (coords, names, labels)
+    }
+
+    /// Axis labels in the one plain format (issue 50, item 7): MDS coordinates centred on 0 put a
+    /// tick at a rounding error of zero, which plotters' own labels printed as `-0.0`.
+    #[test]
+    fn axis_labels_are_plain_numbers() {
+        let dir = tempfile::tempdir().unwrap();
+        let coords: Vec<Vec<f64>> = (0..7)
+            .map(|i| {
+                let t = i as f64 * 0.9;
+                vec![0.3 * t.cos() - 1e-17, 0.3 * t.sin() + 0.1]
+            })
+            .collect();
+        let names: Vec<String> = (0..7).map(|i| format!("p{i}")).collect();
+        let p = dir.path().join("axes.svg");
+        scatter_map(&p, &coords, &names, None, "MDS", None).unwrap();
+        let svg = std::fs::read_to_string(&p).unwrap();
+        let labels: Vec<&str> = svg
+            .split("<text")
+            .skip(1)
+            .filter_map(|t| t.split_once('>').and_then(|(_, rest)| rest.split_once("</text>")))
+            .map(|(text, _)| text.trim())
+            .filter(|t| t.parse::<f64>().is_ok())
+            .collect();
+        assert!(labels.len() >= 8, "{labels:?}");
+        assert!(labels.contains(&"0"), "{labels:?}");
+        for l in &labels {
+            assert!(
+                !l.starts_with("-0") || l.starts_with("-0.") && l.parse::<f64>().unwrap() != 0.0,
+                "{l}"
+            );
+            assert!(
+                !(l.contains('.') && l.ends_with('0')),
+                "trailing zero: {l} in {labels:?}"
+            );
+            assert!(l.len() <= 6, "long label {l}");
+        }
     }
 
     #[test]

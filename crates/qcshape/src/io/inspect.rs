@@ -161,7 +161,8 @@ pub fn inspect(
     if n_small > 0 {
         warnings.push(format!(
             "{n_small} face(s) have an angle below {SMALL_ANGLE_DEG} degree; the smallest is \
-             {min_angle:.3e} degrees at face {min_face}"
+             {} degrees at face {min_face}",
+            crate::numfmt::significant(min_angle, 4)
         ));
     }
     let components = topo.n_components();
@@ -199,22 +200,22 @@ pub fn inspect(
     (report, degenerate.first().map(|&f| (f, areas[f])))
 }
 
-/// A number with 6 significant digits, without trailing zeros (scientific notation outside
-/// 1e-4 .. 1e7).
+/// A number with 6 significant digits, without trailing zeros, in the one plain format of
+/// [`crate::numfmt`] (fixed-point in `[1e-4, 1e6)`, `1.2345e-5` otherwise, `0` for either zero).
 pub fn num(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let a = x.abs();
-    if !(1e-4..1e7).contains(&a) {
-        return format!("{x:.5e}");
-    }
-    let decimals = (5 - a.log10().floor() as i32).max(0) as usize;
-    let s = format!("{x:.decimals$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    let s = crate::numfmt::significant(x, 6);
+    let (mantissa, exponent) = match s.split_once('e') {
+        Some((m, e)) => (m, Some(e)),
+        None => (s.as_str(), None),
+    };
+    let m = if mantissa.contains('.') {
+        mantissa.trim_end_matches('0').trim_end_matches('.')
     } else {
-        s
+        mantissa
+    };
+    match exponent {
+        Some(e) => format!("{m}e{e}"),
+        None => m.to_string(),
     }
 }
 
@@ -287,7 +288,10 @@ mod tests {
         assert_eq!(num(0.1), "0.1");
         assert_eq!(num(12.5663706), "12.5664");
         assert_eq!(num(-1.0 / 3.0), "-0.333333");
-        assert_eq!(num(1e-7), "1.00000e-7");
+        assert_eq!(num(1e-7), "1e-7");
+        assert_eq!(num(-2.5e-7), "-2.5e-7");
         assert_eq!(num(123456.7), "123457");
+        assert_eq!(num(1.5e7), "1.5e7");
+        assert_eq!(num(-0.0), "0");
     }
 }

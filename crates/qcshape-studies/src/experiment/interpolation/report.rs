@@ -241,8 +241,8 @@ impl InterpolationReport {
         s.push_str(&format!(
             "The middle pose of each deformation is interpolated from its first and last pose ({}, \
              {}). Error of a case: mean over vertices of \
-             |predicted - true| divided by the mean edge length of the true middle pose \
-             (dimensionless). Cells: mean ± sample SD over the n deformations of each type \
+             |predicted - true| in mean-edge units (divided by the mean edge length of the true \
+             middle pose). Cells: mean ± sample SD over the n deformations of each type \
              (0: exact up to rounding, at most 1e-12); \
              `{BASELINE}` is the average of the first and last pose.\n\n",
             count(self.insert, "inserted pose", "inserted poses"),
@@ -327,7 +327,7 @@ impl InterpolationReport {
                 &p,
                 &groups,
                 "Interpolation error of the middle pose",
-                "mean error / mean edge length",
+                "mean error (mean-edge units)",
             )?;
             out.push(p);
         }

@@ -221,17 +221,18 @@ impl TransferReport {
         );
         let _ = writeln!(
             s,
-            "Kinds: {}. Bases: {}. {} cases. Geodesics: N = {} steps, coordinates scaled by {:.4} \
-             (1 / mean edge length of the source).\n",
+            "Kinds: {}. Bases: {}. {} cases. Geodesics: N = {} steps, in mean-edge units \
+             (coordinates divided by {}, the mean edge length of the source).\n",
             kinds.join(", "),
             self.bases.join(", "),
             n_cases,
             self.steps,
-            self.scale
+            qcshape::numfmt::significant(1.0 / self.scale, 4)
         );
         let _ = writeln!(
             s,
-            "Error: mean over vertices of |N_K - N*_K| / mean edge length of N*_K at the last pose; \
+            "Error: mean over vertices of |N_K - N*_K| in mean-edge units (divided by the mean edge \
+             length of N*_K) at the last pose; \
              mean ± SD over the {n_cases} cases. Euclidean transfer does not depend on the metric.\n"
         );
         self.metric_table(&mut s, Measure::Raw);
@@ -427,7 +428,7 @@ impl TransferReport {
                 (k.name().to_string(), bars)
             })
             .collect();
-        let y = "last-pose error (mean edge lengths)";
+        let y = "last-pose error (mean-edge units)";
         for ext in ["svg", "png"] {
             let p = dir.join(format!("transfer.{ext}"));
             error_bars(
