@@ -168,7 +168,7 @@ impl Explanation {
                 c.distance,
                 c.pose_distances.get(top).copied().unwrap_or(0.0)
             ),
-            label: "total: each vertex's share of sum_k dis(M_k, N_k) (normalized length)".into(),
+            label: "total: each vertex's share of sum_k dis(M_k, N_k) (mean-edge units)".into(),
             ..Default::default()
         };
         let p = with("png");

@@ -450,7 +450,7 @@ impl MetricRun {
                 &order,
                 Some(labels),
                 &title,
-                "distance (normalized units)",
+                "distance (mean-edge units)",
             )?;
         }
         Ok(vec![csv, mds_svg, mds_png, heat_svg, heat_png])
