@@ -270,17 +270,15 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
     Ok(())
 }
 
-/// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
-/// (the names, which .npy cannot hold, go to NAME.names.txt).
 /// The files `write_matrix` writes for output `path`: the matrix, and for `.npy` the names.
 fn matrix_files(path: &Path) -> Vec<(PathBuf, &'static str)> {
-    let mut out = vec![(path.to_path_buf(), "-o")];
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
-        out.push((path.with_extension("names.txt"), "the names file of -o"));
-    }
-    out
+    let npy = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    let names = npy.then(|| (path.with_extension("names.txt"), "the names file of -o"));
+    std::iter::once((path.to_path_buf(), "-o")).chain(names).collect()
 }
 
+/// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
+/// (the names, which .npy cannot hold, go to NAME.names.txt).
 fn write_matrix(path: &Path, matrix: &DistanceMatrix) -> Result<()> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
         let n = matrix.len();
