@@ -16,8 +16,12 @@ pytestmark = pytest.mark.skipif(os.name != "posix", reason="SIGINT to a subproce
 
 BOUND_S = 2.0
 
+# The child installs Python's own SIGINT handler: a parent that ignores SIGINT (a CI job started in
+# the background, `nohup`) passes SIG_IGN on, and Python then never raises KeyboardInterrupt, whatever
+# qcshape does. Measured: launched that way the call ran to its end (99 s) before this line existed.
 CHILD = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 import qcshape as qs
 V, F = qs.icosphere(2)
