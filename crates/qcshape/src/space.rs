@@ -84,7 +84,7 @@ pub type CurveEnds<'a> = (&'a [[f64; 3]], &'a [[f64; 3]]);
 /// The similarity matrix of a data set and everything the pipeline computed on the way.
 #[derive(Debug, Clone)]
 pub struct SimilarityResult {
-    /// Interpolated and transferred deformations ([`prepare`]).
+    /// Interpolated and transferred deformations ([`crate::similarity::prepare`]).
     pub prepared: Prepared,
     /// Every pair `i < j` in row order, with its per-pose distances.
     pub pairs: Vec<PairDistance>,

@@ -141,7 +141,7 @@ impl Solver {
 
     /// The default iteration limit on a mesh of `n_vertices` (#V): for the preconditioned
     /// L-BFGS solvers the larger of [`Solver::default_max_iterations`] and
-    /// [`ITERATIONS_PER_SQRT_VERTEX`] `x sqrt(#V)` (6,073 at 10,242 vertices), since their
+    /// `ITERATIONS_PER_SQRT_VERTEX` (60) `x sqrt(#V)` (6,073 at 10,242 vertices), since their
     /// iterations grow about like `sqrt(#V)` (the twisted sphere's conformal geodesic: 4,058
     /// iterations at 10,242 vertices, about twice per subdivision; docs/log/scale-invariant.md);
     /// [`Solver::default_max_iterations`] for the others.

@@ -54,7 +54,7 @@ pub struct PipelineOptions {
     pub smoothing: Smoothing,
     /// How each deformation is placed on the base before interpolation and transfer
     /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
-    /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
+    /// onto the base, applied to all of its poses; see [`crate::align::align_deformation`]).
     pub align: Alignment,
     /// Geodesic lengths (the default) or a cheaper approximation of the pose distances
     /// ([`Approx`]); the interpolation and transfer are always exact.
