@@ -59,7 +59,6 @@ pub enum ExperimentError {
         /// Which transfer (kind, base, metric, transport).
         what: String,
         /// The error.
-        #[source]
         error: TransportError,
     },
     /// The output folder cannot be created.
@@ -68,7 +67,6 @@ pub enum ExperimentError {
         /// The folder.
         path: PathBuf,
         /// The system error.
-        #[source]
         error: std::io::Error,
     },
     /// A file cannot be written.

@@ -240,13 +240,9 @@ impl GeodesicOptions {
     /// settings) and the internal vertex-block weight (finite, `>= 0`). The one check of
     /// [`super::GeodesicSolver::new`] and of the shape space's constructors.
     pub fn check(&self) -> Result<(), super::GeodesicError> {
-        self.validate()
-            .map_err(|e| super::GeodesicError::Option(e.to_string()))?;
+        self.validate()?;
         if !(self.vertex_block_weight >= 0.0 && self.vertex_block_weight.is_finite()) {
-            return Err(super::GeodesicError::Option(format!(
-                "the vertex-block weight must be a non-negative number (got {})",
-                self.vertex_block_weight
-            )));
+            return Err(super::GeodesicError::VertexBlockWeight(self.vertex_block_weight));
         }
         Ok(())
     }
