@@ -81,7 +81,8 @@ fn geodesic_input(e: &GeodesicError) -> bool {
         e,
         GeodesicError::Setting(_)
             | GeodesicError::VertexBlockWeight(_)
-            | GeodesicError::PathShape { .. }
+            | GeodesicError::StartPath { .. }
+            | GeodesicError::Interior { .. }
             | GeodesicError::Normalization { .. }
             | GeodesicError::Mesh(_)
             | GeodesicError::Calibration(_)

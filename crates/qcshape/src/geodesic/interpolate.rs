@@ -65,7 +65,7 @@ pub enum InterpolationError {
     Mesh(#[from] MeshError),
     /// A setting out of its range (`levels` 0, `insert` above [`crate::limits::MAX_INSERT`]).
     #[error(transparent)]
-    Setting(#[from] crate::limits::LimitError),
+    Setting(Box<crate::limits::LimitError>),
     /// The sequence to interpolate has no poses.
     #[error("invalid input: the sequence has no poses")]
     EmptySequence,
@@ -77,6 +77,14 @@ pub enum InterpolationError {
         /// What failed.
         source: Box<InterpolationError>,
     },
+}
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for InterpolationError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        InterpolationError::Setting(Box::new(e))
+    }
 }
 
 /// What happened on one level of the hierarchy for one pair.

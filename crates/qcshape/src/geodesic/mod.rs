@@ -145,22 +145,26 @@ pub enum GeodesicError {
     /// A setting out of its range (steps, tolerances, iteration limit), named by its key in
     /// [`crate::settings::SETTINGS`].
     #[error(transparent)]
-    Setting(#[from] crate::limits::LimitError),
+    Setting(Box<crate::limits::LimitError>),
     /// The solver's internal vertex-block weight is negative or not finite.
     #[error("invalid option: the vertex-block weight must be a non-negative number (got {0})")]
     VertexBlockWeight(f64),
-    /// A start path (or the interior poses given) does not fit the solver: `poses` poses of
-    /// `vertices` vertices each were expected (`scaled`: the start path was scaled).
-    #[error("invalid option: {what} needs {poses} {}poses of {vertices} vertices", if *.unscaled { "unscaled " } else { "" })]
-    PathShape {
-        /// Which input: "a start path" or "the interior".
-        what: &'static str,
+    /// A start path does not fit the solver: `poses` unscaled poses of `vertices` vertices
+    /// each were expected.
+    #[error("invalid option: a start path needs {poses} unscaled poses of {vertices} vertices")]
+    StartPath {
         /// Poses expected.
         poses: usize,
         /// Vertices per pose.
         vertices: usize,
-        /// Whether the poses must be unscaled (a start path).
-        unscaled: bool,
+    },
+    /// The interior poses given do not fit the solver: `poses` poses of `vertices` vertices.
+    #[error("invalid option: expected {poses} interior poses of {vertices} vertices")]
+    Interior {
+        /// Poses expected.
+        poses: usize,
+        /// Vertices per pose.
+        vertices: usize,
     },
     /// The normalization factor of a pair of shapes is zero, negative or not finite
     /// (degenerate shapes: zero edge lengths or area).
@@ -373,11 +377,9 @@ impl<'m> GeodesicSolver<'m> {
                     || g.poses.len() != self.energy.steps() + 1
                     || g.poses.iter().any(|p| p.len() != nv)
                 {
-                    return Err(GeodesicError::PathShape {
-                        what: "a start path",
+                    return Err(GeodesicError::StartPath {
                         poses: self.energy.steps() + 1,
                         vertices: nv,
-                        unscaled: true,
                     });
                 }
                 self.energy.shifted_start(&g.poses, &ends)
@@ -463,11 +465,9 @@ impl<'m> GeodesicSolver<'m> {
     ) -> Result<Geodesic, GeodesicError> {
         let ends = self.ends(a, b)?;
         if interior.len() + 1 != self.energy.steps() || interior.iter().any(|p| p.len() != a.len()) {
-            return Err(GeodesicError::PathShape {
-                what: "the interior",
+            return Err(GeodesicError::Interior {
                 poses: self.energy.steps() - 1,
                 vertices: a.len(),
-                unscaled: false,
             });
         }
         let x0 = self.energy.pack(interior, &ends);
@@ -874,3 +874,11 @@ pub fn pair_factor(a: &[[f64; 3]], b: &[[f64; 3]], topo: &Topology) -> Result<f6
 
 #[cfg(test)]
 mod tests;
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for GeodesicError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        GeodesicError::Setting(Box::new(e))
+    }
+}

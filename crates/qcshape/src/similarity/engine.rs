@@ -98,8 +98,8 @@ pub enum SimilarityError {
         b: String,
         /// The pose index.
         pose: usize,
-        /// The solver's error.
-        error: GeodesicError,
+        /// The solver's error (boxed: a geodesic error holds a setting's names).
+        error: Box<GeodesicError>,
     },
     /// The journal of a resumable run cannot be read or written.
     #[error("{}: {message}", path.display())]
@@ -442,7 +442,7 @@ where
                             a: names[i].clone(),
                             b: names[j].clone(),
                             pose,
-                            error,
+                            error: Box::new(error),
                         })?;
                     (p.lengths, Some(p.parts), p.converged, p.iterations)
                 }

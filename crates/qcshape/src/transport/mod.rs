@@ -50,7 +50,7 @@ pub enum TransportError {
     Geodesic(#[from] GeodesicError),
     /// A metric or geodesic setting out of its range (`lambda`, steps, tolerances).
     #[error(transparent)]
-    Setting(#[from] crate::limits::LimitError),
+    Setting(Box<crate::limits::LimitError>),
     /// A transport option that must be positive is not (`tolerance`, `cg-tolerance`,
     /// `epsilon`).
     #[error("invalid input: {name} must be positive, got {value}")]
@@ -132,4 +132,12 @@ pub(crate) fn difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .zip(b)
         .map(|(p, q)| [q[0] - p[0], q[1] - p[1], q[2] - p[2]])
         .collect()
+}
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for TransportError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        TransportError::Setting(Box::new(e))
+    }
 }
