@@ -15,24 +15,39 @@ use qcshape::transport::TransportError;
 pub fn space(e: SpaceError) -> PyErr {
     let msg = e.to_string();
     let value = match &e {
-        SpaceError::Shape { .. } | SpaceError::Input(_) | SpaceError::Matrix(_) => true,
+        SpaceError::Shape { .. }
+        | SpaceError::Setting(_)
+        | SpaceError::Empty { .. }
+        | SpaceError::Shard
+        | SpaceError::Matrix(_) => true,
         SpaceError::Geodesic(g) => geodesic_input(g),
         SpaceError::Transport(t) => transport_input(t),
         SpaceError::Interpolation(i) => {
-            matches!(i, InterpolationError::Option(_) | InterpolationError::Mesh(_))
+            matches!(
+                i,
+                InterpolationError::Setting(_)
+                    | InterpolationError::EmptySequence
+                    | InterpolationError::Mesh(_)
+                    | InterpolationError::Geodesic(GeodesicError::Normalization { .. })
+            )
         }
         SpaceError::Pipeline(p) => match p {
-            PipelineError::Input(_) | PipelineError::Mesh { .. } => true,
+            PipelineError::NoBase { .. }
+            | PipelineError::PoseCount { .. }
+            | PipelineError::TooFewPoses { .. }
+            | PipelineError::Setting(_)
+            | PipelineError::Mesh { .. } => true,
             PipelineError::Similarity(SimilarityError::Cancelled) => {
                 return PyKeyboardInterrupt::new_err(msg)
             }
-            PipelineError::Similarity(SimilarityError::Mismatch(_)) | PipelineError::Matrix(_) => true,
+            PipelineError::Similarity(s) if similarity_input(s) => true,
+            PipelineError::Matrix(_) => true,
             PipelineError::Similarity(SimilarityError::Journal { .. }) => return PyOSError::new_err(msg),
             PipelineError::Geodesic(g) => geodesic_input(g),
             _ => false,
         },
         SpaceError::Similarity(SimilarityError::Cancelled) => return PyKeyboardInterrupt::new_err(msg),
-        SpaceError::Similarity(SimilarityError::Mismatch(_)) => true,
+        SpaceError::Similarity(s) => similarity_input(s),
         _ => false,
     };
     if value {
@@ -42,18 +57,50 @@ pub fn space(e: SpaceError) -> PyErr {
     }
 }
 
+/// A similarity error caused by the arguments (names, pose counts, pairs, shards, a metric the
+/// tangent approximation cannot use, a degenerate base).
+fn similarity_input(e: &SimilarityError) -> bool {
+    matches!(
+        e,
+        SimilarityError::NotAPair { .. }
+            | SimilarityError::NameCount { .. }
+            | SimilarityError::PoseCount { .. }
+            | SimilarityError::ListedNotJournaled
+            | SimilarityError::NoShards
+            | SimilarityError::MissingShards { .. }
+            | SimilarityError::NotTangent { .. }
+            | SimilarityError::AuxJacobian { .. }
+            | SimilarityError::AuxNotFinite
+            | SimilarityError::AuxEigen
+    )
+}
+
 fn geodesic_input(e: &GeodesicError) -> bool {
     // A calibration failure is a degenerate reference shape (zero size or area): bad input.
     matches!(
         e,
-        GeodesicError::Option(_) | GeodesicError::Mesh(_) | GeodesicError::Calibration(_)
+        GeodesicError::Setting(_)
+            | GeodesicError::VertexBlockWeight(_)
+            | GeodesicError::StartPath { .. }
+            | GeodesicError::Interior { .. }
+            | GeodesicError::Normalization { .. }
+            | GeodesicError::Mesh(_)
+            | GeodesicError::Calibration(_)
     )
 }
 
 fn transport_input(e: &TransportError) -> bool {
     matches!(
         e,
-        TransportError::Input(_) | TransportError::Mismatch { .. } | TransportError::Mesh(_)
+        TransportError::Setting(_)
+            | TransportError::NotPositive { .. }
+            | TransportError::SchildSteps { .. }
+            | TransportError::Empty { .. }
+            | TransportError::VertexCount { .. }
+            | TransportError::VectorLength { .. }
+            | TransportError::Normalization { .. }
+            | TransportError::Mismatch { .. }
+            | TransportError::Mesh(_)
     )
 }
 

@@ -50,9 +50,12 @@ pub enum RenderError {
     /// Text or colour-bar drawing failed.
     #[error("cannot draw: {0}")]
     Draw(String),
-    /// The PNG cannot be encoded.
-    #[error("cannot encode the PNG: {0}")]
-    Encode(String),
+    /// The PNG cannot be encoded (the png crate's error, kept).
+    #[error("cannot encode the PNG: {error}")]
+    Encode {
+        /// The png crate's error.
+        error: png::EncodingError,
+    },
     /// The file cannot be written.
     #[error(transparent)]
     Write(#[from] IoError),
@@ -188,10 +191,10 @@ impl Image {
             enc.set_depth(png::BitDepth::Eight);
             let mut w = enc
                 .write_header()
-                .map_err(|e| RenderError::Encode(e.to_string()))?;
+                .map_err(|error| RenderError::Encode { error })?;
             w.write_image_data(&self.rgb)
-                .map_err(|e| RenderError::Encode(e.to_string()))?;
-            w.finish().map_err(|e| RenderError::Encode(e.to_string()))?;
+                .map_err(|error| RenderError::Encode { error })?;
+            w.finish().map_err(|error| RenderError::Encode { error })?;
         }
         Ok(bytes)
     }

@@ -29,6 +29,7 @@ use crate::geodesic::{
     self, normalization_factor, Geodesic, GeodesicError, GeodesicOptions, GeodesicSolver, Interpolated,
     InterpolationError, InterpolationOptions, Interpolator, Normalization, SolveContext,
 };
+use crate::limits::LimitError;
 use crate::mesh::{MeshError, Shape, Topology};
 use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::similarity::{
@@ -51,9 +52,21 @@ pub enum SpaceError {
         /// What is wrong with it.
         error: MeshError,
     },
-    /// A bad option or an empty input.
-    #[error("{0}")]
-    Input(String),
+    /// A metric setting out of its range (`lambda`, `stretch`) or not available with the
+    /// metric's scale.
+    #[error(transparent)]
+    Setting(#[from] LimitError),
+    /// An empty input: `what` has no `items`.
+    #[error("the {what} has no {items}")]
+    Empty {
+        /// The argument: "curve", "sequence", "Karcher mean's input", "reference list".
+        what: &'static str,
+        /// What it lacks: "samples", "poses", "shapes".
+        items: &'static str,
+    },
+    /// [`ShapeSpace::similarity_matrix`] was given a shard of the pairs.
+    #[error("similarity_matrix computes every pair (use crate::similarity::compute for a shard)")]
+    Shard,
     /// A geodesic could not be set up or solved.
     #[error(transparent)]
     Geodesic(#[from] GeodesicError),
@@ -84,7 +97,7 @@ pub type CurveEnds<'a> = (&'a [[f64; 3]], &'a [[f64; 3]]);
 /// The similarity matrix of a data set and everything the pipeline computed on the way.
 #[derive(Debug, Clone)]
 pub struct SimilarityResult {
-    /// Interpolated and transferred deformations ([`prepare`]).
+    /// Interpolated and transferred deformations ([`crate::similarity::prepare`]).
     pub prepared: Prepared,
     /// Every pair `i < j` in row order, with its per-pose distances.
     pub pairs: Vec<PairDistance>,
@@ -124,7 +137,7 @@ impl ShapeSpace {
         spec: MetricSpec,
         geodesic: GeodesicOptions,
     ) -> Result<Self, SpaceError> {
-        spec.validate().map_err(|e| SpaceError::Input(e.to_string()))?;
+        spec.validate()?;
         geodesic.check()?;
         Ok(ShapeSpace {
             topology,
@@ -171,7 +184,10 @@ impl ShapeSpace {
             return Ok(u);
         }
         let Some(first) = refs.first() else {
-            return Err(SpaceError::Input("no reference shape".into()));
+            return Err(SpaceError::Empty {
+                what: "reference list",
+                items: "shapes",
+            });
         };
         let factor = match self.normalization {
             Normalization::MeanEdgeOfFirst | Normalization::MeanEdgeOfBoth => {
@@ -185,9 +201,7 @@ impl ShapeSpace {
             n => normalization_factor(n, &self.topology, first),
         };
         if !(factor.is_finite() && factor > 0.0) {
-            return Err(SpaceError::Input(format!(
-                "normalization factor {factor} is not positive"
-            )));
+            return Err(GeodesicError::Normalization { factor }.into());
         }
         let scaled_refs: Vec<Pose> = refs.iter().map(|r| scaled(r, factor)).collect();
         let views: Vec<&[[f64; 3]]> = scaled_refs.iter().map(Vec::as_slice).collect();
@@ -368,7 +382,10 @@ impl ShapeSpace {
     /// ([`schild_ladder`]) or the Euclidean baseline (`v` unchanged).
     pub fn transport(&self, curve: &[Pose], v: &[[f64; 3]], method: Transport) -> Result<Pose, SpaceError> {
         let Some(first) = curve.first() else {
-            return Err(SpaceError::Input("the curve has no samples".into()));
+            return Err(SpaceError::Empty {
+                what: "curve",
+                items: "samples",
+            });
         };
         for (j, s) in curve.iter().enumerate() {
             self.shape(&format!("curve sample {j}"), s)?;
@@ -409,9 +426,10 @@ impl ShapeSpace {
         opts: &KarcherOptions,
     ) -> Result<KarcherMean, SpaceError> {
         let Some(first) = poses.first() else {
-            return Err(SpaceError::Input(
-                "the Karcher mean needs at least one pose".into(),
-            ));
+            return Err(SpaceError::Empty {
+                what: "Karcher mean's input",
+                items: "poses",
+            });
         };
         for (k, p) in poses.iter().enumerate() {
             self.shape(&format!("pose {k}"), p)?;
@@ -441,7 +459,10 @@ impl ShapeSpace {
         progress: &(dyn Fn() + Sync),
     ) -> Result<Interpolated, SpaceError> {
         let Some(first) = poses.first() else {
-            return Err(SpaceError::Input("the sequence has no poses".into()));
+            return Err(SpaceError::Empty {
+                what: "sequence",
+                items: "poses",
+            });
         };
         for (k, p) in poses.iter().enumerate() {
             self.shape(&format!("pose {k}"), p)?;
@@ -545,9 +566,7 @@ impl ShapeSpace {
         run: &Run<'_>,
     ) -> Result<SimilarityResult, SpaceError> {
         if run.selection != Selection::All {
-            return Err(SpaceError::Input(
-                "similarity_matrix computes every pair (use crate::similarity::compute for a shard)".into(),
-            ));
+            return Err(SpaceError::Shard);
         }
         let opts = self.pipeline_options(template);
         let (prepared, mut outcome) = similarity_matrix(deformations, &opts, run)?;

@@ -51,9 +51,12 @@ pub enum ClassificationError {
     /// A score cannot be computed.
     #[error(transparent)]
     Eval(#[from] EvalError),
-    /// A CSV record cannot be encoded.
-    #[error("cannot encode CSV: {0}")]
-    Csv(String),
+    /// A CSV record cannot be encoded (the csv crate's error, kept).
+    #[error("cannot encode CSV: {error}")]
+    Csv {
+        /// The csv crate's error.
+        error: csv::Error,
+    },
     /// An output file cannot be written.
     #[error(transparent)]
     Io(#[from] IoError),
@@ -105,9 +108,10 @@ fn csv_bytes(
     fill: impl FnOnce(&mut csv::Writer<Vec<u8>>) -> Result<(), csv::Error>,
 ) -> Result<Vec<u8>, ClassificationError> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    fill(&mut w).map_err(|e| ClassificationError::Csv(e.to_string()))?;
-    w.into_inner()
-        .map_err(|e| ClassificationError::Csv(e.to_string()))
+    fill(&mut w).map_err(|error| ClassificationError::Csv { error })?;
+    w.into_inner().map_err(|e| ClassificationError::Csv {
+        error: csv::Error::from(e.into_error()),
+    })
 }
 
 /// The assignments as CSV: `name,cluster` per item of `d`, with `label,matched_label` (the

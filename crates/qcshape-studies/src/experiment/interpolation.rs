@@ -21,21 +21,18 @@
 
 mod report;
 
+pub use super::ExperimentError;
 pub use report::Comparison;
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use rayon::prelude::*;
-use thiserror::Error;
 
-use crate::plot::PlotError;
 use qcshape::dataset::Deformation;
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, InterpolationError, InterpolationOptions, Interpolator,
     Normalization,
 };
-use qcshape::io::IoError;
 use qcshape::mesh::{geometry, Topology};
 use qcshape::metric::{Metric, MetricKind, MetricSpec};
 use qcshape::multires::DEFAULT_RATIO;
@@ -79,40 +76,6 @@ impl Default for InterpolationExperiment {
             showcase: None,
         }
     }
-}
-
-/// Why the experiment cannot run or its report cannot be written.
-#[derive(Debug, Error)]
-pub enum ExperimentError {
-    /// Bad settings or input.
-    #[error("invalid input: {0}")]
-    Input(String),
-    /// One interpolation failed.
-    #[error("deformation {deformation:?}, pose {pose}, metric {method}: {source}")]
-    Interpolation {
-        /// The deformation.
-        deformation: String,
-        /// The pose that was being predicted.
-        pose: usize,
-        /// The metric.
-        method: String,
-        /// What failed.
-        source: InterpolationError,
-    },
-    /// The output folder cannot be created.
-    #[error("{}: cannot create the folder: {error}", path.display())]
-    CreateDir {
-        /// The folder.
-        path: PathBuf,
-        /// The system error.
-        error: std::io::Error,
-    },
-    /// A file cannot be written.
-    #[error(transparent)]
-    Io(#[from] IoError),
-    /// A figure cannot be drawn.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
 }
 
 /// The error of one predicted pose by one method.

@@ -23,6 +23,60 @@ pub mod reproduce;
 pub mod robustness;
 pub mod transfer;
 
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+use crate::plot::PlotError;
+use qcshape::geodesic::InterpolationError;
+use qcshape::io::IoError;
+use qcshape::transport::TransportError;
+
+/// Why the interpolation or the transfer experiment cannot run or its report cannot be written
+/// (the other experiments have their own errors: [`classification::ClassificationError`],
+/// [`noise::NoiseError`], ...).
+#[derive(Debug, Error)]
+pub enum ExperimentError {
+    /// Bad settings or input (empty lists, too few poses, a level out of range, shapes of
+    /// different topologies).
+    #[error("invalid experiment: {0}")]
+    Input(String),
+    /// One interpolation failed.
+    #[error("deformation {deformation:?}, pose {pose}, metric {method}: {source}")]
+    Interpolation {
+        /// The deformation.
+        deformation: String,
+        /// The pose that was being predicted.
+        pose: usize,
+        /// The metric.
+        method: String,
+        /// What failed.
+        source: InterpolationError,
+    },
+    /// A transfer failed.
+    #[error("{what}: {error}")]
+    Transfer {
+        /// Which transfer (kind, base, metric, transport).
+        what: String,
+        /// The error.
+        error: TransportError,
+    },
+    /// The output folder cannot be created.
+    #[error("{}: cannot create the folder: {error}", path.display())]
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// A file cannot be written.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// A figure cannot be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
 /// `md` with every Markdown heading moved `levels` deeper (`# A` -> `### A` for 2), outside
 /// fenced code blocks: a sub-report embedded under a heading of the enclosing report.
 pub fn demote_headings(md: &str, levels: usize) -> String {

@@ -24,6 +24,7 @@
 
 mod report;
 
+pub use super::ExperimentError;
 pub use report::{Comparison, Measure, Stat, TransferReport};
 
 use std::collections::HashMap;
@@ -31,19 +32,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
-use thiserror::Error;
 
-use crate::plot::PlotError;
 use qcshape::geodesic::{GeodesicOptions, Normalization};
-use qcshape::io::IoError;
 use qcshape::mesh::{geometry, Shape, Topology};
 use qcshape::metric::{MetricKind, MetricSpec};
 use qcshape::synth::{
     deform, initial_shape, template, DeformParams, DeformationKind, InitialShape, MAX_LEVEL,
 };
-use qcshape::transport::{
-    SchildOptions, Transfer, TransferOptions, TransferSetup, Transport, TransportError,
-};
+use qcshape::transport::{SchildOptions, Transfer, TransferOptions, TransferSetup, Transport};
 
 /// A pose: #V x 3 positions.
 use qcshape::mesh::Pose;
@@ -97,29 +93,6 @@ impl Default for TransferExperiment {
             schild: SchildOptions::default(),
         }
     }
-}
-
-/// Why the experiment failed.
-#[derive(Debug, Error)]
-pub enum ExperimentError {
-    /// Bad settings (empty lists, too few poses, a level out of range, shapes of different
-    /// topologies).
-    #[error("invalid experiment: {0}")]
-    Input(String),
-    /// A transfer failed.
-    #[error("{what}: {error}")]
-    Transfer {
-        /// Which transfer (kind, base, metric, transport).
-        what: String,
-        /// The error.
-        error: TransportError,
-    },
-    /// An output file cannot be written.
-    #[error(transparent)]
-    Io(#[from] IoError),
-    /// A figure cannot be drawn.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
 }
 
 /// The error of one transferred pose `N_k` against the ideal `N*_k`.

@@ -23,7 +23,7 @@ pub use qcshape::mesh::Pose;
 
 /// Why an analysis step cannot be done.
 #[derive(Debug, Error)]
-pub enum AnalysisError {
+pub enum LvAnalysisError {
     /// The input does not fit (too few frames or vertices, mismatched lengths, non-finite values).
     #[error("{0}")]
     Input(String),
@@ -76,11 +76,11 @@ pub struct Axis {
 
 impl Axis {
     /// The line through the apex and the base centre (mm).
-    pub fn through(apex: [f64; 3], base: [f64; 3]) -> Result<Axis, AnalysisError> {
+    pub fn through(apex: [f64; 3], base: [f64; 3]) -> Result<Axis, LvAnalysisError> {
         let d = geometry::sub(base, apex);
         let n = geometry::norm(d);
         if !(n > 1e-12 && n.is_finite()) {
-            return Err(AnalysisError::Input(
+            return Err(LvAnalysisError::Input(
                 "apex and base coincide: no long axis".into(),
             ));
         }
@@ -94,9 +94,9 @@ impl Axis {
     /// spread (principal axis), through the centre of the circle fitted (Kasa's algebraic
     /// least-squares fit) to the points projected on the perpendicular plane, so that an arc
     /// such as the free wall alone gives the cavity's axis rather than the arc's centroid.
-    pub fn fit(points: &[[f64; 3]]) -> Result<Axis, AnalysisError> {
+    pub fn fit(points: &[[f64; 3]]) -> Result<Axis, LvAnalysisError> {
         if points.len() < 4 || points.iter().flatten().any(|c| !c.is_finite()) {
-            return Err(AnalysisError::Input(format!(
+            return Err(LvAnalysisError::Input(format!(
                 "an axis needs at least 4 finite points, got {}",
                 points.len()
             )));
@@ -235,21 +235,21 @@ pub fn radial_features(
     axis: &Axis,
     dt: f64,
     closed: bool,
-) -> Result<RadialFeatures, AnalysisError> {
+) -> Result<RadialFeatures, LvAnalysisError> {
     let f = poses.len();
     if f < 2 {
-        return Err(AnalysisError::Input(format!(
+        return Err(LvAnalysisError::Input(format!(
             "radial features need at least two frames, got {f}"
         )));
     }
     let nv = poses[0].len();
     if nv == 0 || poses.iter().any(|p| p.len() != nv) {
-        return Err(AnalysisError::Input(
+        return Err(LvAnalysisError::Input(
             "every frame needs the same, non-zero number of vertices".into(),
         ));
     }
     if !(dt > 0.0 && dt.is_finite()) {
-        return Err(AnalysisError::Input(format!(
+        return Err(LvAnalysisError::Input(format!(
             "frame interval {dt} is not positive"
         )));
     }
@@ -258,7 +258,7 @@ pub fn radial_features(
         .map(|p| p.iter().map(|&x| axis.radius(x)).collect())
         .collect();
     if r.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(AnalysisError::Input("a vertex position is not finite".into()));
+        return Err(LvAnalysisError::Input("a vertex position is not finite".into()));
     }
     let mean_radius: Vec<f64> = r.iter().map(|v| v.iter().sum::<f64>() / nv as f64).collect();
     let arg = |better: fn(f64, f64) -> bool| {
@@ -307,14 +307,14 @@ pub fn carry_template(
     to: &[[f64; 3]],
     lambda: f64,
     surface: Option<SurfaceRef<'_>>,
-) -> Result<(Pose, bool), AnalysisError> {
+) -> Result<(Pose, bool), LvAnalysisError> {
     let tps = Tps::fit(from, to, lambda)?;
     let warped = tps.apply_all(template);
     let Some((pos, faces)) = surface else {
         return Ok((warped, false));
     };
     if faces.is_empty() {
-        return Err(AnalysisError::Input(
+        return Err(LvAnalysisError::Input(
             "the subject's surface has no triangles".into(),
         ));
     }
@@ -399,21 +399,21 @@ pub fn pose_distance_matrix(
     poses: &[Pose],
     cancel: Option<&AtomicBool>,
     on_pair: &(dyn Fn() + Sync),
-) -> Result<(Vec<f64>, bool), AnalysisError> {
+) -> Result<(Vec<f64>, bool), LvAnalysisError> {
     let n = poses.len();
     let pairs: Vec<(usize, usize)> = (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j))).collect();
     let results: Vec<(usize, usize, f64, bool)> = pairs
         .par_iter()
         .map(|&(i, j)| {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                return Err(AnalysisError::Cancelled);
+                return Err(LvAnalysisError::Cancelled);
             }
             let (d, ok) = if poses[i] == poses[j] {
                 (0.0, true)
             } else {
                 let g = solver
                     .solve(&poses[i], &poses[j])
-                    .map_err(|error| AnalysisError::Geodesic { i, j, error })?;
+                    .map_err(|error| LvAnalysisError::Geodesic { i, j, error })?;
                 (g.length, g.converged)
             };
             on_pair();

@@ -10,7 +10,7 @@ use std::time::Instant;
 use serde::Serialize;
 use thiserror::Error;
 
-use super::analysis::{close_cycle, drop_closing_pose, radial_features, AnalysisError, Axis};
+use super::analysis::{close_cycle, drop_closing_pose, radial_features, Axis, LvAnalysisError};
 use super::cohort::LvError;
 use crate::plot::PlotError;
 use qcshape::cluster::{intrinsic_kmeans, IntrinsicError, IntrinsicOptions};
@@ -44,11 +44,11 @@ pub enum StudyError {
         /// The subject.
         subject: String,
         /// Why.
-        error: AnalysisError,
+        error: LvAnalysisError,
     },
     /// An analysis helper failed.
     #[error(transparent)]
-    Analysis(#[from] AnalysisError),
+    Analysis(#[from] LvAnalysisError),
     /// Interpolation, transfer or similarity failed.
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
@@ -108,7 +108,7 @@ pub enum StudyError {
         /// The deformation.
         name: String,
         /// Why.
-        error: AnalysisError,
+        error: LvAnalysisError,
     },
     /// The input does not fit the study (labels, classes, landmarks, frames).
     #[error("{0}")]

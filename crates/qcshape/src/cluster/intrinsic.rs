@@ -32,9 +32,22 @@ impl Default for IntrinsicOptions {
 /// Why the intrinsic k-means failed.
 #[derive(Debug, Error)]
 pub enum IntrinsicError {
-    /// Inconsistent inputs (counts, empty clusters in the start).
-    #[error("{0}")]
-    Input(String),
+    /// The start partition does not have one entry per deformation, or `k` is 0.
+    #[error("start partition of {items} items into {k} clusters does not fit {n} deformations")]
+    Start {
+        /// Entries of the start partition.
+        items: usize,
+        /// Clusters asked for.
+        k: usize,
+        /// Deformations.
+        n: usize,
+    },
+    /// The deformations have different pose counts.
+    #[error("deformations differ in pose count")]
+    PoseCount,
+    /// A cluster of the current partition has no member.
+    #[error("cluster {0} is empty")]
+    EmptyCluster(usize),
     /// A geodesic (distance or log map) failed.
     #[error("geodesic: {0}")]
     Geodesic(#[from] GeodesicError),
@@ -77,14 +90,15 @@ pub fn intrinsic_kmeans(
 ) -> Result<IntrinsicClustering, IntrinsicError> {
     let n = deformations.len();
     if start.len() != n || k == 0 || start.iter().any(|&c| c >= k) {
-        return Err(IntrinsicError::Input(format!(
-            "start partition of {} items into {k} clusters does not fit {n} deformations",
-            start.len()
-        )));
+        return Err(IntrinsicError::Start {
+            items: start.len(),
+            k,
+            n,
+        });
     }
     let poses = deformations.first().map_or(0, Vec::len);
     if deformations.iter().any(|d| d.len() != poses) {
-        return Err(IntrinsicError::Input("deformations differ in pose count".into()));
+        return Err(IntrinsicError::PoseCount);
     }
     let mut assign = start.to_vec();
     let mut means: Vec<Option<Vec<Pose>>> = vec![None; k];
@@ -94,7 +108,7 @@ pub fn intrinsic_kmeans(
     loop {
         let groups = crate::cluster::members(&assign, k);
         if let Some(c) = groups.iter().position(Vec::is_empty) {
-            return Err(IntrinsicError::Input(format!("cluster {c} is empty")));
+            return Err(IntrinsicError::EmptyCluster(c));
         }
         // Mean update: Karcher mean of every (cluster, pose), warm-started.
         let jobs: Vec<(usize, usize)> = (0..k).flat_map(|c| (0..poses).map(move |p| (c, p))).collect();

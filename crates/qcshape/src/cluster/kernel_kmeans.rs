@@ -1,5 +1,5 @@
 //! Kernel k-means: k-means (eq. 14) from a distance matrix alone, on squared distances with
-//! implicit centroids (not the intrinsic k-means of [`crate::similarity::intrinsic`]).
+//! implicit centroids (not the intrinsic k-means of [`crate::cluster::intrinsic`]).
 //!
 //! With `D2 = (d_ij^2)`, the squared distance of item `i` to the (implicit) centroid of a
 //! cluster `C` is

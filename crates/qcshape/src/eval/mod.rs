@@ -41,9 +41,22 @@ pub enum EvalError {
         /// The declared count.
         count: usize,
     },
-    /// Too few items or classes for the measure.
-    #[error("{0}")]
-    TooFew(String),
+    /// Too few items or classes for the measure: `measure` needs at least `min` `what`
+    /// (`got`).
+    #[error("{measure} needs at least {min} {what}, got {got}")]
+    TooFew {
+        /// The measure: "sensitivity and specificity", "leave-one-out", "tau".
+        measure: &'static str,
+        /// Its minimum.
+        min: usize,
+        /// "classes" or "items".
+        what: &'static str,
+        /// The count given.
+        got: usize,
+    },
+    /// A class has no item, so its sensitivity is undefined.
+    #[error("class {0} has no item")]
+    EmptyClass(usize),
 }
 
 /// Class indices of text labels (n), classes numbered in order of first appearance, and the

@@ -61,16 +61,19 @@ pub struct OneVsRest {
 pub fn one_vs_rest(cm: &ConfusionMatrix) -> Result<OneVsRest, EvalError> {
     let c = cm.n_classes();
     if c < 2 {
-        return Err(EvalError::TooFew(format!(
-            "sensitivity and specificity need at least two classes, got {c}"
-        )));
+        return Err(EvalError::TooFew {
+            measure: "sensitivity and specificity",
+            min: 2,
+            what: "classes",
+            got: c,
+        });
     }
     let n = cm.total() as f64;
     let mut per_class = Vec::with_capacity(c);
     for k in 0..c {
         let row: usize = cm.counts[k].iter().sum();
         if row == 0 {
-            return Err(EvalError::TooFew(format!("class {k} has no item")));
+            return Err(EvalError::EmptyClass(k));
         }
         let tp = cm.counts[k][k] as f64;
         let fn_ = row as f64 - tp;
@@ -126,7 +129,12 @@ pub fn loo_nearest_neighbour_accuracy(d: &DistanceMatrix, classes: &[usize]) -> 
         });
     }
     if n < 2 {
-        return Err(EvalError::TooFew("leave-one-out needs at least two items".into()));
+        return Err(EvalError::TooFew {
+            measure: "leave-one-out",
+            min: 2,
+            what: "items",
+            got: n,
+        });
     }
     let hits = (0..n)
         .filter(|&i| classes[nearest_neighbour(d, i)] == classes[i])
@@ -189,7 +197,12 @@ pub fn tau(first: &[usize], second: &[usize]) -> Result<f64, EvalError> {
         });
     }
     if first.is_empty() {
-        return Err(EvalError::TooFew("tau needs at least one item".into()));
+        return Err(EvalError::TooFew {
+            measure: "tau",
+            min: 1,
+            what: "items",
+            got: 0,
+        });
     }
     let (k1, k2) = (n_groups(first), n_groups(second));
     check_range(second, k2, "cluster")?;

@@ -1,5 +1,5 @@
 //! Closest points on a triangle mesh or a point set: a bounding-volume hierarchy of axis-aligned
-//! boxes (median split on the longest axis, at most [`LEAF`] primitives per leaf), queried by a
+//! boxes (median split on the longest axis, at most `LEAF` primitives per leaf), queried by a
 //! depth-first search that visits the nearer child first and prunes boxes farther than the best
 //! distance found. Exact (not approximate): the answer is the closest point of all primitives,
 //! ties broken by the lowest primitive index.

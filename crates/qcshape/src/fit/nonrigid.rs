@@ -17,7 +17,7 @@
 //! minimized by alternation (Sorkine and Alexa 2007): closest points and robust weights, then
 //! each `R_i` by Horn's method on the vertex's edge fan ([`crate::align`]), then `x` by one
 //! sparse linear solve (the same #V x #V matrix for the three coordinates; its symbolic Cholesky
-//! factorization is made once per topology in [`Solver::new`]).
+//! factorization is made once per topology in `Solver::new`).
 //!
 //! # Why this prior
 //!

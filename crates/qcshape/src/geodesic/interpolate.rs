@@ -63,9 +63,12 @@ pub enum InterpolationError {
     /// A pose does not fit the topology.
     #[error(transparent)]
     Mesh(#[from] MeshError),
-    /// A bad option or input.
-    #[error("invalid input: {0}")]
-    Option(String),
+    /// A setting out of its range (`levels` 0, `insert` above [`crate::limits::MAX_INSERT`]).
+    #[error(transparent)]
+    Setting(Box<crate::limits::LimitError>),
+    /// The sequence to interpolate has no poses.
+    #[error("invalid input: the sequence has no poses")]
+    EmptySequence,
     /// Interpolating between key poses `pair` and `pair + 1` failed.
     #[error("between key poses {pair} and {}: {source}", pair + 1)]
     Pair {
@@ -74,6 +77,14 @@ pub enum InterpolationError {
         /// What failed.
         source: Box<InterpolationError>,
     },
+}
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for InterpolationError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        InterpolationError::Setting(Box::new(e))
+    }
 }
 
 /// What happened on one level of the hierarchy for one pair.
@@ -198,9 +209,7 @@ impl<'m> Interpolator<'m> {
         rest: &[[f64; 3]],
         options: InterpolationOptions,
     ) -> Result<Self, InterpolationError> {
-        if options.levels == 0 {
-            return Err(InterpolationError::Option("levels must be at least 1".into()));
-        }
+        crate::limits::count("levels", options.levels, 1, usize::MAX)?;
         let levels = if options.insert == 0 { 1 } else { options.levels };
         let hierarchy = Hierarchy::new(topo, rest, levels, options.ratio)?;
         Self::with_hierarchy(metric, hierarchy, options)
@@ -213,13 +222,7 @@ impl<'m> Interpolator<'m> {
         options: InterpolationOptions,
     ) -> Result<Self, InterpolationError> {
         // Before the insertion schedule is built: `insert + 1` must not wrap.
-        if options.insert > crate::limits::MAX_INSERT {
-            return Err(InterpolationError::Option(format!(
-                "insert must be at most {} (got {})",
-                crate::limits::MAX_INSERT,
-                options.insert
-            )));
-        }
+        crate::limits::count("insert", options.insert, 0, crate::limits::MAX_INSERT)?;
         let top = hierarchy.n_levels() - 1;
         let solver = |level: usize, steps: usize| {
             GeodesicSolver::new(
@@ -287,9 +290,7 @@ impl<'m> Interpolator<'m> {
         Shape::new(topo.clone(), a.to_vec())?;
         Shape::new(topo.clone(), b.to_vec())?;
         if !(factor.is_finite() && factor > 0.0) {
-            return Err(InterpolationError::Option(format!(
-                "normalization factor {factor} is not positive"
-            )));
+            return Err(GeodesicError::Normalization { factor }.into());
         }
         let scaled = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * factor)).collect() };
         let (sa, sb) = (scaled(a), scaled(b));
@@ -408,7 +409,7 @@ impl<'m> Interpolator<'m> {
         progress: &(dyn Fn() + Sync),
     ) -> Result<Interpolated, InterpolationError> {
         let Some(first) = poses.first() else {
-            return Err(InterpolationError::Option("the sequence has no poses".into()));
+            return Err(InterpolationError::EmptySequence);
         };
         let topo = &self.hierarchy.level(0).topology;
         Shape::new(topo.clone(), first.clone())?;
@@ -490,7 +491,7 @@ pub fn interpolate_sequence(
     options: &InterpolationOptions,
 ) -> Result<Interpolated, InterpolationError> {
     let Some(first) = poses.first() else {
-        return Err(InterpolationError::Option("the sequence has no poses".into()));
+        return Err(InterpolationError::EmptySequence);
     };
     Shape::new(topo.clone(), first.clone())?;
     Interpolator::new(metric, topo, first, options.clone())?.interpolate_sequence(poses, &|| {})

@@ -142,9 +142,37 @@ pub enum GeodesicError {
     /// The two shapes do not share a connectivity (or vertex count).
     #[error("shapes cannot be joined by a path: {0}")]
     Mesh(#[from] MeshError),
-    /// A bad option value.
-    #[error("invalid option: {0}")]
-    Option(String),
+    /// A setting out of its range (steps, tolerances, iteration limit), named by its key in
+    /// [`crate::settings::SETTINGS`].
+    #[error(transparent)]
+    Setting(Box<crate::limits::LimitError>),
+    /// The solver's internal vertex-block weight is negative or not finite.
+    #[error("invalid option: the vertex-block weight must be a non-negative number (got {0})")]
+    VertexBlockWeight(f64),
+    /// A start path does not fit the solver: `poses` unscaled poses of `vertices` vertices
+    /// each were expected.
+    #[error("invalid option: a start path needs {poses} unscaled poses of {vertices} vertices")]
+    StartPath {
+        /// Poses expected.
+        poses: usize,
+        /// Vertices per pose.
+        vertices: usize,
+    },
+    /// The interior poses given do not fit the solver: `poses` poses of `vertices` vertices.
+    #[error("invalid option: expected {poses} interior poses of {vertices} vertices")]
+    Interior {
+        /// Poses expected.
+        poses: usize,
+        /// Vertices per pose.
+        vertices: usize,
+    },
+    /// The normalization factor of a pair of shapes is zero, negative or not finite
+    /// (degenerate shapes: zero edge lengths or area).
+    #[error("invalid option: normalization factor {factor} is not positive")]
+    Normalization {
+        /// The factor.
+        factor: f64,
+    },
     /// The linear algebra of the solver's set-up or preconditioner failed (`what`: which
     /// part; the source error is kept).
     #[error("linear algebra failure in {what}: {source}")]
@@ -165,8 +193,13 @@ pub enum GeodesicError {
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
     /// The energy became NaN or infinite (degenerate poses along the path).
-    #[error("the path energy is not finite ({0}); the poses may be degenerate")]
-    NonFinite(String),
+    #[error("the path energy is not finite ({what} {value}); the poses may be degenerate")]
+    NonFinite {
+        /// Which quantity: "energy", "initial energy", "final energy", "straight-path length".
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
 }
 
 /// The failure behind [`GeodesicError::LinearAlgebra`].
@@ -344,10 +377,10 @@ impl<'m> GeodesicSolver<'m> {
                     || g.poses.len() != self.energy.steps() + 1
                     || g.poses.iter().any(|p| p.len() != nv)
                 {
-                    return Err(GeodesicError::Option(format!(
-                        "a start path needs {} unscaled poses of {nv} vertices",
-                        self.energy.steps() + 1
-                    )));
+                    return Err(GeodesicError::StartPath {
+                        poses: self.energy.steps() + 1,
+                        vertices: nv,
+                    });
                 }
                 self.energy.shifted_start(&g.poses, &ends)
             }
@@ -411,7 +444,10 @@ impl<'m> GeodesicSolver<'m> {
             (length, parts)
         };
         if !length.is_finite() {
-            return Err(GeodesicError::NonFinite(format!("straight-path length {length}")));
+            return Err(GeodesicError::NonFinite {
+                what: "straight-path length",
+                value: length,
+            });
         }
         Ok(StraightPath {
             length,
@@ -429,11 +465,10 @@ impl<'m> GeodesicSolver<'m> {
     ) -> Result<Geodesic, GeodesicError> {
         let ends = self.ends(a, b)?;
         if interior.len() + 1 != self.energy.steps() || interior.iter().any(|p| p.len() != a.len()) {
-            return Err(GeodesicError::Option(format!(
-                "expected {} interior poses of {} vertices",
-                self.energy.steps() - 1,
-                a.len()
-            )));
+            return Err(GeodesicError::Interior {
+                poses: self.energy.steps() - 1,
+                vertices: a.len(),
+            });
         }
         let x0 = self.energy.pack(interior, &ends);
         self.solve_from(&ends, x0, None, Goal::Path)
@@ -511,7 +546,10 @@ impl<'m> GeodesicSolver<'m> {
         } else {
             let e0 = pe.energy(&x0, ends);
             if !e0.is_finite() {
-                return Err(GeodesicError::NonFinite(format!("initial energy {e0}")));
+                return Err(GeodesicError::NonFinite {
+                    what: "initial energy",
+                    value: e0,
+                });
             }
             Some(e0)
         };
@@ -593,7 +631,10 @@ impl<'m> GeodesicSolver<'m> {
         };
         // (The initial energy was checked finite where it was evaluated.)
         if !energy.is_finite() {
-            return Err(GeodesicError::NonFinite(format!("final energy {energy}")));
+            return Err(GeodesicError::NonFinite {
+                what: "final energy",
+                value: energy,
+            });
         }
         let segment_lengths: Vec<f64> = segment_energies.iter().map(|&e| segment_length(e)).collect();
         let [geometric_energy, regularizer_energy] = pe.energy_parts(&out.x, ends);
@@ -775,9 +816,7 @@ pub fn geodesic(
         _ => normalization_factor(norm, &a.topology, &a.positions),
     };
     if !(f.is_finite() && f > 0.0) {
-        return Err(GeodesicError::Option(format!(
-            "normalization factor {f} is not positive"
-        )));
+        return Err(GeodesicError::Normalization { factor: f });
     }
     let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
     let solver = GeodesicSolver::new(metric, a.topology.clone(), options.clone())?;
@@ -828,12 +867,18 @@ pub fn pair_factor(a: &[[f64; 3]], b: &[[f64; 3]], topo: &Topology) -> Result<f6
     let mean = 0.5 * (geometry::mean_edge_length(topo, a) + geometry::mean_edge_length(topo, b));
     let f = 1.0 / mean.max(f64::MIN_POSITIVE);
     if !(f.is_finite() && f > 0.0) {
-        return Err(GeodesicError::Option(format!(
-            "normalization factor {f} is not positive"
-        )));
+        return Err(GeodesicError::Normalization { factor: f });
     }
     Ok(f)
 }
 
 #[cfg(test)]
 mod tests;
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for GeodesicError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        GeodesicError::Setting(Box::new(e))
+    }
+}

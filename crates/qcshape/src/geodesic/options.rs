@@ -141,7 +141,7 @@ impl Solver {
 
     /// The default iteration limit on a mesh of `n_vertices` (#V): for the preconditioned
     /// L-BFGS solvers the larger of [`Solver::default_max_iterations`] and
-    /// [`ITERATIONS_PER_SQRT_VERTEX`] `x sqrt(#V)` (6,073 at 10,242 vertices), since their
+    /// `ITERATIONS_PER_SQRT_VERTEX` (60) `x sqrt(#V)` (6,073 at 10,242 vertices), since their
     /// iterations grow about like `sqrt(#V)` (the twisted sphere's conformal geodesic: 4,058
     /// iterations at 10,242 vertices, about twice per subdivision; docs/log/scale-invariant.md);
     /// [`Solver::default_max_iterations`] for the others.
@@ -240,13 +240,9 @@ impl GeodesicOptions {
     /// settings) and the internal vertex-block weight (finite, `>= 0`). The one check of
     /// [`super::GeodesicSolver::new`] and of the shape space's constructors.
     pub fn check(&self) -> Result<(), super::GeodesicError> {
-        self.validate()
-            .map_err(|e| super::GeodesicError::Option(e.to_string()))?;
+        self.validate()?;
         if !(self.vertex_block_weight >= 0.0 && self.vertex_block_weight.is_finite()) {
-            return Err(super::GeodesicError::Option(format!(
-                "the vertex-block weight must be a non-negative number (got {})",
-                self.vertex_block_weight
-            )));
+            return Err(super::GeodesicError::VertexBlockWeight(self.vertex_block_weight));
         }
         Ok(())
     }

@@ -208,7 +208,10 @@ pub(crate) fn minimize<'l>(
     let (mut seg, mut seg_new) = (vec![0.0; pe.steps()], vec![0.0; pe.steps()]);
     let mut e = eval(pe, ends, &x, &mut ev, &mut g, &mut seg);
     if !e.is_finite() {
-        return Err(GeodesicError::NonFinite(format!("initial energy {e}")));
+        return Err(GeodesicError::NonFinite {
+            what: "initial energy",
+            value: e,
+        });
     }
     let initial_energy = e;
     let g0 = norm(&g);

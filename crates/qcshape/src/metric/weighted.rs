@@ -8,7 +8,7 @@ use crate::mesh::Topology;
 
 /// `weight * G` for an inner metric `G`: residuals `sqrt(weight) r`, so every derivative,
 /// value and second-order part is the inner metric's times `weight` (> 0). The calibrated
-/// scales of [`super::MetricScale::Size`] use it to turn each metric into a dimensionless,
+/// scales of [`super::MetricScale::Calibrated`] use it to turn each metric into a dimensionless,
 /// resolution-consistent quantity ([`super::Calibration`]). Units: those of `G` times those of
 /// `weight`.
 #[derive(Debug)]

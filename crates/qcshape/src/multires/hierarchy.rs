@@ -21,9 +21,12 @@ pub enum HierarchyError {
     /// The rest pose does not fit the topology or is not finite.
     #[error("rest pose: {0}")]
     Mesh(#[from] MeshError),
-    /// A bad option value.
-    #[error("invalid option: {0}")]
-    Option(String),
+    /// No level asked for.
+    #[error("invalid option: a hierarchy has at least one level")]
+    NoLevel,
+    /// The coarsening ratio is not in (0, 1).
+    #[error("invalid option: ratio {0} is not in (0, 1)")]
+    Ratio(f64),
 }
 
 /// One level of a [`Hierarchy`].
@@ -75,12 +78,10 @@ impl Hierarchy {
         ratio: f64,
     ) -> Result<Hierarchy, HierarchyError> {
         if levels == 0 {
-            return Err(HierarchyError::Option(
-                "a hierarchy has at least one level".into(),
-            ));
+            return Err(HierarchyError::NoLevel);
         }
         if !(ratio > 0.0 && ratio < 1.0) {
-            return Err(HierarchyError::Option(format!("ratio {ratio} is not in (0, 1)")));
+            return Err(HierarchyError::Ratio(ratio));
         }
         Shape::new(topo.clone(), rest.to_vec())?;
         let mut out = Hierarchy {

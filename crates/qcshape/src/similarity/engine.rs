@@ -14,9 +14,81 @@ pub use crate::mesh::Pose;
 /// Why a similarity computation failed.
 #[derive(Debug, Error)]
 pub enum SimilarityError {
-    /// The deformations cannot be compared pose by pose.
-    #[error("{0}")]
-    Mismatch(String),
+    /// A pair to compute is not `(i, j)` with `i < j < n`.
+    #[error("pair ({i}, {j}) is not a pair i < j of the {n} deformations")]
+    NotAPair {
+        /// First index.
+        i: usize,
+        /// Second index.
+        j: usize,
+        /// Number of deformations.
+        n: usize,
+    },
+    /// The names and the deformations differ in number.
+    #[error("{names} names for {deformations} deformations")]
+    NameCount {
+        /// Number of names.
+        names: usize,
+        /// Number of deformations.
+        deformations: usize,
+    },
+    /// Two deformations have different pose counts, so they cannot be compared pose by pose.
+    #[error("deformation '{name}' has {poses} poses, '{first}' has {first_poses}: interpolate them to one count first")]
+    PoseCount {
+        /// The deformation.
+        name: String,
+        /// Its pose count.
+        poses: usize,
+        /// The first deformation.
+        first: String,
+        /// Its pose count.
+        first_poses: usize,
+    },
+    /// A listed selection of pairs was asked to write a journal (only shards are journaled).
+    #[error("a listed selection of pairs is not journaled (use a shard)")]
+    ListedNotJournaled,
+    /// No shard file to merge.
+    #[error("no shard files given")]
+    NoShards,
+    /// Shards of the run are missing from the merge.
+    #[error("shard(s) {} of the run of {} missing", shard_list(.missing, *.count), .run.display())]
+    MissingShards {
+        /// The missing shards' numbers (1-based).
+        missing: Vec<usize>,
+        /// The run's shard count.
+        count: usize,
+        /// The first shard file given.
+        run: std::path::PathBuf,
+    },
+    /// The tangent approximation was asked of a metric whose squared norm at the base is not a
+    /// quadratic form with fixed weights.
+    #[error(
+        "the tangent approximation needs a metric whose squared norm at the base is a quadratic form of \
+         the displacement with fixed weights (l2, rigid, isometric, conformal, or quasi-conformal with \
+         the quadratic form and endpoint weights); {metric} is not (use --approx straight)"
+    )]
+    NotTangent {
+        /// The metric's name.
+        metric: String,
+    },
+    /// The metric's auxiliary Jacobian has a length that is not a multiple of its auxiliary
+    /// unknowns.
+    #[error("the auxiliary Jacobian has {values} values, not a multiple of {n_aux}")]
+    AuxJacobian {
+        /// Its length.
+        values: usize,
+        /// The number of auxiliary unknowns.
+        n_aux: usize,
+    },
+    /// The auxiliary Jacobian is not finite at the base (a degenerate base pose).
+    #[error(
+        "the metric's Jacobian with respect to its auxiliary unknowns (the rigid motion) is not \
+         finite at the base: the base pose is degenerate"
+    )]
+    AuxNotFinite,
+    /// The eigen-decomposition of the auxiliary unknowns' normal matrix did not converge.
+    #[error("the eigen-decomposition of the auxiliary unknowns' normal matrix failed (NoConvergence)")]
+    AuxEigen,
     /// A geodesic between two corresponding poses failed.
     #[error("deformations '{a}' and '{b}', pose {pose}: {error}")]
     Geodesic {
@@ -26,8 +98,8 @@ pub enum SimilarityError {
         b: String,
         /// The pose index.
         pose: usize,
-        /// The solver's error.
-        error: GeodesicError,
+        /// The solver's error (boxed: a geodesic error holds a setting's names).
+        error: Box<GeodesicError>,
     },
     /// The journal of a resumable run cannot be read or written.
     #[error("{}: {message}", path.display())]
@@ -40,6 +112,12 @@ pub enum SimilarityError {
     /// The run was cancelled (finished pairs are in the journal).
     #[error("cancelled")]
     Cancelled,
+}
+
+/// `k/count` for each missing shard `k`, comma-separated.
+fn shard_list(missing: &[usize], count: usize) -> String {
+    let list: Vec<String> = missing.iter().map(|k| format!("{k}/{count}")).collect();
+    list.join(", ")
 }
 
 /// The distance between two deformations and how it was obtained.
@@ -297,9 +375,7 @@ where
     check_shapes(names, deformations)?;
     let n = deformations.len();
     if let Some((i, j)) = todo.iter().find(|(i, j)| i >= j || *j >= n) {
-        return Err(SimilarityError::Mismatch(format!(
-            "pair ({i}, {j}) is not a pair i < j of the {n} deformations"
-        )));
+        return Err(SimilarityError::NotAPair { i: *i, j: *j, n });
     }
     // The tangent mode measures feature vectors, computed once for every pose.
     let tangent = match approx {
@@ -366,7 +442,7 @@ where
                             a: names[i].clone(),
                             b: names[j].clone(),
                             pose,
-                            error,
+                            error: Box::new(error),
                         })?;
                     (p.lengths, Some(p.parts), p.converged, p.iterations)
                 }
@@ -389,23 +465,22 @@ where
 
 fn check_shapes(names: &[String], deformations: &[Vec<Pose>]) -> Result<(), SimilarityError> {
     if names.len() != deformations.len() {
-        return Err(SimilarityError::Mismatch(format!(
-            "{} names for {} deformations",
-            names.len(),
-            deformations.len()
-        )));
+        return Err(SimilarityError::NameCount {
+            names: names.len(),
+            deformations: deformations.len(),
+        });
     }
     let Some(first) = deformations.first() else {
         return Ok(());
     };
     for (name, d) in names.iter().zip(deformations) {
         if d.len() != first.len() {
-            return Err(SimilarityError::Mismatch(format!(
-                "deformation '{name}' has {} poses, '{}' has {}: interpolate them to one count first",
-                d.len(),
-                names[0],
-                first.len()
-            )));
+            return Err(SimilarityError::PoseCount {
+                name: name.to_string(),
+                poses: d.len(),
+                first: names[0].to_string(),
+                first_poses: first.len(),
+            });
         }
     }
     Ok(())

@@ -54,7 +54,7 @@ pub struct PipelineOptions {
     pub smoothing: Smoothing,
     /// How each deformation is placed on the base before interpolation and transfer
     /// ([`Alignment::Rigid`] by default: the area-weighted Procrustes motion of its first pose
-    /// onto the base, applied to all of its poses; see [`crate::transport::align`]).
+    /// onto the base, applied to all of its poses; see [`crate::align::align_deformation`]).
     pub align: Alignment,
     /// Geodesic lengths (the default) or a cheaper approximation of the pose distances
     /// ([`Approx`]); the interpolation and transfer are always exact.
@@ -107,9 +107,32 @@ impl PipelineOptions {
 /// Why the pipeline failed.
 #[derive(Debug, Error)]
 pub enum PipelineError {
-    /// The data set cannot go through the pipeline as given.
-    #[error("{0}")]
-    Input(String),
+    /// The base deformation's index is not one of the data set's.
+    #[error("base deformation {base} does not exist ({count} deformations)")]
+    NoBase {
+        /// The index asked for.
+        base: usize,
+        /// Number of deformations.
+        count: usize,
+    },
+    /// A deformation's pose count differs from the base's.
+    #[error("deformation '{name}' has {poses} poses but '{base}' has {base_poses}: all deformations need the same number of key poses")]
+    PoseCount {
+        /// The deformation.
+        name: String,
+        /// Its pose count.
+        poses: usize,
+        /// The base deformation.
+        base: String,
+        /// The base's pose count.
+        base_poses: usize,
+    },
+    /// A deformation has fewer than two poses.
+    #[error("deformation '{name}' has fewer than two poses")]
+    TooFewPoses {
+        /// The deformation.
+        name: String,
+    },
     /// A deformation's pose does not have the connectivity of the base.
     #[error("deformation '{name}': {error}")]
     Mesh {
@@ -215,28 +238,24 @@ impl Prepared {
 /// two poses) and returns the shared topology.
 fn check(defs: &[Deformation], base: usize) -> Result<Arc<Topology>, PipelineError> {
     let Some(b) = defs.get(base) else {
-        return Err(PipelineError::Input(format!(
-            "base deformation {base} does not exist ({} deformations)",
-            defs.len()
-        )));
+        return Err(PipelineError::NoBase {
+            base,
+            count: defs.len(),
+        });
     };
     let topo = b.topology.clone();
     let reference = b.shape(0);
     for d in defs {
         if d.poses.len() != b.poses.len() {
-            return Err(PipelineError::Input(format!(
-                "deformation '{}' has {} poses but '{}' has {}: all deformations need the same number of key poses",
-                d.name,
-                d.poses.len(),
-                b.name,
-                b.poses.len()
-            )));
+            return Err(PipelineError::PoseCount {
+                name: d.name.clone(),
+                poses: d.poses.len(),
+                base: b.name.clone(),
+                base_poses: b.poses.len(),
+            });
         }
         if d.poses.len() < 2 {
-            return Err(PipelineError::Input(format!(
-                "deformation '{}' has fewer than two poses",
-                d.name
-            )));
+            return Err(PipelineError::TooFewPoses { name: d.name.clone() });
         }
         if !Arc::ptr_eq(&d.topology, &topo) {
             reference

@@ -191,9 +191,11 @@ pub fn compute(
 ) -> Result<Outcome, PipelineError> {
     let n = input.names.len();
     if input.poses.len() != n {
-        return Err(
-            SimilarityError::Mismatch(format!("{n} names for {} deformations", input.poses.len())).into(),
-        );
+        return Err(SimilarityError::NameCount {
+            names: n,
+            deformations: input.poses.len(),
+        }
+        .into());
     }
     let todo: Vec<(usize, usize)> = match &run.selection {
         Selection::All => all_pairs(n),
@@ -210,12 +212,7 @@ pub fn compute(
             let (journal, recorded) = match &run.selection {
                 Selection::All => Journal::open(path, key, &settings, n, *resume)?,
                 Selection::Shard(s) => Journal::open_shard(path, key, &settings, input.names, *s, *resume)?,
-                Selection::Listed(_) => {
-                    return Err(SimilarityError::Mismatch(
-                        "a listed selection of pairs is not journaled (use a shard)".into(),
-                    )
-                    .into())
-                }
+                Selection::Listed(_) => return Err(SimilarityError::ListedNotJournaled.into()),
             };
             (run.events)(Event::Journal {
                 path,

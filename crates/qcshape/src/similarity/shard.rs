@@ -125,7 +125,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
         message,
     };
     let Some(first_path) = paths.first() else {
-        return Err(SimilarityError::Mismatch("no shard files given".into()));
+        return Err(SimilarityError::NoShards);
     };
     let mut shards: BTreeMap<usize, (PathBuf, JournalFile)> = BTreeMap::new();
     let mut first: Option<(Shard, JournalFile)> = None;
@@ -224,16 +224,13 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
         shards.insert(shard.index, (path.clone(), file));
     }
     let (shard0, file0) = first.expect("at least one file");
-    let missing: Vec<String> = (1..=shard0.count)
-        .filter(|k| !shards.contains_key(k))
-        .map(|k| format!("{k}/{}", shard0.count))
-        .collect();
+    let missing: Vec<usize> = (1..=shard0.count).filter(|k| !shards.contains_key(k)).collect();
     if !missing.is_empty() {
-        return Err(SimilarityError::Mismatch(format!(
-            "shard(s) {} of the run of {} missing",
-            missing.join(", "),
-            first_path.display()
-        )));
+        return Err(SimilarityError::MissingShards {
+            missing,
+            count: shard0.count,
+            run: first_path.to_path_buf(),
+        });
     }
     let mut pairs: Vec<PairDistance> = shards.into_values().flat_map(|(_, f)| f.pairs).collect();
     pairs.sort_by_key(|p| (p.i, p.j));

@@ -61,11 +61,9 @@ pub fn check_metric(
         .is_some();
     let name = metric.name();
     if name.contains("quasi-conformal") && !weighted {
-        return Err(SimilarityError::Mismatch(format!(
-            "the tangent approximation needs a metric whose squared norm at the base is a quadratic form of \
-             the displacement with fixed weights (l2, rigid, isometric, conformal, or quasi-conformal with \
-             the quadratic form and endpoint weights); {name} is not (use --approx straight)"
-        )));
+        return Err(SimilarityError::NotTangent {
+            metric: name.to_string(),
+        });
     }
     Ok(weighted)
 }
@@ -94,17 +92,13 @@ impl AuxProjection {
             return Ok(AuxProjection::default());
         }
         if !daux.len().is_multiple_of(n_aux) {
-            return Err(SimilarityError::Mismatch(format!(
-                "the auxiliary Jacobian has {} values, not a multiple of {n_aux}",
-                daux.len()
-            )));
+            return Err(SimilarityError::AuxJacobian {
+                values: daux.len(),
+                n_aux,
+            });
         }
         if daux.iter().any(|v| !v.is_finite()) {
-            return Err(SimilarityError::Mismatch(
-                "the metric's Jacobian with respect to its auxiliary unknowns (the rigid motion) is not \
-                 finite at the base: the base pose is degenerate"
-                    .into(),
-            ));
+            return Err(SimilarityError::AuxNotFinite);
         }
         let rows = daux.len() / n_aux;
         // The upper triangle of N (what the eigen-decomposition reads), scaled to unit diagonal.
@@ -130,11 +124,10 @@ impl AuxProjection {
                 n[(i, j)] *= scale[i] * scale[j];
             }
         }
-        let evd = n.self_adjoint_eigen(faer::Side::Upper).map_err(|e| {
-            SimilarityError::Mismatch(format!(
-                "the eigen-decomposition of the auxiliary unknowns' normal matrix failed ({e:?})"
-            ))
-        })?;
+        // faer's EvdError has one variant, NoConvergence, and no std::error::Error impl.
+        let evd = n
+            .self_adjoint_eigen(faer::Side::Upper)
+            .map_err(|_| SimilarityError::AuxEigen)?;
         let (lambda, v) = (evd.S().column_vector(), evd.U());
         let lambda: Vec<f64> = (0..n_aux).map(|k| lambda[k]).collect();
         let max = lambda.iter().copied().fold(0.0, f64::max);

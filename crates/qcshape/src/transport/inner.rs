@@ -106,10 +106,11 @@ impl TransportMetric {
     pub fn at(&self, pose: &[[f64; 3]], frozen: Option<&[f64]>) -> Result<InnerProduct<'_>, TransportError> {
         let nv = self.topo.n_vertices();
         if pose.len() != nv {
-            return Err(TransportError::Input(format!(
-                "pose has {} vertices, the topology {nv}",
-                pose.len()
-            )));
+            return Err(TransportError::VertexCount {
+                what: "pose".into(),
+                got: pose.len(),
+                expected: nv,
+            });
         }
         let n_aux = self.metric.n_aux();
         let aux = vec![0.0; n_aux];
@@ -131,16 +132,17 @@ impl TransportMetric {
             Some(jac.as_mut()),
         );
         if jac.db.iter().flatten().chain(&jac.daux).any(|v| !v.is_finite()) {
-            return Err(TransportError::NonFinite(format!(
-                "the Jacobian of {} is not finite at this pose (degenerate triangles?)",
-                self.metric.name()
-            )));
+            return Err(TransportError::NonFinite {
+                what: format!(
+                    "the Jacobian of {} is not finite at this pose (degenerate triangles?)",
+                    self.metric.name()
+                ),
+            });
         }
         if r.iter().any(|v| *v != 0.0) {
-            return Err(TransportError::Input(format!(
-                "{} does not vanish at X = 0: not a quadratic form",
-                self.metric.name()
-            )));
+            return Err(TransportError::NotQuadratic {
+                metric: self.metric.name().to_string(),
+            });
         }
         let trace = jac.db.iter().flatten().map(|v| v * v).sum();
         let aux = (n_aux > 0).then(|| AuxProjection::new(jac.daux, n_aux));

@@ -48,12 +48,69 @@ pub enum TransportError {
     /// A geodesic (of the transfer or of a Schild rung) failed.
     #[error("geodesic failed: {0}")]
     Geodesic(#[from] GeodesicError),
-    /// A bad argument (empty curve, wrong vector length, bad option value).
-    #[error("invalid input: {0}")]
-    Input(String),
-    /// The metric's Jacobian or a transported vector is not finite (degenerate poses).
-    #[error("non-finite values: {0}")]
-    NonFinite(String),
+    /// A metric or geodesic setting out of its range (`lambda`, steps, tolerances).
+    #[error(transparent)]
+    Setting(Box<crate::limits::LimitError>),
+    /// A transport option that must be positive is not (`tolerance`, `cg-tolerance`,
+    /// `epsilon`).
+    #[error("invalid input: {name} must be positive, got {value}")]
+    NotPositive {
+        /// The option.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Schild's ladder was given a geodesic solver with `steps` segments instead of 2.
+    #[error("invalid input: Schild's ladder needs a geodesic solver with N = 2 segments, got {steps}")]
+    SchildSteps {
+        /// The solver's segment count.
+        steps: usize,
+    },
+    /// An empty input: `what` has no `items`.
+    #[error("invalid input: the {what} has no {items}")]
+    Empty {
+        /// The argument: "curve" or "deformation".
+        what: &'static str,
+        /// What it lacks: "samples" or "poses".
+        items: &'static str,
+    },
+    /// A pose (or curve sample) without the topology's vertex count.
+    #[error("invalid input: {what} has {got} vertices, the topology {expected}")]
+    VertexCount {
+        /// Which pose: "pose 3", "the base", "curve sample 2".
+        what: String,
+        /// Its vertex count.
+        got: usize,
+        /// The topology's.
+        expected: usize,
+    },
+    /// The vector to transport does not have one entry per vertex.
+    #[error("invalid input: the vector has {got} entries, expected {expected} (#V x 3)")]
+    VectorLength {
+        /// Its length.
+        got: usize,
+        /// The topology's vertex count.
+        expected: usize,
+    },
+    /// The transport metric does not vanish at `X = 0`, so it is not a quadratic form.
+    #[error("invalid input: {metric} does not vanish at X = 0: not a quadratic form")]
+    NotQuadratic {
+        /// The metric's name.
+        metric: String,
+    },
+    /// The normalization factor of the base is zero, negative or not finite (a degenerate
+    /// base: zero edge lengths or area).
+    #[error("invalid input: normalization factor {factor} is not positive")]
+    Normalization {
+        /// The factor.
+        factor: f64,
+    },
+    /// The metric's Jacobian, a pose or a transported vector is not finite (degenerate poses).
+    #[error("non-finite values: {what}")]
+    NonFinite {
+        /// What is not finite, e.g. "the vector to transport", "Schild rung 3's vector".
+        what: String,
+    },
 }
 
 /// Flat copy (3 #V) of a #V x 3 array.
@@ -75,4 +132,12 @@ pub(crate) fn difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .zip(b)
         .map(|(p, q)| [q[0] - p[0], q[1] - p[1], q[2] - p[2]])
         .collect()
+}
+
+/// A setting's limit error (boxed: it holds the setting's names, and this error travels in
+/// larger ones).
+impl From<crate::limits::LimitError> for TransportError {
+    fn from(e: crate::limits::LimitError) -> Self {
+        TransportError::Setting(Box::new(e))
+    }
 }

@@ -126,22 +126,28 @@ pub fn euclidean_transport(curve: &[Vec<[f64; 3]>], v0: &[[f64; 3]]) -> Transpor
 /// Checks a curve of samples (each #V x 3, at least one) and a vector (#V x 3).
 pub(crate) fn check_curve(curve: &[Vec<[f64; 3]>], v0: &[[f64; 3]], nv: usize) -> Result<(), TransportError> {
     if curve.is_empty() {
-        return Err(TransportError::Input("the curve has no samples".into()));
+        return Err(TransportError::Empty {
+            what: "curve",
+            items: "samples",
+        });
     }
     if let Some(j) = curve.iter().position(|s| s.len() != nv) {
-        return Err(TransportError::Input(format!(
-            "curve sample {j} has {} vertices, expected {nv}",
-            curve[j].len()
-        )));
+        return Err(TransportError::VertexCount {
+            what: format!("curve sample {j}"),
+            got: curve[j].len(),
+            expected: nv,
+        });
     }
     if v0.len() != nv {
-        return Err(TransportError::Input(format!(
-            "the vector has {} entries, expected {nv} (#V x 3)",
-            v0.len()
-        )));
+        return Err(TransportError::VectorLength {
+            got: v0.len(),
+            expected: nv,
+        });
     }
     if v0.iter().flatten().any(|c| !c.is_finite()) {
-        return Err(TransportError::NonFinite("the vector to transport".into()));
+        return Err(TransportError::NonFinite {
+            what: "the vector to transport".into(),
+        });
     }
     Ok(())
 }
@@ -158,8 +164,13 @@ pub fn parallel_transport(
 ) -> Result<Transported, TransportError> {
     let nv = metric.topology().n_vertices();
     check_curve(curve, v0, nv)?;
-    if !(options.tolerance > 0.0 && options.cg_tolerance > 0.0) {
-        return Err(TransportError::Input("tolerances must be positive".into()));
+    for (name, value) in [
+        ("tolerance", options.tolerance),
+        ("cg-tolerance", options.cg_tolerance),
+    ] {
+        if value.is_nan() || value <= 0.0 {
+            return Err(TransportError::NotPositive { name, value });
+        }
     }
     let frozen = metric.frozen_weights(&curve[0], &curve[curve.len() - 1]);
     let g0 = metric.at(&curve[0], frozen.as_deref())?;
@@ -199,10 +210,9 @@ pub fn parallel_transport(
             step(&g, &t, &cur, targets, options)
         };
         if next.iter().any(|c| !c.is_finite()) {
-            return Err(TransportError::NonFinite(format!(
-                "transport step {} produced a non-finite vector",
-                out.steps.len()
-            )));
+            return Err(TransportError::NonFinite {
+                what: format!("transport step {}'s vector", out.steps.len()),
+            });
         }
         cur = next;
         out.along.push(unflat(&cur));

@@ -78,16 +78,15 @@ pub fn schild_ladder(
     options: &SchildOptions,
 ) -> Result<SchildTransported, TransportError> {
     if midpoints.options().steps != 2 {
-        return Err(TransportError::Input(format!(
-            "Schild's ladder needs a geodesic solver with N = 2 segments, got {}",
-            midpoints.options().steps
-        )));
+        return Err(TransportError::SchildSteps {
+            steps: midpoints.options().steps,
+        });
     }
     if !(options.epsilon.is_finite() && options.epsilon > 0.0) {
-        return Err(TransportError::Input(format!(
-            "epsilon must be positive, got {}",
-            options.epsilon
-        )));
+        return Err(TransportError::NotPositive {
+            name: "epsilon",
+            value: options.epsilon,
+        });
     }
     let nv = midpoints.path_energy().n_vertices();
     check_curve(curve, v0, nv)?;
@@ -151,10 +150,9 @@ pub fn schild_ladder(
             .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
             .collect();
         if v.iter().flatten().any(|c| !c.is_finite()) {
-            return Err(TransportError::NonFinite(format!(
-                "Schild rung {} produced a non-finite vector",
-                out.rungs.len()
-            )));
+            return Err(TransportError::NonFinite {
+                what: format!("Schild rung {}'s vector", out.rungs.len()),
+            });
         }
         out.along.push(v.iter().map(|p| p.map(|c| c / eps)).collect());
         out.rungs.push(diag);

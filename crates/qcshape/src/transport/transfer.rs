@@ -157,9 +157,7 @@ impl TransferSetup {
         topo: Arc<Topology>,
         options: TransferOptions,
     ) -> Result<Self, TransportError> {
-        spec.validate()
-            .and_then(|_| options.geodesic.validate())
-            .map_err(|e| TransportError::Input(e.to_string()))?;
+        spec.validate().and_then(|_| options.geodesic.validate())?;
         Ok(TransferSetup {
             metric: spec.build(calibration),
             transport: TransportMetric::new(spec, calibration, topo.clone()),
@@ -253,7 +251,10 @@ impl Transfer<'_> {
         let t0 = Instant::now();
         let nv = self.setup.topo.n_vertices();
         if deformation.is_empty() {
-            return Err(TransportError::Input("the deformation has no poses".into()));
+            return Err(TransportError::Empty {
+                what: "deformation",
+                items: "poses",
+            });
         }
         for (what, p) in std::iter::once(("the base".to_string(), base)).chain(
             deformation
@@ -262,22 +263,21 @@ impl Transfer<'_> {
                 .map(|(k, p)| (format!("pose {k}"), p.as_slice())),
         ) {
             if p.len() != nv {
-                return Err(TransportError::Input(format!(
-                    "{what} has {} vertices, the topology {nv}",
-                    p.len()
-                )));
+                return Err(TransportError::VertexCount {
+                    what,
+                    got: p.len(),
+                    expected: nv,
+                });
             }
             if p.iter().flatten().any(|c| !c.is_finite()) {
-                return Err(TransportError::NonFinite(format!(
-                    "{what} has non-finite coordinates"
-                )));
+                return Err(TransportError::NonFinite {
+                    what: format!("{what}'s coordinates"),
+                });
             }
         }
         let f = normalization_factor(self.setup.options.normalization, &self.setup.topo, base);
         if !(f.is_finite() && f > 0.0) {
-            return Err(TransportError::Input(format!(
-                "normalization factor {f} is not positive"
-            )));
+            return Err(TransportError::Normalization { factor: f });
         }
         let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
         let mut poses = vec![base.to_vec()];

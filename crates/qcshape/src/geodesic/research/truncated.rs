@@ -375,7 +375,10 @@ pub(crate) fn minimize(
     }
     let stop = opts.final_stop(stop, 2.0 * norm(&g), g0);
     if !energy.is_finite() {
-        return Err(GeodesicError::NonFinite(format!("energy {energy}")));
+        return Err(GeodesicError::NonFinite {
+            what: "energy",
+            value: energy,
+        });
     }
     Ok(SolveOutput {
         x,
