@@ -7,20 +7,15 @@ use qcshape::geodesic::{
 use qcshape::mesh::{geometry, Shape};
 use qcshape::metric::{FrozenL2, Isometric, Metric, Regularized};
 use qcshape::multires::{Hierarchy, DEFAULT_RATIO};
-use qcshape::synth::icosphere;
+use qcshape::synth::{icosphere, twist_along_z};
 
 fn map(s: &Shape, f: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
     s.positions.iter().map(|&p| f(p)).collect()
 }
 
-/// Twist about z by `angle * z` and stretch z by `stretch`.
+/// Twist about z by `angle * z` and stretch z by `stretch` ([`twist_along_z`] of one point).
 fn twist(p: [f64; 3], angle: f64, stretch: f64) -> [f64; 3] {
-    let a = angle * p[2];
-    [
-        a.cos() * p[0] - a.sin() * p[1],
-        a.sin() * p[0] + a.cos() * p[1],
-        stretch * p[2],
-    ]
+    twist_along_z(&[p], angle, stretch)[0]
 }
 
 fn options(insert: usize, levels: usize) -> InterpolationOptions {
