@@ -384,9 +384,34 @@ pub enum RobustnessError {
     /// A score could not be computed.
     #[error(transparent)]
     Eval(#[from] EvalError),
-    /// Nothing to compare.
-    #[error("{0}")]
-    Input(String),
+    /// Nothing to compare: no method, scenario or shape, or fewer than two deformation kinds.
+    #[error(
+        "the robustness benchmark needs at least one method, one scenario, two kinds and one shape \
+         (got {methods}, {scenarios}, {kinds} and {shapes})"
+    )]
+    Empty {
+        /// Methods given.
+        methods: usize,
+        /// Scenarios given.
+        scenarios: usize,
+        /// Deformation kinds given.
+        kinds: usize,
+        /// Initial shapes given.
+        shapes: usize,
+    },
+    /// No icosphere level, or one above [`qcshape::limits::MAX_ICOSPHERE_LEVEL`].
+    #[error(
+        "the robustness benchmark needs one or more icosphere levels, each at most {max} (got {levels:?})"
+    )]
+    Levels {
+        /// The levels given.
+        levels: Vec<u32>,
+        /// The largest level allowed.
+        max: u32,
+    },
+    /// A level is given twice.
+    #[error("a level is given twice: {0}")]
+    LevelTwice(u32),
 }
 
 /// Accuracy of a clustering against the classes after Hungarian matching, and the clustering's
@@ -459,19 +484,22 @@ pub fn run(
 ) -> Result<RobustnessReport, RobustnessError> {
     if opts.methods.is_empty() || opts.scenarios.is_empty() || opts.kinds.len() < 2 || opts.shapes.is_empty()
     {
-        return Err(RobustnessError::Input(
-            "the robustness benchmark needs at least one method, one scenario, two kinds and one shape"
-                .into(),
-        ));
+        return Err(RobustnessError::Empty {
+            methods: opts.methods.len(),
+            scenarios: opts.scenarios.len(),
+            kinds: opts.kinds.len(),
+            shapes: opts.shapes.len(),
+        });
     }
     let max = qcshape::limits::MAX_ICOSPHERE_LEVEL;
     if opts.levels.is_empty() || opts.levels.iter().any(|&l| l > max) {
-        return Err(RobustnessError::Input(format!(
-            "the robustness benchmark needs one or more icosphere levels, each at most {max}"
-        )));
+        return Err(RobustnessError::Levels {
+            levels: opts.levels.clone(),
+            max,
+        });
     }
-    if (1..opts.levels.len()).any(|i| opts.levels[..i].contains(&opts.levels[i])) {
-        return Err(RobustnessError::Input("a level is given twice".into()));
+    if let Some(i) = (1..opts.levels.len()).find(|&i| opts.levels[..i].contains(&opts.levels[i])) {
+        return Err(RobustnessError::LevelTwice(opts.levels[i]));
     }
     let mut rows = Vec::new();
     let mut levels = Vec::new();
