@@ -22,9 +22,20 @@ use qcshape::synth::{add_noise, NoiseKind};
 /// Why the noise experiment failed.
 #[derive(Debug, Error)]
 pub enum NoiseError {
-    /// Bad settings (fewer than two deformations, `k` out of range, a negative level).
-    #[error("invalid noise experiment: {0}")]
-    Input(String),
+    /// Fewer than two deformations.
+    #[error("invalid noise experiment: needs at least two deformations, got {0}")]
+    TooFew(usize),
+    /// `k` is 0 or above the number of deformations.
+    #[error("invalid noise experiment: k must be between 1 and the number of deformations ({n}), got {k}")]
+    Classes {
+        /// The `k` asked for.
+        k: usize,
+        /// The number of deformations.
+        n: usize,
+    },
+    /// A noise level is negative or not finite.
+    #[error("invalid noise experiment: noise levels must be non-negative percentages, got {0}")]
+    Level(f64),
     /// A classification failed.
     #[error(transparent)]
     Classification(#[from] ClassificationError),
@@ -103,18 +114,16 @@ impl NoiseExperiment {
         progress: &(dyn Fn(&str, Stage) + Sync),
     ) -> Result<NoiseReport, NoiseError> {
         if defs.len() < 2 {
-            return Err(NoiseError::Input("needs at least two deformations".into()));
+            return Err(NoiseError::TooFew(defs.len()));
         }
         if self.k == 0 || self.k > defs.len() {
-            return Err(NoiseError::Input(format!(
-                "k must be between 1 and the number of deformations ({})",
-                defs.len()
-            )));
+            return Err(NoiseError::Classes {
+                k: self.k,
+                n: defs.len(),
+            });
         }
-        if self.levels.iter().any(|l| !(l.is_finite() && *l >= 0.0)) {
-            return Err(NoiseError::Input(
-                "noise levels must be non-negative percentages".into(),
-            ));
+        if let Some(&l) = self.levels.iter().find(|l| !(l.is_finite() && **l >= 0.0)) {
+            return Err(NoiseError::Level(l));
         }
         let (k, restarts, seed) = (self.k, self.restarts, self.seed);
         let reference = classify_set(defs, &self.pipeline, k, restarts, seed, &|s| {
