@@ -127,7 +127,7 @@ pub fn run(args: &Args) -> Result<()> {
     let total: usize = groups.iter().map(|g| g.files.len()).sum();
     let pb = crate::progress::bar(total, "fitting");
     let mut manifest = Vec::new();
-    let (mut poor, mut worst) = (0usize, 0.0f64);
+    let mut tally = crate::template::FitTally::default();
     let mut used = std::collections::BTreeSet::new();
     let mut data = Dataset::default();
     let mut fits = Vec::with_capacity(groups.len());
@@ -159,18 +159,7 @@ pub fn run(args: &Args) -> Result<()> {
                 pose: k as i64,
                 path: rel,
             });
-            worst = worst.max(f.quality.mean);
-            if f.quality.poor {
-                poor += 1;
-                pb.suspend(|| {
-                    eprintln!(
-                        "warning: poor fit of {} (deformation {}, pose {k}): {}",
-                        g.files[k].display(),
-                        g.name,
-                        f.quality.problems().join(", ")
-                    )
-                });
-            }
+            tally.record(&pb, g, k, f);
         }
         data.deformations.push(deformation);
         fits.push(fitted);
@@ -180,11 +169,13 @@ pub fn run(args: &Args) -> Result<()> {
     let manifest_path = args.out.join(MANIFEST_NAME);
     write_manifest(&manifest_path, &manifest)?;
     outln!(
-        "fitted {} ({} vertices) to {total} poses of {} deformations{}; worst mean distance {worst:.3} edge lengths, {poor} poor; wrote {} and {}",
+        "fitted {} ({} vertices) to {total} poses of {} deformations{}; worst mean distance {:.3} edge lengths, {} poor; wrote {} and {}",
         args.template.display(),
         template.n_vertices(),
         groups.len(),
         if args.sequence { " (tracked)" } else { "" },
+        tally.worst,
+        tally.poor,
         manifest_path.display(),
         args.out.join("quality.csv").display()
     );

@@ -115,22 +115,11 @@ impl TemplateArgs {
         let pb = crate::progress::bar(total, "fitting");
         let mut data = Dataset::default();
         let mut fits: Vec<Vec<Fitted>> = Vec::with_capacity(files.len());
-        let (mut poor, mut worst) = (0usize, 0.0f64);
+        let mut tally = FitTally::default();
         for d in &files {
             let (deformation, fitted) = fit_deformation(&template, d, &opts, true, |_| pb.inc(1))?;
             for (k, f) in fitted.iter().enumerate() {
-                worst = worst.max(f.quality.mean);
-                if f.quality.poor {
-                    poor += 1;
-                    pb.suspend(|| {
-                        eprintln!(
-                            "warning: poor fit of {} (deformation {}, pose {k}): {}",
-                            d.files[k].display(),
-                            d.name,
-                            f.quality.problems().join(", ")
-                        )
-                    });
-                }
+                tally.record(&pb, d, k, f);
             }
             data.deformations.push(deformation);
             fits.push(fitted);
@@ -141,7 +130,9 @@ impl TemplateArgs {
         }
         write_quality(quality, &data, &fits)?;
         eprintln!(
-            "fitted {total} mesh(es): worst mean distance {worst:.3} edge lengths, {poor} poor; quality in {}",
+            "fitted {total} mesh(es): worst mean distance {:.3} edge lengths, {} poor; quality in {}",
+            tally.worst,
+            tally.poor,
             quality.display()
         );
         // The extra meshes' fits, in order, off the data set.
@@ -152,6 +143,36 @@ impl TemplateArgs {
             .collect::<Option<Vec<Shape>>>()
             .context("a mesh given besides the data set was not fitted")?;
         Ok((data, extra))
+    }
+}
+
+/// The fit's quality over the poses fitted so far, for `qcshape fit` and `--template`: the
+/// largest mean distance (template mean edge lengths) and the poor fits, each warned about on
+/// stderr as it is recorded.
+#[derive(Debug, Default)]
+pub(crate) struct FitTally {
+    /// Largest mean surface distance of a pose.
+    pub worst: f64,
+    /// Poses whose fit is poor.
+    pub poor: usize,
+}
+
+impl FitTally {
+    /// Records pose `k` of the deformation `d` fitted as `f`, warning above the bar `pb` if the
+    /// fit is poor.
+    pub(crate) fn record(&mut self, pb: &indicatif::ProgressBar, d: &DeformationFiles, k: usize, f: &Fitted) {
+        self.worst = self.worst.max(f.quality.mean);
+        if f.quality.poor {
+            self.poor += 1;
+            pb.suspend(|| {
+                eprintln!(
+                    "warning: poor fit of {} (deformation {}, pose {k}): {}",
+                    d.files[k].display(),
+                    d.name,
+                    f.quality.problems().join(", ")
+                )
+            });
+        }
     }
 }
 
