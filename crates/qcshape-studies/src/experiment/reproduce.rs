@@ -970,41 +970,61 @@ impl ReproduceReport {
         levels
     }
 
+    /// The header of a Table 3 grid: the noise level, a column per metric, then `last`.
+    fn write_table3_header(&self, md: &mut String, last: Option<&str>) -> std::fmt::Result {
+        write!(md, "| noise variance (%) |")?;
+        for m in &self.noise_metrics {
+            write!(md, " {m} |")?;
+        }
+        let n = self.noise_metrics.len() + usize::from(last.is_some());
+        match last {
+            Some(l) => writeln!(md, " {l} |")?,
+            None => writeln!(md)?,
+        }
+        writeln!(md, "|---|{}", "---|".repeat(n))
+    }
+
+    /// A Table 3 grid's rows, one per level: each metric's `cell` (uniform, Gaussian, in
+    /// [0, 1]) in %, `-` for a run not done, then the paper's numbers when `paper`.
+    fn write_table3_levels(
+        &self,
+        md: &mut String,
+        cell: impl Fn(&Table3Row) -> (f64, f64),
+        paper: bool,
+    ) -> std::fmt::Result {
+        for level in self.table3_levels() {
+            write!(md, "| {} |", qcshape::numfmt::plain(level))?;
+            for m in &self.noise_metrics {
+                match self.table3.iter().find(|r| r.level == level && &r.metric == m) {
+                    Some(r) => {
+                        let (u, g) = cell(r);
+                        write!(md, " {:.1} / {:.1} |", 100.0 * u, 100.0 * g)?
+                    }
+                    None => write!(md, " - |")?,
+                }
+            }
+            match paper_table3(level).filter(|_| paper) {
+                Some((u, g)) => writeln!(md, " {u:.1} / {g:.1} |")?,
+                None if paper => writeln!(md, " - |")?,
+                None => writeln!(md)?,
+            }
+        }
+        Ok(())
+    }
+
     fn write_table3(&self, md: &mut String) -> std::fmt::Result {
         if self.table3.is_empty() {
             return Ok(());
         }
         writeln!(md, "\n## Table 3: noise resistance, tau (%) uniform / Gaussian\n")?;
-        write!(md, "| noise variance (%) |")?;
-        for m in &self.noise_metrics {
-            write!(md, " {m} |")?;
-        }
-        writeln!(md, " paper (quasi-conformal) |")?;
-        writeln!(md, "|---|{}---|", "---|".repeat(self.noise_metrics.len()))?;
-        for level in self.table3_levels() {
-            write!(md, "| {} |", qcshape::numfmt::plain(level))?;
-            for m in &self.noise_metrics {
-                match self.table3.iter().find(|r| r.level == level && &r.metric == m) {
-                    Some(r) => write!(md, " {:.1} / {:.1} |", 100.0 * r.uniform, 100.0 * r.gaussian)?,
-                    None => write!(md, " - |")?,
-                }
-            }
-            match paper_table3(level) {
-                Some((u, g)) => writeln!(md, " {u:.1} / {g:.1} |")?,
-                None => writeln!(md, " - |")?,
-            }
-        }
+        self.write_table3_header(md, Some("paper (quasi-conformal)"))?;
+        self.write_table3_levels(md, |r| (r.uniform, r.gaussian), true)?;
         writeln!(
             md,
             "\nMatched accuracy (eq. 15 sensitivity, %) of the same partitions against the true \
              classes, uniform / Gaussian; first row: the noise-free partition tau compares with:\n"
         )?;
-        write!(md, "| noise variance (%) |")?;
-        for m in &self.noise_metrics {
-            write!(md, " {m} |")?;
-        }
-        writeln!(md)?;
-        writeln!(md, "|---|{}", "---|".repeat(self.noise_metrics.len()))?;
+        self.write_table3_header(md, None)?;
         write!(md, "| 0 (reference) |")?;
         for m in &self.noise_metrics {
             match self.table3.iter().find(|r| &r.metric == m) {
@@ -1013,16 +1033,7 @@ impl ReproduceReport {
             }
         }
         writeln!(md)?;
-        for level in self.table3_levels() {
-            write!(md, "| {} |", qcshape::numfmt::plain(level))?;
-            for m in &self.noise_metrics {
-                match self.table3.iter().find(|r| r.level == level && &r.metric == m) {
-                    Some(r) => write!(md, " {:.1} / {:.1} |", 100.0 * r.accuracy.0, 100.0 * r.accuracy.1)?,
-                    None => write!(md, " - |")?,
-                }
-            }
-            writeln!(md)?;
-        }
+        self.write_table3_levels(md, |r| r.accuracy, false)?;
         writeln!(
             md,
             "\nNoise is added to every key pose with per-coordinate variance `level/100 * lbar^2` \
