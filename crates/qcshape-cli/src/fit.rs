@@ -21,7 +21,7 @@ use crate::mesh_format::MeshFormat;
 poses do not share one connectivity (segmentations, scans, meshes from other tools) can be \
 compared: each target gets the template's connectivity at positions on its surface.\n\n\
 Each fit: a similarity alignment (centroid, scale, principal axes with their sign choices, \
-refined by ICP; --alignment), then a non-rigid fit under an as-rigid-as-possible prior whose \
+refined by ICP; --alignment), then a non-rigid fit under a deformation prior (--prior) whose \
 stiffness is annealed from stiff to soft (point-to-surface and surface-to-point terms, outliers, \
 boundaries and opposed normals rejected). Targets without faces are point clouds. docs/fit.md \
 describes the method and its measured accuracy.\n\n\
@@ -54,9 +54,10 @@ pub struct Args {
     /// template is already placed on the targets).
     #[arg(long, default_value = "similarity")]
     pub alignment: Alignment,
-    /// Deformation prior: arap (as-rigid-as-possible, edge strain; the default) or asap
-    /// (as-similar-as-possible: local scaling is free; better for tapers, worse for ripples).
-    #[arg(long, default_value = "arap")]
+    /// Deformation prior: smooth (local affine maps near similarities that vary smoothly:
+    /// smooth stretches, shears and bends cost little; the default), arap (as-rigid-as-possible:
+    /// every edge strain costs) or asap (as-similar-as-possible: local scaling is free).
+    #[arg(long, default_value = "smooth")]
     pub prior: qcshape::fit::Prior,
     /// Deformation name when TARGETS are mesh files or a folder.
     #[arg(long, default_value = "fit")]

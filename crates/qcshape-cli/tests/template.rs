@@ -124,18 +124,16 @@ fn remeshed_poses_are_fitted_measured_and_close_to_the_originals() {
     for i in 0..3 {
         for j in (i + 1)..3 {
             let (f, o, of) = (fit.get(i, j), orig.get(i, j), orig_fit.get(i, j));
-            // Remeshing changes little: the fitted remeshed poses and the fitted original
-            // poses give the same distances within 10 % (measured 2026-12-06: at most 4.4 %).
+            // The fit keeps the distances of these mostly normal motions: within 8 % of the
+            // original meshes measured as they are (measured 2026-12-06, smooth prior: 0.2980
+            // against 0.3033, 0.2346 against 0.2443, 0.1810 against 0.1795; the ARAP prior
+            // lost 7-24 %).
+            assert!((f / o - 1.0).abs() < 0.08, "{i},{j}: {f} against {o} (originals)");
+            // The template fitted to the original triangulation: within 15 % (measured 1, 3
+            // and 12 %).
             assert!(
-                (f / of - 1.0).abs() < 0.10,
+                (f / of - 1.0).abs() < 0.15,
                 "{i},{j}: {f} against {of} (fit of the originals)"
-            );
-            // Against the original meshes the fit loses what slides along the surface, so the
-            // distances shrink: within 30 % for these mostly normal motions (measured: 7, 9
-            // and 24 %; a bend's pairs lose up to 75 %, docs/fit.md).
-            assert!(
-                f < o * 1.05 && f > o * 0.70,
-                "{i},{j}: {f} against {o} (originals)"
             );
         }
     }

@@ -7,7 +7,7 @@
 //! `cargo run --release -p qcshape --example fit_accuracy [-- FINE_LEVEL [NOISE_PERCENT]]`
 //! (target icosphere level, default 4 = 2,562 vertices; noise variance in % of the squared
 //! target edge, default 1). Environment: `SHAPE` (an initial shape, default rounded-box),
-//! `ALIGN` (similarity, rigid or none), `PRIOR` (arap or asap), `STIFF_START`, `STIFF_END`, `S2P`, `SAMPLES` (the options of the
+//! `ALIGN` (similarity, rigid or none), `PRIOR` (smooth, arap or asap), `STIFF_START`, `STIFF_END`, `S2P`, `SAMPLES` (the options of the
 //! same names). Time is wall-clock per fit (`ms`); `sym` is the fit's symmetric surface
 //! distance, `strain` its rms edge strain.
 
@@ -44,7 +44,7 @@ fn main() {
         opts.surface_to_point = v;
     }
     if let Ok(a) = std::env::var("PRIOR") {
-        opts.prior = a.parse().expect("arap or asap");
+        opts.prior = a.parse().expect("smooth, arap or asap");
     }
     if let Ok(a) = std::env::var("ALIGN") {
         opts.alignment = a.parse().expect("rigid, similarity or none");

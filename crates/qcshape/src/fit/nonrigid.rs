@@ -1,12 +1,11 @@
-//! The non-rigid fit: the template's vertices `x` (#V x 3) pulled onto the target under an
-//! as-rigid-as-possible (ARAP) prior.
+//! The non-rigid fit: the template's vertices `x` (#V x 3) pulled onto the target under a
+//! deformation prior measured against the aligned template `p` (the rest shape).
 //!
 //! # Energy
 //!
-//! With `p` the aligned template (the rest shape), `N(i)` the neighbours of vertex `i` and
-//! `R_i` a rotation per vertex,
+//! With `N(i)` the neighbours of vertex `i` and `A_i` a linear map (3 x 3) per vertex,
 //!
-//! `E(x) = alpha sum_i sum_{j in N(i)} |x_i - x_j - R_i (p_i - p_j)|^2`  (ARAP prior)
+//! `E(x) = alpha sum_i sum_{j in N(i)} |x_i - x_j - A_i (p_i - p_j)|^2`  (prior)
 //! `     + sum_i c_i |x_i - y_i|^2`                 (point-to-surface: `y_i` the closest target point)
 //! `     + sum_k w_k |sum_m b_km x_{f_k m} - s_k|^2` (surface-to-point: target sample `s_k`
 //!                                                   pulls its closest template point, face `f_k`,
@@ -14,24 +13,26 @@
 //! `     + mu sum_i |x_i - a_i|^2`                  (a tiny anchor at the current positions,
 //!                                                   `mu = 1e-6`, so the system is always definite)
 //!
-//! minimized by alternation (Sorkine and Alexa 2007): closest points and robust weights, then
-//! each `R_i` by Horn's method on the vertex's edge fan ([`crate::align`]), then `x` by one
+//! minimized by alternation (the local-global scheme of Sorkine and Alexa 2007): closest points
+//! and robust weights, then the maps `A_i` from the current fit ([`local`]), then `x` by one
 //! sparse linear solve (the same #V x #V matrix for the three coordinates; its symbolic Cholesky
 //! factorization is made once per topology in `Solver::new`).
 //!
-//! # Why this prior
+//! # The priors
 //!
-//! ARAP with uniform edge weights penalizes the change of every edge vector up to a local
-//! rotation: it is an edge-strain (isometric) energy, the discrete analogue of the library's
-//! default isometric metric, so a fit adds as little isometric distortion as it can, which is
-//! what the similarity measured afterwards would otherwise mistake for motion. Uniform weights
-//! (not cotangent) stay positive on any triangulation. Rotations make it invariant to large
-//! bends and twists, which a linear (Laplacian) prior is not.
+//! The maps decide what the prior charges ([`super::Prior`], [`local`]):
+//! - `smooth` (the default): affine maps near each fan's best similarity that vary smoothly
+//!   over the surface. A smooth deformation of the whole shape (stretch, shear, taper, bend)
+//!   is nearly free, local strain is charged; the fit then places vertices along the surface
+//!   the way a smooth motion would, where the data (which only pin the normal position) leave
+//!   it free.
+//! - `arap`: rotations (as-rigid-as-possible, uniform edge weights): every edge strain is
+//!   charged, the discrete analogue of the library's isometric metric. A smooth stretch costs
+//!   as much as a local one, so the fit slides along the surface to spread it.
+//! - `asap`: rotations times the fan's best uniform scale in `[0.5, 2]`.
 //!
-//! With [`Prior::Asap`] (as-similar-as-possible) each `R_i` is multiplied by the vertex fan's
-//! best scale (bounded to `[0.5, 2]`): local uniform scaling is free, so motions that scale
-//! parts of the surface (a taper's growing end) are followed, at the price of the isometric
-//! cases (docs/fit.md has the measured trade-off).
+//! Uniform weights (not cotangent) stay positive on any triangulation; per-vertex maps make
+//! the prior invariant to large bends and twists, which a linear (Laplacian) prior is not.
 //!
 //! # Robust weights
 //!
@@ -61,9 +62,9 @@ use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::closest::SurfaceIndex;
+use super::local::{self, Mat3};
 use super::rigid::stride;
-use super::{FitError, FitOptions, Prepared, Prior};
-use crate::align::horn_rotation;
+use super::{FitError, FitOptions, Prepared};
 use crate::mesh::geometry::{add, dot, face_normals, mean_edge_length, scale, sub, vertex_normals};
 use crate::mesh::Topology;
 
@@ -199,14 +200,15 @@ pub(crate) struct Sample {
 /// The energy's terms at fixed rotations, correspondences and weights (see the module docs).
 pub(crate) struct Terms {
     alpha: f64,
-    rot: Vec<[[f64; 3]; 3]>,
+    /// The prior's per-vertex linear maps `A_i` ([`local::maps`]).
+    maps: Vec<Mat3>,
     c: Vec<f64>,
     y: Vec<[f64; 3]>,
     samples: Vec<Sample>,
     anchor: Vec<[f64; 3]>,
 }
 
-fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+fn rotate(r: &Mat3, v: [f64; 3]) -> [f64; 3] {
     r.map(|row| dot(row, v))
 }
 
@@ -218,7 +220,7 @@ impl Terms {
         for i in 0..x.len() {
             for &j in topo.neighbors(i) {
                 let j = j as usize;
-                let d = sub(sub(x[i], x[j]), rotate(&self.rot[i], sub(p[i], p[j])));
+                let d = sub(sub(x[i], x[j]), rotate(&self.maps[i], sub(p[i], p[j])));
                 e += self.alpha * dot(d, d);
             }
             let d = sub(x[i], self.y[i]);
@@ -244,7 +246,7 @@ impl Terms {
         for i in 0..x.len() {
             for &j in topo.neighbors(i) {
                 let j = j as usize;
-                let d = sub(sub(x[i], x[j]), rotate(&self.rot[i], sub(p[i], p[j])));
+                let d = sub(sub(x[i], x[j]), rotate(&self.maps[i], sub(p[i], p[j])));
                 g[i] = add(g[i], scale(d, 2.0 * self.alpha));
                 g[j] = sub(g[j], scale(d, 2.0 * self.alpha));
             }
@@ -283,7 +285,7 @@ impl Terms {
                 vals[sii] += self.alpha;
                 vals[sjj] += self.alpha;
                 vals[sij] -= self.alpha;
-                let r = scale(rotate(&self.rot[i], sub(p[i], p[j])), self.alpha);
+                let r = scale(rotate(&self.maps[i], sub(p[i], p[j])), self.alpha);
                 add_rhs(&mut rhs, i, r);
                 add_rhs(&mut rhs, j, scale(r, -1.0));
             }
@@ -317,40 +319,6 @@ pub(crate) fn median(d: impl Iterator<Item = f64>) -> f64 {
     }
     let k = d.len() / 2;
     *d.select_nth_unstable_by(k, f64::total_cmp).1
-}
-
-/// The per-vertex ARAP rotations of `x` against the rest shape `p` (times the best local scale
-/// in `[0.5, 2]` with [`Prior::Asap`]).
-fn rotations(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]], prior: Prior) -> Vec<[[f64; 3]; 3]> {
-    (0..x.len())
-        .into_par_iter()
-        .map(|i| {
-            let mut m = [[0.0; 3]; 3];
-            let mut uu = 0.0;
-            for &j in topo.neighbors(i) {
-                let (u, v) = (sub(p[i], p[j as usize]), sub(x[i], x[j as usize]));
-                uu += dot(u, u);
-                for a in 0..3 {
-                    for b in 0..3 {
-                        m[a][b] += u[a] * v[b];
-                    }
-                }
-            }
-            let r = horn_rotation(&m).unwrap_or(crate::align::Motion::IDENTITY.rotation);
-            if prior == Prior::Arap || uu <= 0.0 {
-                return r;
-            }
-            let mut tr = 0.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    tr += r[b][a] * m[a][b];
-                }
-            }
-            // The best local scale, bounded so that a fan cannot collapse or explode.
-            let s = (tr / uu).clamp(0.5, 2.0);
-            r.map(|row| row.map(|c| c * s))
-        })
-        .collect()
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -445,7 +413,7 @@ fn terms(
     }
     let t = Terms {
         alpha,
-        rot: rotations(topo, p, x, opts.prior),
+        maps: local::maps(topo, p, x, opts.prior, lbar),
         c,
         y,
         samples: pulls,
