@@ -101,7 +101,9 @@ fn main() {
             }
         }
     }
-    let r: Vec<String> = (0..7).map(|c| format!("{:.3}", (all[c] / all[7]).sqrt())).collect();
+    let r: Vec<String> = (0..7)
+        .map(|c| format!("{:.3}", (all[c] / all[7]).sqrt()))
+        .collect();
     println!("1-{},{}", sums.len() - 1, r.join(","));
     let d0 = &orig.deformations[0];
     println!("edge_length {:.3}", mean_edge_length(&d0.topology, &d0.poses[0]));

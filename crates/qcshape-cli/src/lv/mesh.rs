@@ -8,10 +8,10 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
 use qcshape::io;
 use qcshape_studies::lv::cohort::{read_subject_landmarks, subjects, SubjectDir};
-use qcshape_studies::lv::freewall::LvAxis;
-use qcshape_studies::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
 use qcshape_studies::lv::cohort_mesh::{mesh_frames, mesh_subject, SubjectMeshOptions};
+use qcshape_studies::lv::freewall::LvAxis;
 use qcshape_studies::lv::freewall::SectorOptions;
+use qcshape_studies::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
 use qcshape_studies::lv::meshing::SurfaceOptions;
 
 use super::progress;
@@ -99,7 +99,11 @@ fn landmark_frame(s: &SubjectDir) -> Result<impl Fn(&[[f64; 3]]) -> Vec<[f64; 3]
     let axis = LvAxis::new(get(APEX)?, get(BASE_CENTRE)?, get(SEPTUM)?)
         .with_context(|| format!("{}: frame-0 landmarks", path.display()))?;
     let (x, z) = (axis.reference, axis.axis);
-    let y = [z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]];
+    let y = [
+        z[1] * x[2] - z[2] * x[1],
+        z[2] * x[0] - z[0] * x[2],
+        z[0] * x[1] - z[1] * x[0],
+    ];
     Ok(move |p: &[[f64; 3]]| {
         p.iter()
             .map(|q| {
@@ -220,7 +224,10 @@ fn per_frame(a: &Args, subs: &[SubjectDir], opts: &SurfaceOptions) -> Result<()>
                 path: Path::new(&s.name).join(name),
             });
         }
-        let counts: Vec<String> = surfaces.iter().map(|m| m.shape.n_vertices().to_string()).collect();
+        let counts: Vec<String> = surfaces
+            .iter()
+            .map(|m| m.shape.n_vertices().to_string())
+            .collect();
         bar.suspend(|| -> anyhow::Result<()> {
             outln!(
                 "{}: threshold {:.1}, {} frames meshed on their own images ({} vertices), {:.2} s",
