@@ -7,9 +7,11 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use qcshape::dataset::{write_manifest, ManifestRow, MANIFEST_NAME};
 use qcshape::io;
-use qcshape_studies::lv::cohort::subjects;
-use qcshape_studies::lv::cohort_mesh::{mesh_subject, SubjectMeshOptions};
+use qcshape_studies::lv::cohort::{read_subject_landmarks, subjects, SubjectDir};
+use qcshape_studies::lv::cohort_mesh::{mesh_frames, mesh_subject, SubjectMeshOptions};
+use qcshape_studies::lv::freewall::LvAxis;
 use qcshape_studies::lv::freewall::SectorOptions;
+use qcshape_studies::lv::landmarks::{APEX, BASE_CENTRE, SEPTUM};
 use qcshape_studies::lv::meshing::SurfaceOptions;
 
 use super::progress;
@@ -73,6 +75,43 @@ pub(crate) struct Args {
     /// Mesh format of the written poses.
     #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
     format: MeshFormat,
+    /// Extract every frame's own cavity surface from its own image, as frame 0's (frame 0's
+    /// threshold for every frame): each pose gets its own triangulation, no landmarks are used
+    /// (the data of per-frame segmentations; `qcshape fit` puts them on one connectivity).
+    /// Needs --region whole; --refine and the registration options are unused.
+    #[arg(long)]
+    per_frame: bool,
+    /// Write every pose in its subject's frame-0 landmark frame (origin the apex, z towards the
+    /// base centre, x towards the septum, mm) instead of the image's world frame: poses of
+    /// different subjects are then placed anatomically alike, which a fit without landmarks
+    /// needs to match them (the phantom's subjects are turned at random about the long axis).
+    #[arg(long)]
+    landmark_frame: bool,
+}
+
+/// The map from world mm to the subject's frame-0 landmark frame (`--landmark-frame`).
+fn landmark_frame(s: &SubjectDir) -> Result<impl Fn(&[[f64; 3]]) -> Vec<[f64; 3]>> {
+    let (lm, path) = read_subject_landmarks(&s.path)?;
+    let get = |id| {
+        lm.get(0, id)
+            .with_context(|| format!("{}: landmark {id} is missing in frame 0", path.display()))
+    };
+    let axis = LvAxis::new(get(APEX)?, get(BASE_CENTRE)?, get(SEPTUM)?)
+        .with_context(|| format!("{}: frame-0 landmarks", path.display()))?;
+    let (x, z) = (axis.reference, axis.axis);
+    let y = [
+        z[1] * x[2] - z[2] * x[1],
+        z[2] * x[0] - z[0] * x[2],
+        z[0] * x[1] - z[1] * x[0],
+    ];
+    Ok(move |p: &[[f64; 3]]| {
+        p.iter()
+            .map(|q| {
+                let d = [q[0] - axis.apex[0], q[1] - axis.apex[1], q[2] - axis.apex[2]];
+                [x, y, z].map(|e| e[0] * d[0] + e[1] * d[1] + e[2] * d[2])
+            })
+            .collect()
+    })
 }
 
 /// Runs `qcshape lv mesh`.
@@ -102,11 +141,21 @@ pub(crate) fn run(a: &Args) -> Result<()> {
         free_wall: a.region.cuts(),
         refine: a.refine.0,
     };
+    if a.per_frame {
+        if a.region.cuts() {
+            bail!("--per-frame needs --region whole (a sector cut per frame would not match)");
+        }
+        return per_frame(a, &subs, &mopts.surface);
+    }
     let mut rows = Vec::new();
     let bar = progress(subs.len());
     for s in &subs {
         let t0 = Instant::now();
-        let m = mesh_subject(s, &mopts)?;
+        let mut m = mesh_subject(s, &mopts)?;
+        if a.landmark_frame {
+            let to = landmark_frame(s)?;
+            m.poses = m.poses.iter().map(|p| to(p)).collect();
+        }
         let (poses, faces) = (&m.poses, &m.faces);
         let dir = a.out.join(&s.name);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -143,6 +192,59 @@ pub(crate) fn run(a: &Args) -> Result<()> {
     write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
     outln!(
         "wrote {} deformations to {}",
+        subs.len(),
+        a.out.join(MANIFEST_NAME).display()
+    );
+    Ok(())
+}
+
+/// `--per-frame`: every frame's own surface, written with its own faces.
+fn per_frame(a: &Args, subs: &[SubjectDir], opts: &SurfaceOptions) -> Result<()> {
+    let mut rows = Vec::new();
+    let bar = progress(subs.len());
+    for s in subs {
+        let t0 = Instant::now();
+        let mut surfaces = mesh_frames(s, opts)?;
+        if a.landmark_frame {
+            let to = landmark_frame(s)?;
+            for m in &mut surfaces {
+                m.shape.positions = to(&m.shape.positions);
+            }
+        }
+        let dir = a.out.join(&s.name);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (k, m) in surfaces.iter().enumerate() {
+            let name = format!("pose{k:03}.{}", a.format.extension());
+            let faces = m.shape.topology.faces();
+            io::write_mesh(&dir.join(&name), &m.shape.positions, faces, &Default::default())?;
+            rows.push(ManifestRow {
+                deformation: s.name.clone(),
+                label: s.label.clone(),
+                pose: k as i64,
+                path: Path::new(&s.name).join(name),
+            });
+        }
+        let counts: Vec<String> = surfaces
+            .iter()
+            .map(|m| m.shape.n_vertices().to_string())
+            .collect();
+        bar.suspend(|| -> anyhow::Result<()> {
+            outln!(
+                "{}: threshold {:.1}, {} frames meshed on their own images ({} vertices), {:.2} s",
+                s.name,
+                surfaces[0].threshold,
+                surfaces.len(),
+                counts.join(" "),
+                t0.elapsed().as_secs_f64()
+            );
+            Ok(())
+        })?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    write_manifest(&a.out.join(MANIFEST_NAME), &rows)?;
+    outln!(
+        "wrote {} deformations, every frame on its own triangulation, to {}",
         subs.len(),
         a.out.join(MANIFEST_NAME).display()
     );

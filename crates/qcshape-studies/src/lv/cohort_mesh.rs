@@ -9,12 +9,12 @@ use std::time::Instant;
 
 use super::analysis::{carry_template, Axis};
 use super::cohort::{
-    read_frame0, read_frames, read_subject_landmarks, subjects, LvError, Registration, SubjectDir,
-    LABELS_NAME, LANDMARKS_NAME,
+    image_files, read_frame0, read_frames, read_subject_landmarks, subjects, LvError, Registration,
+    SubjectDir, LABELS_NAME, LANDMARKS_NAME,
 };
 use super::freewall::{free_wall, LvAxis, SectorOptions};
 use super::landmarks::{Landmarks, APEX, BASE_CENTRE, SEPTUM};
-use super::meshing::{extract_surface, SurfaceOptions};
+use super::meshing::{extract_surface, Surface, SurfaceOptions};
 use super::refine::{refine_to_image, RefineOptions};
 use super::study::{Progress, StudyError, Tick};
 use qcshape::dataset::{write_manifest, Deformation, ManifestRow, MANIFEST_NAME};
@@ -410,4 +410,24 @@ pub fn mesh_subject(s: &SubjectDir, o: &SubjectMeshOptions) -> Result<MeshedSubj
         saved_maps,
         refined,
     })
+}
+
+/// Every frame's own cavity surface, each extracted from that frame's image as frame 0's is
+/// ([`extract_surface`]: iso-surface, largest component, smoothing, decimation, relaxation), so
+/// every frame has its own triangulation and no vertex corresponds between frames: the data a
+/// per-frame segmentation gives (to be put on one connectivity by [`qcshape::fit`]). No
+/// landmarks are used. Without a threshold in `o`, frame 0's upper Otsu threshold is used for
+/// every frame of the subject (the level [`refine_to_image`] moves carried frames to).
+pub fn mesh_frames(s: &SubjectDir, o: &SurfaceOptions) -> Result<Vec<Surface>, StudyError> {
+    let files = image_files(&s.path)?;
+    let frames = read_frames(&s.path)?;
+    let mut opts = o.clone();
+    let mut out: Vec<Surface> = Vec::with_capacity(frames.len());
+    for (k, vol) in frames.iter().enumerate() {
+        let file = files[k.min(files.len() - 1)].clone();
+        let surface = extract_surface(vol, &opts).map_err(|error| LvError::Surface { path: file, error })?;
+        opts.threshold = Some(surface.threshold);
+        out.push(surface);
+    }
+    Ok(out)
 }
