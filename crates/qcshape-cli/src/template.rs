@@ -46,10 +46,11 @@ pub(crate) struct Extra<'a> {
 impl TemplateArgs {
     /// The data set of `source`. Without `--template`: read as before ([`Dataset::load`] or
     /// [`load_sequence`]), a connectivity mismatch with [`hint`]. With it: the inputs checked
-    /// against `quality` (the quality table to write) and `out_folder` (the command's output
-    /// folder, if it has one) before anything is computed, a line on stderr, every pose fitted
+    /// against `quality` (the quality table to write), `out_folder` (the command's output
+    /// folder, if it has one) and `out_files` (the command's other output files, each with its
+    /// option's name) before anything is read or fitted, a line on stderr, every pose fitted
     /// (tracked per deformation, deformations in parallel), `quality` written, a warning per
-    /// poor fit. Each of `extra`
+    /// poor fit. Without it the caller checks `out_files` against the data set. Each of `extra`
     /// is fitted too (unless it already has the template's connectivity) and returned in
     /// order; without `--template` they are returned as read.
     pub(crate) fn load(
@@ -58,6 +59,7 @@ impl TemplateArgs {
         extra: &[Extra<'_>],
         quality: &Path,
         out_folder: Option<&Path>,
+        out_files: &[(PathBuf, &str)],
     ) -> Result<(Dataset, Vec<Shape>)> {
         let Some(template_path) = &self.template else {
             let data = match source {
@@ -103,6 +105,9 @@ impl TemplateArgs {
         inputs.push(template_path);
         inputs.extend(files.iter().flat_map(|d| d.files.iter().map(PathBuf::as_path)));
         qcshape::outputs::refuse_input_overlap(&inputs, quality, "the fit's quality table")?;
+        for (file, what) in out_files {
+            qcshape::outputs::refuse_input_overlap(&inputs, file, what)?;
+        }
         if let Some(folder) = out_folder {
             crate::input::refuse_out_folder(&inputs, folder, "--out")?;
         }
