@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
 use qcshape::dataset::{mesh_files, write_manifest, Dataset, DeformationFiles, ManifestRow, MANIFEST_NAME};
-use qcshape::fit::data::{fit_deformation, write_quality};
+use qcshape::fit::data::{fit_dataset, write_quality};
 use qcshape::fit::FitOptions;
 use qcshape::io::{self, VertexAttributes};
 use qcshape::limits::{MAX_POSES, MAX_SUBJECTS};
@@ -130,10 +130,9 @@ pub fn run(args: &Args) -> Result<()> {
     let mut manifest = Vec::new();
     let mut tally = crate::template::FitTally::default();
     let mut used = std::collections::BTreeSet::new();
-    let mut data = Dataset::default();
-    let mut fits = Vec::with_capacity(groups.len());
-    for g in &groups {
-        let (deformation, fitted) = fit_deformation(&template, g, &opts, args.sequence, |_| pb.inc(1))?;
+    // The deformations (and untracked poses) in parallel, results in order.
+    let (data, fits) = fit_dataset(&template, &groups, &opts, args.sequence, |_, _| pb.inc(1))?;
+    for (g, fitted) in groups.iter().zip(&fits) {
         let mut folder = crate::input::folder_for(&g.name);
         while !used.insert(folder.clone()) {
             folder.push('_');
@@ -162,8 +161,6 @@ pub fn run(args: &Args) -> Result<()> {
             });
             tally.record(&pb, g, k, f);
         }
-        data.deformations.push(deformation);
-        fits.push(fitted);
     }
     pb.finish_and_clear();
     write_quality(&args.out.join("quality.csv"), &data, &fits)?;

@@ -98,7 +98,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         Source::Sequence(&args.input)
     };
     let quality = args.out.join("quality.csv");
-    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out))?;
+    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out), &[])?;
     crate::input::refuse_out_folder(&crate::input::all_inputs(&args.input, &data), &args.out, "--out")?;
     let Some(first) = data.deformations.first() else {
         bail!("the input has no deformations");

@@ -42,6 +42,7 @@ mod input;
 mod interpolate;
 mod localize;
 mod lv;
+mod matrix_out;
 mod mesh_format;
 mod pipeline;
 mod progress;

@@ -63,7 +63,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
     let source = crate::template::Source::Dataset(&args.input);
     let quality = args.out.join("quality.csv");
-    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out))?;
+    let (data, _) = args.template.load(source, &[], &quality, Some(&args.out), &[])?;
     crate::input::refuse_out_folder(&data.input_paths(&args.input), &args.out, "--out")?;
     let n = data.deformations.len();
     if n < 2 {

@@ -4,12 +4,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::similarity::{
-    journal_path, merge_shards, DistanceMatrix, PairDistance, PipelineOptions, Prepared, Selection, Shard,
-    Sink,
-};
+use qcshape::similarity::{journal_path, merge_shards, PipelineOptions, Prepared, Selection, Shard, Sink};
 
 use crate::args::{in_pool, PipelineArgs};
+use crate::matrix_out::{matrix_files, write_details, write_matrix};
 use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares};
 
 /// Compute the similarity matrix of the deformations of a data set.
@@ -100,32 +98,20 @@ pub fn run(args: &Args) -> Result<()> {
 
 fn run_in_pool(args: &Args) -> Result<()> {
     let t0 = Instant::now();
-    let source = crate::template::Source::Dataset(&args.input);
-    let quality = crate::template::quality_beside(&args.output);
-    let (data, _) = args.template.load(source, &[], &quality, None)?;
-    for (file, what) in matrix_files(&args.output) {
-        data.refuse_overwrite(&args.input, &file, what)?;
-    }
-    data.refuse_overwrite(&args.input, &journal_path(&args.output), "the journal of -o")?;
-    if let Some(shard) = args.shard {
-        data.refuse_overwrite(&args.input, &shard.file_for(&args.output), "the shard file of -o")?;
-        if args.details.is_some() {
-            bail!("--details goes with similarity-merge, not with --shard (a shard holds only some pairs)");
-        }
-    }
-    if let Some(details) = &args.details {
-        data.refuse_overwrite(&args.input, details, "--details")?;
-        if details == &args.output {
-            bail!("--details {} is the same file as -o", details.display());
-        }
-    }
-    // One run at a time on the journal (or shard file): a second run must not discard the
-    // live journal of the first. Taken before anything is computed, released on exit.
+    // Every output is checked, and the journal (or shard file) claimed, before the data set is
+    // read or fitted (--template): one run at a time on it, released on exit.
+    let outputs = output_files(args)?;
     let claimed = match args.shard {
         Some(shard) => shard.file_for(&args.output),
         None => journal_path(&args.output),
     };
     let _lock = qcshape::outputs::RunLock::acquire(&claimed)?;
+    let source = crate::template::Source::Dataset(&args.input);
+    let quality = crate::template::quality_beside(&args.output);
+    let (data, _) = args.template.load(source, &[], &quality, None, &outputs)?;
+    for (file, what) in &outputs {
+        data.refuse_overwrite(&args.input, file, what)?;
+    }
     let n = data.deformations.len();
     if n < 2 {
         bail!(
@@ -270,30 +256,22 @@ fn explain_pair(details: &Path, pair: &str, prepared: &Prepared, opts: &Pipeline
     Ok(())
 }
 
-/// The files `write_matrix` writes for output `path`: the matrix, and for `.npy` the names.
-fn matrix_files(path: &Path) -> Vec<(PathBuf, &'static str)> {
-    let npy = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy"));
-    let names = npy.then(|| (path.with_extension("names.txt"), "the names file of -o"));
-    std::iter::once((path.to_path_buf(), "-o")).chain(names).collect()
-}
-
-/// Writes the matrix as CSV, or as a NumPy (n, n) float64 array when the name ends in .npy
-/// (the names, which .npy cannot hold, go to NAME.names.txt).
-fn write_matrix(path: &Path, matrix: &DistanceMatrix) -> Result<()> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy")) {
-        let n = matrix.len();
-        qcshape::io::npy::write_matrix(path, matrix.values(), n, n)?;
-        let names = path.with_extension("names.txt");
-        let text: String = matrix.names().iter().map(|s| format!("{s}\n")).collect();
-        qcshape::io::write_atomically(&names, |w: &mut dyn std::io::Write| w.write_all(text.as_bytes()))?;
-    } else {
-        matrix.write_csv(path)?;
+/// Every file the run may write, with its option's name (the matrix, for `.npy` the names,
+/// the journal, the shard file, --details), or an error for a conflicting --details.
+fn output_files(args: &Args) -> Result<Vec<(PathBuf, &'static str)>> {
+    let mut out = matrix_files(&args.output);
+    out.push((journal_path(&args.output), "the journal of -o"));
+    if let Some(shard) = args.shard {
+        out.push((shard.file_for(&args.output), "the shard file of -o"));
+        if args.details.is_some() {
+            bail!("--details goes with similarity-merge, not with --shard (a shard holds only some pairs)");
+        }
     }
-    Ok(())
-}
-
-fn write_details(path: &Path, names: &[String], pairs: &[PairDistance]) -> Result<()> {
-    let text = qcshape::similarity::details_csv(names, pairs);
-    qcshape::io::write_atomically(path, |w| w.write_all(text.as_bytes()))
-        .with_context(|| format!("cannot write {}", path.display()))
+    if let Some(details) = &args.details {
+        if details == &args.output {
+            bail!("--details {} is the same file as -o", details.display());
+        }
+        out.push((details.clone(), "--details"));
+    }
+    Ok(out)
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use qcshape::dataset::{load_sequence, sequence_files, Dataset, DatasetError, DeformationFiles};
-use qcshape::fit::data::{fit_deformation, write_quality};
+use qcshape::fit::data::{fit_dataset, write_quality};
 use qcshape::fit::{FitOptions, Fitted};
 use qcshape::io;
 use qcshape::mesh::{MeshError, Shape};
@@ -46,9 +46,11 @@ pub(crate) struct Extra<'a> {
 impl TemplateArgs {
     /// The data set of `source`. Without `--template`: read as before ([`Dataset::load`] or
     /// [`load_sequence`]), a connectivity mismatch with [`hint`]. With it: the inputs checked
-    /// against `quality` (the quality table to write) and `out_folder` (the command's output
-    /// folder, if it has one) before anything is computed, a line on stderr, every pose fitted
-    /// (tracked per deformation), `quality` written, a warning per poor fit. Each of `extra`
+    /// against `quality` (the quality table to write), `out_folder` (the command's output
+    /// folder, if it has one) and `out_files` (the command's other output files, each with its
+    /// option's name) before anything is read or fitted, a line on stderr, every pose fitted
+    /// (tracked per deformation, deformations in parallel), `quality` written, a warning per
+    /// poor fit. Without it the caller checks `out_files` against the data set. Each of `extra`
     /// is fitted too (unless it already has the template's connectivity) and returned in
     /// order; without `--template` they are returned as read.
     pub(crate) fn load(
@@ -57,6 +59,7 @@ impl TemplateArgs {
         extra: &[Extra<'_>],
         quality: &Path,
         out_folder: Option<&Path>,
+        out_files: &[(PathBuf, &str)],
     ) -> Result<(Dataset, Vec<Shape>)> {
         let Some(template_path) = &self.template else {
             let data = match source {
@@ -102,6 +105,9 @@ impl TemplateArgs {
         inputs.push(template_path);
         inputs.extend(files.iter().flat_map(|d| d.files.iter().map(PathBuf::as_path)));
         qcshape::outputs::refuse_input_overlap(&inputs, quality, "the fit's quality table")?;
+        for (file, what) in out_files {
+            qcshape::outputs::refuse_input_overlap(&inputs, file, what)?;
+        }
         if let Some(folder) = out_folder {
             crate::input::refuse_out_folder(&inputs, folder, "--out")?;
         }
@@ -113,16 +119,13 @@ impl TemplateArgs {
         );
         let opts = FitOptions::default();
         let pb = crate::progress::bar(total, "fitting");
-        let mut data = Dataset::default();
-        let mut fits: Vec<Vec<Fitted>> = Vec::with_capacity(files.len());
+        // The deformations in parallel, results in order ([`fit_dataset`]).
+        let (mut data, fits) = fit_dataset(&template, &files, &opts, true, |_, _| pb.inc(1))?;
         let mut tally = FitTally::default();
-        for d in &files {
-            let (deformation, fitted) = fit_deformation(&template, d, &opts, true, |_| pb.inc(1))?;
+        for (d, fitted) in files.iter().zip(&fits) {
             for (k, f) in fitted.iter().enumerate() {
                 tally.record(&pb, d, k, f);
             }
-            data.deformations.push(deformation);
-            fits.push(fitted);
         }
         pb.finish_and_clear();
         if let Some(dir) = quality.parent().filter(|p| !p.as_os_str().is_empty()) {

@@ -77,7 +77,9 @@ fn load_input(args: &Args) -> Result<(Vec<Deformation>, Shape)> {
         path: &args.to,
     };
     let quality = args.out.join("quality.csv");
-    let (data, mut extra) = args.template.load(source, &[base], &quality, Some(&args.out))?;
+    let (data, mut extra) = args
+        .template
+        .load(source, &[base], &quality, Some(&args.out), &[])?;
     if data.deformations.is_empty() {
         bail!("{}: no deformations to transfer", input[0].display());
     }

@@ -211,3 +211,48 @@ fn remeshed_poses_are_fitted_measured_and_close_to_the_originals() {
     assert_eq!(std::fs::read_to_string(&victim).unwrap(), "not a mesh\n");
     assert!(!folder.join("D.csv").exists());
 }
+
+/// `similarity --template` refuses a bad or overwriting output (-o, --details, the journal)
+/// before it reads or fits anything: no "fitting" line, no quality table, the input intact.
+#[test]
+fn similarity_template_checks_its_outputs_before_fitting() {
+    let dir = tempfile::tempdir().unwrap();
+    let remeshed = data(&dir.path().join("remeshed"), 3);
+    let template = data(&dir.path().join("original"), 2);
+    let template = Dataset::load(&template).unwrap().deformations[0].paths[0].clone();
+    let pose = remeshed.parent().unwrap().join(NAMES[0]).join("pose001.ply");
+    let before = std::fs::read(&pose).unwrap();
+    let out = dir.path().join("D.csv");
+    let lock = dir.path().join("D.csv.journal.lock");
+    let missing = dir.path().join("no-such-folder").join("D.csv");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["-o", s(&pose)], "-o"),
+        (vec!["-o", s(&out), "--details", s(&pose)], "--details"),
+        (vec!["-o", s(&out), "--details", s(&out)], "same file as -o"),
+        (vec!["-o", s(&remeshed)], "-o"),
+        (vec!["-o", s(&missing)], "no-such-folder"),
+        (vec!["-o", s(&out)], "lock"),
+    ];
+    for (outputs, expected) in cases {
+        if expected == "lock" {
+            // A live run (this test's process) holds the journal.
+            std::fs::write(&lock, format!("{}\n", std::process::id())).unwrap();
+        }
+        let mut args = vec![
+            "similarity",
+            s(&remeshed),
+            "--threads",
+            "1",
+            "--template",
+            s(&template),
+        ];
+        args.extend(outputs.iter().copied());
+        let r = qcshape(&args);
+        let e = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{outputs:?}: {e}");
+        assert!(e.contains(expected) && !e.contains("fitting"), "{outputs:?}: {e}");
+        assert_eq!(std::fs::read(&pose).unwrap(), before);
+        assert!(!dir.path().join("D.quality.csv").exists() && !out.exists());
+    }
+    assert!(lock.exists(), "the other run's lock is left alone");
+}

@@ -7,9 +7,11 @@
 //! `cargo run --release -p qcshape --example fit_accuracy [-- FINE_LEVEL [NOISE_PERCENT]]`
 //! (target icosphere level, default 4 = 2,562 vertices; noise variance in % of the squared
 //! target edge, default 1). Environment: `SHAPE` (an initial shape, default rounded-box),
-//! `ALIGN` (similarity, rigid or none), `PRIOR` (smooth, arap or asap), `STIFF_START`, `STIFF_END`, `S2P`, `SAMPLES` (the options of the
-//! same names). Time is wall-clock per fit (`ms`); `sym` is the fit's symmetric surface
-//! distance, `strain` its rms edge strain.
+//! `ALIGN` (similarity, rigid or none), `PRIOR` (smooth, arap or asap), `STIFF_START`, `STIFF_END`,
+//! `S2P`, `SAMPLES` (the options of the same names). Time is wall-clock per fit (`ms`); `sym`
+//! is the fit's symmetric surface distance, `strain` its rms edge strain. `WRITE_DIR=D` also
+//! writes each fixture to D (template.ply, MOTION-target.ply, MOTION-truth.ply) for
+//! `scripts/fit_compare.py`; with `WRITE_ONLY` set as well, nothing is fitted.
 
 #[path = "../tests/fit_fixture/mod.rs"]
 mod fixture;
@@ -89,6 +91,9 @@ fn main() {
                 &none,
             )
             .expect("write");
+            if std::env::var_os("WRITE_ONLY").is_some() {
+                continue;
+            }
         }
         let t0 = Instant::now();
         let f = fit(&c.template, &target, &opts).expect("fit");
@@ -116,6 +121,9 @@ fn main() {
         );
         all.0.extend(e);
         all.1.extend(b);
+    }
+    if all.0.is_empty() {
+        return;
     }
     let (em, ea) = fixture::median_mean(&all.0);
     let (bm, ba) = fixture::median_mean(&all.1);

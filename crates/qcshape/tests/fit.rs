@@ -71,3 +71,76 @@ fn scaled_and_moved_targets_give_the_same_errors() {
     }
     assert!((medians[0] - medians[1]).abs() < 1e-3, "{medians:?}");
 }
+
+/// The data set fit ([`qcshape::fit::data::fit_dataset`]) fits deformations (and, untracked,
+/// poses) in parallel: the data set, each pose's fit and the deformations' order are the same,
+/// bit for bit, in a 1-thread pool and a 3-thread pool, tracked or not.
+#[test]
+fn fit_dataset_gives_the_same_bytes_for_any_thread_count() {
+    use qcshape::dataset::DeformationFiles;
+    use qcshape::fit::data::fit_dataset;
+    use qcshape::io::{write_mesh, VertexAttributes};
+    use DeformationKind::*;
+    let dir = tempfile::tempdir().unwrap();
+    let template = case(InitialShape::RoundedBox, Bulge, 0.0, 3, 1.0, 1, Motion::IDENTITY).template;
+    let mut files = Vec::new();
+    for (d, kind) in [Bulge, Dent, Shear, Stretch].into_iter().enumerate() {
+        let mut poses = Vec::new();
+        for (k, t) in [0.5, 1.0].into_iter().enumerate() {
+            let c = case(
+                InitialShape::RoundedBox,
+                kind,
+                t,
+                3,
+                1.0,
+                5 + k as u64,
+                Motion::IDENTITY,
+            );
+            let p = dir.path().join(format!("d{d}-p{k}.ply"));
+            write_mesh(&p, &c.target, &c.faces, &VertexAttributes::default()).unwrap();
+            poses.push(p);
+        }
+        files.push(DeformationFiles {
+            name: format!("{kind:?}"),
+            label: None,
+            files: poses,
+        });
+    }
+    let opts = FitOptions {
+        alignment: Alignment::None,
+        ..FitOptions::default()
+    };
+    for sequence in [true, false] {
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let calls = std::sync::atomic::AtomicUsize::new(0);
+            let (data, fits) = pool
+                .install(|| {
+                    fit_dataset(&template, &files, &opts, sequence, |_, _| {
+                        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    })
+                })
+                .unwrap();
+            assert_eq!(calls.into_inner(), 8);
+            let names: Vec<String> = data.deformations.iter().map(|d| d.name.clone()).collect();
+            let bits = |p: &[[f64; 3]]| p.iter().flatten().map(|x| x.to_bits()).collect::<Vec<u64>>();
+            let poses: Vec<Vec<u64>> = data
+                .deformations
+                .iter()
+                .flat_map(|d| d.poses.iter().map(|p| bits(p)))
+                .collect();
+            let fitted: Vec<(Vec<u64>, u64)> = fits
+                .iter()
+                .flatten()
+                .map(|f| (bits(&f.positions), f.quality.mean.to_bits()))
+                .collect();
+            (names, poses, fitted)
+        };
+        let one = run(1);
+        assert_eq!(one.0, ["Bulge", "Dent", "Shear", "Stretch"]);
+        assert_eq!(one, run(3), "sequence {sequence}");
+    }
+}

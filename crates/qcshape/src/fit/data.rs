@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use thiserror::Error;
 
 use super::{fit, fit_sequence, FitError, FitOptions, Fitted, Target};
@@ -41,15 +42,16 @@ pub enum FitDataError {
 /// Fits `template` (a manifold triangle mesh, #V x 3) to every pose file of one deformation.
 /// With `sequence`, pose 0 is fitted from the template and each next pose from the previous
 /// fit ([`fit_sequence`], tracking, as `qcshape fit --sequence`); without, every pose from the
-/// template ([`fit`]). `on_pose(k)` is called after pose `k`. Returns the deformation on the
-/// template's connectivity (positions in the targets' units; `paths` are the target files)
-/// and each pose's fit.
+/// template ([`fit`]), the poses in parallel (rayon's pool). `on_pose(k)` is called after pose
+/// `k` (from the worker that fitted it: in pose order only with `sequence`). Returns the
+/// deformation on the template's connectivity (positions in the targets' units; `paths` are
+/// the target files) and each pose's fit, the same for any number of threads.
 pub fn fit_deformation(
     template: &Shape,
     files: &DeformationFiles,
     opts: &FitOptions,
     sequence: bool,
-    mut on_pose: impl FnMut(usize),
+    on_pose: impl Fn(usize) + Sync,
 ) -> Result<(Deformation, Vec<Fitted>), FitDataError> {
     let meshes: Vec<MeshData> = files
         .files
@@ -76,12 +78,21 @@ pub fn fit_deformation(
         })
         .map_err(|e| failed(done, e))?
     } else {
-        let mut v = Vec::with_capacity(targets.len());
-        for (k, t) in targets.iter().enumerate() {
-            v.push(fit(template, t, opts).map_err(|e| failed(k, e))?);
-            on_pose(k);
-        }
-        v
+        // Independent poses in parallel; the first failure in pose order is reported.
+        let results: Vec<Result<Fitted, FitError>> = targets
+            .par_iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let f = fit(template, t, opts);
+                on_pose(k);
+                f
+            })
+            .collect();
+        results
+            .into_iter()
+            .enumerate()
+            .map(|(k, r)| r.map_err(|e| failed(k, e)))
+            .collect::<Result<_, _>>()?
     };
     let mut poses = Vec::with_capacity(fitted.len());
     for (f, path) in fitted.iter().zip(&files.files) {
@@ -113,20 +124,28 @@ pub fn fit_deformation(
 }
 
 /// Fits `template` to every deformation of `files` ([`fit_deformation`], tracked through each
-/// deformation's poses when `sequence`): the data set on the template's one connectivity
-/// (shared by every deformation) and, per deformation, each pose's fit. `on_pose(d, k)` is
-/// called after pose `k` of deformation `d`.
+/// deformation's poses when `sequence`), the deformations in parallel (rayon's pool; each
+/// tracked sequence on one worker at a time): the data set on the template's one connectivity
+/// (shared by every deformation) and, per deformation, each pose's fit, in the order of
+/// `files` and the same for any number of threads. `on_pose(d, k)` is called after pose `k` of
+/// deformation `d`, from the worker that fitted it (deformations interleave). On failure, the
+/// error of the first failed deformation in the order of `files`.
 pub fn fit_dataset(
     template: &Shape,
     files: &[DeformationFiles],
     opts: &FitOptions,
     sequence: bool,
-    mut on_pose: impl FnMut(usize, usize),
+    on_pose: impl Fn(usize, usize) + Sync,
 ) -> Result<(Dataset, Vec<Vec<Fitted>>), FitDataError> {
+    let results: Vec<Result<(Deformation, Vec<Fitted>), FitDataError>> = files
+        .par_iter()
+        .enumerate()
+        .map(|(d, f)| fit_deformation(template, f, opts, sequence, |k| on_pose(d, k)))
+        .collect();
     let mut deformations = Vec::with_capacity(files.len());
     let mut fits = Vec::with_capacity(files.len());
-    for (d, f) in files.iter().enumerate() {
-        let (deformation, fitted) = fit_deformation(template, f, opts, sequence, |k| on_pose(d, k))?;
+    for r in results {
+        let (deformation, fitted) = r?;
         deformations.push(deformation);
         fits.push(fitted);
     }
