@@ -27,7 +27,8 @@ The cases:
 - l4-t0.01, l4-t100 (qs-sim only): the target and truth alone scaled, the template at unit size,
   which only a method with a similarity alignment can fit; qs-sim on l4 is its unscaled reference.
 
-Methods: `qs` is qs.fit(alignment="none") (the fixture is posed), `qs-sim` is qs.fit with its
+Methods: `qs` is qs.fit(alignment="none") (the fixture is posed; the default smooth prior),
+`qs-arap` the same with prior="arap" (the default until 2026-12-06), `qs-sim` is qs.fit with its
 default similarity alignment, `nricp` is nricp_amberg(template, target) with its defaults, `near`
 snaps each template vertex to its closest target point. Measures, per case and method (means over
 the motions fitted):
@@ -59,15 +60,15 @@ import numpy as np
 
 KINDS = ["Twist", "Bend", "Taper", "Stretch", "Bulge", "Shear", "Dent", "Ripple"]
 CASES = ["l4", "l5", "l6", "l6-dec", "l4-x0.01", "l4-x100", "l4-t0.01", "l4-t100"]
-METHODS = {"qs": "qs.fit", "qs-sim": "qs.fit sim.", "nricp": "nricp", "near": "nearest"}
+METHODS = {"qs": "qs.fit", "qs-arap": "qs.fit arap", "qs-sim": "qs.fit sim.", "nricp": "nricp", "near": "nearest"}
 
 
 def methods_of(case):
     if case.startswith("l4-t"):
         return ["qs-sim"]
     if case == "l4":
-        return ["qs", "qs-sim", "nricp", "near"]
-    return ["qs", "nricp", "near"]
+        return ["qs", "qs-arap", "qs-sim", "nricp", "near"]
+    return ["qs", "qs-arap", "nricp", "near"]
 
 
 def build_case(fix, case):
@@ -111,6 +112,8 @@ def worker(npz, method, kinds, out):
     def run(W, G, mesh):
         if method == "qs":
             return qs.fit(V, F, W, G, alignment="none")[0]
+        if method == "qs-arap":
+            return qs.fit(V, F, W, G, alignment="none", prior="arap")[0]
         if method == "qs-sim":
             return qs.fit(V, F, W, G)[0]
         if method == "nricp":

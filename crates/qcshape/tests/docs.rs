@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 /// Phrases that presented a retired default as current (matched without case, backticks and line
 /// breaks). Each was the default once: quasi-conformal with `lambda` 0.1 on the raw scale until
 /// 2026-12-04, the calibrated scale until 2026-12-06, 10 Taubin iterations of smoothing until
-/// issue 51. A dated log may say so; a reference page must not present them as today's.
+/// issue 51, the fit's ARAP prior with stiffness 20 to 0.1 until 2026-12-06. A dated log may
+/// say so; a reference page must not present them as today's.
 const RETIRED: &[&str] = &[
     "quasi-conformal + 0.1 l2",
     "quasi-conformal + 0.1*l2",
@@ -26,6 +27,9 @@ const RETIRED: &[&str] = &[
     "isometric, --scale calibrated",
     "--smooth 10 (default",
     "--lambda 0.1 (default",
+    "arap (as-rigid-as-possible, edge strain; the default)",
+    "non-rigid fit under an as-rigid-as-possible",
+    "geometrically from 20 to 0.1",
 ];
 
 fn root() -> PathBuf {
