@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{color, draw_legend, msg, padded, render, Figure, PlotError, Swatch, FAMILY};
+use super::{color, draw_legend, msg, padded, render, Figure, PlotError, PlotInput, Swatch, FAMILY};
 
 /// One group: its name and `(series, mean, sd)` entries.
 pub type BarGroup = (String, Vec<(String, f64, f64)>);
@@ -30,12 +30,12 @@ struct Bars<'a> {
 /// of the chart, outside the data); a group may lack some series. Means and SDs must be
 /// finite, SDs non-negative.
 pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) -> Result<(), PlotError> {
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     if groups.iter().all(|g| g.1.is_empty()) {
-        return Err(invalid("no bars to plot".into()));
+        return Err(invalid(PlotInput::NoBars));
     }
     let mut series: Vec<String> = Vec::new();
     let non_negative = groups.iter().all(|g| g.1.iter().all(|e| e.1 >= 0.0));
@@ -43,9 +43,12 @@ pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) 
     for (g, entries) in groups {
         for (s, mean, sd) in entries {
             if !mean.is_finite() || !sd.is_finite() || *sd < 0.0 {
-                return Err(invalid(format!(
-                    "group {g:?}, series {s:?}: mean {mean} and sd {sd} must be finite, sd >= 0"
-                )));
+                return Err(invalid(PlotInput::BadBar {
+                    group: g.clone(),
+                    series: s.clone(),
+                    mean: *mean,
+                    sd: *sd,
+                }));
             }
             if !series.contains(s) {
                 series.push(s.clone());

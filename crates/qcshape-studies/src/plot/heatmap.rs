@@ -6,7 +6,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{msg, render, Figure, PlotError, FAMILY};
+use super::{msg, render, Figure, PlotError, PlotInput, FAMILY};
 use qcshape::io::heat_colors;
 use qcshape::similarity::DistanceMatrix;
 
@@ -41,28 +41,26 @@ pub fn heatmap(
     value_label: &str,
 ) -> Result<(), PlotError> {
     let n = d.len();
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     let mut seen = vec![false; n];
     if order.len() != n {
-        return Err(invalid(format!(
-            "the order lists {} items, the matrix has {n}",
-            order.len()
-        )));
+        return Err(invalid(PlotInput::OrderLength {
+            order: order.len(),
+            n,
+        }));
     }
     for &i in order {
         if i >= n || seen[i] {
-            return Err(invalid(format!(
-                "the order is not a permutation of 0..{n} (at {i})"
-            )));
+            return Err(invalid(PlotInput::NotPermutation { n, at: i }));
         }
         seen[i] = true;
     }
     if let Some(l) = labels {
         if l.len() != n {
-            return Err(invalid(format!("{} labels for {n} deformations", l.len())));
+            return Err(invalid(PlotInput::LabelCount { labels: l.len(), n }));
         }
     }
     let max = d.max();

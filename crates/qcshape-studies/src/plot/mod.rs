@@ -30,6 +30,71 @@ static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 /// The font family every figure uses.
 pub(crate) const FAMILY: &str = "sans-serif";
 
+/// Data that cannot be plotted ([`PlotError::Invalid`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum PlotInput {
+    /// No bar in any group.
+    #[error("no bars to plot")]
+    NoBars,
+    /// A bar whose mean or SD is not finite, or whose SD is negative.
+    #[error("group {group:?}, series {series:?}: mean {mean} and sd {sd} must be finite, sd >= 0")]
+    BadBar {
+        /// The group.
+        group: String,
+        /// The series.
+        series: String,
+        /// The mean.
+        mean: f64,
+        /// The SD.
+        sd: f64,
+    },
+    /// A heat map order of another length than the matrix.
+    #[error("the order lists {order} items, the matrix has {n}")]
+    OrderLength {
+        /// Items in the order.
+        order: usize,
+        /// Rows of the matrix.
+        n: usize,
+    },
+    /// A heat map order that is not a permutation.
+    #[error("the order is not a permutation of 0..{n} (at {at})")]
+    NotPermutation {
+        /// Rows of the matrix.
+        n: usize,
+        /// The repeated or out-of-range item.
+        at: usize,
+    },
+    /// Not one label per deformation (heat map).
+    #[error("{labels} labels for {n} deformations")]
+    LabelCount {
+        /// Labels given.
+        labels: usize,
+        /// Deformations.
+        n: usize,
+    },
+    /// No point in a scatter plot.
+    #[error("no points to plot")]
+    NoPoints,
+    /// Not one name, label or name choice per point.
+    #[error("{points} points but {found} {what}")]
+    PerPoint {
+        /// "names", "labels" or "name choices".
+        what: &'static str,
+        /// Points.
+        points: usize,
+        /// Entries given.
+        found: usize,
+    },
+    /// A point with a NaN or infinite coordinate.
+    #[error("point {point} ({name}) is not finite")]
+    NonFinitePoint {
+        /// The point.
+        point: usize,
+        /// Its name.
+        name: String,
+    },
+}
+
 /// Why a figure cannot be made.
 #[derive(Debug, Error)]
 pub enum PlotError {
@@ -40,12 +105,12 @@ pub enum PlotError {
         path: PathBuf,
     },
     /// The data cannot be plotted (lengths differ, non-finite values, nothing to draw).
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {problem}", path.display())]
     Invalid {
         /// The file.
         path: PathBuf,
         /// What is wrong.
-        message: String,
+        problem: PlotInput,
     },
     /// The plotting library failed.
     #[error("{}: cannot draw: {message}", path.display())]

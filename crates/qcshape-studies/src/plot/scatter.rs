@@ -5,7 +5,9 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{color, draw_legend, marker_outline, msg, padded, render, Figure, PlotError, Swatch, FAMILY};
+use super::{
+    color, draw_legend, marker_outline, msg, padded, render, Figure, PlotError, PlotInput, Swatch, FAMILY,
+};
 use qcshape::eval::encode_labels;
 
 /// Without classes, names are written next to the points up to this many points (with
@@ -61,20 +63,28 @@ pub fn scatter_map_with(
     stress: Option<f64>,
     point_names: &PointNames,
 ) -> Result<(), PlotError> {
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     let n = coords.len();
     if n == 0 {
-        return Err(invalid("no points to plot".into()));
+        return Err(invalid(PlotInput::NoPoints));
     }
     if names.len() != n {
-        return Err(invalid(format!("{n} points but {} names", names.len())));
+        return Err(invalid(PlotInput::PerPoint {
+            what: "names",
+            points: n,
+            found: names.len(),
+        }));
     }
     if let Some(l) = labels {
         if l.len() != n {
-            return Err(invalid(format!("{n} points but {} labels", l.len())));
+            return Err(invalid(PlotInput::PerPoint {
+                what: "labels",
+                points: n,
+                found: l.len(),
+            }));
         }
     }
     let shown = match point_names {
@@ -82,7 +92,11 @@ pub fn scatter_map_with(
         PointNames::None => vec![false; n],
         PointNames::Some(v) if v.len() == n => v.clone(),
         PointNames::Some(v) => {
-            return Err(invalid(format!("{n} points but {} name choices", v.len())));
+            return Err(invalid(PlotInput::PerPoint {
+                what: "name choices",
+                points: n,
+                found: v.len(),
+            }));
         }
     };
     let mut xy = Vec::with_capacity(n);
@@ -92,7 +106,10 @@ pub fn scatter_map_with(
             c.get(1).copied().unwrap_or(0.0),
         );
         if !x.is_finite() || !y.is_finite() {
-            return Err(invalid(format!("point {} ({}) is not finite", i, names[i])));
+            return Err(invalid(PlotInput::NonFinitePoint {
+                point: i,
+                name: names[i].clone(),
+            }));
         }
         xy.push((x, y));
     }
