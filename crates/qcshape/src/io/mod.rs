@@ -563,14 +563,12 @@ pub enum WriteError {
         /// Number of vertices.
         n_vertices: usize,
     },
-    /// Two fields have the same name, or a name is empty.
-    #[error("field {name:?}: {message}")]
-    Field {
-        /// The field's name.
-        name: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// A field with an empty name.
+    #[error("field \"\": a field needs a name")]
+    UnnamedField,
+    /// Two fields with the same name.
+    #[error("field {0:?}: two fields have this name")]
+    DuplicateField(String),
     /// The format cannot store the given per-vertex attribute.
     #[error("the {format} format cannot store {what}; write .ply, .vtk, .vtp or .vtu instead")]
     Unsupported {
@@ -809,16 +807,10 @@ fn validate(
             });
         }
         if f.name.trim().is_empty() {
-            return Err(WriteError::Field {
-                name: f.name.into(),
-                message: "a field needs a name".into(),
-            });
+            return Err(WriteError::UnnamedField);
         }
         if payload.fields[..k].iter().any(|g| g.name == f.name) {
-            return Err(WriteError::Field {
-                name: f.name.into(),
-                message: "two fields have this name".into(),
-            });
+            return Err(WriteError::DuplicateField(f.name.into()));
         }
         if matches!(format, Format::Obj | Format::Off | Format::Stl) {
             return Err(WriteError::Unsupported {
