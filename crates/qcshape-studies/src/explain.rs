@@ -22,9 +22,17 @@ use qcshape::similarity::{PipelineOptions, Prepared};
 /// Why a pair cannot be explained.
 #[derive(Debug, Error)]
 pub enum ExplainError {
-    /// A name is not one of the data set's deformations, or both names are the same.
-    #[error("{0}")]
-    Name(String),
+    /// A name is not one of the data set's deformations.
+    #[error("no deformation named {name:?} (the data set has {})", known.join(", "))]
+    UnknownName {
+        /// The name asked for.
+        name: String,
+        /// The data set's deformations.
+        known: Vec<String>,
+    },
+    /// Both names are the same.
+    #[error("{0:?} is named twice: give two different deformations")]
+    SameName(String),
     /// The solver cannot be set up.
     #[error(transparent)]
     Solver(#[from] GeodesicError),
@@ -65,18 +73,18 @@ pub fn explain(
     b: &str,
 ) -> Result<Explanation, ExplainError> {
     let find = |name: &str| {
-        prepared.names.iter().position(|n| n == name).ok_or_else(|| {
-            ExplainError::Name(format!(
-                "no deformation named {name:?} (the data set has {})",
-                prepared.names.join(", ")
-            ))
-        })
+        prepared
+            .names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| ExplainError::UnknownName {
+                name: name.to_string(),
+                known: prepared.names.clone(),
+            })
     };
     let (i, j) = (find(a)?, find(b)?);
     if i == j {
-        return Err(ExplainError::Name(format!(
-            "{a:?} is named twice: give two different deformations"
-        )));
+        return Err(ExplainError::SameName(a.to_string()));
     }
     let metric = prepared.metric(&opts.metric);
     let solver = GeodesicSolver::new(metric.as_ref(), prepared.topology.clone(), opts.geodesic.clone())?;

@@ -33,6 +33,69 @@ pub const OUTLINE: [u8; 3] = [20, 20, 20];
 /// Supersampling factor per axis.
 const SS: usize = 2;
 
+/// The error of drawing text and the colour bar on the bitmap (plotters' own).
+pub type DrawError = plotters::drawing::DrawingAreaErrorKind<
+    <BitMapBackend<'static> as plotters::backend::DrawingBackend>::ErrorType,
+>;
+
+/// Inconsistent or non-finite input to [`render`] ([`RenderError::Invalid`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum RenderInput {
+    /// Not one value per vertex.
+    #[error("{values} values for {vertices} vertices")]
+    ValueCount {
+        /// Values given.
+        values: usize,
+        /// Vertices.
+        vertices: usize,
+    },
+    /// A value that is NaN or infinite.
+    #[error("the value of vertex {vertex} is {value}")]
+    NonFiniteValue {
+        /// The vertex.
+        vertex: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// A vertex with a NaN or infinite coordinate.
+    #[error("vertex {0} has a non-finite coordinate")]
+    NonFiniteVertex(usize),
+    /// A face naming a vertex that does not exist.
+    #[error("face {face} names a vertex beyond the {vertices} vertices")]
+    FaceIndex {
+        /// The face.
+        face: usize,
+        /// Vertices.
+        vertices: usize,
+    },
+    /// Not one grey or outline flag per vertex.
+    #[error("{flags} {name} flags for {vertices} vertices")]
+    FlagCount {
+        /// "grey" or "outline".
+        name: &'static str,
+        /// Flags given.
+        flags: usize,
+        /// Vertices.
+        vertices: usize,
+    },
+    /// No view, or a view size outside 16..4096 pixels.
+    #[error("{views} views of {size} pixels: need at least one view of 16..4096 pixels")]
+    Views {
+        /// Views asked for.
+        views: usize,
+        /// Pixels per view side.
+        size: u32,
+    },
+    /// A colour range that is not finite and increasing.
+    #[error("bad colour range {lo}..{hi}")]
+    ColourRange {
+        /// Low end.
+        lo: f64,
+        /// High end.
+        hi: f64,
+    },
+}
+
 /// Why a picture cannot be made.
 #[derive(Debug, Error)]
 pub enum RenderError {
@@ -46,10 +109,10 @@ pub enum RenderError {
     },
     /// Inconsistent or non-finite input.
     #[error("cannot render: {0}")]
-    Invalid(String),
-    /// Text or colour-bar drawing failed.
+    Invalid(RenderInput),
+    /// Text or colour-bar drawing failed (plotters' error, kept).
     #[error("cannot draw: {0}")]
-    Draw(String),
+    Draw(DrawError),
     /// The PNG cannot be encoded (the png crate's error, kept).
     #[error("cannot encode the PNG: {error}")]
     Encode {
@@ -350,47 +413,46 @@ fn check(
     }
     let nv = positions.len();
     if values.len() != nv {
-        return Err(RenderError::Invalid(format!(
-            "{} values for {nv} vertices",
-            values.len()
-        )));
+        return Err(RenderError::Invalid(RenderInput::ValueCount {
+            values: values.len(),
+            vertices: nv,
+        }));
     }
     if let Some(v) = values.iter().position(|x| !x.is_finite()) {
-        return Err(RenderError::Invalid(format!(
-            "the value of vertex {v} is {}",
-            values[v]
-        )));
+        return Err(RenderError::Invalid(RenderInput::NonFiniteValue {
+            vertex: v,
+            value: values[v],
+        }));
     }
     if let Some(v) = positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
-        return Err(RenderError::Invalid(format!(
-            "vertex {v} has a non-finite coordinate"
-        )));
+        return Err(RenderError::Invalid(RenderInput::NonFiniteVertex(v)));
     }
     if let Some(f) = faces.iter().position(|f| f.iter().any(|&i| i as usize >= nv)) {
-        return Err(RenderError::Invalid(format!(
-            "face {f} names a vertex beyond the {nv} vertices"
-        )));
+        return Err(RenderError::Invalid(RenderInput::FaceIndex {
+            face: f,
+            vertices: nv,
+        }));
     }
     for (name, m) in [("grey", &opts.grey), ("outline", &opts.outline)] {
         if let Some(m) = m {
             if m.len() != nv {
-                return Err(RenderError::Invalid(format!(
-                    "{} {name} flags for {nv} vertices",
-                    m.len()
-                )));
+                return Err(RenderError::Invalid(RenderInput::FlagCount {
+                    name,
+                    flags: m.len(),
+                    vertices: nv,
+                }));
             }
         }
     }
     if opts.views.is_empty() || opts.view_size < 16 || opts.view_size > 4096 {
-        return Err(RenderError::Invalid(format!(
-            "{} views of {} pixels: need at least one view of 16..4096 pixels",
-            opts.views.len(),
-            opts.view_size
-        )));
+        return Err(RenderError::Invalid(RenderInput::Views {
+            views: opts.views.len(),
+            size: opts.view_size,
+        }));
     }
     if let Some((lo, hi)) = opts.range {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(RenderError::Invalid(format!("bad colour range {lo}..{hi}")));
+            return Err(RenderError::Invalid(RenderInput::ColourRange { lo, hi }));
         }
     }
     Ok(())
@@ -598,7 +660,6 @@ fn tick(v: f64) -> String {
 fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) -> Result<(), RenderError> {
     register_font();
     let (w, h) = (img.width, img.height);
-    let err = |e: &dyn std::fmt::Display| RenderError::Draw(e.to_string());
     let root = BitMapBackend::with_buffer(&mut img.rgb, (w, h)).into_drawing_area();
     let black = RGBColor(0, 0, 0);
     // Title and subtitle: the font shrinks (down to 9 px) until the line fits the width,
@@ -630,7 +691,7 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
         (8, 8),
         (FAMILY, size).into_font().color(&black),
     ))
-    .map_err(|e| err(&e))?;
+    .map_err(RenderError::Draw)?;
     let sub = format!(
         "colour: {} ({} map)",
         if opts.label.is_empty() {
@@ -646,7 +707,7 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
     );
     let (sub, size) = fit(&sub, 13);
     root.draw(&Text::new(sub, (8, 32), (FAMILY, size).into_font().color(&black)))
-        .map_err(|e| err(&e))?;
+        .map_err(RenderError::Draw)?;
     for (k, v) in opts.views.iter().enumerate() {
         let (x, y) = lay.view_origin(k);
         root.draw(&Text::new(
@@ -654,7 +715,7 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
             (x as i32 + 6, y as i32 + 4),
             (FAMILY, 12).into_font().color(&RGBColor(90, 90, 90)),
         ))
-        .map_err(|e| err(&e))?;
+        .map_err(RenderError::Draw)?;
     }
     // The bar: a vertical gradient, high values at the top.
     let bx = (lay.columns * lay.view) as i32 + 14;
@@ -667,10 +728,10 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
             [(bx, y), (bx + bw, y + 1)],
             RGBColor(c[0], c[1], c[2]).filled(),
         ))
-        .map_err(|e| err(&e))?;
+        .map_err(RenderError::Draw)?;
     }
     root.draw(&Rectangle::new([(bx, top), (bx + bw, bottom + 1)], black))
-        .map_err(|e| err(&e))?;
+        .map_err(RenderError::Draw)?;
     let mut ticks = vec![scale.lo, scale.hi];
     if scale.diverging && scale.lo < 0.0 && scale.hi > 0.0 {
         ticks.push(0.0);
@@ -680,15 +741,15 @@ fn annotate(img: &mut Image, lay: &Layout, scale: &Scale, opts: &RenderOptions) 
     for v in ticks {
         let y = bottom - (scale.t(v) * (bottom - top) as f64).round() as i32;
         root.draw(&PathElement::new(vec![(bx + bw, y), (bx + bw + 5, y)], black))
-            .map_err(|e| err(&e))?;
+            .map_err(RenderError::Draw)?;
         root.draw(&Text::new(
             tick(v),
             (bx + bw + 7, y - 6),
             (FAMILY, 12).into_font().color(&black),
         ))
-        .map_err(|e| err(&e))?;
+        .map_err(RenderError::Draw)?;
     }
-    root.present().map_err(|e| err(&e))?;
+    root.present().map_err(RenderError::Draw)?;
     Ok(())
 }
 

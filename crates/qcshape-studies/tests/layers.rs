@@ -1,11 +1,11 @@
-//! The studies' layers, checked as the core's are (`crates/qcshape/tests/layers.rs`, whose
-//! scanner this test includes): every study module may import only study modules below it in
-//! [`ORDER`] (`crate::X` paths in its non-test code). The core is reached only as `qcshape::...`,
-//! through its public API (the compiler refuses anything else), and no module is in both crates:
-//! the core's own layer test requires its ORDER to name exactly its `src/` modules, and
-//! [`no_study_module_is_in_the_core`] checks that none of them is a study.
+//! The studies' layers, checked as the core's are (`crates/qcshape/tests/layers.rs`; both
+//! include the scanner `scripts/test-support/scan.rs`): every study module may import only study
+//! modules below it in [`ORDER`] (`crate::X` paths in its non-test code). The core is reached
+//! only as `qcshape::...`, through its public API (the compiler refuses anything else), and no
+//! module is in both crates: the core's own layer test requires its ORDER to name exactly its
+//! `src/` modules, and [`no_study_module_is_in_the_core`] checks that none of them is a study.
 
-#[path = "../../qcshape/tests/scan/mod.rs"]
+#[path = "../../../scripts/test-support/scan.rs"]
 mod scan;
 
 use std::path::{Path, PathBuf};

@@ -69,22 +69,145 @@ pub enum DatasetError {
         message: String,
     },
     /// A pose whose connectivity differs from the first pose of its deformation.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {}{}", path.display(), difference.describe(first), in_manifest(.manifest))]
     TopologyMismatch {
         /// The offending pose file.
         path: PathBuf,
-        /// What differs (vertex count, face count or the first differing face) and the first
-        /// pose's file.
-        message: String,
+        /// The first pose's file.
+        first: PathBuf,
+        /// What differs.
+        difference: PoseDifference,
+        /// The manifest and its line listing the pose, when loaded from a manifest.
+        manifest: Option<(PathBuf, u64)>,
     },
     /// The folder layout is not one of the accepted ones, or nothing to load.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {problem}", path.display())]
     Layout {
         /// The folder (or file).
         path: PathBuf,
         /// What is wrong.
-        message: String,
+        problem: DatasetLayout,
     },
+}
+
+fn in_manifest(manifest: &Option<(PathBuf, u64)>) -> String {
+    match manifest {
+        Some((path, line)) => format!(" (manifest {} line {line})", path.display()),
+        None => String::new(),
+    }
+}
+
+/// How a pose's connectivity differs from the first pose of its deformation
+/// ([`DatasetError::TopologyMismatch`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PoseDifference {
+    /// Different vertex counts.
+    Vertices {
+        /// The pose's.
+        found: usize,
+        /// The first pose's.
+        expected: usize,
+    },
+    /// Different face counts.
+    Faces {
+        /// The pose's.
+        found: usize,
+        /// The first pose's.
+        expected: usize,
+    },
+    /// The first face (by index) whose corners differ.
+    Face {
+        /// Face index.
+        face: usize,
+        /// Its corners in the pose.
+        found: [u32; 3],
+        /// Its corners in the first pose.
+        expected: [u32; 3],
+    },
+}
+
+impl PoseDifference {
+    /// The difference in words, naming the first pose's file.
+    pub fn describe(&self, first: &Path) -> String {
+        let first = first.display();
+        match self {
+            PoseDifference::Vertices { found, expected } => {
+                format!("has {found} vertices, but the first pose of its deformation ({first}) has {expected}")
+            }
+            PoseDifference::Faces { found, expected } => {
+                format!("has {found} faces, but the first pose of its deformation ({first}) has {expected}")
+            }
+            PoseDifference::Face { face, found, expected } => format!(
+                "face {face} is {found:?}, but in the first pose of its deformation ({first}) it is {expected:?}"
+            ),
+        }
+    }
+}
+
+/// Why the files of a data set do not form one ([`DatasetError::Layout`]).
+#[derive(Debug, Error)]
+pub enum DatasetLayout {
+    /// A command that needs class labels, and deformations without one.
+    #[error("{what} needs a label for every deformation; {} of {total} have none: {}", missing.len(), shown_names(missing))]
+    MissingLabels {
+        /// The command (or step) that needs them.
+        what: String,
+        /// The deformations without a label.
+        missing: Vec<String>,
+        /// All deformations.
+        total: usize,
+    },
+    /// A folder given as one sequence without mesh files.
+    #[error("contains no mesh files ({})", known_extensions())]
+    NoMeshFiles,
+    /// An empty list of files.
+    #[error("no mesh files given")]
+    NoFilesGiven,
+    /// A deformation sub-folder without mesh files beside others with them.
+    #[error("sub-folder {name} holds no mesh files ({}), while {others} other sub-folder(s) do; every sub-folder is a deformation: add its poses or move it out", known_extensions())]
+    EmptySubfolder {
+        /// The sub-folder's name.
+        name: String,
+        /// Sub-folders with mesh files.
+        others: usize,
+    },
+    /// A folder with neither mesh files nor sub-folders of them.
+    #[error(
+        "contains no mesh files ({}) and no sub-folders with mesh files",
+        known_extensions()
+    )]
+    Nothing,
+    /// A folder with mesh files and sub-folders of mesh files.
+    #[error("has both mesh files and sub-folders of mesh files; put each deformation in its own sub-folder (or list its files explicitly)")]
+    Mixed,
+    /// A deformation without poses.
+    #[error("the deformation has no poses")]
+    NoPoses,
+    /// A manifest row whose path is not valid UTF-8 (0-based row).
+    #[error("row {row}: path {} is not valid UTF-8", path.display())]
+    NonUtf8Path {
+        /// The row.
+        row: usize,
+        /// Its path.
+        path: PathBuf,
+    },
+    /// A manifest row with an empty deformation name (0-based row).
+    #[error("row {0}: the deformation name is empty")]
+    EmptyName(usize),
+    /// The manifest cannot be encoded as CSV.
+    #[error("cannot encode the manifest: {0}")]
+    Encode(csv::Error),
+}
+
+/// At most 20 names, quoted, then how many more.
+fn shown_names(names: &[String]) -> String {
+    let shown: Vec<String> = names.iter().take(20).map(|n| format!("{n:?}")).collect();
+    let more = if names.len() > 20 {
+        format!(" and {} more", names.len() - 20)
+    } else {
+        String::new()
+    };
+    format!("{}{more}", shown.join(", "))
 }
 
 /// One deformation: poses (each #V x 3) sharing one topology.
@@ -152,13 +275,21 @@ impl Dataset {
             let files = d.files.clone();
             let d = load_deformation(d.name, d.label, d.files, &mut cache).map_err(|e| match e {
                 // Name the manifest line of the pose file, too.
-                DatasetError::TopologyMismatch { path: file, message } => {
-                    let at = files.iter().position(|f| *f == file).map_or(String::new(), |k| {
-                        format!(" (manifest {} line {})", path.display(), lines[k])
-                    });
+                DatasetError::TopologyMismatch {
+                    path: file,
+                    first,
+                    difference,
+                    ..
+                } => {
+                    let manifest = files
+                        .iter()
+                        .position(|f| *f == file)
+                        .map(|k| (path.to_path_buf(), lines[k]));
                     DatasetError::TopologyMismatch {
                         path: file,
-                        message: format!("{message}{at}"),
+                        first,
+                        difference,
+                        manifest,
                     }
                 }
                 e => e,
@@ -334,20 +465,13 @@ impl Dataset {
             .map(|d| d.name.as_str())
             .collect();
         if !missing.is_empty() {
-            let shown: Vec<String> = missing.iter().take(20).map(|n| format!("{n:?}")).collect();
-            let more = if missing.len() > 20 {
-                format!(" and {} more", missing.len() - 20)
-            } else {
-                String::new()
-            };
             return Err(DatasetError::Layout {
                 path: source.to_path_buf(),
-                message: format!(
-                    "{what} needs a label for every deformation; {} of {} have none: {}{more}",
-                    missing.len(),
-                    self.deformations.len(),
-                    shown.join(", ")
-                ),
+                problem: DatasetLayout::MissingLabels {
+                    what: what.to_string(),
+                    missing: missing.iter().map(|n| n.to_string()).collect(),
+                    total: self.deformations.len(),
+                },
             });
         }
         Ok(self
@@ -403,7 +527,7 @@ pub fn sequence_files(files: &[PathBuf]) -> Result<DeformationFiles, DatasetErro
             if meshes.is_empty() {
                 return Err(DatasetError::Layout {
                     path: dir.clone(),
-                    message: format!("contains no mesh files ({})", known_extensions()),
+                    problem: DatasetLayout::NoMeshFiles,
                 });
             }
             return Ok(DeformationFiles {
@@ -416,7 +540,7 @@ pub fn sequence_files(files: &[PathBuf]) -> Result<DeformationFiles, DatasetErro
     let Some(first) = files.first() else {
         return Err(DatasetError::Layout {
             path: PathBuf::new(),
-            message: "no mesh files given".into(),
+            problem: DatasetLayout::NoFilesGiven,
         });
     };
     let parent = first.parent().unwrap_or(Path::new(""));
@@ -452,30 +576,21 @@ fn folder_files(dir: &Path) -> Result<Vec<DeformationFiles>, DatasetError> {
             groups.push((folder_name(&sub), meshes));
         }
     }
-    let layout = |message: String| DatasetError::Layout {
+    let layout = |problem: DatasetLayout| DatasetError::Layout {
         path: dir.into(),
-        message,
+        problem,
     };
     // Every sub-folder is a deformation: one without poses among others is a mistake (a
     // failed export, a typo), not something to drop silently.
     if let (false, Some(sub)) = (groups.is_empty(), empty.first()) {
-        return Err(layout(format!(
-                "sub-folder {} holds no mesh files ({}), while {} other sub-folder(s) do; every                  sub-folder is a deformation: add its poses or move it out",
-                folder_name(sub),
-                known_extensions(),
-                groups.len()
-            )));
+        return Err(layout(DatasetLayout::EmptySubfolder {
+            name: folder_name(sub),
+            others: groups.len(),
+        }));
     }
     match (groups.is_empty(), files.is_empty()) {
-        (true, true) => Err(layout(format!(
-            "contains no mesh files ({}) and no sub-folders with mesh files",
-            known_extensions()
-        ))),
-        (false, false) => Err(layout(
-            "has both mesh files and sub-folders of mesh files; put each deformation in its own \
-                 sub-folder (or list its files explicitly)"
-                .into(),
-        )),
+        (true, true) => Err(layout(DatasetLayout::Nothing)),
+        (false, false) => Err(layout(DatasetLayout::Mixed)),
         (true, false) => Ok(vec![DeformationFiles {
             name: folder_name(dir),
             label: None,
@@ -614,19 +729,21 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetErro
 /// as given (use paths relative to the manifest's folder) and must be valid UTF-8.
 pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), DatasetError> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let bad = |message: String| DatasetError::Layout {
+    let bad = |problem: DatasetLayout| DatasetError::Layout {
         path: path.into(),
-        message,
+        problem,
     };
-    let write_err = |e: csv::Error| bad(format!("cannot encode the manifest: {e}"));
+    let write_err = |e: csv::Error| bad(DatasetLayout::Encode(e));
     w.write_record(MANIFEST_COLUMNS).map_err(write_err)?;
     for (i, r) in rows.iter().enumerate() {
-        let p = r
-            .path
-            .to_str()
-            .ok_or_else(|| bad(format!("row {i}: path {} is not valid UTF-8", r.path.display())))?;
+        let p = r.path.to_str().ok_or_else(|| {
+            bad(DatasetLayout::NonUtf8Path {
+                row: i,
+                path: r.path.clone(),
+            })
+        })?;
         if r.deformation.is_empty() {
-            return Err(bad(format!("row {i}: the deformation name is empty")));
+            return Err(bad(DatasetLayout::EmptyName(i)));
         }
         let pose = r.pose.to_string();
         w.write_record([&r.deformation, r.label.as_deref().unwrap_or(""), &pose, p])
@@ -634,7 +751,7 @@ pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), DatasetEr
     }
     let bytes = w
         .into_inner()
-        .map_err(|e| bad(format!("cannot encode the manifest: {e}")))?;
+        .map_err(|e| bad(DatasetLayout::Encode(e.into_error().into())))?;
     io::write_atomically(path, |out| out.write_all(&bytes))?;
     Ok(())
 }
@@ -662,30 +779,27 @@ impl TopologyCache {
 }
 
 /// What differs between a pose's connectivity and the first pose's, if anything.
-fn mismatch(topo: &Topology, data: &MeshData, first: &Path) -> Option<String> {
+fn mismatch(topo: &Topology, data: &MeshData) -> Option<PoseDifference> {
     let (n0, n) = (topo.n_vertices(), data.positions.len());
     if n != n0 {
-        return Some(format!(
-            "has {n} vertices, but the first pose of its deformation ({}) has {n0}",
-            first.display()
-        ));
+        return Some(PoseDifference::Vertices {
+            found: n,
+            expected: n0,
+        });
     }
     let (f0, f) = (topo.faces(), data.faces.as_slice());
     if f.len() != f0.len() {
-        return Some(format!(
-            "has {} faces, but the first pose of its deformation ({}) has {}",
-            f.len(),
-            first.display(),
-            f0.len()
-        ));
+        return Some(PoseDifference::Faces {
+            found: f.len(),
+            expected: f0.len(),
+        });
     }
     let i = f.iter().zip(f0).position(|(a, b)| a != b)?;
-    Some(format!(
-        "face {i} is {:?}, but in the first pose of its deformation ({}) it is {:?}",
-        f[i],
-        first.display(),
-        f0[i]
-    ))
+    Some(PoseDifference::Face {
+        face: i,
+        found: f[i],
+        expected: f0[i],
+    })
 }
 
 fn load_deformation(
@@ -702,10 +816,12 @@ fn load_deformation(
         let data = data?;
         let topo = match &topology {
             Some(t) => {
-                if let Some(message) = mismatch(t, &data, &files[0]) {
+                if let Some(difference) = mismatch(t, &data) {
                     return Err(DatasetError::TopologyMismatch {
                         path: file.clone(),
-                        message,
+                        first: files[0].clone(),
+                        difference,
+                        manifest: None,
                     });
                 }
                 t.clone()
@@ -727,7 +843,7 @@ fn load_deformation(
     }
     let topology = topology.ok_or_else(|| DatasetError::Layout {
         path: PathBuf::from(&name),
-        message: "the deformation has no poses".into(),
+        problem: DatasetLayout::NoPoses,
     })?;
     Ok(Deformation {
         name,

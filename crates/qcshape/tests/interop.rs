@@ -112,18 +112,18 @@ fn broken_vtp_and_unstructured_grids_are_typed_errors_with_positions() {
     // Declaring more points than the data holds.
     let bad = text.replacen("NumberOfPoints=\"6\"", "NumberOfPoints=\"7\"", 1);
     let e = io::parse_mesh(bad.as_bytes(), Format::Vtp).unwrap_err();
-    assert!(matches!(e, ParseError::Invalid(_)), "{e}");
+    assert!(matches!(e, ParseError::DataArray { .. }), "{e}");
     // An unterminated tag names its line.
     let e = io::parse_mesh(&good[..good.len() / 3], Format::Vtp).unwrap_err();
     assert!(
-        matches!(e, ParseError::Syntax { .. } | ParseError::Invalid(_)),
+        matches!(e, ParseError::Syntax { .. } | ParseError::Missing { .. }),
         "{e}"
     );
     // Appended raw zlib data cut short.
     let app = std::fs::read(fixture("octa_vtk_appended_zlib.vtp")).unwrap();
     let e = io::parse_mesh(&app[..app.len() - 60], Format::Vtp).unwrap_err();
     assert!(
-        matches!(e, ParseError::Truncated { .. } | ParseError::Invalid(_)),
+        matches!(e, ParseError::Truncated { .. } | ParseError::DataArray { .. }),
         "{e}"
     );
     // Every prefix of every fixture is an error or a mesh, never a panic.

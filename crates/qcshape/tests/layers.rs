@@ -5,14 +5,16 @@
 //! (`crates/qcshape-studies/tests/layers.rs`); [`every_module_is_placed_once`] keeps them out of
 //! this list, since ORDER must name exactly the modules under `src/`.
 //!
-//! The scanner is `tests/scan/mod.rs`. Non-test code is the whole file but comments, literals,
-//! the bodies of `#[cfg(test)] mod NAME { ... }` (found by brace matching) and files that are
-//! test modules (`#[cfg(test)] mod NAME;`, `tests.rs`). Checked by planting
+//! The scanner is `scripts/test-support/scan.rs` (shared with the studies' layer test). Non-test
+//! code is the whole file but comments, literals, the bodies of `#[cfg(test)] mod NAME { ... }`
+//! (found by brace matching) and files that are test modules (`#[cfg(test)] mod NAME;`,
+//! `tests.rs`). Checked by planting
 //! `use crate::space::ShapeSpace;` at the end of numfmt.rs, after its inline test module: this
 //! test fails on it ("numfmt -> space"), the earlier scanner, which stopped at a file's first
 //! `#[cfg(test)]`, passed; [`the_scanner_reads_past_a_test_module`] keeps such a plant in a
 //! string.
 
+#[path = "../../../scripts/test-support/scan.rs"]
 mod scan;
 
 use std::path::{Path, PathBuf};

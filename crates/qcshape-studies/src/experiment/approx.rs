@@ -31,9 +31,20 @@ pub enum ApproxError {
     /// Scoring failed.
     #[error(transparent)]
     Eval(#[from] EvalError),
-    /// The request does not make sense.
-    #[error("{0}")]
-    Invalid(String),
+    /// The two matrices differ in size, or hold fewer than two deformations.
+    #[error("matrices of {exact} and {approx} deformations (need the same size, at least 2)")]
+    MatrixSizes {
+        /// Deformations in the exact matrix.
+        exact: usize,
+        /// Deformations in the approximate one.
+        approx: usize,
+    },
+    /// Fewer than two modes (a reference and one to compare).
+    #[error("give a reference mode and at least one more")]
+    TooFewModes,
+    /// A mode with zero path segments.
+    #[error("mode {}: steps must be at least 1", .0.name())]
+    ZeroSteps(Mode),
 }
 
 /// One way of computing the pose distances.
@@ -98,10 +109,10 @@ pub fn agreement(
 ) -> Result<Agreement, ApproxError> {
     let n = exact.len();
     if approx.len() != n || n < 2 {
-        return Err(ApproxError::Invalid(format!(
-            "matrices of {n} and {} deformations (need the same size, at least 2)",
-            approx.len()
-        )));
+        return Err(ApproxError::MatrixSizes {
+            exact: n,
+            approx: approx.len(),
+        });
     }
     let (mut e, mut a) = (Vec::new(), Vec::new());
     for i in 0..n {
@@ -225,15 +236,10 @@ pub fn compare_modes(
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<ApproxReport, ApproxError> {
     if modes.len() < 2 {
-        return Err(ApproxError::Invalid(
-            "give a reference mode and at least one more".into(),
-        ));
+        return Err(ApproxError::TooFewModes);
     }
     if let Some(m) = modes.iter().find(|m| m.steps == 0) {
-        return Err(ApproxError::Invalid(format!(
-            "mode {}: steps must be at least 1",
-            m.name()
-        )));
+        return Err(ApproxError::ZeroSteps(*m));
     }
     let t0 = Instant::now();
     let prepared: Prepared = prepare(defs, opts, &|_| {})?;

@@ -22,6 +22,7 @@
 mod report;
 
 pub use super::ExperimentError;
+use super::ExperimentInput;
 pub use report::Comparison;
 
 use std::sync::Arc;
@@ -243,22 +244,17 @@ impl InterpolationExperiment {
 
     fn validate(&self) -> Result<(), ExperimentError> {
         if self.metrics.is_empty() {
-            return Err(ExperimentError::Input("no metrics to compare".into()));
+            return Err(ExperimentError::Input(ExperimentInput::Empty("metrics")));
         }
         if self.insert.is_multiple_of(2) {
-            return Err(ExperimentError::Input(format!(
-                "insert must be odd so that a middle pose exists (got {})",
-                self.insert
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::EvenInsert(self.insert)));
         }
         if self.levels == 0 {
-            return Err(ExperimentError::Input("levels must be at least 1".into()));
+            return Err(ExperimentError::Input(ExperimentInput::ZeroLevels));
         }
         let methods = self.methods();
         if methods[..methods.len() - 1].iter().any(|m| m == BASELINE) {
-            return Err(ExperimentError::Input(format!(
-                "a metric is named like the baseline {BASELINE:?}"
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::BaselineName(BASELINE)));
         }
         Ok(())
     }
@@ -284,20 +280,14 @@ impl InterpolationExperiment {
             }
         }
         let Some(first) = used.first() else {
-            return Err(ExperimentError::Input(
-                "no deformation has an odd number (3 or more) of poses".into(),
-            ));
+            return Err(ExperimentError::Input(ExperimentInput::NoOddDeformation));
         };
         let showcase = match &self.showcase {
             Some(name) => used
                 .iter()
                 .find(|d| &d.name == name)
                 .map(|d| d.name.clone())
-                .ok_or_else(|| {
-                    ExperimentError::Input(format!(
-                        "showcase deformation {name:?} is not among the usable ones"
-                    ))
-                })?,
+                .ok_or_else(|| ExperimentError::Input(ExperimentInput::UnknownShowcase(name.clone())))?,
             None => used
                 .iter()
                 .find(|d| d.label.as_deref() == Some("bend"))
@@ -367,26 +357,26 @@ impl InterpolationExperiment {
         self.validate()?;
         let p = seq.n_poses();
         if p < 3 {
-            return Err(ExperimentError::Input(format!(
-                "sequence {:?} has {p} pose(s); leave-one-out needs at least 3",
-                seq.name
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::ShortSequence {
+                name: seq.name.clone(),
+                poses: p,
+            }));
         }
         let frames: Vec<usize> = match frames {
             None => (1..p - 1).collect(),
             Some(f) => {
                 if let Some(bad) = f.iter().find(|&&k| k == 0 || k + 1 >= p) {
-                    return Err(ExperimentError::Input(format!(
-                        "frame {bad} is not an interior frame of {:?} (1 to {})",
-                        seq.name,
-                        p - 2
-                    )));
+                    return Err(ExperimentError::Input(ExperimentInput::NotInterior {
+                        frame: *bad,
+                        name: seq.name.clone(),
+                        last: p - 2,
+                    }));
                 }
                 f.to_vec()
             }
         };
         if frames.is_empty() {
-            return Err(ExperimentError::Input("no frames to predict".into()));
+            return Err(ExperimentError::Input(ExperimentInput::NoFrames));
         }
         let scale = normalization_factor(Normalization::MeanEdgeOfFirst, &seq.topology, &seq.poses[0]);
         let tasks: Vec<Task> = frames

@@ -32,6 +32,80 @@ use qcshape::geodesic::InterpolationError;
 use qcshape::io::IoError;
 use qcshape::transport::TransportError;
 
+/// Bad settings or input of the interpolation or transfer experiment ([`ExperimentError::Input`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ExperimentInput {
+    /// A list of the settings is empty (metrics, transports, deformation kinds, bases).
+    #[error("no {0}")]
+    Empty(&'static str),
+    /// An item is listed twice (a transport, deformation kind or base).
+    #[error("a {0} is listed twice")]
+    Duplicate(&'static str),
+    /// An even number of poses to insert.
+    #[error("insert must be odd so that a middle pose exists (got {0})")]
+    EvenInsert(usize),
+    /// Zero levels.
+    #[error("levels must be at least 1")]
+    ZeroLevels,
+    /// A metric with the baseline's name.
+    #[error("a metric is named like the baseline {0:?}")]
+    BaselineName(&'static str),
+    /// No deformation with an odd number (3 or more) of poses.
+    #[error("no deformation has an odd number (3 or more) of poses")]
+    NoOddDeformation,
+    /// The showcase deformation is not among the usable ones.
+    #[error("showcase deformation {0:?} is not among the usable ones")]
+    UnknownShowcase(String),
+    /// A sequence too short for leave-one-out.
+    #[error("sequence {name:?} has {poses} pose(s); leave-one-out needs at least 3")]
+    ShortSequence {
+        /// The sequence.
+        name: String,
+        /// Its poses.
+        poses: usize,
+    },
+    /// A frame to predict that is not interior.
+    #[error("frame {frame} is not an interior frame of {name:?} (1 to {last})")]
+    NotInterior {
+        /// The frame.
+        frame: usize,
+        /// The sequence.
+        name: String,
+        /// The last interior frame.
+        last: usize,
+    },
+    /// No frames to predict.
+    #[error("no frames to predict")]
+    NoFrames,
+    /// A subdivision level above the largest.
+    #[error("level {level} is above the largest, {max}")]
+    Level {
+        /// The level asked for.
+        level: u32,
+        /// The largest.
+        max: u32,
+    },
+    /// A base on another topology than the source's.
+    #[error("base {name:?} does not have the source's topology: {error}")]
+    BaseTopology {
+        /// The base.
+        name: String,
+        /// How it differs.
+        error: qcshape::mesh::MeshError,
+    },
+    /// The source's mean edge length is zero or not finite.
+    #[error("the source's mean edge length is {0}")]
+    MeanEdge(f64),
+    /// A pose count out of range.
+    #[error("poses must be between 2 and {max}, got {poses}")]
+    Poses {
+        /// The count asked for.
+        poses: usize,
+        /// The largest.
+        max: usize,
+    },
+}
+
 /// Why the interpolation or the transfer experiment cannot run or its report cannot be written
 /// (the other experiments have their own errors: [`classification::ClassificationError`],
 /// [`noise::NoiseError`], ...).
@@ -40,7 +114,7 @@ pub enum ExperimentError {
     /// Bad settings or input (empty lists, too few poses, a level out of range, shapes of
     /// different topologies).
     #[error("invalid experiment: {0}")]
-    Input(String),
+    Input(ExperimentInput),
     /// One interpolation failed.
     #[error("deformation {deformation:?}, pose {pose}, metric {method}: {source}")]
     Interpolation {

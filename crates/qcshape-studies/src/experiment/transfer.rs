@@ -25,6 +25,7 @@
 mod report;
 
 pub use super::ExperimentError;
+use super::ExperimentInput;
 pub use report::{Comparison, Measure, Stat, TransferReport};
 
 use std::collections::HashMap;
@@ -254,10 +255,10 @@ impl TransferExperiment {
     /// a failing transfer.
     pub fn run(&self, progress: &(dyn Fn() + Sync)) -> Result<TransferReport, ExperimentError> {
         if self.level > MAX_LEVEL {
-            return Err(ExperimentError::Input(format!(
-                "level {} is above the largest, {MAX_LEVEL}",
-                self.level
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::Level {
+                level: self.level,
+                max: MAX_LEVEL,
+            }));
         }
         let tpl = template(self.level);
         let source = initial_shape(self.source, &tpl);
@@ -283,15 +284,16 @@ impl TransferExperiment {
         self.validate(bases)?;
         for (name, b) in bases {
             source.check_same_topology(b).map_err(|e| {
-                ExperimentError::Input(format!("base {name:?} does not have the source's topology: {e}"))
+                ExperimentError::Input(ExperimentInput::BaseTopology {
+                    name: name.clone(),
+                    error: e,
+                })
             })?;
         }
         let topo = source.topology.clone();
         let lbar = geometry::mean_edge_length(&topo, &source.positions);
         if !(lbar.is_finite() && lbar > 0.0) {
-            return Err(ExperimentError::Input(format!(
-                "the source's mean edge length is {lbar}"
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::MeanEdge(lbar)));
         }
         let scale = 1.0 / lbar;
         let k_last = self.poses - 1;
@@ -476,35 +478,35 @@ impl TransferExperiment {
     }
 
     fn validate(&self, bases: &[(String, Shape)]) -> Result<(), ExperimentError> {
-        let bad = |m: &str| Err(ExperimentError::Input(m.into()));
+        let bad = |m: ExperimentInput| Err(ExperimentError::Input(m));
         if self.metrics.is_empty() {
-            return bad("no metrics");
+            return bad(ExperimentInput::Empty("metrics"));
         }
         if self.transports.is_empty() {
-            return bad("no transports");
+            return bad(ExperimentInput::Empty("transports"));
         }
         if self.kinds.is_empty() {
-            return bad("no deformation kinds");
+            return bad(ExperimentInput::Empty("deformation kinds"));
         }
         if bases.is_empty() {
-            return bad("no bases");
+            return bad(ExperimentInput::Empty("bases"));
         }
         if !(2..=MAX_POSES).contains(&self.poses) {
-            return Err(ExperimentError::Input(format!(
-                "poses must be between 2 and {MAX_POSES}, got {}",
-                self.poses
-            )));
+            return Err(ExperimentError::Input(ExperimentInput::Poses {
+                poses: self.poses,
+                max: MAX_POSES,
+            }));
         }
         if (1..self.transports.len()).any(|i| self.transports[..i].contains(&self.transports[i])) {
-            return bad("a transport is listed twice");
+            return bad(ExperimentInput::Duplicate("transport"));
         }
         let mut seen = std::collections::HashSet::new();
         if !self.kinds.iter().all(|k| seen.insert(*k)) {
-            return bad("a deformation kind is listed twice");
+            return bad(ExperimentInput::Duplicate("deformation kind"));
         }
         let mut seen = std::collections::HashSet::new();
         if !bases.iter().all(|(n, _)| seen.insert(n.as_str())) {
-            return bad("a base is listed twice");
+            return bad(ExperimentInput::Duplicate("base"));
         }
         Ok(())
     }

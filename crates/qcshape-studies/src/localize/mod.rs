@@ -54,13 +54,83 @@ impl Default for LocalizeOptions {
     }
 }
 
+/// `'a' or 'b'`, `'a', 'b' or 'c'`.
+fn quoted_alternatives(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    match quoted.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => quoted.join(""),
+    }
+}
+
+/// Why a vertex mask file cannot be used ([`LocalizeError::Mask`]).
+#[derive(Debug, Error)]
+pub enum MaskError {
+    /// The file cannot be read.
+    #[error("cannot read: {0}")]
+    Read(std::io::Error),
+    /// The header lacks a column.
+    #[error("no {0:?} column in the header")]
+    NoColumn(&'static str),
+    /// A row without a vertex index.
+    #[error("line {0}: bad vertex index")]
+    BadVertex(usize),
+    /// A vertex index beyond the base mesh.
+    #[error("line {line}: vertex {vertex} beyond the {n_vertices} vertices of the base mesh")]
+    VertexRange {
+        /// Line (1-based).
+        line: usize,
+        /// The vertex.
+        vertex: usize,
+        /// Vertices of the base mesh.
+        n_vertices: usize,
+    },
+    /// A region value other than 0/1 or true/false.
+    #[error("line {0}: region must be 0/1 or true/false")]
+    BadRegion(usize),
+}
+
 /// Why a localization cannot be computed.
 #[derive(Debug, Error)]
 pub enum LocalizeError {
-    /// Fewer than two labels, a label with a single member and no other pair, or mismatched
-    /// inputs.
-    #[error("{0}")]
-    Input(String),
+    /// Not one label per deformation.
+    #[error("{labels} labels for {deformations} deformations")]
+    LabelCount {
+        /// Labels given.
+        labels: usize,
+        /// Deformations.
+        deformations: usize,
+    },
+    /// A significance level outside (0, 1).
+    #[error("alpha must be in (0, 1), got {0}")]
+    Alpha(f64),
+    /// Fewer than two distinct labels.
+    #[error("a contrast needs at least two labels, the data set has {0}")]
+    TooFewLabels(usize),
+    /// Two labels with one deformation each: no within-group pair.
+    #[error("labels {a:?} and {b:?} have one deformation each: there is no within-group pair")]
+    NoWithinPair {
+        /// First label.
+        a: String,
+        /// Second label.
+        b: String,
+    },
+    /// A name that is not one of the accepted ones (motion measure, motion scale).
+    #[error("expected {}, got {name:?}", quoted_alternatives(.expected))]
+    UnknownName {
+        /// The name given.
+        name: String,
+        /// The names accepted.
+        expected: &'static [&'static str],
+    },
+    /// A vertex mask file that cannot be read or is malformed.
+    #[error("{}: {problem}", path.display())]
+    Mask {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong.
+        problem: MaskError,
+    },
     /// A pair's similarity split failed.
     #[error("deformations {i} and {j}: {error}")]
     Pair {
@@ -217,16 +287,13 @@ pub(crate) fn label_pairs<'a>(
     opts: &LocalizeOptions,
 ) -> Result<Vec<LabelPair<'a>>, LocalizeError> {
     if labels.len() != n {
-        return Err(LocalizeError::Input(format!(
-            "{} labels for {n} deformations",
-            labels.len()
-        )));
+        return Err(LocalizeError::LabelCount {
+            labels: labels.len(),
+            deformations: n,
+        });
     }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
-        return Err(LocalizeError::Input(format!(
-            "alpha must be in (0, 1), got {}",
-            opts.alpha
-        )));
+        return Err(LocalizeError::Alpha(opts.alpha));
     }
     let mut names: Vec<&String> = Vec::new();
     for l in labels {
@@ -235,10 +302,7 @@ pub(crate) fn label_pairs<'a>(
         }
     }
     if names.len() < 2 {
-        return Err(LocalizeError::Input(format!(
-            "a contrast needs at least two labels, the data set has {}",
-            names.len()
-        )));
+        return Err(LocalizeError::TooFewLabels(names.len()));
     }
     let mut out = Vec::new();
     for x in 0..names.len() {
@@ -270,9 +334,10 @@ pub fn contrasts(
         let (a, b) = (lp.a, lp.b);
         let na = lp.in_a.iter().filter(|&&t| t).count();
         if na < 2 && lp.members.len() - na < 2 {
-            return Err(LocalizeError::Input(format!(
-                "labels {a:?} and {b:?} have one deformation each: there is no within-group pair"
-            )));
+            return Err(LocalizeError::NoWithinPair {
+                a: a.to_string(),
+                b: b.to_string(),
+            });
         }
         let (between, within) = means(maps, &lp.members, &lp.in_a);
         let score: Vec<f64> = between.iter().zip(&within).map(|(b, w)| b - w).collect();
@@ -411,19 +476,22 @@ pub fn region_share(
 /// `vertex` column and a `region` column (`1`/`true` inside, `0`/`false` outside; e.g. the LV
 /// phantom's `abnormal_region.csv`). Vertices not listed are outside.
 pub fn read_vertex_mask(path: &std::path::Path, n_vertices: usize) -> Result<Vec<bool>, LocalizeError> {
-    let bad = |m: String| LocalizeError::Input(format!("{}: {m}", path.display()));
+    let bad = |problem: MaskError| LocalizeError::Mask {
+        path: path.to_path_buf(),
+        problem,
+    };
     let text = qcshape::limits::read_regular_text(path, qcshape::limits::MAX_TABLE_FILE_BYTES)
-        .map_err(|e| bad(format!("cannot read: {e}")))?;
+        .map_err(|e| bad(MaskError::Read(e)))?;
     let mut lines = text.lines().enumerate();
     let header: Vec<String> = lines
         .next()
         .map(|(_, h)| h.split(',').map(|c| c.trim().to_ascii_lowercase()).collect())
         .unwrap_or_default();
-    let col = |name: &str| {
+    let col = |name: &'static str| {
         header
             .iter()
             .position(|c| c == name)
-            .ok_or_else(|| bad(format!("no {name:?} column in the header")))
+            .ok_or_else(|| bad(MaskError::NoColumn(name)))
     };
     let (cv, cr) = (col("vertex")?, col("region")?);
     let mut mask = vec![false; n_vertices];
@@ -432,17 +500,18 @@ pub fn read_vertex_mask(path: &std::path::Path, n_vertices: usize) -> Result<Vec
         let v: usize = f
             .get(cv)
             .and_then(|s| s.parse().ok())
-            .ok_or_else(|| bad(format!("line {}: bad vertex index", k + 1)))?;
+            .ok_or_else(|| bad(MaskError::BadVertex(k + 1)))?;
         if v >= n_vertices {
-            return Err(bad(format!(
-                "line {}: vertex {v} beyond the {n_vertices} vertices of the base mesh",
-                k + 1
-            )));
+            return Err(bad(MaskError::VertexRange {
+                line: k + 1,
+                vertex: v,
+                n_vertices,
+            }));
         }
         mask[v] = match f.get(cr).map(|s| s.to_ascii_lowercase()).as_deref() {
             Some("1" | "true") => true,
             Some("0" | "false") => false,
-            _ => return Err(bad(format!("line {}: region must be 0/1 or true/false", k + 1))),
+            _ => return Err(bad(MaskError::BadRegion(k + 1))),
         };
     }
     Ok(mask)

@@ -48,9 +48,10 @@ impl<'m> MotionMeasure<'m> {
         match name {
             "normal" => Ok(MotionMeasure::Normal),
             "metric" => Ok(MotionMeasure::Metric(metric)),
-            other => Err(LocalizeError::Input(format!(
-                "expected 'normal' or 'metric', got {other:?}"
-            ))),
+            other => Err(LocalizeError::UnknownName {
+                name: other.to_string(),
+                expected: &Self::NAMES,
+            }),
         }
     }
 }
@@ -89,9 +90,10 @@ impl std::str::FromStr for MotionScale {
         match name {
             "absolute" => Ok(MotionScale::Absolute),
             "share" => Ok(MotionScale::Share),
-            other => Err(LocalizeError::Input(format!(
-                "expected 'absolute' or 'share', got {other:?}"
-            ))),
+            other => Err(LocalizeError::UnknownName {
+                name: other.to_string(),
+                expected: &Self::NAMES,
+            }),
         }
     }
 }
@@ -256,7 +258,7 @@ mod tests {
         );
         assert!(matches!(
             "relative".parse::<MotionScale>(),
-            Err(LocalizeError::Input(_))
+            Err(LocalizeError::UnknownName { .. })
         ));
     }
 

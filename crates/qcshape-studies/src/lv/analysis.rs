@@ -24,9 +24,27 @@ pub use qcshape::mesh::Pose;
 /// Why an analysis step cannot be done.
 #[derive(Debug, Error)]
 pub enum LvAnalysisError {
-    /// The input does not fit (too few frames or vertices, mismatched lengths, non-finite values).
-    #[error("{0}")]
-    Input(String),
+    /// Apex and base centre coincide (or are not finite): no long axis.
+    #[error("apex and base coincide: no long axis")]
+    NoAxis,
+    /// Too few (or non-finite) points to fit an axis.
+    #[error("an axis needs at least 4 finite points, got {0}")]
+    AxisPoints(usize),
+    /// Fewer than two frames.
+    #[error("radial features need at least two frames, got {0}")]
+    TooFewFrames(usize),
+    /// Frames with different (or zero) vertex counts.
+    #[error("every frame needs the same, non-zero number of vertices")]
+    VertexCounts,
+    /// A frame interval that is not positive and finite.
+    #[error("frame interval {0} is not positive")]
+    FrameInterval(f64),
+    /// A vertex position that is not finite.
+    #[error("a vertex position is not finite")]
+    NonFinite,
+    /// A subject surface without triangles.
+    #[error("the subject's surface has no triangles")]
+    EmptySurface,
     /// The landmark spline between two subjects cannot be fitted.
     #[error("landmark spline between subjects: {0}")]
     Tps(#[from] TpsError),
@@ -80,9 +98,7 @@ impl Axis {
         let d = geometry::sub(base, apex);
         let n = geometry::norm(d);
         if !(n > 1e-12 && n.is_finite()) {
-            return Err(LvAnalysisError::Input(
-                "apex and base coincide: no long axis".into(),
-            ));
+            return Err(LvAnalysisError::NoAxis);
         }
         Ok(Axis {
             point: apex,
@@ -96,10 +112,7 @@ impl Axis {
     /// such as the free wall alone gives the cavity's axis rather than the arc's centroid.
     pub fn fit(points: &[[f64; 3]]) -> Result<Axis, LvAnalysisError> {
         if points.len() < 4 || points.iter().flatten().any(|c| !c.is_finite()) {
-            return Err(LvAnalysisError::Input(format!(
-                "an axis needs at least 4 finite points, got {}",
-                points.len()
-            )));
+            return Err(LvAnalysisError::AxisPoints(points.len()));
         }
         let n = points.len() as f64;
         let c = points
@@ -238,27 +251,21 @@ pub fn radial_features(
 ) -> Result<RadialFeatures, LvAnalysisError> {
     let f = poses.len();
     if f < 2 {
-        return Err(LvAnalysisError::Input(format!(
-            "radial features need at least two frames, got {f}"
-        )));
+        return Err(LvAnalysisError::TooFewFrames(f));
     }
     let nv = poses[0].len();
     if nv == 0 || poses.iter().any(|p| p.len() != nv) {
-        return Err(LvAnalysisError::Input(
-            "every frame needs the same, non-zero number of vertices".into(),
-        ));
+        return Err(LvAnalysisError::VertexCounts);
     }
     if !(dt > 0.0 && dt.is_finite()) {
-        return Err(LvAnalysisError::Input(format!(
-            "frame interval {dt} is not positive"
-        )));
+        return Err(LvAnalysisError::FrameInterval(dt));
     }
     let r: Vec<Vec<f64>> = poses
         .iter()
         .map(|p| p.iter().map(|&x| axis.radius(x)).collect())
         .collect();
     if r.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(LvAnalysisError::Input("a vertex position is not finite".into()));
+        return Err(LvAnalysisError::NonFinite);
     }
     let mean_radius: Vec<f64> = r.iter().map(|v| v.iter().sum::<f64>() / nv as f64).collect();
     let arg = |better: fn(f64, f64) -> bool| {
@@ -314,9 +321,7 @@ pub fn carry_template(
         return Ok((warped, false));
     };
     if faces.is_empty() {
-        return Err(LvAnalysisError::Input(
-            "the subject's surface has no triangles".into(),
-        ));
+        return Err(LvAnalysisError::EmptySurface);
     }
     let snapped: Pose = warped
         .par_iter()

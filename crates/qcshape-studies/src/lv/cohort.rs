@@ -43,12 +43,12 @@ pub enum LvError {
     #[error(transparent)]
     Io(#[from] IoError),
     /// A folder or file of the layout is missing or unreadable, or malformed.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {problem}", path.display())]
     Layout {
         /// The file or folder.
         path: PathBuf,
         /// What is wrong.
-        message: String,
+        problem: LayoutProblem,
     },
     /// The spline for one frame cannot be fitted.
     #[error("{}: frame {frame}: {error}", path.display())]
@@ -80,18 +80,120 @@ pub enum LvError {
 
 impl TableErrors for LvError {
     fn unreadable(path: &Path, error: std::io::Error) -> Self {
-        layout(path, format!("cannot read: {error}"))
+        layout(path, LayoutProblem::Read(error))
     }
     fn at_line(path: &Path, line: u64, message: String) -> Self {
-        layout(path, format!("line {line}: {message}"))
+        layout(path, LayoutProblem::Row { line, message })
     }
 }
 
-fn layout(path: &Path, message: impl Into<String>) -> LvError {
+fn layout(path: &Path, problem: LayoutProblem) -> LvError {
     LvError::Layout {
         path: path.into(),
-        message: message.into(),
+        problem,
     }
+}
+
+/// What is wrong with a file or folder of a cohort ([`LvError::Layout`]).
+#[derive(Debug, Error)]
+pub enum LayoutProblem {
+    /// The file or folder cannot be read.
+    #[error("cannot read: {0}")]
+    Read(std::io::Error),
+    /// The folder cannot be created.
+    #[error("cannot create: {0}")]
+    Create(std::io::Error),
+    /// A malformed row of a CSV file (the CSV reader's diagnostic, on a 1-based line).
+    #[error("line {line}: {message}")]
+    Row {
+        /// Line number.
+        line: u64,
+        /// The diagnostic.
+        message: String,
+    },
+    /// A CSV header without the expected columns.
+    #[error("the header must be {0}")]
+    Header(&'static str),
+    /// A subject name that is empty, holds a path separator or starts with a dot.
+    #[error("line {line}: bad subject name {name:?}")]
+    SubjectName {
+        /// Line number.
+        line: u64,
+        /// The name.
+        name: String,
+    },
+    /// A subject listed twice.
+    #[error("line {line}: subject {name:?} is listed twice")]
+    DuplicateSubject {
+        /// Line number.
+        line: u64,
+        /// The name.
+        name: String,
+    },
+    /// A labels file listing no subject.
+    #[error("lists no subject")]
+    NoSubjects,
+    /// A listed subject without a folder.
+    #[error("subject {name:?}: folder {} does not exist", folder.display())]
+    NoSubjectFolder {
+        /// The subject.
+        name: String,
+        /// Its folder.
+        folder: PathBuf,
+    },
+    /// A folder that is not a cohort (no labels file, no subject folder).
+    #[error("no {LABELS_NAME} and no sub-folder with a {LANDMARKS_NAME}")]
+    NotACohort,
+    /// A subject folder without images.
+    #[error("holds no .nii or .nii.gz image")]
+    NoImages,
+    /// A file of several frames among one-file-per-frame images.
+    #[error("holds {0} frames, but the folder has one file per frame")]
+    SeveralFrames(usize),
+    /// A frame whose dimensions or affine differ from the first frame's.
+    #[error("dims {dims:?} or affine differ from the first frame {first:?}")]
+    FrameMismatch {
+        /// Its dimensions.
+        dims: [usize; 3],
+        /// The first frame's.
+        first: [usize; 3],
+    },
+    /// Fewer landmarks per frame than asked for.
+    #[error("has {found} landmarks per frame, fewer than the {asked} asked for")]
+    TooFewLandmarks {
+        /// Landmarks per frame.
+        found: usize,
+        /// Landmarks asked for.
+        asked: usize,
+    },
+    /// A registration cannot be encoded as JSON.
+    #[error("cannot encode: {0}")]
+    Encode(serde_json::Error),
+    /// A registration file that is not valid JSON of a registration.
+    #[error("bad JSON: {0}")]
+    Json(serde_json::Error),
+    /// A registration without maps, or with centres and weights of different lengths.
+    #[error("no maps, or centres and weights of different lengths")]
+    Registration,
+    /// A row of `abnormal.csv` whose field is not a finite number (1-based line and field).
+    #[error("line {line}: field {field} is not a number")]
+    Field {
+        /// Line number.
+        line: usize,
+        /// Field number.
+        field: usize,
+    },
+    /// A row of `abnormal.csv` without six fields.
+    #[error("line {line}: {found} fields, expected 6")]
+    FieldCount {
+        /// Line number.
+        line: usize,
+        /// Fields found.
+        found: usize,
+    },
+    /// A landmark missing in frame 0 of the template subject.
+    #[error("landmark {0} is missing in frame 0")]
+    MissingLandmark(u32),
 }
 
 /// A subject of a cohort folder.
@@ -109,26 +211,23 @@ pub struct SubjectDir {
 pub fn read_labels(path: &Path) -> Result<Vec<(String, Option<String>)>, LvError> {
     let mut table = Table::<LvError>::read(path, false)?;
     let (Some(cs), Some(cl)) = (table.column("subject"), table.column("label")) else {
-        return Err(layout(path, "the header must be subject,label"));
+        return Err(layout(path, LayoutProblem::Header("subject,label")));
     };
     let mut out: Vec<(String, Option<String>)> = Vec::new();
     for rec in table.rows() {
         let (line, rec) = rec?;
         let name = rec.get(cs).unwrap_or("").to_string();
         if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
-            return Err(layout(path, format!("line {line}: bad subject name {name:?}")));
+            return Err(layout(path, LayoutProblem::SubjectName { line, name }));
         }
         if out.iter().any(|(n, _)| *n == name) {
-            return Err(layout(
-                path,
-                format!("line {line}: subject {name:?} is listed twice"),
-            ));
+            return Err(layout(path, LayoutProblem::DuplicateSubject { line, name }));
         }
         let label = Some(rec.get(cl).unwrap_or("").to_string()).filter(|l| !l.is_empty());
         out.push((name, label));
     }
     if out.is_empty() {
-        return Err(layout(path, "lists no subject"));
+        return Err(layout(path, LayoutProblem::NoSubjects));
     }
     Ok(out)
 }
@@ -154,14 +253,14 @@ pub fn subjects(dir: &Path) -> Result<Vec<SubjectDir>, LvError> {
                 if !path.is_dir() {
                     return Err(layout(
                         &labels,
-                        format!("subject {name:?}: folder {} does not exist", path.display()),
+                        LayoutProblem::NoSubjectFolder { name, folder: path },
                     ));
                 }
                 Ok(SubjectDir { name, path, label })
             })
             .collect();
     }
-    let entries = std::fs::read_dir(dir).map_err(|e| layout(dir, format!("cannot read: {e}")))?;
+    let entries = std::fs::read_dir(dir).map_err(|e| layout(dir, LayoutProblem::Read(e)))?;
     let mut names: Vec<String> = entries
         .filter_map(|e| e.ok())
         .filter(|e| e.path().join(LANDMARKS_NAME).is_file())
@@ -170,10 +269,7 @@ pub fn subjects(dir: &Path) -> Result<Vec<SubjectDir>, LvError> {
         .collect();
     names.sort_by(|a, b| natural_cmp(a, b));
     if names.is_empty() {
-        return Err(layout(
-            dir,
-            format!("no {LABELS_NAME} and no sub-folder with a {LANDMARKS_NAME}"),
-        ));
+        return Err(layout(dir, LayoutProblem::NotACohort));
     }
     Ok(names
         .into_iter()
@@ -187,7 +283,7 @@ pub fn subjects(dir: &Path) -> Result<Vec<SubjectDir>, LvError> {
 
 /// The NIfTI files of a subject folder in natural name order.
 pub fn image_files(subject: &Path) -> Result<Vec<PathBuf>, LvError> {
-    let entries = std::fs::read_dir(subject).map_err(|e| layout(subject, format!("cannot read: {e}")))?;
+    let entries = std::fs::read_dir(subject).map_err(|e| layout(subject, LayoutProblem::Read(e)))?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok())
         .map(|e| e.path())
@@ -202,7 +298,7 @@ pub fn image_files(subject: &Path) -> Result<Vec<PathBuf>, LvError> {
         .collect();
     files.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
     if files.is_empty() {
-        return Err(layout(subject, "holds no .nii or .nii.gz image"));
+        return Err(layout(subject, LayoutProblem::NoImages));
     }
     Ok(files)
 }
@@ -217,20 +313,17 @@ pub fn read_frames(subject: &Path) -> Result<Vec<Volume>, LvError> {
     for f in &files {
         let mut s = read_series(f)?;
         if s.len() != 1 {
-            return Err(layout(
-                f,
-                format!("holds {} frames, but the folder has one file per frame", s.len()),
-            ));
+            return Err(layout(f, LayoutProblem::SeveralFrames(s.len())));
         }
         let v = s.remove(0);
         if let Some(v0) = frames.first().map(|v0: &Volume| (v0.dims, v0.affine)) {
             if v0 != (v.dims, v.affine) {
                 return Err(layout(
                     f,
-                    format!(
-                        "dims {:?} or affine differ from the first frame {:?}",
-                        v.dims, v0.0
-                    ),
+                    LayoutProblem::FrameMismatch {
+                        dims: v.dims,
+                        first: v0.0,
+                    },
                 ));
             }
         }
@@ -250,7 +343,7 @@ pub fn read_frame0(subject: &Path) -> Result<(Volume, PathBuf), LvError> {
 /// `landmarks.csv` into `dir/<name>/`.
 pub fn write_subject(dir: &Path, s: &PhantomSubject, four_d: bool) -> Result<PathBuf, LvError> {
     let sub = dir.join(&s.name);
-    std::fs::create_dir_all(&sub).map_err(|e| layout(&sub, format!("cannot create: {e}")))?;
+    std::fs::create_dir_all(&sub).map_err(|e| layout(&sub, LayoutProblem::Create(e)))?;
     if four_d {
         write_series(&sub.join("image.nii.gz"), &s.frames)?;
     } else {
@@ -285,10 +378,10 @@ impl Registration {
         let sub = lm.first(n).ok_or_else(|| {
             layout(
                 path,
-                format!(
-                    "has {} landmarks per frame, fewer than the {n} asked for",
-                    lm.ids.len()
-                ),
+                LayoutProblem::TooFewLandmarks {
+                    found: lm.ids.len(),
+                    asked: n,
+                },
             )
         })?;
         let maps = sub
@@ -329,8 +422,7 @@ impl Registration {
 
     /// Writes the registration as JSON, atomically.
     pub fn write(&self, path: &Path) -> Result<(), LvError> {
-        let text =
-            serde_json::to_string_pretty(self).map_err(|e| layout(path, format!("cannot encode: {e}")))?;
+        let text = serde_json::to_string_pretty(self).map_err(|e| layout(path, LayoutProblem::Encode(e)))?;
         write_atomically(path, |w| w.write_all(text.as_bytes()))?;
         Ok(())
     }
@@ -338,14 +430,11 @@ impl Registration {
     /// Reads a registration written by [`Registration::write`].
     pub fn read(path: &Path) -> Result<Registration, LvError> {
         let text = qcshape::limits::read_regular_text(path, qcshape::limits::MAX_TABLE_FILE_BYTES)
-            .map_err(|e| layout(path, format!("cannot read: {e}")))?;
+            .map_err(|e| layout(path, LayoutProblem::Read(e)))?;
         let r: Registration =
-            serde_json::from_str(&text).map_err(|e| layout(path, format!("bad JSON: {e}")))?;
+            serde_json::from_str(&text).map_err(|e| layout(path, LayoutProblem::Json(e)))?;
         if r.maps.is_empty() || r.maps.iter().any(|m| m.centres.len() != m.weights.len()) {
-            return Err(layout(
-                path,
-                "no maps, or centres and weights of different lengths",
-            ));
+            return Err(layout(path, LayoutProblem::Registration));
         }
         Ok(r)
     }

@@ -80,21 +80,17 @@ pub fn is_cohort(dir: &Path) -> bool {
 }
 
 fn landmark(lm: &Landmarks, id: u32, path: &Path) -> Result<[f64; 3], StudyError> {
-    lm.get(0, id).ok_or_else(|| {
-        StudyError::Input(format!(
-            "{}: landmark {id} is missing in frame 0 (needed for the long axis)",
-            path.display()
-        ))
+    lm.get(0, id).ok_or_else(|| StudyError::MissingLandmark {
+        path: path.to_path_buf(),
+        id,
     })
 }
 
 fn subset(lm: &Landmarks, n: usize, path: &Path) -> Result<Landmarks, StudyError> {
-    lm.first(n).ok_or_else(|| {
-        StudyError::Input(format!(
-            "{}: has {} landmarks per frame, fewer than the {n} asked for",
-            path.display(),
-            lm.ids.len()
-        ))
+    lm.first(n).ok_or_else(|| StudyError::TooFewLandmarks {
+        path: path.to_path_buf(),
+        found: lm.ids.len(),
+        asked: n,
     })
 }
 
@@ -108,10 +104,7 @@ pub fn mesh_cohort(
 ) -> Result<MeshedCohort, StudyError> {
     let subs = subjects(dir)?;
     if subs.len() < 2 {
-        return Err(StudyError::Input(format!(
-            "{}: a cohort needs at least two subjects",
-            dir.display()
-        )));
+        return Err(StudyError::TooFewSubjects(dir.to_path_buf()));
     }
     let surface_opts = |target: Option<usize>, relax: usize| SurfaceOptions {
         threshold: s.threshold,
@@ -170,13 +163,12 @@ pub fn mesh_cohort(
         let reg = Registration::fit(&lm, n, s.tps_lambda, &lm_path)?;
         let first = subset(&lm, n, &lm_path)?;
         if first.ids != lm0.ids {
-            return Err(StudyError::Input(format!(
-                "{}: landmark ids {:?} differ from those of {} ({:?}): subjects cannot be matched",
-                lm_path.display(),
-                first.ids,
-                subs[0].name,
-                lm0.ids
-            )));
+            return Err(StudyError::LandmarkIds {
+                path: lm_path,
+                ids: first.ids,
+                first: subs[0].name.clone(),
+                first_ids: lm0.ids.clone(),
+            });
         }
         let (frame0, threshold) = if i == 0 {
             (template.shape.positions.clone(), template.threshold)
@@ -257,12 +249,11 @@ fn refine_frames(
 ) -> Result<(usize, f64), StudyError> {
     let images = read_frames(subject)?;
     if images.len() != poses.len() {
-        return Err(StudyError::Input(format!(
-            "{}: {} image frames but {} landmark frames",
-            subject.display(),
-            images.len(),
-            poses.len()
-        )));
+        return Err(StudyError::FrameCounts {
+            path: subject.to_path_buf(),
+            images: images.len(),
+            landmarks: poses.len(),
+        });
     }
     let opts = RefineOptions::within(reach);
     let (mut n, mut sum_sq) = (0, 0.0);
@@ -365,12 +356,11 @@ pub fn mesh_subject(s: &SubjectDir, o: &SubjectMeshOptions) -> Result<MeshedSubj
     let (reg, saved_maps) = registration_for(s, o.landmarks, o.lambda)?;
     let (lm, lm_path) = read_subject_landmarks(&s.path)?;
     if lm.n_frames() != reg.maps.len() {
-        return Err(StudyError::Input(format!(
-            "{}: {} frames of landmarks but {} registration maps",
-            lm_path.display(),
-            lm.n_frames(),
-            reg.maps.len()
-        )));
+        return Err(StudyError::RegistrationCount {
+            path: lm_path,
+            frames: lm.n_frames(),
+            maps: reg.maps.len(),
+        });
     }
     let mut poses = reg.carry(&surface.shape.positions);
     let mut refined = 0;

@@ -210,10 +210,7 @@ pub fn study_cycle(
     progress: Progress<'_>,
 ) -> Result<CycleStudy, StudyError> {
     if def.poses.len() < 2 {
-        return Err(StudyError::Input(format!(
-            "a cycle needs at least two frames, got {}",
-            def.poses.len()
-        )));
+        return Err(StudyError::ShortCycle(def.poses.len()));
     }
     let frames = def.poses.len();
     let raw_vertices = def.topology.n_vertices();

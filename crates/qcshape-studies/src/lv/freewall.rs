@@ -20,12 +20,24 @@ const NO_FACE: u32 = u32::MAX;
 /// Why no free-wall submesh can be made.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum FreeWallError {
-    /// Apex and base centre coincide, or the septum landmark lies on the axis.
-    #[error("cannot define the long axis: {0}")]
-    Axis(String),
+    /// Apex and base centre coincide (or are not finite).
+    #[error("cannot define the long axis: apex and base centre coincide")]
+    ApexAtBase,
+    /// The septum landmark lies on the long axis.
+    #[error("cannot define the long axis: the septum landmark lies on the long axis")]
+    SeptumOnAxis,
     /// A sector or band option is out of range.
-    #[error("bad free-wall option: {0}")]
-    Options(String),
+    #[error("bad free-wall option: width {width} must be in (0, 360], centre {centre} finite, heights {lo} < {hi}")]
+    Options {
+        /// Sector width (degrees).
+        width: f64,
+        /// Sector centre (degrees).
+        centre: f64,
+        /// Lowest normalized height.
+        lo: f64,
+        /// Highest normalized height.
+        hi: f64,
+    },
     /// No face lies in the sector.
     #[error(
         "no face lies in the free-wall sector (centre {centre} deg, width {width} deg, heights {lo}..{hi})"
@@ -40,9 +52,16 @@ pub enum FreeWallError {
         /// Highest normalized height.
         hi: f64,
     },
-    /// The submesh is not a valid mesh or not a disk.
-    #[error("the free-wall submesh is not a disk: {0}")]
-    NotDisk(String),
+    /// The submesh is not a disk (one component, one boundary loop, Euler characteristic 1).
+    #[error("the free-wall submesh is not a disk: {components} component(s), {loops} boundary loop(s), Euler characteristic {euler}")]
+    NotDisk {
+        /// Connected components.
+        components: usize,
+        /// Boundary loops.
+        loops: usize,
+        /// Euler characteristic.
+        euler: i64,
+    },
     /// The submesh's faces do not form a valid topology.
     #[error(transparent)]
     Mesh(#[from] MeshError),
@@ -67,16 +86,14 @@ impl LvAxis {
         let d = geometry::sub(base_centre, apex);
         let length = geometry::norm(d);
         if length.partial_cmp(&1e-9) != Some(std::cmp::Ordering::Greater) || !length.is_finite() {
-            return Err(FreeWallError::Axis("apex and base centre coincide".into()));
+            return Err(FreeWallError::ApexAtBase);
         }
         let axis = geometry::scale(d, 1.0 / length);
         let s = geometry::sub(septum, apex);
         let r = geometry::sub(s, geometry::scale(axis, geometry::dot(s, axis)));
         let rn = geometry::norm(r);
         if rn.partial_cmp(&(1e-9 * length)) != Some(std::cmp::Ordering::Greater) {
-            return Err(FreeWallError::Axis(
-                "the septum landmark lies on the long axis".into(),
-            ));
+            return Err(FreeWallError::SeptumOnAxis);
         }
         Ok(LvAxis {
             apex,
@@ -266,10 +283,12 @@ pub fn free_wall(
     let (lo, hi) = opts.heights;
     let valid = opts.width_deg > 0.0 && opts.width_deg <= 360.0 && opts.centre_deg.is_finite() && lo < hi;
     if !valid {
-        return Err(FreeWallError::Options(format!(
-            "width {} must be in (0, 360], centre {} finite, heights {lo} < {hi}",
-            opts.width_deg, opts.centre_deg
-        )));
+        return Err(FreeWallError::Options {
+            width: opts.width_deg,
+            centre: opts.centre_deg,
+            lo,
+            hi,
+        });
     }
     let mut sel: Vec<bool> = topo
         .faces()
@@ -312,11 +331,11 @@ pub fn free_wall(
     let sub = Topology::new(vertices.len(), sub_faces)?;
     let loops = sub.boundary_loops().len();
     if sub.n_components() != 1 || loops != 1 || sub.euler_characteristic() != 1 {
-        return Err(FreeWallError::NotDisk(format!(
-            "{} component(s), {loops} boundary loop(s), Euler characteristic {}",
-            sub.n_components(),
-            sub.euler_characteristic()
-        )));
+        return Err(FreeWallError::NotDisk {
+            components: sub.n_components(),
+            loops,
+            euler: sub.euler_characteristic(),
+        });
     }
     Ok(Submesh {
         topology: sub,

@@ -43,16 +43,40 @@ pub enum LandmarkError {
         message: String,
     },
     /// The rows do not form a complete frames x landmarks table.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {gap}", path.display())]
     Incomplete {
         /// The file.
         path: PathBuf,
-        /// Which frame or landmark is missing or repeated.
-        message: String,
+        /// Which frame or landmark is missing.
+        gap: LandmarkGap,
     },
     /// The landmarks cannot be written.
     #[error(transparent)]
     Write(#[from] qcshape::io::IoError),
+}
+
+/// What a landmark table lacks ([`LandmarkError::Incomplete`]).
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum LandmarkGap {
+    /// No row at all.
+    #[error("no landmark rows")]
+    NoRows,
+    /// A frame number below the largest with no row.
+    #[error("frame {frame} has no landmarks (frames must be numbered 0 .. {last})")]
+    EmptyFrame {
+        /// The frame.
+        frame: usize,
+        /// The largest frame number.
+        last: usize,
+    },
+    /// A frame lacking landmarks that other frames have.
+    #[error("frame {frame} is missing landmark(s) {missing:?} that other frames have")]
+    MissingLandmarks {
+        /// The frame.
+        frame: usize,
+        /// The missing ids.
+        missing: Vec<u32>,
+    },
 }
 
 /// Landmark positions: `frames[t][k]` is landmark `ids[k]` in frame `t` (#frames x #ids x 3,
@@ -148,9 +172,9 @@ impl TableErrors for LandmarkError {
 /// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
 pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
     let row_err = |line: u64, message: String| LandmarkError::at_line(path, line, message);
-    let incomplete = |message: String| LandmarkError::Incomplete {
+    let incomplete = |gap: LandmarkGap| LandmarkError::Incomplete {
         path: path.into(),
-        message,
+        gap,
     };
     let mut table = Table::<LandmarkError>::read(path, false)?;
     const COLS: [&str; 5] = ["frame", "landmark", "x", "y", "z"];
@@ -191,7 +215,7 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
         rows.push((frame, id, p, line));
     }
     if rows.is_empty() {
-        return Err(incomplete("no landmark rows".into()));
+        return Err(incomplete(LandmarkGap::NoRows));
     }
     let mut ids: Vec<u32> = rows.iter().map(|r| r.1).collect();
     ids.sort_unstable();
@@ -218,15 +242,13 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
             .map(|(_, &id)| id)
             .collect();
         if missing.len() == ids.len() {
-            return Err(incomplete(format!(
-                "frame {t} has no landmarks (frames must be numbered 0 .. {})",
-                n_frames - 1
-            )));
+            return Err(incomplete(LandmarkGap::EmptyFrame {
+                frame: t,
+                last: n_frames - 1,
+            }));
         }
         if !missing.is_empty() {
-            return Err(incomplete(format!(
-                "frame {t} is missing landmark(s) {missing:?} that other frames have"
-            )));
+            return Err(incomplete(LandmarkGap::MissingLandmarks { frame: t, missing }));
         }
         frames.push(row.into_iter().map(|v| v.map_or([0.0; 3], |x| x.0)).collect());
     }

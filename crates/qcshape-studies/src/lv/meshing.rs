@@ -86,10 +86,11 @@ pub fn check_closed(mesh: &TriMesh, chi: Option<i64>) -> Result<Arc<Topology>, S
     let (loops, comps) = (topo.boundary_loops().len(), topo.n_components());
     let chi_ok = chi.is_none_or(|c| c == topo.euler_characteristic());
     if loops != 0 || comps != 1 || !chi_ok || !topo.isolated_vertices().is_empty() {
-        return Err(SurfaceError::Topology(format!(
-            "{comps} component(s), {loops} boundary loop(s), Euler characteristic {}",
-            topo.euler_characteristic()
-        )));
+        return Err(SurfaceError::Topology {
+            components: comps,
+            loops,
+            euler: topo.euler_characteristic(),
+        });
     }
     Shape::new_checked(topo.clone(), mesh.positions.clone(), DEGENERATE_REL_TOL)?;
     Ok(topo)
@@ -156,7 +157,7 @@ pub fn extract_surface(vol: &Volume, opts: &SurfaceOptions) -> Result<Surface, S
     tangential_relax(&topo, &mut mesh.positions, opts.relax_iterations);
     let topo = check_closed(&mesh, Some(chi))?;
     if mesh.signed_volume() <= 0.0 {
-        return Err(SurfaceError::Topology("the surface encloses no volume".into()));
+        return Err(SurfaceError::NoVolume);
     }
     Ok(Surface {
         shape: Shape::new(topo, mesh.positions)?,

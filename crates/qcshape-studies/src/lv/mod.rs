@@ -38,7 +38,7 @@ pub mod study_report;
 pub mod surface;
 pub mod tps;
 
-pub use cohort::{LvError, Registration, SubjectDir};
+pub use cohort::{LayoutProblem, LvError, Registration, SubjectDir};
 pub use freewall::{free_wall, LvAxis, SectorOptions, Submesh};
 pub use landmarks::{read_landmarks, write_landmarks, Landmarks};
 pub use meshing::{extract_surface, Surface, SurfaceOptions};

@@ -116,11 +116,7 @@ pub fn load_input(s: &RunSettings, events: Events<'_>) -> Result<Input, StudyErr
     let line = |l: &str| events(Event::Line(l));
     let progress = |t: Tick<'_>| events(Event::Tick(t));
     if s.mesh.tps_lambda != 0.0 && !is_cohort(&s.dir) {
-        return Err(StudyError::Input(format!(
-            "{}: --tps-lambda acts on the landmark registration of a cohort folder, not on meshes \
-             given as input",
-            s.dir.display()
-        )));
+        return Err(StudyError::TpsLambdaOnMeshes(s.dir.clone()));
     }
     std::fs::create_dir_all(&s.out).map_err(|source| StudyError::CreateDir {
         path: s.out.clone(),
@@ -291,7 +287,7 @@ pub fn run_cohort(s: &RunSettings, input: &CohortInput, events: Events<'_>) -> R
         Some(name) => defs
             .iter()
             .position(|d| &d.name == name)
-            .ok_or_else(|| StudyError::Input(format!("--mds-subject {name:?} is not a subject")))?,
+            .ok_or_else(|| StudyError::UnknownSubject(name.clone()))?,
         None => 0,
     };
     let map = cycle_map(

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::anatomy::sector_weight;
-use super::cohort::LvError;
+use super::cohort::{LayoutProblem, LvError};
 use super::freewall::LvAxis;
 use super::phantom::{Group, PhantomSubject};
 use qcshape::io::write_atomically;
@@ -76,15 +76,15 @@ pub fn write_abnormal(path: &Path, rows: &[AbnormalSector]) -> Result<(), LvErro
 
 /// Reads `abnormal.csv`.
 pub fn read_abnormal(path: &Path) -> Result<Vec<AbnormalSector>, LvError> {
-    let bad = |m: String| LvError::Layout {
+    let bad = |problem: LayoutProblem| LvError::Layout {
         path: path.into(),
-        message: m,
+        problem,
     };
     let text = qcshape::limits::read_regular_text(path, qcshape::limits::MAX_TABLE_FILE_BYTES)
-        .map_err(|e| bad(format!("cannot read: {e}")))?;
+        .map_err(|e| bad(LayoutProblem::Read(e)))?;
     let mut lines = text.lines();
     if lines.next().map(str::trim) != Some(ABNORMAL_HEADER) {
-        return Err(bad(format!("the header must be {ABNORMAL_HEADER:?}")));
+        return Err(bad(LayoutProblem::Header(ABNORMAL_HEADER)));
     }
     let mut out = Vec::new();
     for (k, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
@@ -93,10 +93,18 @@ pub fn read_abnormal(path: &Path) -> Result<Vec<AbnormalSector>, LvError> {
             f.get(i)
                 .and_then(|s| s.parse::<f64>().ok())
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| bad(format!("line {}: field {} is not a number", k + 2, i + 1)))
+                .ok_or_else(|| {
+                    bad(LayoutProblem::Field {
+                        line: k + 2,
+                        field: i + 1,
+                    })
+                })
         };
         if f.len() != 6 {
-            return Err(bad(format!("line {}: {} fields, expected 6", k + 2, f.len())));
+            return Err(bad(LayoutProblem::FieldCount {
+                line: k + 2,
+                found: f.len(),
+            }));
         }
         out.push(AbnormalSector {
             subject: f[0].to_string(),
@@ -157,7 +165,7 @@ pub fn cohort_region(dir: &Path, template: &str, frame0: &[[f64; 3]]) -> Result<
     let get = |id: u32| {
         lm.get(0, id).ok_or_else(|| LvError::Layout {
             path: path.clone(),
-            message: format!("landmark {id} is missing in frame 0"),
+            problem: LayoutProblem::MissingLandmark(id),
         })
     };
     use super::landmarks::{APEX, BASE_CENTRE, SEPTUM};

@@ -110,9 +110,83 @@ pub enum StudyError {
         /// Why.
         error: LvAnalysisError,
     },
-    /// The input does not fit the study (labels, classes, landmarks, frames).
-    #[error("{0}")]
-    Input(String),
+    /// A subject's landmarks lack one needed for the long axis in frame 0.
+    #[error("{}: landmark {id} is missing in frame 0 (needed for the long axis)", path.display())]
+    MissingLandmark {
+        /// The landmark file.
+        path: PathBuf,
+        /// The landmark id.
+        id: u32,
+    },
+    /// Fewer landmarks per frame than asked for.
+    #[error("{}: has {found} landmarks per frame, fewer than the {asked} asked for", path.display())]
+    TooFewLandmarks {
+        /// The landmark file.
+        path: PathBuf,
+        /// Landmarks per frame.
+        found: usize,
+        /// Landmarks asked for.
+        asked: usize,
+    },
+    /// A cohort folder with fewer than two subjects.
+    #[error("{}: a cohort needs at least two subjects", .0.display())]
+    TooFewSubjects(PathBuf),
+    /// A subject whose landmark ids differ from the first subject's.
+    #[error("{}: landmark ids {ids:?} differ from those of {first} ({first_ids:?}): subjects cannot be matched", path.display())]
+    LandmarkIds {
+        /// The landmark file.
+        path: PathBuf,
+        /// Its ids.
+        ids: Vec<u32>,
+        /// The first subject.
+        first: String,
+        /// The first subject's ids.
+        first_ids: Vec<u32>,
+    },
+    /// A subject with a different number of image frames than landmark frames.
+    #[error("{}: {images} image frames but {landmarks} landmark frames", path.display())]
+    FrameCounts {
+        /// The subject's folder.
+        path: PathBuf,
+        /// Image frames.
+        images: usize,
+        /// Landmark frames.
+        landmarks: usize,
+    },
+    /// A subject with a different number of landmark frames than registration maps.
+    #[error("{}: {frames} frames of landmarks but {maps} registration maps", path.display())]
+    RegistrationCount {
+        /// The landmark file.
+        path: PathBuf,
+        /// Landmark frames.
+        frames: usize,
+        /// Registration maps.
+        maps: usize,
+    },
+    /// A cycle of fewer than two frames.
+    #[error("a cycle needs at least two frames, got {0}")]
+    ShortCycle(usize),
+    /// `--tps-lambda` given with meshes as input (it acts on a cohort folder's registration).
+    #[error("{}: --tps-lambda acts on the landmark registration of a cohort folder, not on meshes given as input", .0.display())]
+    TpsLambdaOnMeshes(PathBuf),
+    /// `--mds-subject` names no subject.
+    #[error("--mds-subject {0:?} is not a subject")]
+    UnknownSubject(String),
+    /// Labels naming other than two classes (sensitivity and specificity need two).
+    #[error("two classes are needed for sensitivity and specificity, the labels name {}: {classes:?}", classes.len())]
+    ClassCount {
+        /// The classes the labels name.
+        classes: Vec<String>,
+    },
+    /// A deformation without a class label.
+    #[error("deformation '{deformation}' has no class label")]
+    NoLabel {
+        /// The deformation's name.
+        deformation: String,
+    },
+    /// Deformations on different connectivities (they cannot be compared pose by pose).
+    #[error("the deformations do not share one connectivity: they cannot be compared pose by pose")]
+    SharedTopology,
 }
 
 /// A progress report: one more item of `what` (of `total`) is done. `Tick::DONE` (an empty
@@ -166,11 +240,7 @@ pub fn binary_scores(
 ) -> Result<BinaryScores, StudyError> {
     let (class_of, classes) = encode_labels(labels);
     if classes.len() != 2 {
-        return Err(StudyError::Input(format!(
-            "two classes are needed for sensitivity and specificity, the labels name {}: {:?}",
-            classes.len(),
-            classes
-        )));
+        return Err(StudyError::ClassCount { classes });
     }
     let (_, confusion) = matched_confusion(assignments, k, &class_of, 2)?;
     let eq15 = one_vs_rest(&confusion)?;
@@ -286,9 +356,9 @@ pub struct Analysis {
 pub fn labels_of(defs: &[Deformation]) -> Result<Vec<String>, StudyError> {
     defs.iter()
         .map(|d| {
-            d.label
-                .clone()
-                .ok_or_else(|| StudyError::Input(format!("deformation '{}' has no class label", d.name)))
+            d.label.clone().ok_or_else(|| StudyError::NoLabel {
+                deformation: d.name.clone(),
+            })
         })
         .collect()
 }
@@ -461,9 +531,7 @@ pub fn coarsen(defs: &mut [Deformation], vertices: usize) -> Result<Option<Strin
         return Ok(None);
     }
     if defs.iter().any(|d| d.topology.faces() != first.topology.faces()) {
-        return Err(StudyError::Input(
-            "the deformations do not share one connectivity: they cannot be compared pose by pose".into(),
-        ));
+        return Err(StudyError::SharedTopology);
     }
     let ratio = (vertices as f64 / nv as f64).clamp(0.01, 0.99);
     let h = Hierarchy::new(&first.topology, &first.poses[0], 2, ratio)?;

@@ -38,9 +38,20 @@ pub enum SurfaceError {
     /// The surface after clean-up or decimation is not a valid closed mesh.
     #[error("the extracted surface is not a valid mesh: {0}")]
     Mesh(#[from] MeshError),
-    /// The surface is not a single closed genus-0 surface after decimation.
-    #[error("the surface is not a closed sphere-like surface: {0}")]
-    Topology(String),
+    /// The surface is not a single closed genus-0 surface after decimation (or has isolated
+    /// vertices).
+    #[error("the surface is not a closed sphere-like surface: {components} component(s), {loops} boundary loop(s), Euler characteristic {euler}")]
+    Topology {
+        /// Connected components.
+        components: usize,
+        /// Boundary loops.
+        loops: usize,
+        /// Euler characteristic.
+        euler: i64,
+    },
+    /// The closed surface encloses no volume (it is inside out or flat).
+    #[error("the surface is not a closed sphere-like surface: the surface encloses no volume")]
+    NoVolume,
 }
 
 /// A triangle mesh: positions (#V x 3) and faces (#F x 3, counter-clockwise seen from outside).

@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{color, draw_legend, msg, padded, render, Figure, PlotError, Swatch, FAMILY};
+use super::{color, draw_legend, padded, render, Figure, PlotError, PlotInput, Swatch, FAMILY};
 
 /// One group: its name and `(series, mean, sd)` entries.
 pub type BarGroup = (String, Vec<(String, f64, f64)>);
@@ -30,12 +30,12 @@ struct Bars<'a> {
 /// of the chart, outside the data); a group may lack some series. Means and SDs must be
 /// finite, SDs non-negative.
 pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) -> Result<(), PlotError> {
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     if groups.iter().all(|g| g.1.is_empty()) {
-        return Err(invalid("no bars to plot".into()));
+        return Err(invalid(PlotInput::NoBars));
     }
     let mut series: Vec<String> = Vec::new();
     let non_negative = groups.iter().all(|g| g.1.iter().all(|e| e.1 >= 0.0));
@@ -43,9 +43,12 @@ pub fn error_bars(path: &Path, groups: &[BarGroup], title: &str, y_label: &str) 
     for (g, entries) in groups {
         for (s, mean, sd) in entries {
             if !mean.is_finite() || !sd.is_finite() || *sd < 0.0 {
-                return Err(invalid(format!(
-                    "group {g:?}, series {s:?}: mean {mean} and sd {sd} must be finite, sd >= 0"
-                )));
+                return Err(invalid(PlotInput::BadBar {
+                    group: g.clone(),
+                    series: s.clone(),
+                    mean: *mean,
+                    sd: *sd,
+                }));
             }
             if !series.contains(s) {
                 series.push(s.clone());
@@ -96,7 +99,7 @@ impl Figure for Bars<'_> {
         )
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<(), DB> {
         let ng = self.groups.len();
         // Integer x coordinates (plotters formats key points only on integer axes): group g
         // spans [g U, (g + 1) U], its label sits at its centre.
@@ -104,9 +107,7 @@ impl Figure for Bars<'_> {
         let m = self.series.len() as i32;
         let centres: Vec<i32> = (0..ng as i32).map(|g| g * U + U / 2).collect();
         let (w, _) = self.size();
-        let root = root
-            .titled(&self.title, (FAMILY, super::title_size(&self.title, w)))
-            .map_err(msg)?;
+        let root = root.titled(&self.title, (FAMILY, super::title_size(&self.title, w)))?;
         let (plot, legend) = root.split_horizontally(w - self.legend_width());
         let mut chart = ChartBuilder::on(&plot)
             .margin(16)
@@ -115,8 +116,7 @@ impl Figure for Bars<'_> {
             .build_cartesian_2d(
                 (0..ng as i32 * U).with_key_points(centres),
                 self.y_range.0..self.y_range.1,
-            )
-            .map_err(msg)?;
+            )?;
         let group_name = |v: &i32| {
             let g = (v / U).clamp(0, ng as i32 - 1) as usize;
             self.groups[g].0.clone()
@@ -132,8 +132,7 @@ impl Figure for Bars<'_> {
             .axis_desc_style((FAMILY, 14))
             .bold_line_style(RGBColor(225, 225, 225))
             .max_light_lines(0)
-            .draw()
-            .map_err(msg)?;
+            .draw()?;
         let width = 8 * U / 10 / m;
         for (s, name) in self.series.iter().enumerate() {
             let style = color(s).filled();
@@ -144,30 +143,26 @@ impl Figure for Bars<'_> {
                     bars.push((x0, *mean, *sd));
                 }
             }
-            chart
-                .draw_series(
-                    bars.iter()
-                        .map(|&(x0, mean, _)| Rectangle::new([(x0, 0.0), (x0 + width, mean)], style)),
-                )
-                .map_err(msg)?;
+            chart.draw_series(
+                bars.iter()
+                    .map(|&(x0, mean, _)| Rectangle::new([(x0, 0.0), (x0 + width, mean)], style)),
+            )?;
             let whisker = BLACK.stroke_width(1);
-            chart
-                .draw_series(bars.iter().map(|&(x0, mean, sd)| {
-                    let (xc, cap) = (x0 + width / 2, width / 4);
-                    let low = whisker_low(mean, sd, self.non_negative);
-                    PathElement::new(
-                        vec![
-                            (xc - cap, low),
-                            (xc + cap, low),
-                            (xc, low),
-                            (xc, mean + sd),
-                            (xc - cap, mean + sd),
-                            (xc + cap, mean + sd),
-                        ],
-                        whisker,
-                    )
-                }))
-                .map_err(msg)?;
+            chart.draw_series(bars.iter().map(|&(x0, mean, sd)| {
+                let (xc, cap) = (x0 + width / 2, width / 4);
+                let low = whisker_low(mean, sd, self.non_negative);
+                PathElement::new(
+                    vec![
+                        (xc - cap, low),
+                        (xc + cap, low),
+                        (xc, low),
+                        (xc, mean + sd),
+                        (xc - cap, mean + sd),
+                        (xc + cap, mean + sd),
+                    ],
+                    whisker,
+                )
+            }))?;
         }
         let entries: Vec<(String, RGBColor, Swatch)> = self
             .series
@@ -175,7 +170,7 @@ impl Figure for Bars<'_> {
             .enumerate()
             .map(|(s, n)| (n.clone(), color(s), Swatch::Box))
             .collect();
-        draw_legend(&legend, &entries, 40, None).map_err(msg)?;
+        draw_legend(&legend, &entries, 40, None)?;
         Ok(())
     }
 }

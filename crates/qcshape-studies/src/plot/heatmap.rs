@@ -6,7 +6,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{msg, render, Figure, PlotError, FAMILY};
+use super::{render, Figure, PlotError, PlotInput, FAMILY};
 use qcshape::io::heat_colors;
 use qcshape::similarity::DistanceMatrix;
 
@@ -41,28 +41,26 @@ pub fn heatmap(
     value_label: &str,
 ) -> Result<(), PlotError> {
     let n = d.len();
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     let mut seen = vec![false; n];
     if order.len() != n {
-        return Err(invalid(format!(
-            "the order lists {} items, the matrix has {n}",
-            order.len()
-        )));
+        return Err(invalid(PlotInput::OrderLength {
+            order: order.len(),
+            n,
+        }));
     }
     for &i in order {
         if i >= n || seen[i] {
-            return Err(invalid(format!(
-                "the order is not a permutation of 0..{n} (at {i})"
-            )));
+            return Err(invalid(PlotInput::NotPermutation { n, at: i }));
         }
         seen[i] = true;
     }
     if let Some(l) = labels {
         if l.len() != n {
-            return Err(invalid(format!("{} labels for {n} deformations", l.len())));
+            return Err(invalid(PlotInput::LabelCount { labels: l.len(), n }));
         }
     }
     let max = d.max();
@@ -98,7 +96,7 @@ impl Figure for Heatmap {
         (940, 800)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<(), DB> {
         let n = self.n;
         // Integer coordinates (plotters formats key points only on integer axes): cell k spans
         // [2k, 2k + 2], its centre is 2k + 1; display row r occupies y in [2(n-r-1), 2(n-r)].
@@ -112,8 +110,7 @@ impl Figure for Heatmap {
                 (470, 12),
                 TextStyle::from((FAMILY, super::title_size(&self.title, 940)).into_font())
                     .pos(Pos::new(HPos::Center, VPos::Top)),
-            ))
-            .map_err(msg)?;
+            ))?;
             (main.margin(title_h, 0, 0, 0), bar.margin(title_h, 0, 0, 0))
         };
         let named = n <= MAX_NAMED;
@@ -131,8 +128,7 @@ impl Figure for Heatmap {
             .build_cartesian_2d(
                 (0..span).with_key_points(centres.clone()),
                 (0..span).with_key_points(centres),
-            )
-            .map_err(msg)?;
+            )?;
         let name_at = |v: i32, flip: bool| -> String {
             let k = (v / 2).clamp(0, n as i32 - 1) as usize;
             let k = if flip { n - 1 - k } else { k };
@@ -151,16 +147,13 @@ impl Figure for Heatmap {
             .x_label_formatter(&|_| String::new())
             .y_label_formatter(&|v| name_at(*v, true))
             .y_label_style((FAMILY, 10))
-            .draw()
-            .map_err(msg)?;
-        chart
-            .draw_series((0..n * n).map(|k| {
-                let (r, c) = (k / n, k % n);
-                let [red, g, b] = self.cells[k];
-                let (x, y) = (2 * c as i32, span - 2 * r as i32);
-                Rectangle::new([(x, y - 2), (x + 2, y)], RGBColor(red, g, b).filled())
-            }))
-            .map_err(msg)?;
+            .draw()?;
+        chart.draw_series((0..n * n).map(|k| {
+            let (r, c) = (k / n, k % n);
+            let [red, g, b] = self.cells[k];
+            let (x, y) = (2 * c as i32, span - 2 * r as i32);
+            Rectangle::new([(x, y - 2), (x + 2, y)], RGBColor(red, g, b).filled())
+        }))?;
         if named {
             let style = TextStyle::from((FAMILY, 10).into_font().transform(FontTransform::Rotate90))
                 .pos(Pos::new(HPos::Left, VPos::Center));
@@ -171,19 +164,16 @@ impl Figure for Heatmap {
                     name_at(2 * c as i32, false),
                     (px, py + 8),
                     style.clone(),
-                ))
-                .map_err(msg)?;
+                ))?;
             }
         }
         let line = WHITE.stroke_width(2);
         for &b in &self.boundaries {
             let (x, y) = (2 * b as i32, span - 2 * b as i32);
-            chart
-                .draw_series([
-                    PathElement::new(vec![(x, 0), (x, span)], line),
-                    PathElement::new(vec![(0, y), (span, y)], line),
-                ])
-                .map_err(msg)?;
+            chart.draw_series([
+                PathElement::new(vec![(x, 0), (x, span)], line),
+                PathElement::new(vec![(0, y), (span, y)], line),
+            ])?;
         }
         // Colour bar.
         let steps = 64;
@@ -194,8 +184,7 @@ impl Figure for Heatmap {
             .margin_left(6)
             .margin_right(4)
             .right_y_label_area_size(90)
-            .build_cartesian_2d(0f64..1f64, 0f64..top)
-            .map_err(msg)?;
+            .build_cartesian_2d(0f64..1f64, 0f64..top)?;
         cb.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
@@ -204,8 +193,7 @@ impl Figure for Heatmap {
             .y_label_style((FAMILY, 11))
             .y_desc(self.value_label.as_str())
             .axis_desc_style((FAMILY, 13))
-            .draw()
-            .map_err(msg)?;
+            .draw()?;
         let levels: Vec<f64> = (0..steps)
             .map(|s| (s as f64 + 0.5) / steps as f64 * top)
             .collect();
@@ -214,8 +202,7 @@ impl Figure for Heatmap {
             let [r, g, b] = colors[s];
             let (lo, hi) = (s as f64 / steps as f64 * top, (s + 1) as f64 / steps as f64 * top);
             Rectangle::new([(0.0, lo), (1.0, hi)], RGBColor(r, g, b).filled())
-        }))
-        .map_err(msg)?;
+        }))?;
         Ok(())
     }
 }

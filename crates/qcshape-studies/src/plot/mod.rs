@@ -30,6 +30,71 @@ static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 /// The font family every figure uses.
 pub(crate) const FAMILY: &str = "sans-serif";
 
+/// Data that cannot be plotted ([`PlotError::Invalid`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum PlotInput {
+    /// No bar in any group.
+    #[error("no bars to plot")]
+    NoBars,
+    /// A bar whose mean or SD is not finite, or whose SD is negative.
+    #[error("group {group:?}, series {series:?}: mean {mean} and sd {sd} must be finite, sd >= 0")]
+    BadBar {
+        /// The group.
+        group: String,
+        /// The series.
+        series: String,
+        /// The mean.
+        mean: f64,
+        /// The SD.
+        sd: f64,
+    },
+    /// A heat map order of another length than the matrix.
+    #[error("the order lists {order} items, the matrix has {n}")]
+    OrderLength {
+        /// Items in the order.
+        order: usize,
+        /// Rows of the matrix.
+        n: usize,
+    },
+    /// A heat map order that is not a permutation.
+    #[error("the order is not a permutation of 0..{n} (at {at})")]
+    NotPermutation {
+        /// Rows of the matrix.
+        n: usize,
+        /// The repeated or out-of-range item.
+        at: usize,
+    },
+    /// Not one label per deformation (heat map).
+    #[error("{labels} labels for {n} deformations")]
+    LabelCount {
+        /// Labels given.
+        labels: usize,
+        /// Deformations.
+        n: usize,
+    },
+    /// No point in a scatter plot.
+    #[error("no points to plot")]
+    NoPoints,
+    /// Not one name, label or name choice per point.
+    #[error("{points} points but {found} {what}")]
+    PerPoint {
+        /// "names", "labels" or "name choices".
+        what: &'static str,
+        /// Points.
+        points: usize,
+        /// Entries given.
+        found: usize,
+    },
+    /// A point with a NaN or infinite coordinate.
+    #[error("point {point} ({name}) is not finite")]
+    NonFinitePoint {
+        /// The point.
+        point: usize,
+        /// Its name.
+        name: String,
+    },
+}
+
 /// Why a figure cannot be made.
 #[derive(Debug, Error)]
 pub enum PlotError {
@@ -40,20 +105,20 @@ pub enum PlotError {
         path: PathBuf,
     },
     /// The data cannot be plotted (lengths differ, non-finite values, nothing to draw).
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {problem}", path.display())]
     Invalid {
         /// The file.
         path: PathBuf,
         /// What is wrong.
-        message: String,
+        problem: PlotInput,
     },
-    /// The plotting library failed.
-    #[error("{}: cannot draw: {message}", path.display())]
+    /// The plotting library (or the PNG encoder) failed.
+    #[error("{}: cannot draw: {error}", path.display())]
     Draw {
         /// The file.
         path: PathBuf,
-        /// Its message.
-        message: String,
+        /// Its error (boxed: its type depends on the backend, SVG or PNG).
+        error: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The file cannot be written.
     #[error(transparent)]
@@ -151,14 +216,13 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
     entries: &[(String, RGBColor, Swatch)],
     top: i32,
     heading: Option<&str>,
-) -> Result<i32, String> {
+) -> DrawResult<i32, DB> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
     let row = 22;
     let mut y = top;
     let text = TextStyle::from((FAMILY, 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
     if let Some(h) = heading {
-        area.draw(&Text::new(h.to_string(), (10, y), text.clone()))
-            .map_err(msg)?;
+        area.draw(&Text::new(h.to_string(), (10, y), text.clone()))?;
         y += row;
     }
     for (label, c, swatch) in entries {
@@ -169,19 +233,16 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
                     .into_iter()
                     .map(|(dx, dy)| (cx + dx, cy + dy))
                     .collect();
-                area.draw(&Polygon::new(pts.clone(), c.filled())).map_err(msg)?;
+                area.draw(&Polygon::new(pts.clone(), c.filled()))?;
                 let mut closed = pts;
                 closed.push(closed[0]);
-                area.draw(&PathElement::new(closed, BLACK.mix(0.6).stroke_width(1)))
-                    .map_err(msg)?;
+                area.draw(&PathElement::new(closed, BLACK.mix(0.6).stroke_width(1)))?;
             }
             Swatch::Box => {
-                area.draw(&Rectangle::new([(cx - 7, cy - 6), (cx + 7, cy + 6)], c.filled()))
-                    .map_err(msg)?;
+                area.draw(&Rectangle::new([(cx - 7, cy - 6), (cx + 7, cy + 6)], c.filled()))?;
             }
         }
-        area.draw(&Text::new(label.clone(), (cx + 16, cy), text.clone()))
-            .map_err(msg)?;
+        area.draw(&Text::new(label.clone(), (cx + 16, cy), text.clone()))?;
         y += row;
     }
     Ok(y - top)
@@ -192,12 +253,7 @@ pub(crate) trait Figure {
     /// Width and height in pixels.
     fn size(&self) -> (u32, u32);
     /// Draws on the root area (already filled white).
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String>;
-}
-
-/// Turns any displayable plotting error into a message.
-pub(crate) fn msg<E: std::fmt::Display>(e: E) -> String {
-    e.to_string()
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<(), DB>;
 }
 
 fn register_font() {
@@ -213,18 +269,18 @@ pub(crate) fn render<F: Figure>(path: &Path, fig: &F) -> Result<(), PlotError> {
     let format = PlotFormat::from_path(path)?;
     register_font();
     let (w, h) = fig.size();
-    let draw_err = |message: String| PlotError::Draw {
+    let draw_err = |error: Box<dyn std::error::Error + Send + Sync>| PlotError::Draw {
         path: path.into(),
-        message,
+        error,
     };
     match format {
         PlotFormat::Svg => {
             let mut svg = String::new();
             {
                 let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-                root.fill(&WHITE).map_err(|e| draw_err(msg(e)))?;
-                fig.draw(&root).map_err(draw_err)?;
-                root.present().map_err(|e| draw_err(msg(e)))?;
+                root.fill(&WHITE).map_err(|e| draw_err(Box::new(e)))?;
+                fig.draw(&root).map_err(|e| draw_err(Box::new(e)))?;
+                root.present().map_err(|e| draw_err(Box::new(e)))?;
             }
             write_atomically(path, |out| out.write_all(svg.as_bytes()))?;
         }
@@ -232,18 +288,18 @@ pub(crate) fn render<F: Figure>(path: &Path, fig: &F) -> Result<(), PlotError> {
             let mut rgb = vec![0u8; w as usize * h as usize * 3];
             {
                 let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
-                root.fill(&WHITE).map_err(|e| draw_err(msg(e)))?;
-                fig.draw(&root).map_err(draw_err)?;
-                root.present().map_err(|e| draw_err(msg(e)))?;
+                root.fill(&WHITE).map_err(|e| draw_err(Box::new(e)))?;
+                fig.draw(&root).map_err(|e| draw_err(Box::new(e)))?;
+                root.present().map_err(|e| draw_err(Box::new(e)))?;
             }
             let mut bytes = Vec::new();
             {
                 let mut enc = png::Encoder::new(&mut bytes, w, h);
                 enc.set_color(png::ColorType::Rgb);
                 enc.set_depth(png::BitDepth::Eight);
-                let mut writer = enc.write_header().map_err(|e| draw_err(msg(e)))?;
-                writer.write_image_data(&rgb).map_err(|e| draw_err(msg(e)))?;
-                writer.finish().map_err(|e| draw_err(msg(e)))?;
+                let mut writer = enc.write_header().map_err(|e| draw_err(Box::new(e)))?;
+                writer.write_image_data(&rgb).map_err(|e| draw_err(Box::new(e)))?;
+                writer.finish().map_err(|e| draw_err(Box::new(e)))?;
             }
             write_atomically(path, |out| out.write_all(&bytes))?;
         }

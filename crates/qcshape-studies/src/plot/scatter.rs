@@ -5,7 +5,9 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{color, draw_legend, marker_outline, msg, padded, render, Figure, PlotError, Swatch, FAMILY};
+use super::{
+    color, draw_legend, marker_outline, padded, render, Figure, PlotError, PlotInput, Swatch, FAMILY,
+};
 use qcshape::eval::encode_labels;
 
 /// Without classes, names are written next to the points up to this many points (with
@@ -61,20 +63,28 @@ pub fn scatter_map_with(
     stress: Option<f64>,
     point_names: &PointNames,
 ) -> Result<(), PlotError> {
-    let invalid = |message: String| PlotError::Invalid {
+    let invalid = |problem: PlotInput| PlotError::Invalid {
         path: path.into(),
-        message,
+        problem,
     };
     let n = coords.len();
     if n == 0 {
-        return Err(invalid("no points to plot".into()));
+        return Err(invalid(PlotInput::NoPoints));
     }
     if names.len() != n {
-        return Err(invalid(format!("{n} points but {} names", names.len())));
+        return Err(invalid(PlotInput::PerPoint {
+            what: "names",
+            points: n,
+            found: names.len(),
+        }));
     }
     if let Some(l) = labels {
         if l.len() != n {
-            return Err(invalid(format!("{n} points but {} labels", l.len())));
+            return Err(invalid(PlotInput::PerPoint {
+                what: "labels",
+                points: n,
+                found: l.len(),
+            }));
         }
     }
     let shown = match point_names {
@@ -82,7 +92,11 @@ pub fn scatter_map_with(
         PointNames::None => vec![false; n],
         PointNames::Some(v) if v.len() == n => v.clone(),
         PointNames::Some(v) => {
-            return Err(invalid(format!("{n} points but {} name choices", v.len())));
+            return Err(invalid(PlotInput::PerPoint {
+                what: "name choices",
+                points: n,
+                found: v.len(),
+            }));
         }
     };
     let mut xy = Vec::with_capacity(n);
@@ -92,7 +106,10 @@ pub fn scatter_map_with(
             c.get(1).copied().unwrap_or(0.0),
         );
         if !x.is_finite() || !y.is_finite() {
-            return Err(invalid(format!("point {} ({}) is not finite", i, names[i])));
+            return Err(invalid(PlotInput::NonFinitePoint {
+                point: i,
+                name: names[i].clone(),
+            }));
         }
         xy.push((x, y));
     }
@@ -146,20 +163,17 @@ impl Figure for Scatter<'_> {
         (760 + self.legend_width(), 760)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<(), DB> {
         let ((x0, x1), (y0, y1)) = self.range;
         let (w, _) = self.size();
-        let root = root
-            .titled(&self.title, (FAMILY, super::title_size(&self.title, w)))
-            .map_err(msg)?;
+        let root = root.titled(&self.title, (FAMILY, super::title_size(&self.title, w)))?;
         let (plot, legend) = root.split_horizontally(w - self.legend_width());
         let mut chart = ChartBuilder::on(&plot)
             .margin(16)
             .margin_right(28)
             .x_label_area_size(44)
             .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(msg)?;
+            .build_cartesian_2d(x0..x1, y0..y1)?;
         chart
             .configure_mesh()
             .x_desc("MDS axis 1")
@@ -172,8 +186,7 @@ impl Figure for Scatter<'_> {
             .y_labels(8)
             .x_label_formatter(&|v| super::axis_label(*v, x1 - x0, 8))
             .y_label_formatter(&|v| super::axis_label(*v, y1 - y0, 8))
-            .draw()
-            .map_err(msg)?;
+            .draw()?;
         let groups: Vec<Vec<usize>> = match &self.classes {
             Some((idx, names)) => (0..names.len())
                 .map(|c| (0..idx.len()).filter(|&i| idx[i] == c).collect())
@@ -186,28 +199,24 @@ impl Figure for Scatter<'_> {
             let outline = marker_outline(c, 6);
             let mut closed = outline.clone();
             closed.push(outline[0]);
-            chart
-                .draw_series(members.iter().map(|&i| {
-                    EmptyElement::at(self.xy[i])
-                        + Polygon::new(outline.clone(), fill)
-                        + PathElement::new(closed.clone(), edge)
-                }))
-                .map_err(msg)?;
+            chart.draw_series(members.iter().map(|&i| {
+                EmptyElement::at(self.xy[i])
+                    + Polygon::new(outline.clone(), fill)
+                    + PathElement::new(closed.clone(), edge)
+            }))?;
         }
         let named: Vec<usize> = (0..self.xy.len()).filter(|&i| self.shown[i]).collect();
-        chart
-            .draw_series(named.iter().map(|&i| {
-                EmptyElement::at(self.xy[i])
-                    + Text::new(self.names[i].clone(), (8, -16), (FAMILY, 12).into_font())
-            }))
-            .map_err(msg)?;
+        chart.draw_series(named.iter().map(|&i| {
+            EmptyElement::at(self.xy[i])
+                + Text::new(self.names[i].clone(), (8, -16), (FAMILY, 12).into_font())
+        }))?;
         if let Some((_, names)) = &self.classes {
             let entries: Vec<(String, RGBColor, Swatch)> = names
                 .iter()
                 .enumerate()
                 .map(|(c, n)| (n.clone(), color(c), Swatch::Marker(c)))
                 .collect();
-            draw_legend(&legend, &entries, 40, None).map_err(msg)?;
+            draw_legend(&legend, &entries, 40, None)?;
         }
         Ok(())
     }

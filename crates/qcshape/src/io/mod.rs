@@ -176,7 +176,7 @@ fn at_line(line: &Option<usize>) -> String {
 
 /// Why a byte buffer is not a readable mesh. Face and vertex numbers are 0-based positions in
 /// the file (a face is a polygon as written, before triangulation); lines are 1-based.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Error, Clone)]
 pub enum ParseError {
     /// The input is empty or only whitespace.
     #[error("the file is empty")]
@@ -249,12 +249,295 @@ pub enum ParseError {
         /// Line, for text files.
         line: Option<usize>,
     },
-    /// Structurally wrong but not tied to one line (missing element, bad binary header).
-    #[error("{0}")]
-    Invalid(String),
+    /// A part the format requires is absent: a header line, a section, an element, a
+    /// property or a data array.
+    #[error("the file has no {what}")]
+    Missing {
+        /// The absent part, e.g. "format line in its PLY header" or "POINTS section".
+        what: String,
+    },
+    /// More vertices than 32-bit face indices can address.
+    #[error("the file declares {count} vertices, more than 32-bit indices can address")]
+    TooManyVertices {
+        /// The declared vertex count.
+        count: u64,
+    },
+    /// A declared array whose size in values or bytes overflows `u64`.
+    #[error("{what} declares more values than can be addressed")]
+    SizeOverflow {
+        /// The array, e.g. "PointData \"normals\"".
+        what: String,
+    },
+    /// A legacy VTK UNSTRUCTURED_GRID whose CELL_TYPES section lists a different number of
+    /// types than its CELLS section has cells.
+    #[error("CELL_TYPES lists {types} types for {cells} cells")]
+    CellTypeCount {
+        /// Types listed.
+        types: usize,
+        /// Cells in the CELLS section.
+        cells: usize,
+    },
+    /// A list length (PLY) that is not a non-negative integer.
+    #[error("{what} is {value}, not a count{}", at_line(.line))]
+    BadListLength {
+        /// The list, e.g. "the length of property vertex_indices of face 3 (of 10)".
+        what: String,
+        /// The value read.
+        value: f64,
+        /// Line, when known (ASCII).
+        line: Option<usize>,
+    },
+    /// A face's vertex index that is not an integer (PLY float index lists).
+    #[error("face {face} has the vertex index {value}, not an integer{}", at_line(.line))]
+    NonIntegerIndex {
+        /// Face number.
+        face: usize,
+        /// The value read.
+        value: f64,
+        /// Line, when known (ASCII).
+        line: Option<usize>,
+    },
+    /// A PLY vertex coordinate property declared as a list.
+    #[error("the PLY vertex property {axis} is a list")]
+    ListCoordinate {
+        /// "x", "y" or "z".
+        axis: &'static str,
+    },
+    /// An STL triangle corner with a NaN or infinite coordinate.
+    #[error("corner {corner} of triangle {triangle} has a non-finite coordinate ({value}){}", at_line(.line))]
+    NonFiniteCorner {
+        /// Triangle number.
+        triangle: usize,
+        /// Corner (0, 1 or 2).
+        corner: usize,
+        /// The first non-finite coordinate.
+        value: f64,
+        /// Line, when known (ASCII STL).
+        line: Option<usize>,
+    },
+    /// A PLY file with data after the last element its header declares.
+    #[error("the file holds more data than its header declares ({}): data {}", declared_elements(.declared), after_last(.line))]
+    TrailingData {
+        /// The declared elements: (count, name).
+        declared: Vec<(u64, String)>,
+        /// Line of the extra data, when known (ASCII).
+        line: Option<usize>,
+    },
+    /// A legacy VTK cell section (POLYGONS, TRIANGLE_STRIPS, CELLS, ...) whose layout is
+    /// inconsistent.
+    #[error("{}{keyword}: {problem}", line_prefix(.line))]
+    Cells {
+        /// The section keyword.
+        keyword: String,
+        /// The section's line, when known (ASCII).
+        line: Option<usize>,
+        /// What is wrong.
+        problem: CellsError,
+    },
+    /// A VTK XML `DataArray` whose binary encoding is corrupt.
+    #[error("{array}: {problem}")]
+    DataArray {
+        /// The array, e.g. "DataArray \"connectivity\" (line 5)".
+        array: String,
+        /// What is wrong.
+        problem: DataArrayError,
+    },
     /// A valid file using a feature this reader does not support.
     #[error("unsupported: {0}")]
-    Unsupported(String),
+    Unsupported(UnsupportedFeature),
+}
+
+fn declared_elements(declared: &[(u64, String)]) -> String {
+    let parts: Vec<String> = declared.iter().map(|(n, name)| format!("{n} {name}")).collect();
+    parts.join(", ")
+}
+
+fn after_last(line: &Option<usize>) -> String {
+    match line {
+        Some(l) => format!("at line {l}, after the last element"),
+        None => "after the last element".into(),
+    }
+}
+
+fn line_prefix(line: &Option<usize>) -> String {
+    match line {
+        Some(l) => format!("line {l}: "),
+        None => String::new(),
+    }
+}
+
+/// Why a legacy VTK cell section is inconsistent ([`ParseError::Cells`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CellsError {
+    /// The keyword after the OFFSETS array is not CONNECTIVITY.
+    #[error("expected CONNECTIVITY after the offsets, found {found:?}")]
+    ExpectedConnectivity {
+        /// The token found (at most 40 characters).
+        found: String,
+    },
+    /// An offset that is not an integer.
+    #[error("offset {offset} is not an integer")]
+    OffsetNotInteger {
+        /// Offset number.
+        offset: usize,
+    },
+    /// Two consecutive offsets that do not delimit a range of the connectivity array.
+    #[error("offsets {offset} and {} ({start}, {end}) do not index the {len} connectivity values", .offset + 1)]
+    OffsetsOutOfRange {
+        /// The first offset's number.
+        offset: usize,
+        /// Its value.
+        start: i64,
+        /// The next offset's value.
+        end: i64,
+        /// Length of the connectivity array.
+        len: usize,
+    },
+    /// A cell without a valid (non-negative integer) vertex count.
+    #[error("cell {cell} has no valid vertex count (the section declares {cells} cells in {size} values)")]
+    NoVertexCount {
+        /// Cell number.
+        cell: u64,
+        /// Declared cells.
+        cells: u64,
+        /// Declared values.
+        size: u64,
+    },
+    /// A cell listing more vertices than the section has values left.
+    #[error("cell {cell} lists {count} vertices, but only {remaining} of the declared {size} values remain")]
+    TooFewValues {
+        /// Cell number.
+        cell: u64,
+        /// The vertex count it declares.
+        count: i64,
+        /// Values left.
+        remaining: usize,
+        /// Declared values.
+        size: u64,
+    },
+    /// The cells use a different number of values than the section declares.
+    #[error("the section declares {size} values, but its {cells} cells use {used}")]
+    SizeMismatch {
+        /// Declared values.
+        size: u64,
+        /// Declared cells.
+        cells: u64,
+        /// Values used.
+        used: usize,
+    },
+}
+
+/// Why the binary payload of a VTK XML `DataArray` is corrupt ([`ParseError::DataArray`]).
+#[derive(Debug, Error, Clone)]
+pub enum DataArrayError {
+    /// A character that is not base64.
+    #[error("bad base64 at byte offset {offset}")]
+    Base64 {
+        /// Byte offset in the file.
+        offset: u64,
+    },
+    /// The header's byte count differs from the array's size.
+    #[error("the header declares {declared} bytes, but the array needs {needed}")]
+    HeaderSize {
+        /// Bytes the header declares.
+        declared: u64,
+        /// Bytes the array's type and count need.
+        needed: u64,
+    },
+    /// A compression header declaring more blocks than the bytes after it could describe.
+    #[error("the compression header declares {blocks} blocks, more than the {available} bytes after it could describe")]
+    TooManyBlocks {
+        /// Declared blocks.
+        blocks: u64,
+        /// Bytes available.
+        available: u64,
+    },
+    /// The compression header's total size differs from the array's size.
+    #[error("the compression header declares {declared} bytes, but the array needs {needed}")]
+    CompressedSize {
+        /// Bytes the header declares.
+        declared: u64,
+        /// Bytes the array's type and count need.
+        needed: u64,
+    },
+    /// The compression header's sizes overflow `u64`.
+    #[error("the compression header's sizes ({blocks} blocks of {block_size} bytes) overflow")]
+    BlockSizesOverflow {
+        /// Declared blocks.
+        blocks: u64,
+        /// Declared block size.
+        block_size: u64,
+    },
+    /// The compressed block sizes overflow `u64`.
+    #[error("the compressed block sizes overflow")]
+    CompressedSizesOverflow,
+    /// More output than zlib could inflate from the compressed bytes.
+    #[error("{compressed} compressed bytes cannot hold the declared {declared} bytes")]
+    Ratio {
+        /// Compressed bytes.
+        compressed: u64,
+        /// Declared uncompressed bytes.
+        declared: u64,
+    },
+    /// A zlib block that cannot be inflated.
+    #[error("zlib block {block} cannot be inflated: {error}")]
+    Inflate {
+        /// Block number.
+        block: usize,
+        /// The decoder's error.
+        error: std::sync::Arc<std::io::Error>,
+    },
+    /// A zlib block inflating to a different size than the header says.
+    #[error("zlib block {block} inflates to {found} bytes, the header says {declared}")]
+    BlockSize {
+        /// Block number.
+        block: usize,
+        /// Bytes inflated.
+        found: u64,
+        /// Bytes declared.
+        declared: u64,
+    },
+}
+
+/// A feature of a valid file that the readers do not support ([`ParseError::Unsupported`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum UnsupportedFeature {
+    /// A VTK XML file with several pieces.
+    #[error("a {ext} file with more than one Piece")]
+    SeveralPieces {
+        /// ".vtp" or ".vtu".
+        ext: &'static str,
+    },
+    /// A VTK XML file of another type than the reader's.
+    #[error("VTK XML file of type {found:?} (only {expected} is read)")]
+    XmlType {
+        /// The file's `type` attribute.
+        found: String,
+        /// The type the reader reads.
+        expected: &'static str,
+    },
+    /// A VTK XML compressor other than zlib.
+    #[error("compressor {0:?} (only vtkZLibDataCompressor is read)")]
+    Compressor(String),
+    /// A legacy VTK dataset type other than POLYDATA and UNSTRUCTURED_GRID.
+    #[error("VTK dataset type {0:?} (only POLYDATA and UNSTRUCTURED_GRID are read)")]
+    VtkDataset(String),
+    /// A `.vtu` cell that is not a surface cell.
+    #[error("cell {cell} of the .vtu file is a {name} (VTK cell type {vtk_type}); only surface cells (triangles, quads, polygons, triangle strips) can be read")]
+    VtuCell {
+        /// Cell number.
+        cell: usize,
+        /// The cell type's name.
+        name: &'static str,
+        /// The VTK cell type number as written.
+        vtk_type: f64,
+    },
+    /// An OFF variant other than 3D OFF with C, N, ST prefixes.
+    #[error("OFF variant {0:?} (only 3D OFF with optional C, N, ST prefixes is read)")]
+    OffVariant(String),
+    /// Binary OFF.
+    #[error("binary OFF")]
+    BinaryOff,
 }
 
 /// Why a mesh cannot be encoded as asked (checked before anything is written).
@@ -280,14 +563,12 @@ pub enum WriteError {
         /// Number of vertices.
         n_vertices: usize,
     },
-    /// Two fields have the same name, or a name is empty.
-    #[error("field {name:?}: {message}")]
-    Field {
-        /// The field's name.
-        name: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// A field with an empty name.
+    #[error("field \"\": a field needs a name")]
+    UnnamedField,
+    /// Two fields with the same name.
+    #[error("field {0:?}: two fields have this name")]
+    DuplicateField(String),
     /// The format cannot store the given per-vertex attribute.
     #[error("the {format} format cannot store {what}; write .ply, .vtk, .vtp or .vtu instead")]
     Unsupported {
@@ -526,16 +807,10 @@ fn validate(
             });
         }
         if f.name.trim().is_empty() {
-            return Err(WriteError::Field {
-                name: f.name.into(),
-                message: "a field needs a name".into(),
-            });
+            return Err(WriteError::UnnamedField);
         }
         if payload.fields[..k].iter().any(|g| g.name == f.name) {
-            return Err(WriteError::Field {
-                name: f.name.into(),
-                message: "two fields have this name".into(),
-            });
+            return Err(WriteError::DuplicateField(f.name.into()));
         }
         if matches!(format, Format::Obj | Format::Off | Format::Stl) {
             return Err(WriteError::Unsupported {

@@ -134,21 +134,22 @@ fn invert3(a: &[[f64; 4]; 4]) -> Option<[[f64; 3]; 3]> {
 }
 
 /// What is wrong with a NIfTI byte stream.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Error, Clone)]
 pub enum NiftiParseError {
-    /// Fewer bytes than a header, or `sizeof_hdr` is 348 in neither byte order.
+    /// Fewer bytes than a header, `sizeof_hdr` is 348 in neither byte order, or the magic is
+    /// not `n+1`.
     #[error("not a NIfTI-1 file: {0}")]
-    NotNifti(String),
+    NotNifti(NotNifti),
     /// A header pair (`.hdr` + `.img`, magic `ni1`) instead of a single file.
     #[error("two-file NIfTI (.hdr/.img) is not supported; convert it to a single .nii file")]
     TwoFile,
     /// `dim` does not describe a 3D or 4D image of positive size.
-    #[error("unsupported dimensions dim = {dim:?}: {reason}")]
+    #[error("unsupported dimensions dim = {dim:?}: {problem}")]
     Dimensions {
         /// The header's `dim` array.
         dim: [i16; 8],
         /// What is wrong.
-        reason: String,
+        problem: DimensionError,
     },
     /// A voxel type other than the integer and real types listed in the module docs.
     #[error("unsupported datatype {code} ({name})")]
@@ -158,9 +159,17 @@ pub enum NiftiParseError {
         /// Its NIfTI name, or "unknown".
         name: &'static str,
     },
-    /// `vox_offset`, `pixdim` or the affine is unusable.
-    #[error("bad header: {0}")]
-    Header(String),
+    /// `vox_offset` is not a whole number of bytes at or after the header.
+    #[error("bad header: vox_offset {0} is not a whole number >= 348")]
+    VoxOffset(f64),
+    /// The voxel-to-world affine (from the sform, qform or `pixdim`) is singular or not finite.
+    #[error("bad header: the voxel-to-world affine {rows:?} is singular or not finite (pixdim {pixdim:?})")]
+    Affine {
+        /// Its first three rows (boxed: they would make every error 100 bytes larger).
+        rows: Box<[[f64; 4]; 3]>,
+        /// `pixdim[1..4]`.
+        pixdim: [f64; 3],
+    },
     /// The data ends before all voxels.
     #[error("truncated data: {needed} bytes of voxels after offset {offset}, but only {got}")]
     Truncated {
@@ -173,7 +182,57 @@ pub enum NiftiParseError {
     },
     /// The gzip stream is corrupt.
     #[error("cannot decompress: {0}")]
-    Gzip(String),
+    Gzip(std::sync::Arc<std::io::Error>),
+    /// The gzip stream decompresses to more than the limit (a gzip bomb?).
+    #[error("cannot decompress: the data decompresses to more than {limit} bytes (the limit for a NIfTI file; a gzip bomb?)")]
+    TooLarge {
+        /// The limit in bytes.
+        limit: u64,
+    },
+}
+
+/// Why bytes are not a NIfTI-1 file ([`NiftiParseError::NotNifti`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum NotNifti {
+    /// Fewer bytes than a header.
+    #[error("{0} bytes, shorter than the 348-byte header")]
+    TooShort(usize),
+    /// `sizeof_hdr` is 348 in neither byte order.
+    #[error("sizeof_hdr is not 348")]
+    SizeofHdr,
+    /// The magic is not `n+1` (nor the two-file `ni1`).
+    #[error("magic {0:?} is not \"n+1\"")]
+    Magic(String),
+}
+
+/// Why a header's `dim` does not describe a 3D or 4D image ([`NiftiParseError::Dimensions`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum DimensionError {
+    /// `dim[0]` (the number of axes) is not 1..7.
+    #[error("dim[0] = {0} must be 1..7")]
+    Rank(i16),
+    /// Fewer than three axes.
+    #[error("a {0}D image is not a volume (3D or 4D expected)")]
+    NotVolume(usize),
+    /// An axis of size below 1.
+    #[error("dim[{axis}] = {size} must be at least 1")]
+    Empty {
+        /// The axis (1-based, as in `dim`).
+        axis: usize,
+        /// Its size.
+        size: i16,
+    },
+    /// An axis after time (5 or more) of size above 1.
+    #[error("dim[{axis}] = {size} > 1: only 3D and 4D (time) images are supported")]
+    ExtraAxis {
+        /// The axis.
+        axis: usize,
+        /// Its size.
+        size: i16,
+    },
+    /// The voxel count times the voxel size overflows `usize`.
+    #[error("the voxel count overflows")]
+    Overflow,
 }
 
 /// A file-level NIfTI error: every message starts with the file.
@@ -204,16 +263,47 @@ pub enum NiftiError {
         frames: usize,
     },
     /// The frames to write do not share dimensions and affine, or there are none.
-    #[error("{}: cannot write: {reason}", path.display())]
+    #[error("{}: cannot write: {problem}", path.display())]
     Inconsistent {
         /// The file.
         path: PathBuf,
         /// What differs.
-        reason: String,
+        problem: SeriesError,
     },
     /// The file (or its temporary) cannot be written.
     #[error(transparent)]
     Write(#[from] crate::io::IoError),
+}
+
+/// Why frames cannot be written as one NIfTI series ([`NiftiError::Inconsistent`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SeriesError {
+    /// No frame to write.
+    #[error("no frame to write")]
+    NoFrames,
+    /// More frames or voxels per axis than NIfTI-1's 16-bit `dim` holds, or an empty axis.
+    #[error("{frames} frames of {dims:?} voxels exceed NIfTI-1 limits")]
+    TooLarge {
+        /// Frames.
+        frames: usize,
+        /// Voxels per axis of the first frame.
+        dims: [usize; 3],
+    },
+    /// A frame whose dimensions, voxel count or affine differ from the first frame's.
+    #[error("frame {frame} has dims {dims:?} and {voxels} voxels, unlike frame 0 ({first:?}) or its affine")]
+    FrameMismatch {
+        /// Frame number.
+        frame: usize,
+        /// Its dimensions.
+        dims: [usize; 3],
+        /// Its voxel count.
+        voxels: usize,
+        /// The first frame's dimensions.
+        first: [usize; 3],
+    },
+    /// The shared affine is singular.
+    #[error("the affine is singular")]
+    SingularAffine,
 }
 
 fn datatype_name(code: i16) -> &'static str {
@@ -270,11 +360,9 @@ fn maybe_gunzip_bounded(bytes: &[u8], limit: u64) -> Result<std::borrow::Cow<'_,
         flate2::read::MultiGzDecoder::new(bytes)
             .take(limit + 1)
             .read_to_end(&mut out)
-            .map_err(|e| NiftiParseError::Gzip(e.to_string()))?;
+            .map_err(|e| NiftiParseError::Gzip(std::sync::Arc::new(e)))?;
         if out.len() as u64 > limit {
-            return Err(NiftiParseError::Gzip(format!(
-                "the data decompresses to more than {limit} bytes (the limit for a NIfTI file; a gzip bomb?)"
-            )));
+            return Err(NiftiParseError::TooLarge { limit });
         }
         Ok(out.into())
     } else {
@@ -288,51 +376,45 @@ pub fn parse_nifti(bytes: &[u8]) -> Result<Vec<Volume>, NiftiParseError> {
     let bytes = maybe_gunzip(bytes)?;
     let b: &[u8] = &bytes;
     if b.len() < HEADER_SIZE {
-        return Err(NiftiParseError::NotNifti(format!(
-            "{} bytes, shorter than the {HEADER_SIZE}-byte header",
-            b.len()
-        )));
+        return Err(NiftiParseError::NotNifti(NotNifti::TooShort(b.len())));
     }
     let le = if i32::from_le_bytes([b[0], b[1], b[2], b[3]]) == HEADER_SIZE as i32 {
         true
     } else if i32::from_be_bytes([b[0], b[1], b[2], b[3]]) == HEADER_SIZE as i32 {
         false
     } else {
-        return Err(NiftiParseError::NotNifti("sizeof_hdr is not 348".into()));
+        return Err(NiftiParseError::NotNifti(NotNifti::SizeofHdr));
     };
     let r = Reader { b, le };
     match &b[344..348] {
         b"n+1\0" => {}
         b"ni1\0" => return Err(NiftiParseError::TwoFile),
         m => {
-            return Err(NiftiParseError::NotNifti(format!(
-                "magic {:?} is not \"n+1\"",
-                String::from_utf8_lossy(m)
+            return Err(NiftiParseError::NotNifti(NotNifti::Magic(
+                String::from_utf8_lossy(m).into_owned(),
             )))
         }
     }
     let dim: [i16; 8] = std::array::from_fn(|k| r.i16(40 + 2 * k));
-    let bad_dim = |reason: String| NiftiParseError::Dimensions { dim, reason };
+    let bad_dim = |problem: DimensionError| NiftiParseError::Dimensions { dim, problem };
     let nd = dim[0];
     if !(1..=7).contains(&nd) {
-        return Err(bad_dim(format!("dim[0] = {nd} must be 1..7")));
+        return Err(bad_dim(DimensionError::Rank(nd)));
     }
     let nd = nd as usize;
     if nd < 3 {
-        return Err(bad_dim(format!(
-            "a {nd}D image is not a volume (3D or 4D expected)"
-        )));
+        return Err(bad_dim(DimensionError::NotVolume(nd)));
     }
     for (k, &d) in dim.iter().enumerate().take(nd + 1).skip(1) {
         if d < 1 {
-            return Err(bad_dim(format!("dim[{k}] = {d} must be at least 1")));
+            return Err(bad_dim(DimensionError::Empty { axis: k, size: d }));
         }
     }
     if let Some(k) = (5..=nd).find(|&k| dim[k] != 1) {
-        return Err(bad_dim(format!(
-            "dim[{k}] = {} > 1: only 3D and 4D (time) images are supported",
-            dim[k]
-        )));
+        return Err(bad_dim(DimensionError::ExtraAxis {
+            axis: k,
+            size: dim[k],
+        }));
     }
     let dims = [dim[1] as usize, dim[2] as usize, dim[3] as usize];
     let frames = if nd >= 4 { dim[4] as usize } else { 1 };
@@ -351,16 +433,14 @@ pub fn parse_nifti(bytes: &[u8]) -> Result<Vec<Volume>, NiftiParseError> {
     };
     let vox_offset = r.f32(108);
     if !(vox_offset.is_finite() && vox_offset >= HEADER_SIZE as f64 && vox_offset.fract() == 0.0) {
-        return Err(NiftiParseError::Header(format!(
-            "vox_offset {vox_offset} is not a whole number >= {HEADER_SIZE}"
-        )));
+        return Err(NiftiParseError::VoxOffset(vox_offset));
     }
     let offset = vox_offset as usize;
     let per_frame = dims[0] * dims[1] * dims[2];
     let needed = per_frame
         .checked_mul(frames)
         .and_then(|n| n.checked_mul(bytes_per))
-        .ok_or_else(|| bad_dim("the voxel count overflows".into()))?;
+        .ok_or_else(|| bad_dim(DimensionError::Overflow))?;
     let got = b.len().saturating_sub(offset);
     if got < needed {
         return Err(NiftiParseError::Truncated { needed, offset, got });
@@ -460,11 +540,10 @@ fn header_affine(r: &Reader, pixdim: &[f64; 8], unit: f64) -> Result<[[f64; 4]; 
     }
     let det = det3(&a);
     if !a.iter().flatten().all(|v| v.is_finite()) || det == 0.0 || !det.is_finite() {
-        return Err(NiftiParseError::Header(format!(
-            "the voxel-to-world affine {:?} is singular or not finite (pixdim {:?})",
-            &a[..3],
-            &pixdim[1..4]
-        )));
+        return Err(NiftiParseError::Affine {
+            rows: Box::new([a[0], a[1], a[2]]),
+            pixdim: [pixdim[1], pixdim[2], pixdim[3]],
+        });
     }
     Ok(a)
 }
@@ -625,32 +704,31 @@ pub fn read_volume(path: &Path) -> Result<Volume, NiftiError> {
 /// Writes frames (same dims, spacing and affine; at most 32767) as one 3D (one frame) or 4D
 /// NIfTI-1 file, gzipped when the name ends in `.gz`, atomically.
 pub fn write_series(path: &Path, frames: &[Volume]) -> Result<(), NiftiError> {
-    let bad = |reason: String| NiftiError::Inconsistent {
+    let bad = |problem: SeriesError| NiftiError::Inconsistent {
         path: path.into(),
-        reason,
+        problem,
     };
     let Some(v0) = frames.first() else {
-        return Err(bad("no frame to write".into()));
+        return Err(bad(SeriesError::NoFrames));
     };
     if frames.len() > i16::MAX as usize || v0.dims.iter().any(|&d| d == 0 || d > i16::MAX as usize) {
-        return Err(bad(format!(
-            "{} frames of {:?} voxels exceed NIfTI-1 limits",
-            frames.len(),
-            v0.dims
-        )));
+        return Err(bad(SeriesError::TooLarge {
+            frames: frames.len(),
+            dims: v0.dims,
+        }));
     }
     for (t, f) in frames.iter().enumerate() {
         if f.dims != v0.dims || f.affine != v0.affine || f.data.len() != f.dims.iter().product::<usize>() {
-            return Err(bad(format!(
-                "frame {t} has dims {:?} and {} voxels, unlike frame 0 ({:?}) or its affine",
-                f.dims,
-                f.data.len(),
-                v0.dims
-            )));
+            return Err(bad(SeriesError::FrameMismatch {
+                frame: t,
+                dims: f.dims,
+                voxels: f.data.len(),
+                first: v0.dims,
+            }));
         }
     }
     if det3(&v0.affine) == 0.0 {
-        return Err(bad("the affine is singular".into()));
+        return Err(bad(SeriesError::SingularAffine));
     }
     let bytes = encode(frames);
     write_atomically(path, |w| {

@@ -12,7 +12,7 @@
 use std::io::Write;
 
 use super::text::{self, Float};
-use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError};
+use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, UnsupportedFeature};
 
 /// Content lines: comments stripped, blank lines skipped.
 fn content_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
@@ -45,14 +45,13 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     let (line, mut count_toks): (usize, Vec<&[u8]>) = if keyword.ends_with(b"OFF") {
         let prefix = &keyword[..keyword.len() - 3];
         if prefix.iter().any(|b| !b"CNST".contains(b)) {
-            return Err(ParseError::Unsupported(format!(
-                "OFF variant {} (only 3D OFF with optional C, N, ST prefixes is read)",
-                text::show(keyword)
+            return Err(ParseError::Unsupported(UnsupportedFeature::OffVariant(
+                text::clip(keyword),
             )));
         }
         toks.next();
         if toks.peek() == Some(&&b"BINARY"[..]) {
-            return Err(ParseError::Unsupported("binary OFF".into()));
+            return Err(ParseError::Unsupported(UnsupportedFeature::BinaryOff));
         }
         let rest: Vec<&[u8]> = toks.collect();
         if rest.is_empty() {

@@ -77,9 +77,9 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
     let mut warnings = Vec::new();
     loop {
         if pos >= bytes.len() {
-            return Err(ParseError::Invalid(
-                "the PLY header has no end_header line (the file is truncated or not PLY)".into(),
-            ));
+            return Err(ParseError::Missing {
+                what: "end_header line in its PLY header (it is truncated, or not PLY)".into(),
+            });
         }
         line += 1;
         let end = bytes[pos..]
@@ -156,7 +156,9 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
             )),
         }
     }
-    let encoding = encoding.ok_or_else(|| ParseError::Invalid("the PLY header has no format line".into()))?;
+    let encoding = encoding.ok_or_else(|| ParseError::Missing {
+        what: "format line in its PLY header".into(),
+    })?;
     Ok(Header {
         encoding,
         elements,
@@ -339,10 +341,10 @@ fn list_len(v: f64, what: &dyn Fn() -> String, line: Option<usize>) -> Result<u6
     if v >= 0.0 && v.fract() == 0.0 && v < 1.8e19 {
         Ok(v as u64)
     } else {
-        let message = format!("{} is {v}, not a count", what());
-        Err(match line {
-            Some(line) => syntax(line, message),
-            None => ParseError::Invalid(message),
+        Err(ParseError::BadListLength {
+            what: what(),
+            value: v,
+            line,
         })
     }
 }
@@ -364,25 +366,25 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         .elements
         .iter()
         .position(|e| e.name == b"vertex")
-        .ok_or_else(|| ParseError::Invalid("the PLY header declares no vertex element".into()))?;
+        .ok_or_else(|| ParseError::Missing {
+            what: "vertex element in its PLY header".into(),
+        })?;
     let mut xyz = [usize::MAX; 3];
     for (slot, axis) in xyz.iter_mut().zip(["x", "y", "z"]) {
         let props = &header.elements[vertex_el].props;
         *slot = props
             .iter()
             .position(|(n, _)| n == axis.as_bytes())
-            .ok_or_else(|| ParseError::Invalid(format!("the PLY vertex element has no {axis} property")))?;
+            .ok_or_else(|| ParseError::Missing {
+                what: format!("{axis} property in its PLY vertex element"),
+            })?;
         if matches!(props[*slot].1, Property::List(..)) {
-            return Err(ParseError::Invalid(format!(
-                "the PLY vertex property {axis} is a list"
-            )));
+            return Err(ParseError::ListCoordinate { axis });
         }
     }
     let n_vertices = header.elements[vertex_el].count;
     if n_vertices > u32::MAX as u64 {
-        return Err(ParseError::Invalid(format!(
-            "the PLY header declares {n_vertices} vertices, more than 32-bit indices can address"
-        )));
+        return Err(ParseError::TooManyVertices { count: n_vertices });
     }
     let n_vertices = n_vertices as usize;
     let (extra, slots) = vertex_fields(&header.elements[vertex_el].props, &xyz);
@@ -401,8 +403,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 (n == b"vertex_indices" || n == b"vertex_index") && matches!(p, Property::List(..))
             })
             .or(if lists.len() == 1 { Some(lists[0]) } else { None })
-            .ok_or_else(|| {
-                ParseError::Invalid("the PLY face element has no vertex_indices list property".into())
+            .ok_or_else(|| ParseError::Missing {
+                what: "vertex_indices list property in its PLY face element".into(),
             })?;
     }
 
@@ -474,11 +476,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                             for _ in 0..n {
                                 let v = src.scalar(ity, &what)?;
                                 if v.fract() != 0.0 || !v.is_finite() {
-                                    let message =
-                                        format!("face {item} has the vertex index {v}, not an integer");
-                                    return Err(match src.line() {
-                                        Some(line) => ParseError::Syntax { line, message },
-                                        None => ParseError::Invalid(message),
+                                    return Err(ParseError::NonIntegerIndex {
+                                        face: item,
+                                        value: v,
+                                        line: src.line(),
                                     });
                                 }
                                 poly.push(check_index(item, v as i64, n_vertices, src.line())?);
@@ -497,19 +498,15 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         }
     }
     if src.has_trailing_data() {
-        let declared: Vec<String> = header
+        let declared = header
             .elements
             .iter()
-            .map(|e| format!("{} {}", e.count, String::from_utf8_lossy(&e.name)))
+            .map(|e| (e.count, String::from_utf8_lossy(&e.name).into_owned()))
             .collect();
-        let at = src.line().map_or_else(
-            || "after the last element".to_string(),
-            |l| format!("at line {l}, after the last element"),
-        );
-        return Err(ParseError::Invalid(format!(
-            "the file holds more data than its header declares ({}): data {at}",
-            declared.join(", ")
-        )));
+        return Err(ParseError::TrailingData {
+            declared,
+            line: src.line(),
+        });
     }
     let faces = faces.finish(&positions, &mut warnings)?;
     // Values were pushed in property order within each vertex; vector fields interleave.

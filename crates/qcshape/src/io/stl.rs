@@ -204,10 +204,12 @@ fn parse_binary(bytes: &[u8]) -> Result<MeshData, ParseError> {
 
 fn corner_error(t: usize, k: usize, p: [f64; 3], line: Option<usize>) -> ParseError {
     let value = p.iter().copied().find(|c| !c.is_finite()).unwrap_or(f64::NAN);
-    let at = line.map_or(String::new(), |l| format!(" (line {l})"));
-    ParseError::Invalid(format!(
-        "corner {k} of triangle {t} has a non-finite coordinate ({value}){at}"
-    ))
+    ParseError::NonFiniteCorner {
+        triangle: t,
+        corner: k,
+        value,
+        line,
+    }
 }
 
 fn parse_ascii(bytes: &[u8]) -> Result<MeshData, ParseError> {

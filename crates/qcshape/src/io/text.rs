@@ -133,6 +133,17 @@ pub(crate) fn parse_count(tok: &[u8]) -> Option<u64> {
 }
 
 /// A token for an error message: lossy UTF-8, shortened to 40 characters, quoted.
+/// A token as text for an error value: lossy UTF-8, at most 40 characters (then "...").
+pub(crate) fn clip(tok: &[u8]) -> String {
+    let s = String::from_utf8_lossy(tok);
+    let short: String = s.chars().take(40).collect();
+    if short.len() < s.len() {
+        format!("{short}...")
+    } else {
+        short
+    }
+}
+
 pub(crate) fn show(tok: &[u8]) -> String {
     let s = String::from_utf8_lossy(tok);
     let short: String = s.chars().take(40).collect();

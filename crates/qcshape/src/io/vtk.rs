@@ -24,7 +24,10 @@ use attributes::{read_attributes, read_field};
 
 use super::number::{Names, Number as Num};
 use super::text::{self, Cursor, Float};
-use super::{check_finite, check_index, FaceBuilder, FieldValues, MeshData, ParseError, Payload};
+use super::{
+    check_finite, check_index, CellsError, FaceBuilder, FieldValues, MeshData, ParseError, Payload,
+    UnsupportedFeature,
+};
 
 struct Reader<'a> {
     c: Cursor<'a>,
@@ -186,9 +189,10 @@ fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError
     let n = r.count(&format!("the {keyword} cell count"))?;
     let size = r.count(&format!("the {keyword} size"))?;
     let section_line = (!r.binary).then_some(r.c.line());
-    let bad = move |message: String| match section_line {
-        Some(line) => ParseError::Syntax { line, message },
-        None => ParseError::Invalid(message),
+    let bad = |problem: CellsError| ParseError::Cells {
+        keyword: keyword.to_string(),
+        line: section_line,
+        problem,
     };
     // VTK 5.1 layout: OFFSETS and CONNECTIVITY arrays follow.
     let next = r.c.clone().next_token();
@@ -198,10 +202,7 @@ fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError
         let offsets = r.numbers(n, ty, &format!("the {keyword} offsets"))?;
         let t = r.token(&|| format!("CONNECTIVITY for {keyword}"))?;
         if !t.eq_ignore_ascii_case(b"CONNECTIVITY") {
-            return Err(bad(format!(
-                "expected CONNECTIVITY after the {keyword} offsets, found {}",
-                text::show(t)
-            )));
+            return Err(bad(CellsError::ExpectedConnectivity { found: text::clip(t) }));
         }
         let ty = r.num_type(&format!("the {keyword} connectivity"))?;
         let conn = r.numbers(size, ty, &format!("the {keyword} connectivity"))?;
@@ -209,14 +210,15 @@ fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError
         for (i, w) in offsets.windows(2).enumerate() {
             let (a, b) = (as_int(w[0]), as_int(w[1]));
             let (Some(a), Some(b)) = (a, b) else {
-                return Err(bad(format!("{keyword} offset {i} is not an integer")));
+                return Err(bad(CellsError::OffsetNotInteger { offset: i }));
             };
             if a < 0 || b < a || b as u64 > conn.len() as u64 {
-                return Err(bad(format!(
-                    "{keyword} offsets {i} and {} ({a}, {b}) do not index the {} connectivity values",
-                    i + 1,
-                    conn.len()
-                )));
+                return Err(bad(CellsError::OffsetsOutOfRange {
+                    offset: i,
+                    start: a,
+                    end: b,
+                    len: conn.len(),
+                }));
             }
             cells.push(
                 conn[a as usize..b as usize]
@@ -231,17 +233,26 @@ fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError
     let mut cells = Vec::with_capacity(text::capacity(n, flat.len(), 1));
     let mut pos = 0usize;
     for i in 0..n {
-        let k = flat.get(pos).copied().and_then(as_int).filter(|&k| k >= 0).ok_or_else(|| {
-            bad(format!(
-                "{keyword} cell {i} has no valid vertex count (the section declares {n} cells in {size} values)"
-            ))
-        })?;
+        let k = flat
+            .get(pos)
+            .copied()
+            .and_then(as_int)
+            .filter(|&k| k >= 0)
+            .ok_or_else(|| {
+                bad(CellsError::NoVertexCount {
+                    cell: i,
+                    cells: n,
+                    size,
+                })
+            })?;
         pos += 1;
         if k as u64 > (flat.len() - pos) as u64 {
-            return Err(bad(format!(
-                "{keyword} cell {i} lists {k} vertices, but only {} of the declared {size} values remain",
-                flat.len() - pos
-            )));
+            return Err(bad(CellsError::TooFewValues {
+                cell: i,
+                count: k,
+                remaining: flat.len() - pos,
+                size,
+            }));
         }
         cells.push(
             flat[pos..pos + k as usize]
@@ -252,9 +263,11 @@ fn read_cells(r: &mut Reader, keyword: &str) -> Result<Vec<Vec<i64>>, ParseError
         pos += k as usize;
     }
     if pos != flat.len() {
-        return Err(bad(format!(
-            "{keyword} declares {size} values, but its {n} cells use {pos}"
-        )));
+        return Err(bad(CellsError::SizeMismatch {
+            size,
+            cells: n,
+            used: pos,
+        }));
     }
     Ok(cells)
 }
@@ -296,9 +309,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     }
     let grid = ds.eq_ignore_ascii_case(b"UNSTRUCTURED_GRID");
     if !(grid || ds.eq_ignore_ascii_case(b"POLYDATA")) {
-        return Err(ParseError::Unsupported(format!(
-            "VTK dataset type {} (only POLYDATA and UNSTRUCTURED_GRID are read)",
-            text::show(ds)
+        return Err(ParseError::Unsupported(UnsupportedFeature::VtkDataset(
+            text::clip(ds),
         )));
     }
     let mut grid_cells: Option<(Vec<Vec<i64>>, usize)> = None;
@@ -418,8 +430,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             }
         }
     }
-    let positions =
-        positions.ok_or_else(|| ParseError::Invalid("the VTK file has no POINTS section".into()))?;
+    let positions = positions.ok_or_else(|| ParseError::Missing {
+        what: "POINTS section".into(),
+    })?;
     if grid {
         grid_faces(&positions, grid_cells, cell_types, &mut faces, &mut warnings)?;
     }
@@ -454,21 +467,20 @@ fn grid_faces(
     warnings: &mut Vec<String>,
 ) -> Result<(), ParseError> {
     let Some((cells, line)) = cells else {
-        return Err(ParseError::Invalid(
-            "the UNSTRUCTURED_GRID has no CELLS section".into(),
-        ));
+        return Err(ParseError::Missing {
+            what: "CELLS section for its UNSTRUCTURED_GRID".into(),
+        });
     };
     let Some(types) = types else {
-        return Err(ParseError::Invalid(
-            "the UNSTRUCTURED_GRID has CELLS but no CELL_TYPES section".into(),
-        ));
+        return Err(ParseError::Missing {
+            what: "CELL_TYPES section for the CELLS of its UNSTRUCTURED_GRID".into(),
+        });
     };
     if types.len() != cells.len() {
-        return Err(ParseError::Invalid(format!(
-            "CELL_TYPES lists {} types for {} cells",
-            types.len(),
-            cells.len()
-        )));
+        return Err(ParseError::CellTypeCount {
+            types: types.len(),
+            cells: cells.len(),
+        });
     }
     let n = positions.len();
     let mut skipped = std::collections::BTreeMap::<i64, usize>::new();

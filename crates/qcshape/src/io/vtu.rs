@@ -7,12 +7,12 @@
 //! larger ones triangulated like every other reader's polygons. Vertex, poly-vertex, line and
 //! polyline cells (types 1 to 4) are skipped with a warning, as `.vtp` skips `Verts` and
 //! `Lines`; any other cell type (volume cells such as tetrahedra, quadratic cells) is refused
-//! with [`ParseError::Unsupported`] naming the first such cell, since qcshape compares
+//! with [`ParseError::Unsupported`] ([`UnsupportedFeature::VtuCell`]) naming the first such cell, since qcshape compares
 //! surfaces.
 
 use super::vtk::push_strip;
 use super::xml::{Document, Section};
-use super::{FaceBuilder, MeshData, ParseError};
+use super::{FaceBuilder, MeshData, ParseError, UnsupportedFeature};
 
 const VTK_VERTEX: i64 = 1;
 const VTK_POLY_LINE: i64 = 4;
@@ -46,7 +46,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if n_cells > 0 {
         let types_array = doc
             .array(Section::Cells, Some("types"))
-            .ok_or_else(|| ParseError::Invalid("the Cells of the .vtu file have no types array".into()))?;
+            .ok_or_else(|| ParseError::Missing {
+                what: "types array for its Cells".into(),
+            })?;
         let types = doc.values(types_array, n_cells)?;
         let (mut skipped, mut strips) = (0usize, 0usize);
         doc.each_cell(Section::Cells, n_cells, "Cells", n, |k, idx| {
@@ -67,11 +69,11 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     skipped += 1;
                     Ok(())
                 }
-                _ => Err(ParseError::Unsupported(format!(
-                    "cell {k} of the .vtu file is a {} (VTK cell type {t}); only surface cells \
-                     (triangles, quads, polygons, triangle strips) can be read",
-                    type_name(ty)
-                ))),
+                _ => Err(ParseError::Unsupported(UnsupportedFeature::VtuCell {
+                    cell: k,
+                    name: type_name(ty),
+                    vtk_type: t,
+                })),
             }
         })?;
         if strips > 0 {

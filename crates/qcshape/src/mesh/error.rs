@@ -105,5 +105,28 @@ pub enum MeshError {
     },
     /// Two shapes that must share a topology do not.
     #[error("shapes do not share one connectivity: {0}")]
-    TopologyMismatch(String),
+    TopologyMismatch(FaceDifference),
+}
+
+/// How the faces of two shapes with the same vertex count differ ([`MeshError::TopologyMismatch`]).
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum FaceDifference {
+    /// Different face counts.
+    #[error("{expected} faces against {got}")]
+    Count {
+        /// Faces of the first shape.
+        expected: usize,
+        /// Faces of the other.
+        got: usize,
+    },
+    /// The first face (by index) whose corners differ.
+    #[error("face {face} is {expected:?} in one and {got:?} in the other")]
+    Face {
+        /// Face index.
+        face: usize,
+        /// Its corners in the first shape.
+        expected: [u32; 3],
+        /// Its corners in the other.
+        got: [u32; 3],
+    },
 }

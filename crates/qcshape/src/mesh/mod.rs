@@ -11,7 +11,7 @@ mod shape;
 pub mod smooth;
 mod topology;
 
-pub use error::MeshError;
+pub use error::{FaceDifference, MeshError};
 pub use shape::{Shape, MAX_COORDINATE};
 pub use topology::Topology;
 

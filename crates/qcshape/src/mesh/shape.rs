@@ -1,6 +1,6 @@
 use std::sync::Arc;
 
-use super::{geometry, MeshError, Topology};
+use super::{geometry, FaceDifference, MeshError, Topology};
 
 /// The largest coordinate magnitude a shape may have: products of four coordinates (squared
 /// areas, the metrics' energies before normalization) must stay finite in `f64` (1e308).
@@ -106,16 +106,16 @@ impl Shape {
         }
         let (a, b) = (self.topology.faces(), other.topology.faces());
         if a.len() != b.len() {
-            return Err(MeshError::TopologyMismatch(format!(
-                "{} faces against {}",
-                a.len(),
-                b.len()
-            )));
+            return Err(MeshError::TopologyMismatch(FaceDifference::Count {
+                expected: a.len(),
+                got: b.len(),
+            }));
         }
         let f = a.iter().zip(b).position(|(x, y)| x != y).unwrap_or(0);
-        Err(MeshError::TopologyMismatch(format!(
-            "face {f} is {:?} in one and {:?} in the other",
-            a[f], b[f]
-        )))
+        Err(MeshError::TopologyMismatch(FaceDifference::Face {
+            face: f,
+            expected: a[f],
+            got: b[f],
+        }))
     }
 }

@@ -102,12 +102,12 @@ pub enum SimilarityError {
         error: Box<GeodesicError>,
     },
     /// The journal of a resumable run cannot be read or written.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {problem}", path.display())]
     Journal {
         /// The journal file.
         path: std::path::PathBuf,
         /// What went wrong.
-        message: String,
+        problem: super::journal::JournalProblem,
     },
     /// The run was cancelled (finished pairs are in the journal).
     #[error("cancelled")]

@@ -160,18 +160,15 @@ impl Journal {
         head: &Head,
         resume: bool,
     ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
-        let err = |message: String| SimilarityError::Journal {
+        let err = |problem: JournalProblem| SimilarityError::Journal {
             path: path.to_path_buf(),
-            message,
+            problem,
         };
         if head.settings.contains('\n') {
-            return Err(err("the settings string has a line break".into()));
+            return Err(err(JournalProblem::SettingsLineBreak));
         }
         if !replaceable(path) {
-            return Err(err(
-                "exists and is not a qcshape similarity journal; refusing to replace it (remove it or choose another file)"
-                    .into(),
-            ));
+            return Err(err(JournalProblem::NotReplaceable));
         }
         let (mut done, mut dropped) = (Vec::new(), 0);
         if resume && path.exists() {
@@ -187,20 +184,24 @@ impl Journal {
             text.push_str(&format!("shard,{shard}\n"));
         }
         if let Some(names) = head.names {
-            let json =
-                serde_json::to_string(names).map_err(|e| err(format!("cannot encode the names: {e}")))?;
+            let json = serde_json::to_string(names).map_err(|e| err(JournalProblem::EncodeNames(e)))?;
             text.push_str(&format!("names,{json}\n"));
         }
         for p in &done {
             text.push_str(&line(p));
         }
         let tmp = path.with_extension("journal-tmp");
-        std::fs::write(&tmp, text).map_err(|e| err(format!("cannot write {}: {e}", tmp.display())))?;
-        std::fs::rename(&tmp, path).map_err(|e| err(format!("cannot write: {e}")))?;
+        std::fs::write(&tmp, text).map_err(|error| {
+            err(JournalProblem::WriteTemporary {
+                tmp: tmp.clone(),
+                error,
+            })
+        })?;
+        std::fs::rename(&tmp, path).map_err(|e| err(JournalProblem::Write(e)))?;
         let file = OpenOptions::new()
             .append(true)
             .open(path)
-            .map_err(|e| err(format!("cannot append: {e}")))?;
+            .map_err(|e| err(JournalProblem::Append(e)))?;
         let journal = Journal {
             path: path.to_path_buf(),
             file: Mutex::new(file),
@@ -209,10 +210,10 @@ impl Journal {
         Ok((journal, done))
     }
 
-    fn error(&self, message: String) -> SimilarityError {
+    fn error(&self, problem: JournalProblem) -> SimilarityError {
         SimilarityError::Journal {
             path: self.path.clone(),
-            message,
+            problem,
         }
     }
 
@@ -221,7 +222,7 @@ impl Journal {
         let mut f = self.file.lock().unwrap_or_else(|p| p.into_inner());
         f.write_all(line(pair).as_bytes())
             .and_then(|_| f.flush())
-            .map_err(|e| self.error(format!("cannot append: {e}")))
+            .map_err(|e| self.error(JournalProblem::Append(e)))
     }
 
     /// The number of records of the resumed journal that were torn or corrupt (failed their
@@ -241,7 +242,7 @@ impl Journal {
         drop(self.file);
         std::fs::remove_file(&path).map_err(|e| SimilarityError::Journal {
             path,
-            message: format!("cannot remove: {e}"),
+            problem: JournalProblem::Remove(e),
         })
     }
 }
@@ -349,37 +350,48 @@ pub struct JournalFile {
 impl JournalFile {
     /// Reads the journal at `path`.
     pub fn read(path: &Path) -> Result<JournalFile, SimilarityError> {
-        let err = |message: String| SimilarityError::Journal {
+        let err = |problem: JournalProblem| SimilarityError::Journal {
             path: path.to_path_buf(),
-            message,
+            problem,
         };
         let bytes = crate::limits::read_regular_file(path, crate::limits::MAX_TABLE_FILE_BYTES)
-            .map_err(|e| err(format!("cannot read: {e}")))?;
+            .map_err(|e| err(JournalProblem::Read(e)))?;
         let lines: Vec<String> = bytes
             .split(|&b| b == b'\n')
             .map(|l| String::from_utf8_lossy(l).into_owned())
             .collect();
         if lines.len() < 4 || !(lines[0] == HEADER || lines[0] == HEADER_V2) {
-            return Err(err(format!(
-                "not a qcshape similarity journal of this version (expected the first line {HEADER:?} or {HEADER_V2:?})"
-            )));
+            return Err(err(JournalProblem::NotAJournal));
         }
         let key = lines[1]
             .strip_prefix("key,")
             .and_then(|k| u64::from_str_radix(k, 16).ok())
             .ok_or_else(|| {
-                err(format!(
-                    "line 2: expected `key,<16 hex digits>`, found {:?}",
-                    lines[1]
-                ))
+                err(JournalProblem::HeaderLine {
+                    line: 2,
+                    expected: "key,<16 hex digits>",
+                    found: lines[1].clone(),
+                })
             })?;
         let n = lines[2]
             .strip_prefix("n,")
             .and_then(|k| k.parse().ok())
-            .ok_or_else(|| err(format!("line 3: expected `n,<count>`, found {:?}", lines[2])))?;
+            .ok_or_else(|| {
+                err(JournalProblem::HeaderLine {
+                    line: 3,
+                    expected: "n,<count>",
+                    found: lines[2].clone(),
+                })
+            })?;
         let settings = lines[3]
             .strip_prefix("settings,")
-            .ok_or_else(|| err(format!("line 4: expected `settings,...`, found {:?}", lines[3])))?
+            .ok_or_else(|| {
+                err(JournalProblem::HeaderLine {
+                    line: 4,
+                    expected: "settings,...",
+                    found: lines[3].clone(),
+                })
+            })?
             .to_string();
         let mut file = JournalFile {
             key,
@@ -396,13 +408,22 @@ impl JournalFile {
                 continue;
             }
             if let Some(s) = raw.strip_prefix("shard,") {
-                let shard = s.parse().map_err(|e| err(format!("line {}: {e}", k + 1)))?;
+                let shard = s.parse().map_err(|_: String| {
+                    err(JournalProblem::ShardLine {
+                        line: k + 1,
+                        found: s.to_string(),
+                    })
+                })?;
                 file.shard = Some(shard);
             } else if let Some(json) = raw.strip_prefix("names,") {
                 let names: Vec<String> = serde_json::from_str(json)
-                    .map_err(|e| err(format!("line {}: the names do not parse: {e}", k + 1)))?;
+                    .map_err(|error| err(JournalProblem::NamesLine { line: k + 1, error }))?;
                 if names.len() != n {
-                    return Err(err(format!("line {}: {} names for n = {n}", k + 1, names.len())));
+                    return Err(err(JournalProblem::NameCount {
+                        line: k + 1,
+                        names: names.len(),
+                        n,
+                    }));
                 }
                 file.names = Some(names);
             } else {
@@ -416,55 +437,224 @@ impl JournalFile {
     }
 }
 
+/// Why a journal (or a shard journal to merge) cannot be written, read, resumed or merged
+/// ([`SimilarityError::Journal`]).
+#[derive(Debug, thiserror::Error)]
+pub enum JournalProblem {
+    /// The settings string holds a line break (it is one line of the header).
+    #[error("the settings string has a line break")]
+    SettingsLineBreak,
+    /// The file exists and is not a journal: it is not replaced.
+    #[error("exists and is not a qcshape similarity journal; refusing to replace it (remove it or choose another file)")]
+    NotReplaceable,
+    /// The deformation names cannot be encoded as JSON.
+    #[error("cannot encode the names: {0}")]
+    EncodeNames(serde_json::Error),
+    /// The temporary file cannot be written.
+    #[error("cannot write {}: {error}", tmp.display())]
+    WriteTemporary {
+        /// The temporary file.
+        tmp: PathBuf,
+        /// The system error.
+        error: std::io::Error,
+    },
+    /// The temporary file cannot be renamed over the journal.
+    #[error("cannot write: {0}")]
+    Write(std::io::Error),
+    /// A record cannot be appended.
+    #[error("cannot append: {0}")]
+    Append(std::io::Error),
+    /// The journal cannot be removed.
+    #[error("cannot remove: {0}")]
+    Remove(std::io::Error),
+    /// The journal cannot be read.
+    #[error("cannot read: {0}")]
+    Read(std::io::Error),
+    /// The first line is not a journal header of this version.
+    #[error("not a qcshape similarity journal of this version (expected the first line {HEADER:?} or {HEADER_V2:?})")]
+    NotAJournal,
+    /// A header line (2 to 4) that does not hold what it must.
+    #[error("line {line}: expected `{expected}`, found {found:?}")]
+    HeaderLine {
+        /// Line number.
+        line: usize,
+        /// Its expected form.
+        expected: &'static str,
+        /// The line.
+        found: String,
+    },
+    /// A `shard,` line whose value is not `K/S`.
+    #[error("line {line}: {found:?}: expected K/S, two whole numbers with 1 <= K <= S (e.g. 2/8)")]
+    ShardLine {
+        /// Line number.
+        line: usize,
+        /// The value.
+        found: String,
+    },
+    /// A `names,` line that is not a JSON list of strings.
+    #[error("line {line}: the names do not parse: {error}")]
+    NamesLine {
+        /// Line number.
+        line: usize,
+        /// The JSON error.
+        error: serde_json::Error,
+    },
+    /// A `names,` line with another count than `n`.
+    #[error("line {line}: {names} names for n = {n}")]
+    NameCount {
+        /// Line number.
+        line: usize,
+        /// Names listed.
+        names: usize,
+        /// The header's count.
+        n: usize,
+    },
+    /// A journal that cannot be read, found when resuming.
+    #[error("{0}; remove it or run without --resume")]
+    NotResumable(Box<JournalProblem>),
+    /// A journal of a run with another number of deformations.
+    #[error("the journal belongs to another run (n = {journal}, this run has {run} deformations); remove it or run without --resume")]
+    OtherCount {
+        /// The journal's count.
+        journal: usize,
+        /// This run's.
+        run: usize,
+    },
+    /// A journal of a run with the same settings but other inputs.
+    #[error("the journal belongs to another run (the same settings but different inputs (names or coordinates of the transferred deformations)); remove it or run without --resume")]
+    OtherInputs,
+    /// A journal of a run with other settings: `(name, in the journal, now)`.
+    #[error("the journal belongs to another run (different settings: {}); remove it or run without --resume", journal_now(.0))]
+    OtherSettings(Vec<(String, String, String)>),
+    /// A journal of another shard (or of the whole matrix).
+    #[error("the journal is of {}, this run computes {}; remove it or run without --resume", shard_name(.journal), shard_name(.run))]
+    OtherShard {
+        /// The journal's shard (`None`: the whole matrix).
+        journal: Option<Shard>,
+        /// This run's.
+        run: Option<Shard>,
+    },
+    /// A journal of a whole run given to merge.
+    #[error("a journal of a whole run, not of a shard (--shard K/S)")]
+    WholeRun,
+    /// A shard journal without the deformation names.
+    #[error("the shard journal does not record the deformation names")]
+    NoNames,
+    /// A shard of a run with other settings than the first file's: `(name, there, here)`.
+    #[error("belongs to another run than {}: other settings: {}", first.display(), here_not_there(differing))]
+    ShardSettings {
+        /// The first file.
+        first: PathBuf,
+        /// The differing settings.
+        differing: Vec<(String, String, String)>,
+    },
+    /// A shard of a run with other data than the first file's.
+    #[error("belongs to another run than {}: other data (names or coordinates of the deformations)", first.display())]
+    ShardData {
+        /// The first file.
+        first: PathBuf,
+    },
+    /// A shard of a run cut into another number of shards than the first file's.
+    #[error("belongs to another run than {}: {count} shards, {} has {first_count}", first.display(), first.display())]
+    ShardCount {
+        /// The first file.
+        first: PathBuf,
+        /// This file's shard count.
+        count: usize,
+        /// The first file's.
+        first_count: usize,
+    },
+    /// A shard with torn or corrupt records.
+    #[error("{0} torn or corrupt record(s); rerun this shard with --resume to recompute them")]
+    Torn(usize),
+    /// A header count too large for a shard.
+    #[error("n = {0} deformations is more than a shard can hold")]
+    TooLarge(usize),
+    /// A shard without all of its pairs.
+    #[error("shard {shard} is incomplete: {have} of its {want} pairs (still running or interrupted: rerun it with --resume)")]
+    Incomplete {
+        /// The shard.
+        shard: Shard,
+        /// Pairs held.
+        have: usize,
+        /// Pairs of its share.
+        want: usize,
+    },
+    /// A pair that belongs to another shard.
+    #[error("holds pair ({i}, {j}), which is not in shard {shard}")]
+    ForeignPair {
+        /// First deformation.
+        i: usize,
+        /// Second deformation.
+        j: usize,
+        /// The file's shard.
+        shard: Shard,
+    },
+    /// A shard given twice.
+    #[error("shard {shard} is also given as {}", other.display())]
+    DuplicateShard {
+        /// The shard.
+        shard: Shard,
+        /// The other file.
+        other: PathBuf,
+    },
+}
+
+fn journal_now(differing: &[(String, String, String)]) -> String {
+    let named: Vec<String> = differing
+        .iter()
+        .map(|(name, x, y)| format!("{name}: journal {x}, now {y}"))
+        .collect();
+    named.join(", ")
+}
+
+fn here_not_there(differing: &[(String, String, String)]) -> String {
+    let named: Vec<String> = differing
+        .iter()
+        .map(|(name, x, y)| format!("{name} {y} (not {x})"))
+        .collect();
+    named.join("; ")
+}
+
+fn shard_name(s: &Option<Shard>) -> String {
+    s.map_or("the whole matrix".to_string(), |s| format!("shard {s}"))
+}
+
 /// The whole records of a journal to resume with `head`, and the number of records dropped.
 fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, usize), SimilarityError> {
-    let err = |message: String| SimilarityError::Journal {
+    let err = |problem: JournalProblem| SimilarityError::Journal {
         path: path.to_path_buf(),
-        message,
+        problem,
     };
     let file = JournalFile::read(path).map_err(|e| match e {
-        SimilarityError::Journal { path, message } => SimilarityError::Journal {
+        SimilarityError::Journal { path, problem } => SimilarityError::Journal {
             path,
-            message: format!("{message}; remove it or run without --resume"),
+            problem: JournalProblem::NotResumable(Box::new(problem)),
         },
         e => e,
     })?;
     let n = head.n;
     if file.n != n {
-        return Err(err(format!(
-            "the journal belongs to another run (n = {}, this run has {n} deformations); remove it or run without --resume",
-            file.n
-        )));
+        return Err(err(JournalProblem::OtherCount {
+            journal: file.n,
+            run: n,
+        }));
     }
     if file.key != head.key {
-        let differ = settings_diff(&file.settings, head.settings);
-        let what = if differ.is_empty() {
-            "the same settings but different inputs (names or coordinates of the transferred deformations)"
-                .to_string()
+        let differ = differing_settings(&file.settings, head.settings);
+        return Err(err(if differ.is_empty() {
+            JournalProblem::OtherInputs
         } else {
-            format!("different settings: {}", differ.join(", "))
-        };
-        return Err(err(format!(
-            "the journal belongs to another run ({what}); remove it or run without --resume"
-        )));
+            JournalProblem::OtherSettings(differ)
+        }));
     }
     if file.shard != head.shard {
-        let name = |s: Option<Shard>| s.map_or("the whole matrix".to_string(), |s| format!("shard {s}"));
-        return Err(err(format!(
-            "the journal is of {}, this run computes {}; remove it or run without --resume",
-            name(file.shard),
-            name(head.shard)
-        )));
+        return Err(err(JournalProblem::OtherShard {
+            journal: file.shard,
+            run: head.shard,
+        }));
     }
     Ok((file.pairs, file.dropped))
-}
-
-/// The `|`-separated fields in which two settings strings differ, as `journal X, now Y`.
-pub(crate) fn settings_diff(journal: &str, now: &str) -> Vec<String> {
-    differing_settings(journal, now)
-        .into_iter()
-        .map(|(name, x, y)| format!("{name}: journal {x}, now {y}"))
-        .collect()
 }
 
 /// The settings in which two settings strings differ, as `(name, value in a, value in b)`:

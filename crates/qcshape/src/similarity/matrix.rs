@@ -119,13 +119,43 @@ pub enum MatrixFileError {
         /// What is wrong.
         message: String,
     },
-    /// A problem of the file as a whole.
-    #[error("{}: {message}", path.display())]
-    File {
+    /// The matrix cannot be encoded as CSV.
+    #[error("{}: cannot encode the matrix: {error}", path.display())]
+    Encode {
         /// The file.
         path: PathBuf,
-        /// What is wrong.
-        message: String,
+        /// The CSV writer's error.
+        error: csv::Error,
+    },
+    /// A matrix file without a header.
+    #[error("{}: the file is empty: expected a header name,<name_1>,...,<name_n>", path.display())]
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A matrix file with another number of rows than its header names deformations.
+    #[error("{}: the header names {names} deformations but there are {rows} rows: the matrix must be square", path.display())]
+    NotSquare {
+        /// The file.
+        path: PathBuf,
+        /// Deformations the header names.
+        names: usize,
+        /// Rows.
+        rows: usize,
+    },
+    /// The values do not form a distance matrix (a problem not tied to one line).
+    #[error("{}: {error}", path.display())]
+    Matrix {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        error: MatrixError,
+    },
+    /// A label file without a labelled deformation.
+    #[error("{}: no labelled deformation", path.display())]
+    NoLabels {
+        /// The file.
+        path: PathBuf,
     },
     /// A manifest given as a label file is invalid.
     #[error(transparent)]
@@ -300,9 +330,9 @@ impl DistanceMatrix {
     /// shortest round-trip form.
     pub fn write_csv(&self, path: &Path) -> Result<(), MatrixFileError> {
         let mut w = csv::Writer::from_writer(Vec::new());
-        let encode = |e: csv::Error| MatrixFileError::File {
+        let encode = |error: csv::Error| MatrixFileError::Encode {
             path: path.into(),
-            message: format!("cannot encode the matrix: {e}"),
+            error,
         };
         let mut header = vec!["name".to_string()];
         header.extend(self.names.iter().cloned());
@@ -312,10 +342,7 @@ impl DistanceMatrix {
             rec.extend(self.row(i).iter().map(|v| format!("{v:?}")));
             w.write_record(&rec).map_err(encode)?;
         }
-        let bytes = w.into_inner().map_err(|e| MatrixFileError::File {
-            path: path.into(),
-            message: format!("cannot encode the matrix: {e}"),
-        })?;
+        let bytes = w.into_inner().map_err(|e| encode(e.into_error().into()))?;
         write_atomically(path, |out| out.write_all(&bytes))?;
         Ok(())
     }
@@ -342,10 +369,7 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
     let mut table = Table::<MatrixFileError>::read(path, true)?;
     let (header, header_line) = (table.header.clone(), table.header_line);
     if header.is_empty() {
-        return Err(MatrixFileError::File {
-            path: path.into(),
-            message: "the file is empty: expected a header name,<name_1>,...,<name_n>".into(),
-        });
+        return Err(MatrixFileError::Empty { path: path.into() });
     }
     let names: Vec<String> = header.iter().skip(1).map(str::to_string).collect();
     let n = names.len();
@@ -397,12 +421,10 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
         lines.push(line);
     }
     if lines.len() != n {
-        return Err(MatrixFileError::File {
+        return Err(MatrixFileError::NotSquare {
             path: path.into(),
-            message: format!(
-                "the header names {n} deformations but there are {} rows: the matrix must be square",
-                lines.len()
-            ),
+            names: n,
+            rows: lines.len(),
         });
     }
     DistanceMatrix::new(names.clone(), values).map_err(|e| {
@@ -434,9 +456,9 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
             MatrixError::DuplicateName { name, .. } => {
                 bad(header_line, format!("the name {name:?} occurs twice"))
             }
-            other => MatrixFileError::File {
+            other => MatrixFileError::Matrix {
                 path: path.into(),
-                message: other.to_string(),
+                error: other,
             },
         }
     })
@@ -513,10 +535,7 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
         }
     }
     if pairs.is_empty() {
-        return Err(MatrixFileError::File {
-            path: path.into(),
-            message: "no labelled deformation".into(),
-        });
+        return Err(MatrixFileError::NoLabels { path: path.into() });
     }
     Ok(pairs)
 }

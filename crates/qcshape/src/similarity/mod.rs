@@ -14,7 +14,7 @@ pub mod tangent;
 
 pub use crate::mesh::smooth::Smoothing;
 pub use engine::{all_pairs, details_csv, pose_distances, Approx, PairDistance, Pose, SimilarityError};
-pub use journal::{fingerprint, Journal, JournalFile};
+pub use journal::{fingerprint, Journal, JournalFile, JournalProblem};
 pub use matrix::*;
 pub use pipeline::{prepare, settings_key, PipelineError, PipelineOptions, Prepared, Stage};
 pub use run::{compute, journal_path, similarity_matrix, Comparison, Event, Outcome, Run, Selection, Sink};

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use super::engine::{all_pairs, PairDistance, SimilarityError};
-use super::journal::JournalFile;
+use super::journal::{JournalFile, JournalProblem};
 
 /// Shard `index` (1-based) of `count`: `K/S` on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -120,9 +120,9 @@ impl Merged {
 /// exactly its share (a shard that is still running or was killed: rerun it with `--resume`),
 /// and a shard with torn or corrupt records.
 pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
-    let err = |path: &Path, message: String| SimilarityError::Journal {
+    let err = |path: &Path, problem: JournalProblem| SimilarityError::Journal {
         path: path.to_path_buf(),
-        message,
+        problem,
     };
     let Some(first_path) = paths.first() else {
         return Err(SimilarityError::NoShards);
@@ -132,93 +132,75 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, SimilarityError> {
     for path in paths {
         let file = JournalFile::read(path)?;
         let Some(shard) = file.shard else {
-            return Err(err(
-                path,
-                "a journal of a whole run, not of a shard (--shard K/S)".into(),
-            ));
+            return Err(err(path, JournalProblem::WholeRun));
         };
         let Some(names) = &file.names else {
-            return Err(err(
-                path,
-                "the shard journal does not record the deformation names".into(),
-            ));
+            return Err(err(path, JournalProblem::NoNames));
         };
         if let Some((s0, f0)) = &first {
+            let first = first_path.clone();
             let differs = if f0.settings != file.settings {
-                let named: Vec<String> = super::journal::differing_settings(&f0.settings, &file.settings)
-                    .into_iter()
-                    .map(|(name, x, y)| format!("{name} {y} (not {x})"))
-                    .collect();
-                Some(format!("other settings: {}", named.join("; ")))
+                Some(JournalProblem::ShardSettings {
+                    first,
+                    differing: super::journal::differing_settings(&f0.settings, &file.settings),
+                })
             } else if f0.key != file.key || f0.names.as_ref() != Some(names) {
-                Some("other data (names or coordinates of the deformations)".to_string())
+                Some(JournalProblem::ShardData { first })
             } else if s0.count != shard.count {
-                Some(format!(
-                    "{} shards, {} has {}",
-                    shard.count,
-                    first_path.display(),
-                    s0.count
-                ))
+                Some(JournalProblem::ShardCount {
+                    first,
+                    count: shard.count,
+                    first_count: s0.count,
+                })
             } else {
                 None
             };
-            if let Some(what) = differs {
-                return Err(err(
-                    path,
-                    format!("belongs to another run than {}: {what}", first_path.display()),
-                ));
+            if let Some(problem) = differs {
+                return Err(err(path, problem));
             }
         } else {
             first = Some((shard, file.clone()));
         }
         if file.dropped > 0 {
-            return Err(err(
-                path,
-                format!(
-                    "{} torn or corrupt record(s); rerun this shard with --resume to recompute them",
-                    file.dropped
-                ),
-            ));
+            return Err(err(path, JournalProblem::Torn(file.dropped)));
         }
         // The share's size without listing it: a forged header (n = 70,000) must not make us
         // allocate its pairs when the file holds far fewer records.
-        let share = shard.count_of(file.n).ok_or_else(|| {
-            err(
-                path,
-                format!("n = {} deformations is more than a shard can hold", file.n),
-            )
-        })?;
+        let share = shard
+            .count_of(file.n)
+            .ok_or_else(|| err(path, JournalProblem::TooLarge(file.n)))?;
         if file.pairs.len() < share {
             return Err(err(
                 path,
-                format!(
-                    "shard {shard} is incomplete: {} of its {share} pairs (still running or interrupted: rerun it with --resume)",
-                    file.pairs.len(),
-                ),
+                JournalProblem::Incomplete {
+                    shard,
+                    have: file.pairs.len(),
+                    want: share,
+                },
             ));
         }
         let want: HashSet<(usize, usize)> = shard.pairs(file.n).into_iter().collect();
         let have: HashSet<(usize, usize)> = file.pairs.iter().map(|p| (p.i, p.j)).collect();
         if let Some(&(i, j)) = have.difference(&want).next() {
-            return Err(err(
-                path,
-                format!("holds pair ({i}, {j}), which is not in shard {shard}"),
-            ));
+            return Err(err(path, JournalProblem::ForeignPair { i, j, shard }));
         }
         if have.len() < want.len() {
             return Err(err(
                 path,
-                format!(
-                    "shard {shard} is incomplete: {} of its {} pairs (still running or interrupted: rerun it with --resume)",
-                    have.len(),
-                    want.len()
-                ),
+                JournalProblem::Incomplete {
+                    shard,
+                    have: have.len(),
+                    want: want.len(),
+                },
             ));
         }
         if let Some((other, _)) = shards.get(&shard.index) {
             return Err(err(
                 path,
-                format!("shard {shard} is also given as {}", other.display()),
+                JournalProblem::DuplicateShard {
+                    shard,
+                    other: other.clone(),
+                },
             ));
         }
         shards.insert(shard.index, (path.clone(), file));

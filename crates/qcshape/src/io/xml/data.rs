@@ -7,7 +7,7 @@ use std::io::Read;
 
 use super::scan::line_of;
 pub(super) use crate::io::number::Number as Ty;
-use crate::io::ParseError;
+use crate::io::{DataArrayError, ParseError};
 
 /// File-level settings from the `VTKFile` element.
 #[derive(Debug, Clone, Copy)]
@@ -118,8 +118,11 @@ impl Decoder<'_> {
         }
     }
 
-    fn invalid(&self, message: String) -> ParseError {
-        ParseError::Invalid(format!("{}: {message}", self.what))
+    fn invalid(&self, problem: DataArrayError) -> ParseError {
+        ParseError::DataArray {
+            array: self.what.clone(),
+            problem,
+        }
     }
 
     /// `n` bytes starting at text/byte position `at`, as stored (raw) or decoded (base64:
@@ -134,10 +137,9 @@ impl Decoder<'_> {
         let chunk = &self.bytes[at as usize..end as usize];
         if self.base64 {
             let mut d = b64_decode(chunk).map_err(|k| {
-                self.invalid(format!(
-                    "bad base64 at byte offset {}",
-                    (self.base as u64).saturating_add(at).saturating_add(k as u64)
-                ))
+                self.invalid(DataArrayError::Base64 {
+                    offset: (self.base as u64).saturating_add(at).saturating_add(k as u64),
+                })
             })?;
             if (d.len() as u64) < n {
                 return Err(self.truncated(len, at));
@@ -181,9 +183,10 @@ impl Decoder<'_> {
             let head = self.take(at, h)?;
             let n = self.word(&head);
             if n != expected {
-                return Err(self.invalid(format!(
-                    "the header declares {n} bytes, but the array needs {expected}"
-                )));
+                return Err(self.invalid(DataArrayError::HeaderSize {
+                    declared: n,
+                    needed: expected,
+                }));
             }
             let total = h
                 .checked_add(n)
@@ -201,10 +204,10 @@ impl Decoder<'_> {
             .and_then(|k| k.checked_mul(h))
             .filter(|&l| l <= self.available(at))
             .ok_or_else(|| {
-                self.invalid(format!(
-                    "the compression header declares {nb} blocks, more than the {} bytes after it could describe",
-                    self.available(at)
-                ))
+                self.invalid(DataArrayError::TooManyBlocks {
+                    blocks: nb,
+                    available: self.available(at),
+                })
             })?;
         let head = self.take(at, head_len)?;
         let w: Vec<u64> = head.chunks_exact(h as usize).map(|c| self.word(c)).collect();
@@ -218,22 +221,27 @@ impl Decoder<'_> {
         };
         if total != Some(expected) {
             return Err(self.invalid(match total {
-                Some(t) => {
-                    format!("the compression header declares {t} bytes, but the array needs {expected}")
-                }
-                None => format!("the compression header's sizes ({nb} blocks of {bs} bytes) overflow"),
+                Some(t) => DataArrayError::CompressedSize {
+                    declared: t,
+                    needed: expected,
+                },
+                None => DataArrayError::BlockSizesOverflow {
+                    blocks: nb,
+                    block_size: bs,
+                },
             }));
         }
         let comp_total = sizes
             .iter()
             .try_fold(0u64, |a, &s| a.checked_add(s))
-            .ok_or_else(|| self.invalid("the compressed block sizes overflow".into()))?;
+            .ok_or_else(|| self.invalid(DataArrayError::CompressedSizesOverflow))?;
         // zlib cannot inflate more than about 1032:1; a header claiming more is corrupt (and
         // must not make us reserve its size).
         if expected > comp_total.saturating_mul(1100).saturating_add(64) {
-            return Err(self.invalid(format!(
-                "{comp_total} compressed bytes cannot hold the declared {expected} bytes"
-            )));
+            return Err(self.invalid(DataArrayError::Ratio {
+                compressed: comp_total,
+                declared: expected,
+            }));
         }
         let head_text = if self.base64 { b64_len(head_len) } else { head_len };
         let data_at = at
@@ -254,12 +262,18 @@ impl Decoder<'_> {
             flate2::read::ZlibDecoder::new(block)
                 .take(want.saturating_add(1))
                 .read_to_end(&mut out)
-                .map_err(|e| self.invalid(format!("zlib block {k} cannot be inflated: {e}")))?;
+                .map_err(|e| {
+                    self.invalid(DataArrayError::Inflate {
+                        block: k,
+                        error: std::sync::Arc::new(e),
+                    })
+                })?;
             if (out.len() - before) as u64 != want {
-                return Err(self.invalid(format!(
-                    "zlib block {k} inflates to {} bytes, the header says {want}",
-                    out.len() - before
-                )));
+                return Err(self.invalid(DataArrayError::BlockSize {
+                    block: k,
+                    found: (out.len() - before) as u64,
+                    declared: want,
+                }));
             }
         }
         Ok(out)
@@ -277,7 +291,7 @@ pub(super) fn read_values(
     let what = format!("DataArray {:?} (line {})", a.name, a.line);
     let expected = count
         .checked_mul(a.ty.size() as u64)
-        .ok_or_else(|| ParseError::Invalid(format!("{what}: {count} values are too many")))?;
+        .ok_or_else(|| ParseError::SizeOverflow { what: what.clone() })?;
     let raw = match a.source {
         Source::Ascii(x, y) => {
             let text = &bytes[x..y];
@@ -324,8 +338,8 @@ pub(super) fn read_values(
             d.array(0, expected)?
         }
         Source::Appended(off) => {
-            let (start, base64) = appended.ok_or_else(|| {
-                ParseError::Invalid(format!("{what} is appended, but the file has no AppendedData"))
+            let (start, base64) = appended.ok_or_else(|| ParseError::Missing {
+                what: format!("AppendedData for {what}, which is appended"),
             })?;
             let d = Decoder {
                 bytes: &bytes[start..],

@@ -17,7 +17,7 @@ use scan::{line_of, syntax, Event, Scanner, Tag};
 pub(super) use data::b64_encode;
 pub(super) use data::{b64_array, Array};
 
-use super::{check_finite, check_index, ParseError, PointArray};
+use super::{check_finite, check_index, ParseError, PointArray, UnsupportedFeature};
 
 /// A section of a `Piece` whose `DataArray`s the readers use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,7 +76,7 @@ impl<'a> Document<'a> {
     /// Parses the markup of a VTK XML file whose `VTKFile type` must be `kind` (`PolyData`,
     /// `UnstructuredGrid`); `ext` names the file type in messages (`.vtp`). Data arrays are
     /// only located here; [`Document::values`] decodes them.
-    pub(super) fn parse(bytes: &'a [u8], kind: &str, ext: &str) -> Result<Self, ParseError> {
+    pub(super) fn parse(bytes: &'a [u8], kind: &'static str, ext: &'static str) -> Result<Self, ParseError> {
         let mut sc = Scanner { b: bytes, pos: 0 };
         let mut settings: Option<Settings> = None;
         let mut piece: Option<Tag<'a>> = None;
@@ -90,9 +90,7 @@ impl<'a> Document<'a> {
                     b"VTKFile" => settings = Some(file_settings(bytes, &tag, kind)?),
                     b"Piece" => {
                         if piece.is_some() {
-                            return Err(ParseError::Unsupported(format!(
-                                "a {ext} file with more than one Piece"
-                            )));
+                            return Err(ParseError::Unsupported(UnsupportedFeature::SeveralPieces { ext }));
                         }
                         piece = Some(tag);
                     }
@@ -153,9 +151,12 @@ impl<'a> Document<'a> {
                 }
             }
         }
-        let settings =
-            settings.ok_or_else(|| ParseError::Invalid("not a VTK XML file: no VTKFile element".into()))?;
-        let piece = piece.ok_or_else(|| ParseError::Invalid(format!("the {ext} file has no Piece")))?;
+        let settings = settings.ok_or_else(|| ParseError::Missing {
+            what: "VTKFile element (it is not a VTK XML file)".into(),
+        })?;
+        let piece = piece.ok_or_else(|| ParseError::Missing {
+            what: format!("Piece ({ext})"),
+        })?;
         Ok(Document {
             bytes,
             settings,
@@ -196,13 +197,13 @@ impl<'a> Document<'a> {
     pub(super) fn positions(&self) -> Result<Vec<[f64; 3]>, ParseError> {
         let n = self.count("NumberOfPoints")?;
         if n > u32::MAX as u64 {
-            return Err(ParseError::Invalid(format!(
-                "{n} points are more than 32-bit indices can address"
-            )));
+            return Err(ParseError::TooManyVertices { count: n });
         }
         let points = self
             .array(Section::Points, None)
-            .ok_or_else(|| ParseError::Invalid("the Piece has no Points array".into()))?;
+            .ok_or_else(|| ParseError::Missing {
+                what: "Points array in its Piece".into(),
+            })?;
         if points.components != 3 {
             return Err(ParseError::Syntax {
                 line: points.line,
@@ -223,7 +224,9 @@ impl<'a> Document<'a> {
         for (_, a) in self.arrays.iter().filter(|(s, _)| *s == Section::PointData) {
             let count = (n_points as u64)
                 .checked_mul(a.components as u64)
-                .ok_or_else(|| ParseError::Invalid(format!("PointData {:?} is too large", a.name)))?;
+                .ok_or_else(|| ParseError::SizeOverflow {
+                    what: format!("PointData {:?}", a.name),
+                })?;
             let values = self.values(a, count)?;
             out.push(PointArray {
                 name: a.name.clone(),
@@ -249,9 +252,9 @@ impl<'a> Document<'a> {
             self.array(section, Some("connectivity")),
             self.array(section, Some("offsets")),
         ) else {
-            return Err(ParseError::Invalid(format!(
-                "{what} needs connectivity and offsets arrays"
-            )));
+            return Err(ParseError::Missing {
+                what: format!("connectivity and offsets arrays for its {what}"),
+            });
         };
         let offsets = self.values(offs, count)?;
         let last = offsets.last().copied().unwrap_or(0.0);
@@ -289,13 +292,13 @@ impl<'a> Document<'a> {
 }
 
 /// The `VTKFile` element's settings; errors unless its `type` is `kind`.
-fn file_settings(bytes: &[u8], tag: &Tag, kind: &str) -> Result<Settings, ParseError> {
+fn file_settings(bytes: &[u8], tag: &Tag, kind: &'static str) -> Result<Settings, ParseError> {
     let ty = tag.attr("type").unwrap_or_default();
     if ty != kind.as_bytes() {
-        return Err(ParseError::Unsupported(format!(
-            "VTK XML file of type {:?} (only {kind} is read)",
-            String::from_utf8_lossy(ty)
-        )));
+        return Err(ParseError::Unsupported(UnsupportedFeature::XmlType {
+            found: super::text::clip(ty),
+            expected: kind,
+        }));
     }
     let big = tag.attr("byte_order") == Some(b"BigEndian");
     let header = match tag.attr("header_type") {
@@ -313,9 +316,8 @@ fn file_settings(bytes: &[u8], tag: &Tag, kind: &str) -> Result<Settings, ParseE
         None | Some(b"") => false,
         Some(b"vtkZLibDataCompressor") => true,
         Some(o) => {
-            return Err(ParseError::Unsupported(format!(
-                "compressor {:?} (only vtkZLibDataCompressor is read)",
-                String::from_utf8_lossy(o)
+            return Err(ParseError::Unsupported(UnsupportedFeature::Compressor(
+                super::text::clip(o),
             )))
         }
     };

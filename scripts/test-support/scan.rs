@@ -1,6 +1,7 @@
 //! The scanner of the layer tests (`crates/qcshape/tests/layers.rs` for the core,
-//! `crates/qcshape-studies/tests/layers.rs` for the studies, which includes this file by path):
-//! the `crate::X` imports of a crate's non-test code, and the check that none runs upward.
+//! `crates/qcshape-studies/tests/layers.rs` for the studies; both include this file by path, so
+//! neither crate's tests reach into the other's): the `crate::X` imports of a crate's non-test
+//! code, and the check that none runs upward.
 //!
 //! Non-test code is the whole file but comments, literals, the bodies of `#[cfg(test)] mod NAME
 //! { ... }` (found by brace matching) and files that are test modules (`#[cfg(test)] mod NAME;`,
