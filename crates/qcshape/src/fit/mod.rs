@@ -42,8 +42,27 @@ use crate::mesh::{Shape, MAX_COORDINATE};
 use closest::SurfaceIndex;
 pub use quality::FitQuality;
 
-/// Why a fit cannot be made. Each message is one line naming what is wrong.
+/// Why a template cannot carry a fit ([`FitError::Template`]).
 #[derive(Debug, Error, Clone, PartialEq)]
+pub enum TemplateProblem {
+    /// The template has vertices but no triangles.
+    #[error("it has no faces")]
+    NoFaces,
+    /// Several separate fans of faces meet at one vertex.
+    #[error("it is not manifold: vertex {vertex} joins {fans} separate fans of faces")]
+    NotManifold {
+        /// The vertex.
+        vertex: usize,
+        /// Fans of faces meeting there.
+        fans: usize,
+    },
+    /// All edges have length zero (or the mean is not finite).
+    #[error("its mean edge length is zero")]
+    ZeroEdgeLength,
+}
+
+/// Why a fit cannot be made. Each message is one line naming what is wrong.
+#[derive(Debug, Error, Clone)]
 pub enum FitError {
     /// The target has no points.
     #[error("the target is empty: it has no vertices")]
@@ -78,7 +97,7 @@ pub enum FitError {
     },
     /// The template cannot carry a fit (no faces, zero edge length, non-manifold vertices).
     #[error("the template cannot be fitted: {0}")]
-    Template(String),
+    Template(TemplateProblem),
     /// An option is out of range.
     #[error("fit option {name} = {value} is out of range ({expected})")]
     Option {
@@ -98,9 +117,18 @@ pub enum FitError {
         /// Template vertices.
         total: usize,
     },
-    /// The sparse Cholesky factorization failed.
+    /// The symbolic analysis of the fit's sparse system failed (out of memory, index overflow).
+    #[error("the fit's linear system could not be analysed: {0}")]
+    Symbolic(faer::sparse::FaerError),
+    /// The numeric Cholesky factorization of the fit's system failed (a non-positive pivot).
     #[error("the fit's linear system could not be factorized: {0}")]
-    Solver(String),
+    Factorization(faer::linalg::solvers::LltError),
+    /// A solve of the fit's system gave non-finite positions.
+    #[error("the fit's linear system gave a non-finite solution")]
+    NotFinite,
+    /// No candidate of the initial alignment has a finite score or scale.
+    #[error("the initial alignment did not converge (no candidate with a finite score and scale)")]
+    Alignment,
 }
 
 /// A target surface: positions (#P x 3, any length unit) and triangles (#T x 3 indices into
@@ -383,16 +411,17 @@ fn check_template(template: &Shape) -> Result<f64, FitError> {
     check_points("template", &template.positions)?;
     let topo = &template.topology;
     if topo.n_faces() == 0 {
-        return Err(FitError::Template("it has no faces".into()));
+        return Err(FitError::Template(TemplateProblem::NoFaces));
     }
     if let Some((v, _, fans)) = topo.nonmanifold_vertices().first() {
-        return Err(FitError::Template(format!(
-            "it is not manifold: vertex {v} joins {fans} separate fans of faces"
-        )));
+        return Err(FitError::Template(TemplateProblem::NotManifold {
+            vertex: *v,
+            fans: *fans,
+        }));
     }
     let lbar = mean_edge_length(topo, &template.positions);
     if !(lbar.is_finite() && lbar > 0.0) {
-        return Err(FitError::Template("its mean edge length is zero".into()));
+        return Err(FitError::Template(TemplateProblem::ZeroEdgeLength));
     }
     Ok(lbar)
 }

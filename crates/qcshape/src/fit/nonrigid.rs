@@ -115,7 +115,7 @@ impl Solver {
             SymmetricOrdering::Amd,
             CholeskySymbolicParams::default(),
         )
-        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+        .map_err(FitError::Symbolic)?;
         let mut boundary = HashSet::new();
         for lp in topo.boundary_loops() {
             for k in 0..lp.len() {
@@ -165,7 +165,7 @@ impl Solver {
                 MemStack::new(&mut mem),
                 Default::default(),
             )
-            .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+            .map_err(FitError::Factorization)?;
         LltRef::new(&self.symbolic, &l).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(rhs, nv, 3),
@@ -173,7 +173,7 @@ impl Solver {
             MemStack::new(&mut mem),
         );
         if rhs.iter().any(|v| !v.is_finite()) {
-            return Err(FitError::Solver("the solution is not finite".into()));
+            return Err(FitError::NotFinite);
         }
         Ok(())
     }

@@ -177,9 +177,9 @@ pub(crate) fn initial_alignment(
     let (s, m) = kept()
         .find(|b| b.1.angle() <= smallest + 1e-6)
         .copied()
-        .ok_or_else(|| FitError::Solver("no finite alignment score".into()))?;
+        .ok_or(FitError::Alignment)?;
     if !(s.is_finite() && m.scale.is_finite() && m.scale > 0.0) {
-        return Err(FitError::Solver("the initial alignment did not converge".into()));
+        return Err(FitError::Alignment);
     }
     Ok(m)
 }
