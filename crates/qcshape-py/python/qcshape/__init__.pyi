@@ -103,7 +103,7 @@ def fit(
     alignment: Literal["similarity", "rigid", "none"] = "similarity",
     prior: Literal["smooth", "arap", "asap"] = "smooth",
     stages: int = 6,
-    max_samples: int = 3000,
+    max_samples: int = 1000,
 ) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:
     """The template (nV, 3) + (nF, 3) fitted to a target of any triangulation (or a point cloud:
     target_faces None and plain target vertices): (V (nV, 3) on the template's faces in the

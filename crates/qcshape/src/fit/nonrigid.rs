@@ -434,7 +434,7 @@ pub(crate) fn fit(
     let topo = &*solver.topo;
     let nv = topo.n_vertices();
     let lbar = mean_edge_length(topo, p);
-    let samples: Vec<usize> = stride(target.positions.len(), opts.max_samples).collect();
+    let samples: Vec<usize> = stride(target.positions.len(), opts.max_samples.max(2 * nv)).collect();
     let mut x = start;
     let mut solves = 0;
     for stage in 0..opts.stages {
