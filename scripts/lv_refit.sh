@@ -8,9 +8,10 @@
 # QCSHAPE names the binary (default target/release/qcshape). Writes OUT/P (cohort), OUT/R0
 # (lv run on the cohort: original meshes in R0/meshes, R0/similarity.csv), OUT/M (per-frame
 # surfaces), OUT/F + OUT/RF (world frame, default similarity alignment), OUT/T, OUT/ML, OUT/FL +
-# OUT/RFL (every subject in its frame-0 landmark frame, --alignment none), and prints the
-# agreement of each fitted matrix with the original (scripts/matrix_agreement.py) and the
-# motion decomposition (examples/refit_motion, built if missing).
+# OUT/RFL (every subject in its frame-0 landmark frame, then the default similarity alignment),
+# and prints the agreement of each fitted matrix with the original
+# (scripts/matrix_agreement.py) and the motion decomposition (examples/refit_motion, built if
+# missing).
 set -euo pipefail
 out=${1:?usage: scripts/lv_refit.sh OUT [phantom options]}
 shift
@@ -29,7 +30,7 @@ t "$Q" fit --template R0/meshes/subject01/pose000.ply --out F M/manifest.csv --s
 t "$Q" lv run F/manifest.csv --out RF "${RUN[@]}" 2>RF.log
 t "$Q" lv mesh P --out T --region whole --vertices 600 --landmark-frame >T.log
 t "$Q" lv mesh P --out ML --region whole --per-frame --landmark-frame >ML.log
-t "$Q" fit --template T/subject01/pose000.ply --out FL ML/manifest.csv --sequence --alignment none 2>FL.log
+t "$Q" fit --template T/subject01/pose000.ply --out FL ML/manifest.csv --sequence 2>FL.log
 t "$Q" lv run FL/manifest.csv --out RFL "${RUN[@]}" 2>RFL.log
 for f in F FL; do
   echo "== $f: $(tail -1 $f.log)"
