@@ -24,12 +24,24 @@
 //!
 //! The last line is the template's mean edge length (frame 0 of the first original
 //! deformation), to read the numbers in edge lengths.
+//!
+//! With `WRITE=DIR PART=...` it also writes a hybrid data set (DIR/NAME/poseKKK.ply and
+//! DIR/manifest.csv, labels kept) on the original's surfaces, `H_k = O_k + part of d_k` with
+//! `d_k = F_k - O_k` (after `RIGID=1`'s motion when set), to measure which part of the fit's
+//! error changes an analysis (run `qcshape lv run DIR/manifest.csv` on it):
+//! - `normal`: `d_k`'s part along the original's normal at frame k (the surface distance);
+//! - `tangential`: its part along the surface (where the fit has slid the correspondence);
+//! - `slide0`: frame 0's tangential slide `d_0`, projected on the tangent plane of frame k, at
+//!   every frame (the correspondence between subjects, tracked perfectly);
+//! - `tracking`: the tangential part of `d_k - d_0` (the correspondence within a sequence,
+//!   frame 0 exact).
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use qcshape::align::best_motion;
-use qcshape::dataset::Dataset;
+use qcshape::dataset::{write_manifest, Dataset, ManifestRow};
+use qcshape::io::{write_mesh, VertexAttributes};
 use qcshape::mesh::geometry::{mean_edge_length, vertex_normals};
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -38,6 +50,25 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `a + s b`.
+fn axpy(a: [f64; 3], s: f64, b: [f64; 3]) -> [f64; 3] {
+    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
+}
+
+/// The hybrid position of vertex `v` at frame `k` (see the module's `WRITE`/`PART`).
+fn hybrid(part: &str, o: &[Vec<[f64; 3]>], f: &[Vec<[f64; 3]>], k: usize, v: usize, n: [f64; 3]) -> [f64; 3] {
+    let d = sub(f[k][v], o[k][v]);
+    let tangential = |d: [f64; 3]| axpy(d, -dot(d, n), n);
+    let add = match part {
+        "normal" => axpy([0.0; 3], dot(d, n), n),
+        "tangential" => tangential(d),
+        "slide0" => tangential(sub(f[0][v], o[0][v])),
+        "tracking" => tangential(sub(d, sub(f[0][v], o[0][v]))),
+        _ => panic!("PART is one of normal, tangential, slide0, tracking"),
+    };
+    axpy(o[k][v], 1.0, add)
 }
 
 /// Squared normal and tangential parts of `v` against the unit normal `n`.
@@ -57,6 +88,9 @@ fn main() {
     let by_name: HashMap<&str, _> = fitted.deformations.iter().map(|d| (d.name.as_str(), d)).collect();
     // Per frame: sums of motion, motion_n, motion_t, offset_n, offset_t, err_n, err_t; count.
     let mut sums: Vec<[f64; 8]> = Vec::new();
+    let write = std::env::var("WRITE").ok().map(std::path::PathBuf::from);
+    let part = std::env::var("PART").unwrap_or_default();
+    let mut rows = Vec::new();
     for o in &orig.deformations {
         let f = by_name
             .get(o.name.as_str())
@@ -77,6 +111,26 @@ fn main() {
                 sums.push([0.0; 8]);
             }
             let nk = vertex_normals(&o.topology, &o.poses[k]);
+            if let Some(dir) = &write {
+                let h: Vec<[f64; 3]> = (0..nk.len())
+                    .map(|v| hybrid(&part, &o.poses, &f.poses, k, v, nk[v]))
+                    .collect();
+                let rel = Path::new(&o.name).join(format!("pose{k:03}.ply"));
+                std::fs::create_dir_all(dir.join(&o.name)).unwrap();
+                write_mesh(
+                    &dir.join(&rel),
+                    &h,
+                    o.topology.faces(),
+                    &VertexAttributes::default(),
+                )
+                .unwrap();
+                rows.push(ManifestRow {
+                    deformation: o.name.clone(),
+                    label: o.label.clone(),
+                    pose: k as i64,
+                    path: rel,
+                });
+            }
             let s = &mut sums[k];
             for v in 0..o.poses[k].len() {
                 let m = sub(o.poses[k][v], o.poses[0][v]);
@@ -89,6 +143,9 @@ fn main() {
                 }
             }
         }
+    }
+    if let Some(dir) = &write {
+        write_manifest(&dir.join("manifest.csv"), &rows).unwrap();
     }
     println!("frame,motion,motion_n,motion_t,offset_n,offset_t,err_n,err_t");
     let mut all = [0.0; 8];
