@@ -6,7 +6,7 @@
 //!   fitted one (Horn's method): the prior charges every edge strain.
 //! - [`Prior::Asap`]: the rotation times the fan's best uniform scale (in `[0.5, 2]`): local
 //!   scaling is free.
-//! - [`Prior::Smooth`] (the default): the maps minimizing [`SmoothMaps`]' energy, a field of
+//! - [`Prior::Smooth`] (the default): the maps minimizing `SmoothMaps`' energy, a field of
 //!   local affine maps that fit each fan, stay near the fan's best similarity and vary smoothly
 //!   from vertex to vertex. Smooth large-scale deformations (stretches, shears, tapers, bends)
 //!   cost little, so the fit does not trade them for tangential sliding, which the data cannot
