@@ -52,18 +52,18 @@ pub struct Args {
     pub sequence: bool,
     /// Initial alignment: similarity (rotation, translation, scale), rigid, or none (the
     /// template is already placed on the targets).
-    #[arg(long, default_value = "similarity")]
+    #[arg(long, default_value = FitOptions::default().alignment.label())]
     pub alignment: Alignment,
     /// Deformation prior: smooth (local affine maps near similarities that vary smoothly:
     /// smooth stretches, shears and bends cost little; the default), arap (as-rigid-as-possible:
     /// every edge strain costs) or asap (as-similar-as-possible: local scaling is free).
-    #[arg(long, default_value = "smooth")]
+    #[arg(long, default_value = FitOptions::default().prior.label())]
     pub prior: qcshape::fit::Prior,
     /// Deformation name when TARGETS are mesh files or a folder.
     #[arg(long, default_value = "fit")]
     pub name: String,
     /// Stiffness stages (annealed from stiff to soft). At most 1,000.
-    #[arg(long, default_value_t = 6, value_parser = crate::bounds::count::<usize>(1, 1000), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = FitOptions::default().stages, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     pub stages: usize,
     /// Mesh file format of the fitted poses.
     #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]

@@ -209,7 +209,10 @@ fn each_setting_is_declared_once() {
             }
             for s in qcshape::settings::SETTINGS {
                 for kw in std::iter::once(s.python).chain(s.python_alias) {
-                    if code.contains(&format!("\"{kw}\"")) {
+                    // `prior="smooth"` is a value that happens to spell a keyword.
+                    let spelled = code.matches(&format!("\"{kw}\"")).count();
+                    let as_value = code.matches(&format!("=\"{kw}\"")).count();
+                    if spelled > as_value {
                         problems.push(format!(
                             "{}:{}: the Python keyword \"{kw}\" is spelled again; read it from qcshape::settings",
                             path.display(),
@@ -289,4 +292,45 @@ fn each_setting_is_declared_once() {
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The fit's options (`qcshape::fit::FitOptions`, not in the settings table): the CLI takes its
+/// defaults from `FitOptions::default()` in code; pyo3 shows a default in `help(qs.fit)` only
+/// when it is a literal, so the Python signature and the `.pyi` stub spell them, and this test
+/// fails when either differs from the library's.
+#[test]
+fn the_fit_defaults_of_python_and_the_stub_are_the_librarys() {
+    let d = qcshape::fit::FitOptions::default();
+    let expected = [
+        ("alignment", format!("\"{}\"", d.alignment.label())),
+        ("prior", format!("\"{}\"", d.prior.label())),
+        ("stages", d.stages.to_string()),
+        ("max_samples", d.max_samples.to_string()),
+    ];
+    let root = settings_gen::root();
+    let binding = std::fs::read_to_string(root.join("crates/qcshape-py/src/fit.rs")).unwrap();
+    let sig = binding
+        .lines()
+        .find(|l| l.contains("#[pyo3(signature = (template_vertices"))
+        .expect("qs.fit's signature line");
+    let stub = std::fs::read_to_string(root.join("crates/qcshape-py/python/qcshape/__init__.pyi")).unwrap();
+    let stub = &stub[stub.find("def fit(").expect("def fit( in the stub")..];
+    let stub = &stub[..stub.find(") ->").unwrap()];
+    for (key, value) in &expected {
+        let in_sig = sig
+            .split(',')
+            .map(str::trim)
+            .find_map(|p| p.strip_prefix(&format!("{key}=")))
+            .unwrap_or_else(|| panic!("{key} is not in qs.fit's signature: {sig}"));
+        let in_sig = in_sig
+            .strip_prefix("AnyInt::new(")
+            .map_or(in_sig, |n| n.trim_end_matches([')', ']']));
+        assert_eq!(in_sig, value, "qs.fit's default for {key}");
+        let line = stub
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{key}:")))
+            .unwrap_or_else(|| panic!("{key} is not in the stub's fit"));
+        let in_stub = line.rsplit('=').next().unwrap().trim().trim_end_matches(',');
+        assert_eq!(in_stub, value, "the stub's default for {key}");
+    }
 }
