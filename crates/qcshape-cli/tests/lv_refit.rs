@@ -7,6 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use qcshape::dataset::Dataset;
+use qcshape::similarity::DistanceMatrix;
 use qcshape_studies::experiment::approx::spearman;
 
 fn qcshape(args: &[&str]) -> Output {
@@ -27,25 +28,15 @@ fn s(p: &Path) -> &str {
 }
 
 /// The upper triangle of a distance matrix CSV (name,<names>), rows in header order.
+/// The names and the upper triangle (i < j, row by row) of a similarity matrix file.
 fn upper(path: &Path) -> (Vec<String>, Vec<f64>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let names: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .skip(1)
-        .map(String::from)
-        .collect();
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').skip(1).map(|x| x.parse().unwrap()).collect())
-        .collect();
-    let n = names.len();
+    let m = DistanceMatrix::read_csv(path).unwrap();
+    let n = m.len();
     let u = (0..n)
         .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
-        .map(|(i, j)| rows[i][j])
+        .map(|(i, j)| m.get(i, j))
         .collect();
-    (names, u)
+    (m.names().to_vec(), u)
 }
 
 const RUN: [&str; 11] = [

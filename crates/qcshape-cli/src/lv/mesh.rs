@@ -157,18 +157,7 @@ pub(crate) fn run(a: &Args) -> Result<()> {
             m.poses = m.poses.iter().map(|p| to(p)).collect();
         }
         let (poses, faces) = (&m.poses, &m.faces);
-        let dir = a.out.join(&s.name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        for (k, p) in poses.iter().enumerate() {
-            let name = format!("pose{k:03}.{}", a.format.extension());
-            io::write_mesh(&dir.join(&name), p, faces, &Default::default())?;
-            rows.push(ManifestRow {
-                deformation: s.name.clone(),
-                label: s.label.clone(),
-                pose: k as i64,
-                path: Path::new(&s.name).join(name),
-            });
-        }
+        write_poses(a, s, poses.iter().map(|p| (&p[..], &faces[..])), &mut rows)?;
         bar.suspend(|| -> anyhow::Result<()> {
             outln!(
                 "{}: threshold {:.1}, surface {} -> {} vertices, {} written ({}), {} poses ({} refined on their images), {} landmarks{}, {:.2} s",
@@ -198,6 +187,29 @@ pub(crate) fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
+/// Writes a subject's poses (positions #V x 3 and faces, in frame order) as
+/// `OUT/SUBJECT/poseKKK.EXT` and appends their manifest rows.
+fn write_poses<'p>(
+    a: &Args,
+    s: &SubjectDir,
+    poses: impl Iterator<Item = (&'p [[f64; 3]], &'p [[u32; 3]])>,
+    rows: &mut Vec<ManifestRow>,
+) -> Result<()> {
+    let dir = a.out.join(&s.name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (k, (positions, faces)) in poses.enumerate() {
+        let name = format!("pose{k:03}.{}", a.format.extension());
+        io::write_mesh(&dir.join(&name), positions, faces, &Default::default())?;
+        rows.push(ManifestRow {
+            deformation: s.name.clone(),
+            label: s.label.clone(),
+            pose: k as i64,
+            path: Path::new(&s.name).join(name),
+        });
+    }
+    Ok(())
+}
+
 /// `--per-frame`: every frame's own surface, written with its own faces.
 fn per_frame(a: &Args, subs: &[SubjectDir], opts: &SurfaceOptions) -> Result<()> {
     let mut rows = Vec::new();
@@ -211,19 +223,10 @@ fn per_frame(a: &Args, subs: &[SubjectDir], opts: &SurfaceOptions) -> Result<()>
                 m.shape.positions = to(&m.shape.positions);
             }
         }
-        let dir = a.out.join(&s.name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        for (k, m) in surfaces.iter().enumerate() {
-            let name = format!("pose{k:03}.{}", a.format.extension());
-            let faces = m.shape.topology.faces();
-            io::write_mesh(&dir.join(&name), &m.shape.positions, faces, &Default::default())?;
-            rows.push(ManifestRow {
-                deformation: s.name.clone(),
-                label: s.label.clone(),
-                pose: k as i64,
-                path: Path::new(&s.name).join(name),
-            });
-        }
+        let poses = surfaces
+            .iter()
+            .map(|m| (&m.shape.positions[..], m.shape.topology.faces()));
+        write_poses(a, s, poses, &mut rows)?;
         let counts: Vec<String> = surfaces
             .iter()
             .map(|m| m.shape.n_vertices().to_string())
