@@ -57,6 +57,9 @@ fn axpy(a: [f64; 3], s: f64, b: [f64; 3]) -> [f64; 3] {
     [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
 
+/// The parts of the fit's error a hybrid data set can carry (`PART`).
+const PARTS: [&str; 4] = ["normal", "tangential", "slide0", "tracking"];
+
 /// The hybrid position of vertex `v` at frame `k` (see the module's `WRITE`/`PART`).
 fn hybrid(part: &str, o: &[Vec<[f64; 3]>], f: &[Vec<[f64; 3]>], k: usize, v: usize, n: [f64; 3]) -> [f64; 3] {
     let d = sub(f[k][v], o[k][v]);
@@ -66,7 +69,7 @@ fn hybrid(part: &str, o: &[Vec<[f64; 3]>], f: &[Vec<[f64; 3]>], k: usize, v: usi
         "tangential" => tangential(d),
         "slide0" => tangential(sub(f[0][v], o[0][v])),
         "tracking" => tangential(sub(d, sub(f[0][v], o[0][v]))),
-        _ => panic!("PART is one of normal, tangential, slide0, tracking"),
+        _ => unreachable!("PART is checked against PARTS before writing"),
     };
     axpy(o[k][v], 1.0, add)
 }
@@ -90,6 +93,9 @@ fn main() {
     let mut sums: Vec<[f64; 8]> = Vec::new();
     let write = std::env::var("WRITE").ok().map(std::path::PathBuf::from);
     let part = std::env::var("PART").unwrap_or_default();
+    if write.is_some() && !PARTS.contains(&part.as_str()) {
+        panic!("WRITE needs PART, one of {PARTS:?}");
+    }
     let mut rows = Vec::new();
     for o in &orig.deformations {
         let f = by_name
@@ -105,6 +111,9 @@ fn main() {
                 p.iter_mut().for_each(|q| *q = m.apply(*q));
             }
         }
+        if let Some(dir) = &write {
+            std::fs::create_dir_all(dir.join(&o.name)).unwrap();
+        }
         let n0 = vertex_normals(&o.topology, &o.poses[0]);
         for k in 0..o.poses.len() {
             if sums.len() <= k {
@@ -116,7 +125,6 @@ fn main() {
                     .map(|v| hybrid(&part, &o.poses, &f.poses, k, v, nk[v]))
                     .collect();
                 let rel = Path::new(&o.name).join(format!("pose{k:03}.ply"));
-                std::fs::create_dir_all(dir.join(&o.name)).unwrap();
                 write_mesh(
                     &dir.join(&rel),
                     &h,
