@@ -87,6 +87,8 @@ pub struct VariantArgs {
     pub scale: MetricScale,
     #[arg(long, help = S::STRETCH.help(), default_value = S::STRETCH.default_text(), value_parser = real(&S::STRETCH), allow_negative_numbers = true)]
     pub stretch: f64,
+    #[arg(long, help = S::BENDING.help(), default_value = S::BENDING.default_text(), value_parser = real(&S::BENDING), allow_negative_numbers = true)]
+    pub bending: f64,
     #[arg(long, help = S::QC_WEIGHTS.help(), default_value = S::QC_WEIGHTS.default_text(), value_parser = choice::<QcScaling>())]
     pub qc_weights: QcScaling,
     #[arg(long, help = S::QC_FLOOR.help(), default_value = S::QC_FLOOR.default_text(), value_parser = real(&S::QC_FLOOR), allow_negative_numbers = true)]
@@ -112,6 +114,7 @@ impl VariantArgs {
             lambda: self.lambda,
             frozen_areas: self.l2_areas == L2Areas::Frozen,
             stretch: self.stretch,
+            bending: self.bending,
         };
         spec.validate().map_err(flag_error)?;
         if let Some(w) = spec.warning() {

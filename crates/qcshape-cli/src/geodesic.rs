@@ -199,6 +199,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "geometric_energy": g.geometric_energy,
             "regularizer_energy": g.regularizer_energy,
             "regularizer_share": share,
+            "bending_energy": g.bending_energy,
+            "bending_share": g.bending_share(),
             "metric_scale": spec.scale.label(),
             "lambda": spec.lambda,
             "linear_energy": g.initial_energy,

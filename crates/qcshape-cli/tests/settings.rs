@@ -93,15 +93,16 @@ const OWN: &[(&str, &str)] = &[
     ("experiment/geometry.rs", "levels"),      // icosphere levels
     ("experiment/robustness.rs", "smooth"),    // lists of values compared
     ("experiment/robustness.rs", "smooth-length"),
-    ("interpolate.rs", "insert"), // required: no default
-    ("lv/cycle.rs", "insert"),    // PAPER_INSERT, the LV tables
-    ("lv/cycle.rs", "steps"),     // PAPER_STEPS (mut_arg)
-    ("lv/run.rs", "smooth"),      // the meshing's Taubin iterations
-    ("lv/run.rs", "transport"),   // LV_TRANSPORT, the LV tables
-    ("lv/mesh.rs", "smooth"),     // the meshing's Taubin iterations
-    ("lv/mesh.rs", "lambda"),     // the landmark spline's smoothing
-    ("lv/mod.rs", "lambda"),      // the landmark spline's smoothing
-    ("embed.rs", "tolerance"),    // the MDS stress tolerance
+    ("experiment/robustness.rs", "bending"), // a list of weights compared
+    ("interpolate.rs", "insert"),            // required: no default
+    ("lv/cycle.rs", "insert"),               // PAPER_INSERT, the LV tables
+    ("lv/cycle.rs", "steps"),                // PAPER_STEPS (mut_arg)
+    ("lv/run.rs", "smooth"),                 // the meshing's Taubin iterations
+    ("lv/run.rs", "transport"),              // LV_TRANSPORT, the LV tables
+    ("lv/mesh.rs", "smooth"),                // the meshing's Taubin iterations
+    ("lv/mesh.rs", "lambda"),                // the landmark spline's smoothing
+    ("lv/mod.rs", "lambda"),                 // the landmark spline's smoothing
+    ("embed.rs", "tolerance"),               // the MDS stress tolerance
 ];
 
 /// Every `#[arg(...)]` of the CLI's sources whose flag is a setting's key: (file, flag, the

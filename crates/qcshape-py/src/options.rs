@@ -22,6 +22,7 @@ pub struct MetricKw {
     pub l2_areas: Option<String>,
     pub metric_scale: Option<String>,
     pub stretch: Option<f64>,
+    pub bending: Option<f64>,
     pub qc_weights: Option<String>,
     pub qc_floor: Option<f64>,
     pub qc_smooth: Option<usize>,
@@ -63,6 +64,9 @@ impl MetricKw {
         }
         if let Some(s) = self.stretch {
             spec.stretch = s;
+        }
+        if let Some(b) = self.bending {
+            spec.bending = b;
         }
         let mut qc = spec.qc_normalize.unwrap_or(QcNormalize {
             floor: 0.0,
@@ -256,6 +260,7 @@ impl PipelineKw {
             Id::Lambda => self.metric.lam = Some(real()?),
             Id::Scale => self.metric.metric_scale = Some(text()?),
             Id::Stretch => self.metric.stretch = Some(real()?),
+            Id::Bending => self.metric.bending = Some(real()?),
             Id::QcWeights => self.metric.qc_weights = Some(text()?),
             Id::QcFloor => self.metric.qc_floor = Some(real()?),
             Id::QcSmooth => self.metric.qc_smooth = Some(count()?),

@@ -72,6 +72,17 @@ impl PyGeodesic {
     fn regularizer_share(&self) -> f64 {
         self.g.regularizer_share()
     }
+    /// The part of ``geometric_energy`` carried by the bending term (``bending`` times the
+    /// rate of change of the dihedral angles; 0 without one).
+    #[getter]
+    fn bending_energy(&self) -> f64 {
+        self.g.bending_energy
+    }
+    /// bending_energy / energy, in [0, 1] (0 without a bending term).
+    #[getter]
+    fn bending_share(&self) -> f64 {
+        self.g.bending_share()
+    }
     /// Length of each segment, (steps,) list.
     #[getter]
     fn segment_lengths(&self) -> Vec<f64> {
@@ -117,6 +128,7 @@ impl PyGeodesic {
         state.set_item("initial_energy", g.initial_energy)?;
         state.set_item("geometric_energy", g.geometric_energy)?;
         state.set_item("regularizer_energy", g.regularizer_energy)?;
+        state.set_item("bending_energy", g.bending_energy)?;
         state.set_item("length", g.length)?;
         state.set_item("segment_lengths", g.segment_lengths.clone())?;
         state.set_item("iterations", g.iterations)?;
@@ -161,6 +173,7 @@ impl PyGeodesic {
                 initial_energy: get("initial_energy")?.extract()?,
                 geometric_energy: get("geometric_energy")?.extract()?,
                 regularizer_energy: get("regularizer_energy")?.extract()?,
+                bending_energy: get("bending_energy")?.extract()?,
                 length: get("length")?.extract()?,
                 segment_lengths: get("segment_lengths")?.extract()?,
                 iterations: get("iterations")?.extract()?,
@@ -307,7 +320,7 @@ fn put<'py, T: IntoPyObject<'py>>(d: &Bound<'py, PyDict>, name: &str, v: Option<
 impl PyShapeSpace {
     #[new]
     #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
-        metric_scale=None, stretch=None, qc_weights=None, qc_floor=None, qc_smooth=None,
+        metric_scale=None, stretch=None, bending=None, qc_weights=None, qc_floor=None, qc_smooth=None,
         steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None,
         reference=None, scale=None, n_vertices=None))]
     #[allow(clippy::too_many_arguments)]
@@ -320,6 +333,7 @@ impl PyShapeSpace {
         l2_areas: Option<String>,
         metric_scale: Option<String>,
         stretch: Option<f64>,
+        bending: Option<f64>,
         qc_weights: Option<String>,
         qc_floor: Option<f64>,
         qc_smooth: Option<AnyInt>,
@@ -355,6 +369,7 @@ impl PyShapeSpace {
             l2_areas,
             metric_scale,
             stretch,
+            bending,
             qc_weights,
             qc_floor,
             qc_smooth,
@@ -384,6 +399,7 @@ impl PyShapeSpace {
             l2_areas,
             metric_scale,
             stretch,
+            bending,
             qc_weights,
             qc_floor,
             qc_smooth,
@@ -443,7 +459,7 @@ impl PyShapeSpace {
         crate::convert::faces_out(py, self.space.topology().faces())
     }
 
-    /// The metric with its settings by option name, e.g. "isometric (lambda 0.01, l2-areas frozen,
+    /// The metric with its settings by option name, e.g. "isometric (bending 0.0001, lambda 0.01, l2-areas frozen,
     /// scale invariant)" ([`qcshape::metric::MetricSpec::label`]).
     #[getter]
     fn metric(&self) -> String {

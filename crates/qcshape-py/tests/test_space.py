@@ -36,7 +36,7 @@ def test_geodesic_is_symmetric(pair):
 def test_defaults_are_the_librarys(pair):
     V, B, F = pair
     space = qs.ShapeSpace(F)
-    assert space.metric == "isometric (lambda 0.01, l2-areas frozen, scale invariant)"
+    assert space.metric == "isometric (bending 0.0001, lambda 0.01, l2-areas frozen, scale invariant)"
     assert space.steps == 8
     explicit = qs.ShapeSpace(
         F, metric="isometric", lam=0.01, metric_scale="invariant", stretch=0.1, steps=8, solver="preconditioned"

@@ -14,7 +14,7 @@
 pub use crate::geodesic::defaults::{
     ENERGY_TOLERANCE, LENGTH_TOLERANCE, LEVELS, PAPER_INSERT, SOLVER, STEPS, TOLERANCE,
 };
-pub use crate::metric::defaults::{LAMBDA, METRIC, QC_NORMALIZE, RAW_LAMBDA, SCALE, STRETCH};
+pub use crate::metric::defaults::{BENDING, LAMBDA, METRIC, QC_NORMALIZE, RAW_LAMBDA, SCALE, STRETCH};
 pub use crate::similarity::defaults::{INSERT, SMOOTH, SMOOTH_LENGTH};
 pub use crate::transport::defaults::{ALIGN, LV_TRANSPORT, TRANSPORT};
 

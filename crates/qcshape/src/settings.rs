@@ -64,6 +64,8 @@ pub enum Id {
     Scale,
     /// `--stretch`.
     Stretch,
+    /// `--bending`.
+    Bending,
     /// `--qc-weights`.
     QcWeights,
     /// `--qc-floor`.
@@ -301,6 +303,20 @@ pub const STRETCH: Setting = Setting {
             (uniform scaling); 0 disables it",
     value: real(MAX_LAMBDA),
     default: || Some(metric().stretch.to_string()),
+};
+
+/// `--bending`.
+pub const BENDING: Setting = Setting {
+    id: Id::Bending,
+    key: "bending",
+    python: "bending",
+    python_alias: None,
+    group: Group::Metric,
+    about: "Weight of the bending term of the isometric, conformal and quasi-conformal metrics on the \
+            invariant scale: the rate of change of the dihedral angles, which charges the vertex-scale \
+            normal wrinkles that the membrane terms leave almost free; 0 disables it",
+    value: real(MAX_LAMBDA),
+    default: || Some(metric().bending.to_string()),
 };
 
 /// `--qc-weights`.
@@ -563,6 +579,7 @@ pub const SETTINGS: &[Setting] = &[
     LAMBDA,
     SCALE,
     STRETCH,
+    BENDING,
     QC_WEIGHTS,
     QC_FLOOR,
     QC_SMOOTH,

@@ -73,6 +73,15 @@ pub struct Args {
     scenarios: Vec<String>,
     #[arg(long, help = qcshape::settings::LAMBDA.help(), default_value = qcshape::settings::LAMBDA.default_text(), value_parser = crate::args::real(&qcshape::settings::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,
+    /// Weights of the bending term to compare (comma-separated; each metric runs once per
+    /// value; default the library's).
+    /// At most 1e6.
+    #[arg(long, value_delimiter = ',', value_parser = crate::args::real(&qcshape::settings::BENDING), allow_negative_numbers = true)]
+    bending: Vec<f64>,
+    /// Also run each metric at the calibrated releases' form (`--scale calibrated --stretch 0`,
+    /// no bending term), as a baseline in the same run.
+    #[arg(long)]
+    calibrated: bool,
     #[command(flatten)]
     solver: SolverArgs,
     /// Poses per deformation.
@@ -121,17 +130,28 @@ pub fn run_command(args: &Args) -> Result<()> {
     if smooth.is_empty() {
         smooth.push(PipelineOptions::default().smoothing);
     }
-    let pipeline = |kind: MetricKind, align: Alignment, smoothing: Smoothing| PipelineOptions {
-        metric: MetricSpec {
-            lambda: args.lambda,
-            ..MetricSpec::new(kind)
-        },
+    let bendings = if args.bending.is_empty() {
+        vec![qcshape::defaults::BENDING]
+    } else {
+        args.bending.clone()
+    };
+    let spec = |kind: MetricKind, bending: f64| MetricSpec {
+        lambda: args.lambda,
+        bending,
+        ..MetricSpec::new(kind)
+    };
+    let pipeline_with = |metric: MetricSpec, align: Alignment, smoothing: Smoothing| PipelineOptions {
+        metric,
         geodesic: geodesic.clone(),
         align,
         smoothing,
         ..Default::default()
     };
+    let pipeline = |kind: MetricKind, align: Alignment, smoothing: Smoothing| {
+        pipeline_with(spec(kind, bendings[0]), align, smoothing)
+    };
     let mut methods: Vec<Method> = Baseline::all().into_iter().map(Method::Baseline).collect();
+    let bends = |kind: MetricKind| matches!(kind, MetricKind::L2 | MetricKind::Rigid);
     for kind in &args.metrics {
         for &s in &smooth {
             let name = if smooth.len() > 1 {
@@ -139,10 +159,35 @@ pub fn run_command(args: &Args) -> Result<()> {
             } else {
                 kind.label().to_string()
             };
-            methods.push(Method::Pipeline {
-                name,
-                options: Box::new(pipeline(*kind, Alignment::Rigid, s)),
-            });
+            let values = if bends(*kind) {
+                &bendings[..1]
+            } else {
+                &bendings[..]
+            };
+            for &b in values {
+                let name = if values.len() > 1 {
+                    format!("{name} (bending {})", qcshape::numfmt::plain(b))
+                } else {
+                    name.clone()
+                };
+                methods.push(Method::Pipeline {
+                    name,
+                    options: Box::new(pipeline_with(spec(*kind, b), Alignment::Rigid, s)),
+                });
+            }
+            if args.calibrated && !bends(*kind) {
+                methods.push(Method::Pipeline {
+                    name: format!("{name} (calibrated)"),
+                    options: Box::new(pipeline_with(
+                        MetricSpec {
+                            lambda: args.lambda,
+                            ..MetricSpec::calibrated(*kind)
+                        },
+                        Alignment::Rigid,
+                        s,
+                    )),
+                });
+            }
         }
     }
     if args.paper {

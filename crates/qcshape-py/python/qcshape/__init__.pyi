@@ -37,6 +37,7 @@ class _PipelineOptions(TypedDict, total=False):
     lam: Optional[float]  # default 0.01
     metric_scale: Optional[str]  # invariant | calibrated | raw; default invariant
     stretch: Optional[float]  # default 0.1
+    bending: Optional[float]  # default 0.0001
     qc_weights: Optional[str]  # rms | raw; default rms
     qc_floor: Optional[float]  # default 0.5
     qc_smooth: Optional[int]  # default 0
@@ -131,6 +132,12 @@ class Geodesic:
     def regularizer_energy(self) -> float:
         """The part of `energy` carried by the L2 regularizer (0 without one)."""
     @property
+    def bending_energy(self) -> float:
+        """The part of `geometric_energy` carried by the bending term (0 without one)."""
+    @property
+    def bending_share(self) -> float:
+        """bending_energy / energy, in [0, 1] (0 without a bending term)."""
+    @property
     def regularizer_share(self) -> float:
         """regularizer_energy / energy in [0, 1]; above 0.5 the distance measures L2 more
         than the metric's geometry."""
@@ -161,6 +168,7 @@ class ShapeSpace:
         lam: Optional[float] = None,  # default 0.01
         metric_scale: Optional[str] = None,  # invariant | calibrated | raw; default invariant
         stretch: Optional[float] = None,  # default 0.1
+        bending: Optional[float] = None,  # default 0.0001
         qc_weights: Optional[str] = None,  # rms | raw; default rms
         qc_floor: Optional[float] = None,  # default 0.5
         qc_smooth: Optional[int] = None,  # default 0

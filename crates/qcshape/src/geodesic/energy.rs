@@ -207,6 +207,23 @@ impl<'m> PathEnergy<'m> {
             .fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]])
     }
 
+    /// The bending term's part of the path energy ([`Metric::segment_bending_energy`], summed
+    /// over the segments in order): 0 for metrics without one.
+    pub fn bending_energy(&self, x: &[f64], ends: &Ends) -> f64 {
+        let parts: Vec<f64> = (0..self.steps)
+            .into_par_iter()
+            .map(|s| {
+                let (s0, s1) = (
+                    self.segment(x, ends, s, At::Start),
+                    self.segment(x, ends, s, At::End),
+                );
+                self.metric
+                    .segment_bending_energy(&self.topo, self.pattern.as_ref(), [&s0, &s1])
+            })
+            .collect();
+        parts.iter().sum()
+    }
+
     /// [`Self::segment_norms`] and [`Self::energy_parts`] from one evaluation of each segment
     /// ([`Metric::segment_norms_and_parts`]): the same values, bit for bit.
     pub fn segment_norms_and_energy_parts(&self, x: &[f64], ends: &Ends) -> (Vec<(f64, f64)>, [f64; 2]) {

@@ -559,6 +559,7 @@ mod tests {
             initial_energy: 0.0,
             geometric_energy: 0.0,
             regularizer_energy: 0.0,
+            bending_energy: 0.0,
             length: 4.0,
             segment_lengths: vec![1.0, 2.0, 1.0],
             iterations: 0,

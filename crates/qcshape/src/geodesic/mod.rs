@@ -53,6 +53,8 @@ mod pose_kronecker;
 mod research;
 #[cfg(test)]
 mod second_order_tests;
+#[cfg(test)]
+mod spectrum_tests;
 mod vertex_blocks;
 
 use std::sync::Arc;
@@ -86,6 +88,9 @@ pub struct Geodesic {
     /// The part of [`Geodesic::energy`] carried by the L2 regularizer `lambda * L2` of eq. 11
     /// (0 without regularizer).
     pub regularizer_energy: f64,
+    /// The part of [`Geodesic::geometric_energy`] carried by the bending term (`beta B`,
+    /// docs/method.md "Bending term"; 0 without one).
+    pub bending_energy: f64,
     /// Length `L` of the path = `dis(A, B)` (normalized units).
     pub length: f64,
     /// Length of each segment, `sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`.
@@ -110,6 +115,17 @@ impl Geodesic {
     /// geometry, decides the path: the metric then measures L2.
     pub fn regularizer_share(&self) -> f64 {
         share(self.geometric_energy, self.regularizer_energy)
+    }
+
+    /// The bending term's share of the energy, `bending / energy` in [0, 1] (0 for a path of
+    /// zero energy or a metric without bending term).
+    pub fn bending_share(&self) -> f64 {
+        let total = self.geometric_energy + self.regularizer_energy;
+        if total > 0.0 {
+            (self.bending_energy / total).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
     }
 }
 
@@ -638,6 +654,7 @@ impl<'m> GeodesicSolver<'m> {
         }
         let segment_lengths: Vec<f64> = segment_energies.iter().map(|&e| segment_length(e)).collect();
         let [geometric_energy, regularizer_energy] = pe.energy_parts(&out.x, ends);
+        let bending_energy = pe.bending_energy(&out.x, ends);
         let poses = (0..=pe.steps())
             .map(|i| pe.pose(&out.x, ends, i).to_vec())
             .collect();
@@ -647,6 +664,7 @@ impl<'m> GeodesicSolver<'m> {
             initial_energy,
             geometric_energy,
             regularizer_energy,
+            bending_energy,
             length: segment_lengths.iter().sum(),
             segment_lengths,
             iterations: out.iterations,

@@ -27,6 +27,13 @@ pub const SCALE: MetricScale = MetricScale::Invariant;
 /// scale (the relative rate of change of each face's area against the corner terms' shear).
 pub const STRETCH: f64 = 0.1;
 
+/// Weight `beta` of the bending term of the isometric, conformal and quasi-conformal metrics on
+/// the invariant scale (the rate of change of the dihedral angles, docs/method.md "Bending
+/// term"). With 1e-4 it carries 4-6 % of the twisted sphere's geodesic energy and the default
+/// solver converges in 19 iterations at 642 vertices for every membrane metric, against 138-258
+/// without it (docs/log/bending.md).
+pub const BENDING: f64 = 1e-4;
+
 /// Normalization of the quasi-conformal `endpoints` weights: the curvature-change density over
 /// its RMS, floored (docs/log/geometry.md).
 pub const QC_NORMALIZE: Option<QcNormalize> = Some(QcNormalize {

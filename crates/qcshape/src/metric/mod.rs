@@ -11,6 +11,7 @@
 //! Metrics: [`L2`] (eq. 11), [`Isometric`] (eq. 3), [`Rigid`] (eq. 1), [`Conformal`] (eqs. 7-9),
 //! [`QuasiConformal`] (eq. 10), and [`Regularized`] (`G + lambda * L2`, eq. 11).
 
+mod bent;
 mod conformal;
 mod curvature;
 pub mod defaults;
@@ -30,13 +31,14 @@ mod weighted;
 #[cfg(test)]
 pub(crate) mod fdcheck;
 
+pub use bent::Bent;
 pub use conformal::{Conformal, ConformalForm};
 pub use gradient::{gradient_from_jacobian, segment_gradient_per_term, GradientSink, Scratch, SegmentSink};
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
 pub use regularized::{Regularized, RegularizerL2};
-pub use relative::{RelativeConformal, RelativeIsometric, RelativeL2};
+pub use relative::{dihedral_angles, RelativeBending, RelativeConformal, RelativeIsometric, RelativeL2};
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;
@@ -358,6 +360,13 @@ pub trait Metric: Send + Sync + Debug {
     fn segment_energy_parts(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
         let [g0, g1] = self.segment_squared_norms(topo, pattern, segs);
         [g0 + g1, 0.0]
+    }
+
+    /// The bending term's part of [`Metric::segment_squared_norms`] (both terms of the segment
+    /// summed; [`Bent::bending_energy`]): 0 for metrics without one. Counted as geometric by
+    /// [`Metric::segment_energy_parts`].
+    fn segment_bending_energy(&self, _topo: &Topology, _pattern: PatternRef, _segs: [&Segment; 2]) -> f64 {
+        0.0
     }
 
     /// [`Metric::segment_squared_norms`] and [`Metric::segment_energy_parts`] of one segment

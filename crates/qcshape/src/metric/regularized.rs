@@ -305,6 +305,13 @@ impl Metric for Regularized {
         [v_in[0] + v_in[1], v_l2[0] + v_l2[1]]
     }
 
+    /// The inner metric's bending part (the L2 term bends nothing).
+    fn segment_bending_energy(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> f64 {
+        let inner = self.inner_pattern(topo, pattern);
+        let ((s0, _), (s1, _)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
+        self.inner.segment_bending_energy(topo, inner, [&s0, &s1])
+    }
+
     /// Both of the above from one pass over the two parts.
     fn segment_norms_and_parts(
         &self,

@@ -3,7 +3,7 @@
 use thiserror::Error;
 
 use super::{
-    Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcNormalize, QcWeights,
+    Bent, Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric, QcNormalize, QcWeights,
     QuasiConformal, Regularized, RelativeConformal, RelativeIsometric, Rigid, Weighted, L2,
 };
 use crate::mesh::geometry::{dot, sub, total_area};
@@ -220,6 +220,11 @@ pub struct MetricSpec {
     /// [`MetricScale::Invariant`] scale (the relative rate of change of each face's area,
     /// [`RelativeConformal`]); 0: none. Ignored by the other metrics and scales.
     pub stretch: f64,
+    /// Weight `beta` of the bending term ([`super::RelativeBending`], docs/method.md "Bending
+    /// term") added to the isometric, conformal and quasi-conformal metrics on the
+    /// [`MetricScale::Invariant`] scale ([`super::Bent`]); 0: none. Ignored by the other metrics
+    /// and scales.
+    pub bending: f64,
 }
 
 impl MetricSpec {
@@ -232,6 +237,7 @@ impl MetricSpec {
         use crate::limits::{count, non_negative, MAX_LAMBDA, MAX_SWEEPS};
         non_negative("lambda", self.lambda, MAX_LAMBDA)?;
         non_negative("stretch", self.stretch, MAX_LAMBDA)?;
+        non_negative("bending", self.bending, MAX_LAMBDA)?;
         if self.relative() && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal) {
             let unsupported = |what: &str, value: &str| crate::limits::LimitError::Unsupported {
                 what: what.into(),
@@ -283,6 +289,7 @@ impl MetricSpec {
             scale: super::defaults::SCALE,
             frozen_areas: true,
             stretch: super::defaults::STRETCH,
+            bending: super::defaults::BENDING,
         }
     }
 
@@ -295,6 +302,7 @@ impl MetricSpec {
             lambda: super::defaults::RAW_LAMBDA,
             scale: MetricScale::Raw,
             stretch: 0.0,
+            bending: 0.0,
             ..MetricSpec::new(kind)
         }
     }
@@ -305,6 +313,7 @@ impl MetricSpec {
         MetricSpec {
             scale: MetricScale::Calibrated,
             stretch: 0.0,
+            bending: 0.0,
             ..MetricSpec::new(kind)
         }
     }
@@ -312,7 +321,7 @@ impl MetricSpec {
     /// The one readable description of the metric, printed by the command line, the reports
     /// and Python's `ShapeSpace.metric`: its name and every setting that applies to it by its
     /// option name ([`crate::settings::SETTINGS`]), numbers in one plain format
-    /// ([`crate::numfmt::plain`]), e.g. `"quasi-conformal (stretch 0.1, qc-weights rms, qc-floor 0.5,
+    /// ([`crate::numfmt::plain`]), e.g. `"quasi-conformal (stretch 0.1, bending 0.0001, qc-weights rms, qc-floor 0.5,
     /// qc-smooth 0, lambda 0.01, l2-areas frozen, scale invariant)"`. Not the built metric's
     /// [`Metric::name`], whose factors depend on the data (`1.6e-10*l2(frozen)`).
     pub fn label(&self) -> String {
@@ -323,6 +332,9 @@ impl MetricSpec {
         }
         if conformal && self.relative() {
             parts.push(format!("stretch {}", crate::numfmt::plain(self.stretch)));
+        }
+        if self.relative() {
+            parts.push(format!("bending {}", crate::numfmt::plain(self.bending)));
         }
         if self.kind == MetricKind::QuasiConformal {
             if !self.relative() {
@@ -493,7 +505,10 @@ impl MetricSpec {
                 Box::new(Weighted::new(m, w))
             }
         };
-        let inner = scaled(self.inner(), cal.geometric);
+        let mut inner = scaled(self.inner(), cal.geometric);
+        if self.relative() && self.bending > 0.0 {
+            inner = Box::new(Bent::new(inner, self.bending));
+        }
         if self.kind == MetricKind::L2 {
             return inner;
         }
@@ -556,7 +571,7 @@ mod tests {
         let qc = MetricSpec::new(MetricKind::QuasiConformal);
         assert_eq!(
             qc.label(),
-            "quasi-conformal (stretch 0.1, qc-weights rms, qc-floor 0.5, qc-smooth 0, lambda 0.01, \
+            "quasi-conformal (stretch 0.1, bending 0.0001, qc-weights rms, qc-floor 0.5, qc-smooth 0, lambda 0.01, \
              l2-areas frozen, scale invariant)"
         );
         assert_eq!(
@@ -575,7 +590,7 @@ mod tests {
         };
         assert_eq!(
             tiny.label(),
-            "conformal (stretch 0.1, lambda 1e-5, l2-areas frozen, scale invariant)"
+            "conformal (stretch 0.1, bending 0.0001, lambda 1e-5, l2-areas frozen, scale invariant)"
         );
         // Every setting named in a label is a setting key.
         for kind in MetricKind::all() {

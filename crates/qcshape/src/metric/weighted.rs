@@ -170,6 +170,10 @@ impl Metric for Weighted {
             .map(|v| self.weight * v)
     }
 
+    fn segment_bending_energy(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> f64 {
+        self.weight * self.inner.segment_bending_energy(topo, pattern, segs)
+    }
+
     fn segment_energy_parts(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
         self.inner
             .segment_energy_parts(topo, pattern, segs)

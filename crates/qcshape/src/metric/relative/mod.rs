@@ -16,10 +16,12 @@
 //! falls like the sixth power of its size, and geodesics shrink the shape on the way (the
 //! reason for these forms).
 
+mod bending;
 mod conformal;
 mod isometric;
 mod l2;
 
+pub use bending::{dihedral_angles, RelativeBending};
 pub use conformal::RelativeConformal;
 pub use isometric::RelativeIsometric;
 pub use l2::RelativeL2;
