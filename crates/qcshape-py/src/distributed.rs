@@ -83,11 +83,12 @@ pub fn pair_distances<'py>(
             .metric
             .calibrate(&topo, &[&defs[0][0]])
             .map_err(|e| errors::space(qcshape::geodesic::GeodesicError::from(e).into()))?;
+        let metric = opts.metric.build(&calibration);
         // The poses are already in the solver's coordinates (factor 1).
         let input = Comparison {
             names: &names,
             topology: topo,
-            calibration: &calibration,
+            metric: metric.as_ref(),
             factor: 1.0,
             poses: &defs,
         };

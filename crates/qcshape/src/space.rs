@@ -532,10 +532,11 @@ impl ShapeSpace {
         }
         let u = self.units(&[first])?;
         let names: Vec<String> = (0..deformations.len()).map(|i| i.to_string()).collect();
+        let metric = self.metric(&u);
         let input = Comparison {
             names: &names,
             topology: self.topology.clone(),
-            calibration: &u.calibration,
+            metric: metric.as_ref(),
             factor: u.factor,
             poses: deformations,
         };

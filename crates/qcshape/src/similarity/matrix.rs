@@ -24,6 +24,8 @@ use crate::dataset::{read_manifest, DatasetError};
 use crate::io::table::{Table, TableErrors};
 use crate::io::{write_atomically, IoError};
 
+use super::types::PairDistance;
+
 /// Relative tolerance of the symmetry and zero-diagonal checks of [`DistanceMatrix::new`]:
 /// `|d_ij - d_ji|` and `|d_ii|` may be at most `MATRIX_REL_TOL * max_ij |d_ij|`.
 pub const MATRIX_REL_TOL: f64 = 1e-9;
@@ -538,6 +540,21 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
         return Err(MatrixFileError::NoLabels { path: path.into() });
     }
     Ok(pairs)
+}
+
+/// The symmetric `n x n` matrix (row-major, zero diagonal) of the pair distances.
+pub(crate) fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
+    let mut d = vec![0.0; n * n];
+    for p in pairs {
+        d[p.i * n + p.j] = p.distance;
+        d[p.j * n + p.i] = p.distance;
+    }
+    d
+}
+
+/// The distance matrix (eq. 13) of every pair `i < j` of the deformations `names`.
+pub(crate) fn matrix_of(names: &[String], pairs: &[PairDistance]) -> Result<DistanceMatrix, MatrixError> {
+    DistanceMatrix::new(names.to_vec(), assemble(names.len(), pairs))
 }
 
 #[cfg(test)]
