@@ -261,7 +261,7 @@ fn a_torn_last_journal_record_is_recomputed() {
         let stderr = String::from_utf8_lossy(&r.stderr);
         assert!(r.status.success(), "cut at {cut}: {stderr}");
         assert_eq!(
-            stderr.contains("1 torn or corrupt record(s) dropped"),
+            stderr.contains("torn or changed (it fails its checksum); dropped, its pair is recomputed"),
             cut > last_start && cut + 1 < whole.len(),
             "cut at {cut}: {stderr}"
         );
@@ -277,6 +277,48 @@ fn a_torn_last_journal_record_is_recomputed() {
         );
         assert!(!journal.exists());
     }
+
+    // A forged record with a valid checksum: pair (0, 1) with one pose distance where the run
+    // has K, and pair (0, 2) with a distance that is not its poses' sum. Both are dropped with
+    // a warning naming them, and recomputed: the same matrix as the uninterrupted run.
+    let lines: Vec<&str> = text.lines().collect();
+    let first = lines.iter().position(|l| l.starts_with("pair,")).unwrap();
+    let k = lines[first].split(',').nth(7).unwrap().split(';').count();
+    assert!(k > 1, "{}", lines[first]);
+    let forged = [
+        "pair,0,1,1.5,true,3,0.5,1.5,0.5:0.5".to_string(),
+        format!("pair,0,2,9.5,true,3,0.5,{},{}", vec!["1.0"; k].join(";"), vec!["0.5:0.5"; k].join(";")),
+    ];
+    let mut text_forged: Vec<String> = lines[..first].iter().map(|l| l.to_string()).collect();
+    for body in &forged {
+        text_forged.push(format!("{body},#{:016x}", fnv1a(body)));
+    }
+    text_forged.extend(
+        lines[first..]
+            .iter()
+            .filter(|l| !(l.starts_with("pair,0,1,") || l.starts_with("pair,0,2,")))
+            .map(|l| l.to_string()),
+    );
+    std::fs::write(&journal, text_forged.join("\n") + "\n").unwrap();
+    let r = base(&out, &details, "1").arg("--resume").output().unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    let want = format!("the record on line {} (pair 0, 1): 1 pose distance(s) where the run has {k} poses", first + 1);
+    assert!(stderr.contains(&want), "{want}\n{stderr}");
+    assert!(stderr.contains("(pair 0, 2): distance 9.5 is not the sum"), "{stderr}");
+    assert!(stderr.contains(&format!("resuming: {} of 6 pairs already done", 6 - 2)), "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&full).unwrap());
+    assert_eq!(std::fs::read(&details).unwrap(), std::fs::read(&full_details).unwrap());
+}
+
+/// The journal's record check (FNV-1a 64 of the record's text), to forge records.
+fn fnv1a(text: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
 }
 
 /// `-o D.npy` writes the same matrix as the CSV, as a NumPy float64 array (n, n) in C order, with

@@ -166,7 +166,7 @@ mod tests {
             .map(|k| {
                 let shard = Shard::new(k, count).unwrap();
                 let path = shard.file_for(&dir.join("D.csv"));
-                let (j, _) = Journal::open_shard(&path, 99, settings, names, shard, false).unwrap();
+                let (j, _) = Journal::open_shard(&path, 99, settings, names, None, shard, false).unwrap();
                 for (i, jj) in shard.pairs(n) {
                     j.record(&pair(i, jj)).unwrap();
                 }
@@ -240,7 +240,7 @@ mod tests {
         assert!(e.contains("torn"), "{e}");
         // A whole-run journal is not a shard.
         let whole = dir.path().join("D.csv.journal");
-        Journal::open(&whole, 99, "m=a", n, false).unwrap();
+        Journal::open(&whole, 99, "m=a", n, None, false).unwrap();
         let e = merge(&[whole]).unwrap_err().to_string();
         assert!(e.contains("not of a shard"), "{e}");
     }
@@ -296,14 +296,14 @@ mod tests {
         let names: Vec<String> = (0..4).map(|k| k.to_string()).collect();
         let s1 = Shard::new(1, 2).unwrap();
         let path = dir.path().join("x");
-        let (j, _) = Journal::open_shard(&path, 5, "s", &names, s1, false).unwrap();
+        let (j, _) = Journal::open_shard(&path, 5, "s", &names, None, s1, false).unwrap();
         j.record(&pair(0, 1)).unwrap();
         drop(j);
-        let (_, done) = Journal::open_shard(&path, 5, "s", &names, s1, true).unwrap();
+        let (_, done) = Journal::open_shard(&path, 5, "s", &names, None, s1, true).unwrap();
         assert_eq!(done, vec![pair(0, 1)]);
-        let e = Journal::open_shard(&path, 5, "s", &names, Shard::new(2, 2).unwrap(), true).unwrap_err();
+        let e = Journal::open_shard(&path, 5, "s", &names, None, Shard::new(2, 2).unwrap(), true).unwrap_err();
         assert!(e.to_string().contains("shard 1/2"), "{e}");
-        let e = Journal::open(&path, 5, "s", 4, true).unwrap_err();
+        let e = Journal::open(&path, 5, "s", 4, None, true).unwrap_err();
         assert!(e.to_string().contains("whole matrix"), "{e}");
     }
 }

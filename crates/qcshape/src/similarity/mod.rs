@@ -42,4 +42,4 @@ pub use pipeline::{prepare, settings_key, PipelineError, PipelineOptions, Prepar
 pub use run::{compute, journal_path, similarity_matrix, Comparison, Outcome, Run, Selection, Sink};
 pub use shard::Shard;
 pub use shares::ShareSummary;
-pub use types::{all_pairs, Approx, Event, PairDistance, Pose, Stage};
+pub use types::{all_pairs, Approx, DroppedRecord, Event, PairDistance, Pose, RecordProblem, Stage};

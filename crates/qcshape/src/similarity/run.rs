@@ -186,15 +186,19 @@ pub fn compute(
             let settings = settings_key(opts);
             let key = fingerprint(input.names, input.poses, &settings);
             let existed = path.exists();
+            // Records of another pose count than this run's are dropped and recomputed.
+            let poses = input.poses.first().map(Vec::len);
             let (journal, recorded) = match &run.selection {
-                Selection::All => Journal::open(path, key, &settings, n, *resume)?,
-                Selection::Shard(s) => Journal::open_shard(path, key, &settings, input.names, *s, *resume)?,
+                Selection::All => Journal::open(path, key, &settings, n, poses, *resume)?,
+                Selection::Shard(s) => {
+                    Journal::open_shard(path, key, &settings, input.names, poses, *s, *resume)?
+                }
                 Selection::Listed(_) => return Err(SimilarityError::ListedNotJournaled.into()),
             };
             (run.events)(Event::Journal {
                 path,
                 recorded: recorded.len(),
-                dropped: journal.dropped(),
+                dropped: journal.dropped_records(),
                 total: todo.len(),
                 discarded: existed && !*resume,
             });

@@ -130,8 +130,9 @@ pub enum Event<'a> {
         path: &'a Path,
         /// Pairs read back from an earlier run (0 without `resume`).
         recorded: usize,
-        /// Records of the earlier run dropped because they failed their checksum (recomputed).
-        dropped: usize,
+        /// Records of the earlier run dropped (recomputed): torn, failing their checksum, or
+        /// holding values no run writes ([`RecordProblem`]), each named.
+        dropped: &'a [DroppedRecord],
         /// Pairs of the selection.
         total: usize,
         /// An earlier journal existed and was started over (no `resume`).
@@ -139,4 +140,86 @@ pub enum Event<'a> {
     },
     /// A pair finished (its distances are final and, with a journal sink, recorded).
     Pair(&'a PairDistance),
+}
+
+/// A journal record that was dropped on resume, so that its pair is computed again.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DroppedRecord {
+    /// Its line in the journal (1-based).
+    pub line: usize,
+    /// The pair it names, when its indices could be read.
+    pub pair: Option<(usize, usize)>,
+    /// Why it was dropped.
+    pub problem: RecordProblem,
+}
+
+impl std::fmt::Display for DroppedRecord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "the record on line {}", self.line)?;
+        if let Some((i, j)) = self.pair {
+            write!(f, " (pair {i}, {j})")?;
+        }
+        write!(f, ": {}", self.problem)
+    }
+}
+
+/// Why a journal record is not used ([`DroppedRecord`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RecordProblem {
+    /// Torn by a kill or changed on disk: its `,#` check does not match its text.
+    #[error("torn or changed (it fails its checksum)")]
+    Checksum,
+    /// Not `pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE[,ENERGY]`.
+    #[error("field {field} does not read as {expected}")]
+    Malformed {
+        /// The field's name.
+        field: &'static str,
+        /// What it must be.
+        expected: &'static str,
+    },
+    /// Its indices are not a pair `i < j < n`.
+    #[error("({i}, {j}) is not a pair i < j of the {n} deformations")]
+    NotAPair {
+        /// First index.
+        i: usize,
+        /// Second index.
+        j: usize,
+        /// The run's deformation count.
+        n: usize,
+    },
+    /// Another pose count than the run's.
+    #[error("{found} pose distance(s) where the run has {expected} poses")]
+    PoseCount {
+        /// Pose distances in the record.
+        found: usize,
+        /// The run's pose count.
+        expected: usize,
+    },
+    /// An energy split of another length than the pose distances.
+    #[error("{found} energy split(s) for {expected} pose distances")]
+    EnergyCount {
+        /// Splits in the record.
+        found: usize,
+        /// Pose distances in the record.
+        expected: usize,
+    },
+    /// A value out of its range: a distance, energy or time that is negative or not finite.
+    #[error("{field} = {value:?} is out of range (finite and >= 0)")]
+    Range {
+        /// The field's name.
+        field: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A distance that is not the sum of its pose distances (eq. 13).
+    #[error("distance {distance:?} is not the sum of its pose distances ({sum:?})")]
+    Sum {
+        /// The record's distance.
+        distance: f64,
+        /// The sum of its pose distances.
+        sum: f64,
+    },
+    /// A pair recorded before (the first record of a pair is kept).
+    #[error("repeats a pair recorded before")]
+    Repeated,
 }
