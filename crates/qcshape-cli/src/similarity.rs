@@ -4,7 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::similarity::{journal_path, merge_shards, PipelineOptions, Prepared, Selection, Shard, Sink};
+use qcshape::similarity::{
+    journal_path, merge_shards, PipelineOptions, Prepared, Selection, Shard, Sink, Unconverged,
+};
 
 use crate::args::{in_pool, PipelineArgs};
 use crate::matrix_out::{matrix_files, write_details, write_matrix};
@@ -178,25 +180,25 @@ fn run_in_pool(args: &Args) -> Result<()> {
             explain_pair(path, pair, &prepared, &opts)?;
         }
     }
-    let unconverged = pairs.iter().filter(|p| !p.converged).count();
+    let unconverged = Unconverged::of(&prepared.names, pairs);
     outcome.finish()?;
     eprintln!(
-        "wrote {} ({n} x {n}) in {:.1} s{}",
+        "wrote {} ({n} x {n}) in {:.1} s",
         args.output.display(),
         t0.elapsed().as_secs_f64(),
-        if unconverged > 0 || !prepared.converged {
-            format!(
-                "; warning: {unconverged} pair(s) with a geodesic that did not converge{}",
-                opts.geodesic
-                    .solver
-                    .stall_hint()
-                    .map(|h| format!(" ({h})"))
-                    .unwrap_or_default()
-            )
-        } else {
-            String::new()
-        }
     );
+    let hint = opts
+        .geodesic
+        .solver
+        .stall_hint()
+        .map(|h| format!(" ({h})"))
+        .unwrap_or_default();
+    if let Some(u) = unconverged {
+        eprintln!("warning: {u}{hint}");
+    }
+    if !prepared.converged {
+        eprintln!("warning: a geodesic of the interpolation or the transfer did not converge{hint}");
+    }
     Ok(())
 }
 
@@ -224,6 +226,9 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
         })
         .map_or("merged matrix's", |k| k.label());
     report_shares(&merged.pairs, metric);
+    if let Some(u) = Unconverged::of(&merged.names, &merged.pairs) {
+        eprintln!("warning: {u}");
+    }
     eprintln!(
         "merged {} shards ({} pairs) into {} ({n} x {n})",
         merged.count,

@@ -291,7 +291,13 @@ fn parse_pair(
     let f: Vec<&str> = body.split(',').collect();
     // Version 2 records have 8 fields (no energy split), version 3 records 9.
     if !(f.len() == 8 || f.len() == 9) || f[0] != "pair" {
-        return Err((None, malformed("record", "pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE,ENERGY")));
+        return Err((
+            None,
+            malformed(
+                "record",
+                "pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE,ENERGY",
+            ),
+        ));
     }
     let i: usize = f[1].parse().map_err(|_| (None, malformed("I", "a count")))?;
     let j: usize = f[2].parse().map_err(|_| (None, malformed("J", "a count")))?;
@@ -329,7 +335,9 @@ fn parse_pair(
             let parts: Vec<[f64; 2]> = text
                 .split(';')
                 .map(|gr| {
-                    let (g, r) = gr.split_once(':').ok_or_else(|| bad(malformed("energy", "geometric:regularizer")))?;
+                    let (g, r) = gr
+                        .split_once(':')
+                        .ok_or_else(|| bad(malformed("energy", "geometric:regularizer")))?;
                     Ok([number("geometric energy", g)?, number("regularizer energy", r)?])
                 })
                 .collect::<Result<_, _>>()?;
@@ -348,8 +356,12 @@ fn parse_pair(
         distance,
         per_pose,
         per_pose_energy,
-        converged: f[4].parse().map_err(|_| bad(malformed("CONVERGED", "true or false")))?,
-        iterations: f[5].parse().map_err(|_| bad(malformed("ITERATIONS", "a count")))?,
+        converged: f[4]
+            .parse()
+            .map_err(|_| bad(malformed("CONVERGED", "true or false")))?,
+        iterations: f[5]
+            .parse()
+            .map_err(|_| bad(malformed("ITERATIONS", "a count")))?,
         seconds: number("seconds", f[6])?,
     })
 }
@@ -606,7 +618,9 @@ mod tests {
         let path = dir.path().join("data.csv");
         std::fs::write(&path, "name,value\na,1\n").unwrap();
         for resume in [false, true] {
-            let e = Journal::open(&path, 1, "s", 3, None, resume).unwrap_err().to_string();
+            let e = Journal::open(&path, 1, "s", 3, None, resume)
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.contains("data.csv") && e.contains("not a qcshape similarity journal"),
                 "{e}"
@@ -830,7 +844,9 @@ mod tests {
         assert_eq!(done, vec![want, b]);
         // Another first line is still refused.
         std::fs::write(&path, "# qcshape similarity journal v1\nkey,0\nn,3\nsettings,\n").unwrap();
-        let e = Journal::open(&path, 77, "m=a", 3, None, true).unwrap_err().to_string();
+        let e = Journal::open(&path, 77, "m=a", 3, None, true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("v3") && e.contains("v2"), "{e}");
     }
 

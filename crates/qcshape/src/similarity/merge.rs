@@ -301,7 +301,8 @@ mod tests {
         drop(j);
         let (_, done) = Journal::open_shard(&path, 5, "s", &names, None, s1, true).unwrap();
         assert_eq!(done, vec![pair(0, 1)]);
-        let e = Journal::open_shard(&path, 5, "s", &names, None, Shard::new(2, 2).unwrap(), true).unwrap_err();
+        let e =
+            Journal::open_shard(&path, 5, "s", &names, None, Shard::new(2, 2).unwrap(), true).unwrap_err();
         assert!(e.to_string().contains("shard 1/2"), "{e}");
         let e = Journal::open(&path, 5, "s", 4, None, true).unwrap_err();
         assert!(e.to_string().contains("whole matrix"), "{e}");

@@ -32,7 +32,7 @@ pub mod tangent;
 pub mod types;
 
 pub use crate::mesh::smooth::Smoothing;
-pub use details::details_csv;
+pub use details::{details_csv, Unconverged};
 pub use engine::pose_distances;
 pub use error::{JournalProblem, SimilarityError};
 pub use journal::{fingerprint, Journal, JournalFile};
