@@ -92,7 +92,10 @@ pub fn paths(code: &str) -> Vec<(usize, Vec<String>)> {
         }
         let word: String = c[i..].iter().take_while(|&&ch| ident(ch)).collect();
         let next = skip_ws(&c, i + word.len());
-        if matches!(word.as_str(), "crate" | "super" | "self") && c.get(next) == Some(&':') && c.get(next + 1) == Some(&':') {
+        if matches!(word.as_str(), "crate" | "super" | "self")
+            && c.get(next) == Some(&':')
+            && c.get(next + 1) == Some(&':')
+        {
             let line = 1 + c[..i].iter().filter(|&&ch| ch == '\n').count();
             let mut found = Vec::new();
             let end = parse_path(&c, i, Vec::new(), &mut found);
@@ -131,7 +134,9 @@ fn parse_path(c: &[char], mut k: usize, mut prefix: Vec<String>, out: &mut Vec<V
                         k = parse_path(c, k, prefix.clone(), out);
                         k = skip_ws(c, k);
                         // `x as y`
-                        if c[k..].starts_with(&['a', 's']) && c.get(k + 2).is_some_and(|ch| ch.is_whitespace()) {
+                        if c[k..].starts_with(&['a', 's'])
+                            && c.get(k + 2).is_some_and(|ch| ch.is_whitespace())
+                        {
                             k = skip_ws(c, k + 2);
                             while k < c.len() && ident(c[k]) {
                                 k += 1;
@@ -445,7 +450,10 @@ pub fn failures(src: &Path, floors: &BTreeMap<String, Floors>) -> BTreeMap<Strin
     let names = folders(src);
     for f in floors.keys() {
         if !names.contains(f) {
-            out.insert(f.clone(), "listed in floors.txt but not a folder of src/".to_string());
+            out.insert(
+                f.clone(),
+                "listed in floors.txt but not a folder of src/".to_string(),
+            );
         }
     }
     for folder in names {
@@ -457,7 +465,10 @@ pub fn failures(src: &Path, floors: &BTreeMap<String, Floors>) -> BTreeMap<Strin
         let mine: Vec<&Arrow> = all.iter().filter(|a| a.folder == folder).collect();
         let modules = children(&dir, folder == "crate");
         let Some(fl) = floors.get(&folder) else {
-            out.insert(folder, format!("not in floors.txt: give its floors ({})", modules.join(" ")));
+            out.insert(
+                folder,
+                format!("not in floors.txt: give its floors ({})", modules.join(" ")),
+            );
             continue;
         };
         let rep = check_folder(&mine, &modules, Some(fl));
@@ -506,7 +517,11 @@ pub fn suggest(folder: &str, arrows: &[&Arrow], modules: &[String]) -> String {
     let top = floor.values().copied().max().unwrap_or(0);
     let floors: Vec<String> = (0..=top)
         .map(|k| {
-            let on: Vec<&str> = modules.iter().map(String::as_str).filter(|m| floor[m] == k).collect();
+            let on: Vec<&str> = modules
+                .iter()
+                .map(String::as_str)
+                .filter(|m| floor[m] == k)
+                .collect();
             on.join(" ")
         })
         .filter(|s| !s.is_empty())

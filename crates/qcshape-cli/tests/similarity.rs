@@ -287,7 +287,11 @@ fn a_torn_last_journal_record_is_recomputed() {
     assert!(k > 1, "{}", lines[first]);
     let forged = [
         "pair,0,1,1.5,true,3,0.5,1.5,0.5:0.5".to_string(),
-        format!("pair,0,2,9.5,true,3,0.5,{},{}", vec!["1.0"; k].join(";"), vec!["0.5:0.5"; k].join(";")),
+        format!(
+            "pair,0,2,9.5,true,3,0.5,{},{}",
+            vec!["1.0"; k].join(";"),
+            vec!["0.5:0.5"; k].join(";")
+        ),
     ];
     let mut text_forged: Vec<String> = lines[..first].iter().map(|l| l.to_string()).collect();
     for body in &forged {
@@ -303,12 +307,24 @@ fn a_torn_last_journal_record_is_recomputed() {
     let r = base(&out, &details, "1").arg("--resume").output().unwrap();
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert!(r.status.success(), "{stderr}");
-    let want = format!("the record on line {} (pair 0, 1): 1 pose distance(s) where the run has {k} poses", first + 1);
+    let want = format!(
+        "the record on line {} (pair 0, 1): 1 pose distance(s) where the run has {k} poses",
+        first + 1
+    );
     assert!(stderr.contains(&want), "{want}\n{stderr}");
-    assert!(stderr.contains("(pair 0, 2): distance 9.5 is not the sum"), "{stderr}");
-    assert!(stderr.contains(&format!("resuming: {} of 6 pairs already done", 6 - 2)), "{stderr}");
+    assert!(
+        stderr.contains("(pair 0, 2): distance 9.5 is not the sum"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("resuming: {} of 6 pairs already done", 6 - 2)),
+        "{stderr}"
+    );
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&full).unwrap());
-    assert_eq!(std::fs::read(&details).unwrap(), std::fs::read(&full_details).unwrap());
+    assert_eq!(
+        std::fs::read(&details).unwrap(),
+        std::fs::read(&full_details).unwrap()
+    );
 }
 
 /// The journal's record check (FNV-1a 64 of the record's text), to forge records.

@@ -21,7 +21,10 @@ fn every_folder_keeps_its_floors() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(dir.join("floors.txt")).unwrap();
     let bad = floors::failures(&dir.join("src"), &floors::parse_floors(&text).unwrap());
-    assert!(bad.is_empty(), "folders that break their floors (crates/qcshape-studies/floors.txt):\n{bad:#?}");
+    assert!(
+        bad.is_empty(),
+        "folders that break their floors (crates/qcshape-studies/floors.txt):\n{bad:#?}"
+    );
 }
 
 #[test]
@@ -30,5 +33,8 @@ fn no_study_module_is_in_the_core() {
     let core = top_modules(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../qcshape/src"));
     assert!(core.len() > 10, "the core's modules were not found: {core:?}");
     let both: Vec<&String> = core.iter().filter(|m| studies.contains(m)).collect();
-    assert!(both.is_empty(), "modules in the core and in the studies: {both:?}");
+    assert!(
+        both.is_empty(),
+        "modules in the core and in the studies: {both:?}"
+    );
 }

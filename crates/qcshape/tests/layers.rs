@@ -37,7 +37,10 @@ fn floors_of(dir: &Path) -> std::collections::BTreeMap<String, floors::Floors> {
 fn every_folder_keeps_its_floors() {
     let dir = crate_dir();
     let bad = failures(&dir.join("src"), &floors_of(&dir));
-    assert!(bad.is_empty(), "folders that break their floors (crates/qcshape/floors.txt):\n{bad:#?}");
+    assert!(
+        bad.is_empty(),
+        "folders that break their floors (crates/qcshape/floors.txt):\n{bad:#?}"
+    );
 }
 
 /// A copy of `src/` with `plant` applied, checked against the real floors.
@@ -68,10 +71,20 @@ fn append(path: &Path, text: &str) {
 fn planted_defects_fail() {
     assert!(check_planted(|_| {}).is_empty());
     // the compute kernel importing the runner (after engine.rs's test module)
-    let bad = check_planted(|src| append(&src.join("similarity/engine.rs"), "\nuse crate::similarity::run::Run;\n"));
+    let bad = check_planted(|src| {
+        append(
+            &src.join("similarity/engine.rs"),
+            "\nuse crate::similarity::run::Run;\n",
+        )
+    });
     assert!(bad["similarity"].contains("engine -> run"), "{bad:#?}");
     // a loop: the journal imported by the shard spec it imports
-    let bad = check_planted(|src| append(&src.join("similarity/shard.rs"), "\nuse super::journal::Journal;\n"));
+    let bad = check_planted(|src| {
+        append(
+            &src.join("similarity/shard.rs"),
+            "\nuse super::journal::Journal;\n",
+        )
+    });
     assert!(bad["similarity"].contains("shard -> journal"), "{bad:#?}");
     // a child importing its folder's own file
     let bad = check_planted(|src| append(&src.join("similarity/types.rs"), "\nuse super::Smoothing;\n"));
@@ -83,10 +96,20 @@ fn planted_defects_fail() {
     let bad = check_planted(|src| fs::write(src.join("similarity/extra.rs"), "pub fn f() {}\n").unwrap());
     assert!(bad["similarity"].contains("extra is on no floor"), "{bad:#?}");
     // an import of a higher floor in another folder with floors
-    let bad = check_planted(|src| append(&src.join("multires/prolong.rs"), "\nuse super::hierarchy::Level;\n"));
+    let bad = check_planted(|src| {
+        append(
+            &src.join("multires/prolong.rs"),
+            "\nuse super::hierarchy::Level;\n",
+        )
+    });
     assert!(bad["multires"].contains("prolong -> hierarchy"), "{bad:#?}");
     // one more upward arrow in a pending folder (synth = pending 1)
-    let bad = check_planted(|src| append(&src.join("synth/noise.rs"), "\nuse super::icosphere as planted;\n"));
+    let bad = check_planted(|src| {
+        append(
+            &src.join("synth/noise.rs"),
+            "\nuse super::icosphere as planted;\n",
+        )
+    });
     assert!(bad["synth"].contains("more than the 1 pending"), "{bad:#?}");
     assert!(bad["synth"].contains("noise -> mod"), "{bad:#?}");
     // a folder missing from floors.txt
