@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod contribution;
+pub mod defaults;
 pub mod experiment;
 pub mod explain;
 pub mod localize;
