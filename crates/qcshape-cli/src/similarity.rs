@@ -17,8 +17,9 @@ use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares
 /// Every deformation is interpolated (--insert poses between consecutive key poses), carried
 /// to one common base (the first pose of --base, default the first deformation) by --transport,
 /// and `similarity(M, N) = sum_i dis(M_i, N_i)` over corresponding poses (eq. 13) is computed for
-/// every pair, pairs in parallel. Distances are in normalized units (coordinates divided by the
-/// mean edge length of the base pose).
+/// every pair, pairs in parallel. Distances are dimensionless on the default invariant scale
+/// (rates of relative change, the same at any size and resolution); with --scale calibrated or
+/// raw they are in mean-edge units (coordinates divided by the mean edge length of the base pose).
 ///
 /// The L2 regularizer's share of each pair's path energy is summarized on stderr (min, median,
 /// max, pairs above 50 %), with a warning when it is above one half for more than half of the

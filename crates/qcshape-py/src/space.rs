@@ -21,8 +21,8 @@ use crate::run::{detached, detached_with, Progress};
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
 /// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
-/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in mean-edge units (coordinates times
-/// ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
+/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in the metric's units (dimensionless on the
+/// default invariant scale; the solver's coordinates are the input's times ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
 /// ``regularizer_energy`` (the energy's split into the metric's own term and the L2
 /// regularizer; they sum to ``energy``), ``regularizer_share`` (the regularizer's part, in
 /// [0, 1]: above 0.5 the distance measures L2 displacement more than the metric's geometry),
@@ -54,13 +54,13 @@ macro_rules! geodesic_methods {
 }
 
 geodesic_methods! {
-    /// dis(A, B): the path's length (mean-edge units).
+    /// dis(A, B): the path's length (the metric's units).
     length: f64 = |g| g.length;
-    /// Path energy (eq. 12) at the solution (mean-edge units).
+    /// Path energy (eq. 12) at the solution (the metric's units).
     energy: f64 = |g| g.energy;
     /// Path energy of the straight line (the start).
     initial_energy: f64 = |g| g.initial_energy;
-    /// The part of ``energy`` carried by the metric's geometric term (mean-edge units).
+    /// The part of ``energy`` carried by the metric's geometric term (the metric's units).
     geometric_energy: f64 = |g| g.geometric_energy;
     /// The part of ``energy`` carried by the L2 regularizer (0 without one).
     regularizer_energy: f64 = |g| g.regularizer_energy;
@@ -463,8 +463,8 @@ impl PyShapeSpace {
     }
 
     /// squared_norm(base, v) -> float: G_M(X) = <<X, X>>_M of the tangent vector v (nV, 3) at
-    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (mean-edge units
-    /// squared).
+    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (the metric's
+    /// units squared).
     fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
         let (b, x) = (self.points(base, "base")?, self.points(v, "v")?);
         Self::call(py, &self.space, |s| s.squared_norm(&b, &x))
@@ -515,7 +515,7 @@ impl PyShapeSpace {
     }
 
     /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
-    /// (mean-edge units); exactly 0 for identical shapes.
+    /// (the metric's units); exactly 0 for identical shapes.
     #[pyo3(signature = (a, b, steps=None))]
     fn dist(
         &self,

@@ -25,33 +25,3 @@ pub const RESTARTS: usize = 20;
 
 /// Seed of every random choice (data, clustering, noise, MDS jitter).
 pub const SEED: u64 = 0;
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::geodesic::{GeodesicOptions, InterpolationOptions};
-    use crate::similarity::PipelineOptions;
-
-    #[test]
-    fn the_library_defaults_are_these_constants() {
-        let g = GeodesicOptions::default();
-        assert_eq!(g.steps, STEPS);
-        assert_eq!(g.solver, SOLVER);
-        assert_eq!(g.gradient_tolerance, TOLERANCE);
-        assert_eq!(g.energy_tolerance, ENERGY_TOLERANCE);
-        assert_eq!(g.length_tolerance, LENGTH_TOLERANCE);
-        let i = InterpolationOptions::default();
-        assert_eq!((i.insert, i.levels), (PAPER_INSERT, LEVELS));
-        // PipelineOptions is defined in the similarity module; its Default must agree.
-        let p = PipelineOptions::default();
-        assert_eq!(p.metric.kind, METRIC);
-        assert_eq!(p.metric.lambda, LAMBDA);
-        assert_eq!(p.geodesic.steps, STEPS);
-        assert_eq!(p.insert, INSERT);
-        assert_eq!(p.levels, LEVELS);
-        assert_eq!(p.transport, TRANSPORT);
-        assert_eq!(p.align, ALIGN);
-        assert_eq!(p.smoothing, crate::mesh::smooth::Smoothing::Length(SMOOTH_LENGTH));
-        assert_eq!(crate::metric::MetricSpec::new(METRIC).lambda, LAMBDA);
-    }
-}

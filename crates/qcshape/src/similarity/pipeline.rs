@@ -37,7 +37,7 @@ pub struct PipelineOptions {
     /// [`Transport::Translate`]: it gave lower transfer errors and better classification than
     /// parallel transport in the measurements (README).
     pub transport: Transport,
-    /// Index of the reference deformation whose first pose is the common base (METHOD.md).
+    /// Index of the reference deformation whose first pose is the common base (docs/method.md).
     pub base: usize,
     /// The low-pass filter applied to every pose of every deformation (the base included)
     /// before anything else, one linear operator for every pose, that takes vertex noise out of

@@ -98,7 +98,7 @@ impl Default for TransferOptions {
 /// Diagnostics of one transferred segment `X_k -> Y_k`.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct SegmentReport {
-    /// Length of `gamma_k` (normalized units; 0 for Euclidean transfer).
+    /// Length of `gamma_k` (the metric's units; 0 for Euclidean transfer).
     pub geodesic_length: f64,
     /// Iterations of the geodesic solver.
     pub geodesic_iterations: usize,
