@@ -528,3 +528,17 @@ pub fn suggest(folder: &str, arrows: &[&Arrow], modules: &[String]) -> String {
         .collect();
     format!("{folder} = {}", floors.join(" | "))
 }
+
+/// The layer test of the crate at `dir` (its `src/` against its `floors.txt`): panics with every
+/// folder that breaks its floors.
+pub fn assert_floors(dir: &Path) {
+    let path = dir.join("floors.txt");
+    let text = fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let floors = parse_floors(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let bad = failures(&dir.join("src"), &floors);
+    assert!(
+        bad.is_empty(),
+        "folders that break their floors ({}):\n{bad:#?}",
+        path.display()
+    );
+}

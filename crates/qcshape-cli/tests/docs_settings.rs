@@ -21,23 +21,17 @@ use std::process::Command;
 
 use qcshape::settings::{Value, SETTINGS};
 
+#[path = "../../../scripts/test-support/scan.rs"]
+mod scan;
+
+use scan::rust_files;
+
 /// Folders being rewritten by another change (issue 61 item 2: metric/ and geodesic/); their
 /// doc comments are checked once that lands. Each path is relative to the repository.
 const PENDING: &[&str] = &["crates/qcshape/src/metric/", "crates/qcshape/src/geodesic/"];
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    for e in fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
 }
 
 /// Every run of `///` or `//!` lines in the crates' sources, as one line of text, with its

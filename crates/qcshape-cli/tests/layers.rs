@@ -10,16 +10,7 @@ mod scan;
 #[path = "../../../scripts/test-support/floors.rs"]
 mod floors;
 
-use std::path::Path;
-
 #[test]
 fn every_folder_keeps_its_floors() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(dir.join("floors.txt")).unwrap();
-    let bad = floors::failures(&dir.join("src"), &floors::parse_floors(&text).unwrap());
-    assert!(
-        bad.is_empty(),
-        "folders that break their floors ({}):\n{bad:#?}",
-        dir.join("floors.txt").display()
-    );
+    floors::assert_floors(std::path::Path::new(env!("CARGO_MANIFEST_DIR")));
 }

@@ -18,13 +18,7 @@ use scan::top_modules;
 
 #[test]
 fn every_folder_keeps_its_floors() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(dir.join("floors.txt")).unwrap();
-    let bad = floors::failures(&dir.join("src"), &floors::parse_floors(&text).unwrap());
-    assert!(
-        bad.is_empty(),
-        "folders that break their floors (crates/qcshape-studies/floors.txt):\n{bad:#?}"
-    );
+    floors::assert_floors(Path::new(env!("CARGO_MANIFEST_DIR")));
 }
 
 #[test]

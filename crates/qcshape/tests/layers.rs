@@ -35,12 +35,7 @@ fn floors_of(dir: &Path) -> std::collections::BTreeMap<String, floors::Floors> {
 
 #[test]
 fn every_folder_keeps_its_floors() {
-    let dir = crate_dir();
-    let bad = failures(&dir.join("src"), &floors_of(&dir));
-    assert!(
-        bad.is_empty(),
-        "folders that break their floors (crates/qcshape/floors.txt):\n{bad:#?}"
-    );
+    floors::assert_floors(&crate_dir());
 }
 
 /// A copy of `src/` with `plant` applied, checked against the real floors.
