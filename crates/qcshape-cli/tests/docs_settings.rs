@@ -136,7 +136,7 @@ fn last_word(before: &str) -> &str {
     let t = before.trim_end().trim_end_matches(['`', '"']);
     let k = t
         .rfind(|c: char| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '+' | '_')))
-        .map_or(0, |k| k + 1);
+        .map_or(0, |k| k + t[k..].chars().next().map_or(1, char::len_utf8));
     &t[k..]
 }
 
@@ -152,20 +152,25 @@ fn first_word(after: &str) -> &str {
 /// What `text` states that the settings table contradicts.
 fn contradictions(text: &str) -> Vec<String> {
     let mut out = Vec::new();
-    let choices: Vec<(&str, Vec<&'static str>, String)> = SETTINGS
+    let choices: Vec<(&str, &str, Vec<&'static str>, String)> = SETTINGS
         .iter()
         .filter_map(|s| match s.value {
-            Value::Choice(names) => Some((s.key, names(), (s.default)().unwrap_or_default())),
+            Value::Choice(names) => Some((s.key, s.python, names(), (s.default)().unwrap_or_default())),
             _ => None,
         })
         .collect();
-    // `VALUE (default)`, `VALUE (the default`
+    // `VALUE (default)`, `VALUE (the default`, in a sentence that names the setting (`scale`,
+    // `--scale`, `metric_scale`): "the best similarity (the default)" is not about --align.
     for pat in ["(default)", "(the default"] {
         for (k, _) in text.match_indices(pat) {
             let v = last_word(&text[..k]);
-            let owners: Vec<&(&str, Vec<&str>, String)> =
-                choices.iter().filter(|c| c.1.contains(&v)).collect();
-            if !owners.is_empty() && !owners.iter().any(|c| same_value(&c.2, v)) {
+            let from = text[..k].rfind(". ").map_or(0, |i| i + 2);
+            let sentence = &text[from..k];
+            let owners: Vec<_> = choices
+                .iter()
+                .filter(|c| c.2.contains(&v) && (sentence.contains(c.0) || sentence.contains(c.1)))
+                .collect();
+            if !owners.is_empty() && !owners.iter().any(|c| same_value(&c.3, v)) {
                 let keys: Vec<&str> = owners.iter().map(|c| c.0).collect();
                 out.push(format!("{v:?} called the default of --{}", keys.join(" / --")));
             }
@@ -203,7 +208,7 @@ fn contradictions(text: &str) -> Vec<String> {
                 for word in ["defaults to", "default:", "default"] {
                     if let Some(at) = clause.find(word) {
                         let v = first_word(&clause[at + word.len()..]);
-                        let is_value = v.parse::<f64>().is_ok() || choices.iter().any(|c| c.1.contains(&v));
+                        let is_value = v.parse::<f64>().is_ok() || choices.iter().any(|c| c.2.contains(&v));
                         if is_value && !same_value(v, &want) {
                             out.push(format!(
                                 "{name} said to default to {v:?}, the table says {want:?}"
@@ -279,6 +284,7 @@ fn planted_contradictions_are_found() {
         "With --scale calibrated distances are in mean-edge units.",
         "The error of a vertex is in mean-edge units.",
         "align: rigid (the default: Procrustes)",
+        "the fan's best similarity (the default): smooth maps",
     ] {
         assert!(
             contradictions(fine).is_empty(),
