@@ -5,8 +5,10 @@
 //! - a stated default that the table contradicts: `VALUE (default)` or `VALUE (the default` for
 //!   a value that is a choice of some setting and the default of none of them
 //!   (`calibrated (the default)`); a setting named (`--lambda`, ``` ``lam`` ```, `` `lam` ``,
-//!   `lam=`) and then, in the same clause, `default V` / `default: V` / `defaults to V` with a V
-//!   other than the table's (a command's own default says `here`, as `lv cycle --steps` does);
+//!   `lam=`) and then, in the same clause (up to `;`, `. `, `|`, `)` or `[`, so a flag's own
+//!   `[default: V]`, which `tests/settings.rs` and `tests/defaults.rs` check with their named
+//!   exceptions, is not read), `default V` / `default: V` / `defaults to V` with a V other than
+//!   the table's (a command's own default says `here`, as `lv cycle --steps` does);
 //! - a unit that the default scale contradicts: on the invariant scale (the table's default)
 //!   distances, lengths and energies are dimensionless, so a sentence that gives them
 //!   "mean-edge units" or "normalized units" without naming the calibrated or raw scale is stale
@@ -192,7 +194,7 @@ fn contradictions(text: &str) -> Vec<String> {
                 {
                     continue; // a longer flag
                 }
-                let mut end = ["; ", ". ", "|"]
+                let mut end = ["; ", ". ", "|", ")", "["]
                     .iter()
                     .filter_map(|p| rest.find(p))
                     .min()
@@ -284,6 +286,8 @@ fn planted_contradictions_are_found() {
         "With --scale calibrated distances are in mean-edge units.",
         "The error of a vertex is in mean-edge units.",
         "align: rigid (the default: Procrustes)",
+        "rms (with --qc-floor) or raw [default: rms]",
+        "--steps <STEPS> N of each geodesic [default: 4]",
         "the fan's best similarity (the default): smooth maps",
     ] {
         assert!(

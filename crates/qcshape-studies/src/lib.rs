@@ -8,10 +8,10 @@
 #![warn(missing_docs)]
 
 pub mod contribution;
-pub mod defaults;
 pub mod experiment;
 pub mod explain;
 pub mod localize;
 pub mod lv;
 pub mod plot;
 pub mod render;
+pub mod study_defaults;

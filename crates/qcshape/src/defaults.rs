@@ -10,7 +10,7 @@
 //! The values are the ones docs/defaults.md "How the defaults were chosen" measured; a study
 //! command that keeps a different value (the paper's N = 4 for the reproduction, the noise
 //! experiment's settings, the LV pipeline's) does so through one of the named exceptions of the
-//! studies crate (`qcshape_studies::defaults`), each with the reason, and says so in its
+//! studies crate (`qcshape_studies::study_defaults`), each with the reason, and says so in its
 //! `--help`.
 
 pub use crate::geodesic::defaults::{
