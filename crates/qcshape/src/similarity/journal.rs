@@ -133,7 +133,7 @@ impl Journal {
 
     /// Opens the journal of shard `shard` of a sharded run (`qcshape similarity --shard K/S`):
     /// as [`Journal::open`], and the file also records the shard and the deformation `names`
-    /// (n), so that [`super::shard::merge`] can check and assemble the shards without the data.
+    /// (n), so that [`super::merge_shards`] can check and assemble the shards without the data.
     pub fn open_shard(
         path: &Path,
         key: u64,
