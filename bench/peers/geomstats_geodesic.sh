@@ -9,7 +9,7 @@
 #
 # Environment: QC_METRIC (qcshape metric, default isometric), PEER_FTOL (L-BFGS-B ftol, default
 # geomstats' 1e-3), PEER_MAXITER (default 15000), PEER_VENV (reuse a virtual environment).
-# The two tools minimize different energies (geomstats' H2 elastic metric, qcshape's METHOD.md
+# The two tools minimize different energies (geomstats' H2 elastic metric, qcshape's docs/method.md
 # metrics): the figures compare solvers on one problem size, not one number.
 set -euo pipefail
 cd "$(dirname "$0")/../.."

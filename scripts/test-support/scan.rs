@@ -1,7 +1,6 @@
-//! The scanner of the layer tests (`crates/qcshape/tests/layers.rs` for the core,
-//! `crates/qcshape-studies/tests/layers.rs` for the studies; both include this file by path, so
-//! neither crate's tests reach into the other's): the `crate::X` imports of a crate's non-test
-//! code, and the check that none runs upward.
+//! The scanner of the layer tests (`crates/*/tests/layers.rs`; each includes this file and
+//! `floors.rs` by path, so no crate's tests reach into another's) and of `scripts/layers`: a
+//! crate's Rust files, its non-test code, and its `crate::X` imports.
 //!
 //! Non-test code is the whole file but comments, literals, the bodies of `#[cfg(test)] mod NAME
 //! { ... }` (found by brace matching) and files that are test modules (`#[cfg(test)] mod NAME;`,
@@ -10,7 +9,6 @@
 // Each test crate that includes this file uses a part of it.
 #![allow(dead_code)]
 
-use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -236,48 +234,6 @@ pub fn imports(text: &str) -> Vec<(usize, String)> {
         i = k;
     }
     out
-}
-
-/// The top-level module of each file under `src` (the first path component, without `.rs`).
-fn top_module(src: &Path, f: &Path) -> String {
-    f.strip_prefix(src)
-        .unwrap()
-        .components()
-        .next()
-        .unwrap()
-        .as_os_str()
-        .to_string_lossy()
-        .trim_end_matches(".rs")
-        .to_string()
-}
-
-/// The imports under `src` (a crate's `src/`) that run upward in `order` (its top-level modules
-/// from the ground floor up), as `"a -> b"` with the places (`file:line`). Panics on a module
-/// that `order` does not place.
-pub fn upward_imports(src: &Path, order: &[&str]) -> BTreeMap<String, Vec<String>> {
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
-    let skip = test_only(&files);
-    let rank = |m: &str| order.iter().position(|x| *x == m);
-    let mut upward: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for f in &files {
-        let rel = f.strip_prefix(src).unwrap();
-        let top = top_module(src, f);
-        if top == "lib" || skip.contains(f) || rel.to_string_lossy().ends_with("tests.rs") {
-            continue;
-        }
-        let me = rank(&top).unwrap_or_else(|| panic!("module {top} is not in ORDER: place it in its layer"));
-        for (line, m) in imports(&fs::read_to_string(f).unwrap()) {
-            let Some(other) = rank(&m) else { continue };
-            if m != top && other > me {
-                upward
-                    .entry(format!("{top} -> {m}"))
-                    .or_default()
-                    .push(format!("{}:{line}", rel.display()));
-            }
-        }
-    }
-    upward
 }
 
 /// The top-level modules of the crate whose sources are `src` (directories and `.rs` files but

@@ -31,7 +31,7 @@ use crate::template::Source;
 /// extra column `key` marks the key poses) and DIR/segments.csv (deformation, segment, from,
 /// to, length). PLY, VTK, VTP and VTU poses carry per-vertex speed fields of the segment leaving
 /// the pose (entering it, for the last pose): `speed` (the vertex's share of the segment's
-/// metric length, normalized units; docs/maps.md), `euclidean_speed` and the vector
+/// metric length, in the metric's units; docs/maps.md), `euclidean_speed` and the vector
 /// `velocity` (displacement to the next pose, input units). PLY's `quality` is `speed`.
 #[derive(Debug, clap::Args)]
 #[command(

@@ -52,9 +52,9 @@ pub(crate) fn matrix_with_progress(
                     path.display()
                 );
             }
-            if dropped > 0 {
+            for record in dropped {
                 eprintln!(
-                    "warning: {}: {dropped} torn or corrupt record(s) dropped (failed their checksum); those pairs are recomputed",
+                    "warning: {}: {record}; dropped, its pair is recomputed",
                     path.display()
                 );
             }

@@ -4,7 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use qcshape::similarity::{journal_path, merge_shards, PipelineOptions, Prepared, Selection, Shard, Sink};
+use qcshape::similarity::{
+    journal_path, merge_shards, PipelineOptions, Prepared, Selection, Shard, Sink, Unconverged,
+};
 
 use crate::args::{in_pool, PipelineArgs};
 use crate::matrix_out::{matrix_files, write_details, write_matrix};
@@ -15,8 +17,9 @@ use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares
 /// Every deformation is interpolated (--insert poses between consecutive key poses), carried
 /// to one common base (the first pose of --base, default the first deformation) by --transport,
 /// and `similarity(M, N) = sum_i dis(M_i, N_i)` over corresponding poses (eq. 13) is computed for
-/// every pair, pairs in parallel. Distances are in normalized units (coordinates divided by the
-/// mean edge length of the base pose).
+/// every pair, pairs in parallel. Distances are dimensionless on the default invariant scale
+/// (rates of relative change, the same at any size and resolution); with --scale calibrated or
+/// raw they are in mean-edge units (coordinates divided by the mean edge length of the base pose).
 ///
 /// The L2 regularizer's share of each pair's path energy is summarized on stderr (min, median,
 /// max, pairs above 50 %), with a warning when it is above one half for more than half of the
@@ -178,25 +181,25 @@ fn run_in_pool(args: &Args) -> Result<()> {
             explain_pair(path, pair, &prepared, &opts)?;
         }
     }
-    let unconverged = pairs.iter().filter(|p| !p.converged).count();
+    let unconverged = Unconverged::of(&prepared.names, pairs);
     outcome.finish()?;
     eprintln!(
-        "wrote {} ({n} x {n}) in {:.1} s{}",
+        "wrote {} ({n} x {n}) in {:.1} s",
         args.output.display(),
         t0.elapsed().as_secs_f64(),
-        if unconverged > 0 || !prepared.converged {
-            format!(
-                "; warning: {unconverged} pair(s) with a geodesic that did not converge{}",
-                opts.geodesic
-                    .solver
-                    .stall_hint()
-                    .map(|h| format!(" ({h})"))
-                    .unwrap_or_default()
-            )
-        } else {
-            String::new()
-        }
     );
+    let hint = opts
+        .geodesic
+        .solver
+        .stall_hint()
+        .map(|h| format!(" ({h})"))
+        .unwrap_or_default();
+    if let Some(u) = unconverged {
+        eprintln!("warning: {u}{hint}");
+    }
+    if !prepared.converged {
+        eprintln!("warning: a geodesic of the interpolation or the transfer did not converge{hint}");
+    }
     Ok(())
 }
 
@@ -224,6 +227,9 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
         })
         .map_or("merged matrix's", |k| k.label());
     report_shares(&merged.pairs, metric);
+    if let Some(u) = Unconverged::of(&merged.names, &merged.pairs) {
+        eprintln!("warning: {u}");
+    }
     eprintln!(
         "merged {} shards ({} pairs) into {} ({n} x {n})",
         merged.count,

@@ -23,21 +23,33 @@ const COMMANDS: &[&[&str]] = &[
 ];
 
 /// (command, option, default): the documented exceptions. Each is a named constant of
-/// `qcshape::defaults` whose doc comment gives the reason, and the option's `--help` says so.
+/// `qcshape::defaults` or `qcshape_studies::study_defaults` whose doc comment gives the reason, and the option's `--help` says so.
 fn exceptions() -> Vec<(&'static str, &'static str, String)> {
     vec![
         // The README's Table 3 was measured with N = 4 and 10 restarts.
-        ("experiment noise", "steps", defaults::NOISE_STEPS.to_string()),
+        (
+            "experiment noise",
+            "steps",
+            qcshape_studies::study_defaults::NOISE_STEPS.to_string(),
+        ),
         (
             "experiment noise",
             "restarts",
-            defaults::NOISE_RESTARTS.to_string(),
+            qcshape_studies::study_defaults::NOISE_RESTARTS.to_string(),
         ),
         // Paper section 4 settings, with which the README's LV tables were measured.
         ("lv run", "insert", defaults::PAPER_INSERT.to_string()),
-        ("lv run", "steps", defaults::PAPER_STEPS.to_string()),
+        (
+            "lv run",
+            "steps",
+            qcshape_studies::study_defaults::PAPER_STEPS.to_string(),
+        ),
         // Paper section 4's parallel transport, with which the README's LV tables were measured.
-        ("lv run", "transport", defaults::LV_TRANSPORT.label().to_string()),
+        (
+            "lv run",
+            "transport",
+            qcshape_studies::study_defaults::LV_TRANSPORT.label().to_string(),
+        ),
         // `experiment noise --levels` are the noise variances of Table 3, not spatial levels.
         ("experiment noise", "levels", "1,2.5,5,10,20".to_string()),
         // The middle pose of Fig. 4 is the one inserted pose.

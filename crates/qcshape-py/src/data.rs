@@ -457,8 +457,9 @@ pub fn run_pipeline(
 /// by its own curvature-change weights); threads (None: all cores); progress (None: a bar on a
 /// terminal or in Jupyter, tqdm's when installed, plain lines at most every 10 s in a log; True:
 /// also each stage's last count in a log; False: nothing; a callable: called with (stage, done,
-/// total)). Distances are in mean-edge units (coordinates divided by the mean edge length of the
-/// base pose).
+/// total)). Distances are in the metric's units: dimensionless on the default invariant scale,
+/// in mean-edge units (coordinates divided by the base pose's mean edge length) on the calibrated
+/// and raw scales.
 ///
 /// With ``journal=PATH`` every finished pair is appended to the file PATH as it completes (the
 /// journal of ``qcshape similarity``); if the call is interrupted (Ctrl-C, a killed kernel or

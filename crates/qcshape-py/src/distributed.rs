@@ -21,8 +21,8 @@ type Prepared<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, bool);
 
 /// prepare_pairs(dataset, **options) -> (poses, faces, names, converged): the prepared data set of
 /// `similarity_matrix(dataset, **options)`: poses (n, K, nV, 3) float64, every deformation
-/// transferred to the common base and multiplied by the normalization factor (normalized
-/// units, mean edge of the base pose = 1); faces (nF, 3) int64 of the base; the names; whether
+/// transferred to the common base and multiplied by the normalization factor (the base
+/// pose's mean edge becomes 1); faces (nF, 3) int64 of the base; the names; whether
 /// every transfer geodesic converged.
 #[pyfunction]
 #[pyo3(signature = (dataset, **options))]
@@ -58,7 +58,7 @@ pub fn prepare_pairs<'py>(
 
 /// pair_distances(poses, faces, pairs, **options) -> (distances, converged): `similarity(i, j)`
 /// (eq. 13) for every row `(i, j)` of `pairs` (m, 2), from the output of `prepare_pairs` with the same
-/// options: distances (m,) float64 in mean-edge units, and whether every geodesic of the batch
+/// options: distances (m,) float64 in the metric's units, and whether every geodesic of the batch
 /// converged. Only the metric, solver and approx options matter here.
 #[pyfunction]
 #[pyo3(signature = (poses, faces, pairs, **options))]
@@ -83,11 +83,12 @@ pub fn pair_distances<'py>(
             .metric
             .calibrate(&topo, &[&defs[0][0]])
             .map_err(|e| errors::space(qcshape::geodesic::GeodesicError::from(e).into()))?;
+        let metric = opts.metric.build(&calibration);
         // The poses are already in the solver's coordinates (factor 1).
         let input = Comparison {
             names: &names,
             topology: topo,
-            calibration: &calibration,
+            metric: metric.as_ref(),
             factor: 1.0,
             poses: &defs,
         };

@@ -8,7 +8,7 @@ use qcshape::geodesic::{Geodesic, InterpolationOptions, Normalization};
 use qcshape::mesh::Topology;
 use qcshape::settings;
 use qcshape::similarity::Stage;
-use qcshape::space::ShapeSpace;
+use qcshape::space::{ShapeSpace, SpaceError};
 use qcshape::transport::Transport;
 
 use crate::convert::{
@@ -21,8 +21,8 @@ use crate::run::{detached, detached_with, Progress};
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
 /// Attributes: ``path`` (steps + 1, nV, 3) float64 poses in the input's units (ends bit-exact),
-/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in mean-edge units (coordinates times
-/// ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
+/// ``length`` = dis(A, B) and ``energy`` (eq. 12) in the metric's units (dimensionless on the
+/// default invariant scale; the solver's coordinates are the input's times ``scale``), ``initial_energy`` (the straight line's), ``geometric_energy`` and
 /// ``regularizer_energy`` (the energy's split into the metric's own term and the L2
 /// regularizer; they sum to ``energy``), ``regularizer_share`` (the regularizer's part, in
 /// [0, 1]: above 0.5 the distance measures L2 displacement more than the metric's geometry),
@@ -34,89 +34,63 @@ pub struct PyGeodesic {
     g: Geodesic,
 }
 
-#[pymethods]
-impl PyGeodesic {
+/// The `#[pymethods]` block of [`PyGeodesic`]: one getter per `name: Type = |g| value;` line
+/// (its doc comment is the attribute's docstring), then the methods written out.
+macro_rules! geodesic_methods {
+    ($($(#[$doc:meta])* $name:ident: $ty:ty = |$g:ident| $value:expr;)* @methods $($methods:tt)*) => {
+        #[pymethods]
+        impl PyGeodesic {
+            $(
+                $(#[$doc])*
+                #[getter]
+                fn $name(&self) -> $ty {
+                    let $g = &self.g;
+                    $value
+                }
+            )*
+            $($methods)*
+        }
+    };
+}
+
+geodesic_methods! {
+    /// dis(A, B): the path's length (the metric's units).
+    length: f64 = |g| g.length;
+    /// Path energy (eq. 12) at the solution (the metric's units).
+    energy: f64 = |g| g.energy;
+    /// Path energy of the straight line (the start).
+    initial_energy: f64 = |g| g.initial_energy;
+    /// The part of ``energy`` carried by the metric's geometric term (the metric's units).
+    geometric_energy: f64 = |g| g.geometric_energy;
+    /// The part of ``energy`` carried by the L2 regularizer (0 without one).
+    regularizer_energy: f64 = |g| g.regularizer_energy;
+    /// regularizer_energy / (geometric_energy + regularizer_energy), in [0, 1] (0 for a path
+    /// of zero energy).
+    regularizer_share: f64 = |g| g.regularizer_share();
+    /// The part of ``geometric_energy`` carried by the bending term (``bending`` times the
+    /// rate of change of the dihedral angles; 0 without one).
+    bending_energy: f64 = |g| g.bending_energy;
+    /// bending_energy / energy, in [0, 1] (0 without a bending term).
+    bending_share: f64 = |g| g.bending_share();
+    /// Length of each segment, (steps,) list.
+    segment_lengths: Vec<f64> = |g| g.segment_lengths.clone();
+    /// Solver iterations.
+    iterations: usize = |g| g.iterations;
+    /// Whether the solver converged.
+    converged: bool = |g| g.converged;
+    /// Why the solver stopped (e.g. "GradientTolerance").
+    stop: String = |g| format!("{:?}", g.stop);
+    /// Norm of the energy gradient at the solution.
+    gradient_norm: f64 = |g| g.gradient_norm;
+    /// The factor coordinates were multiplied by before solving.
+    scale: f64 = |g| g.scale;
+    /// Wall-clock seconds in the solver.
+    seconds: f64 = |g| g.seconds;
+    @methods
     /// The poses P_0 .. P_N, (steps + 1, nV, 3) float64, input units.
     #[getter]
     fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         sequence_out(py, &self.g.poses)
-    }
-    /// dis(A, B): the path's length (mean-edge units).
-    #[getter]
-    fn length(&self) -> f64 {
-        self.g.length
-    }
-    /// Path energy (eq. 12) at the solution (mean-edge units).
-    #[getter]
-    fn energy(&self) -> f64 {
-        self.g.energy
-    }
-    /// Path energy of the straight line (the start).
-    #[getter]
-    fn initial_energy(&self) -> f64 {
-        self.g.initial_energy
-    }
-    /// The part of ``energy`` carried by the metric's geometric term (mean-edge units).
-    #[getter]
-    fn geometric_energy(&self) -> f64 {
-        self.g.geometric_energy
-    }
-    /// The part of ``energy`` carried by the L2 regularizer (0 without one).
-    #[getter]
-    fn regularizer_energy(&self) -> f64 {
-        self.g.regularizer_energy
-    }
-    /// regularizer_energy / (geometric_energy + regularizer_energy), in [0, 1] (0 for a path
-    /// of zero energy).
-    #[getter]
-    fn regularizer_share(&self) -> f64 {
-        self.g.regularizer_share()
-    }
-    /// The part of ``geometric_energy`` carried by the bending term (``bending`` times the
-    /// rate of change of the dihedral angles; 0 without one).
-    #[getter]
-    fn bending_energy(&self) -> f64 {
-        self.g.bending_energy
-    }
-    /// bending_energy / energy, in [0, 1] (0 without a bending term).
-    #[getter]
-    fn bending_share(&self) -> f64 {
-        self.g.bending_share()
-    }
-    /// Length of each segment, (steps,) list.
-    #[getter]
-    fn segment_lengths(&self) -> Vec<f64> {
-        self.g.segment_lengths.clone()
-    }
-    /// Solver iterations.
-    #[getter]
-    fn iterations(&self) -> usize {
-        self.g.iterations
-    }
-    /// Whether the solver converged.
-    #[getter]
-    fn converged(&self) -> bool {
-        self.g.converged
-    }
-    /// Why the solver stopped (e.g. "GradientTolerance").
-    #[getter]
-    fn stop(&self) -> String {
-        format!("{:?}", self.g.stop)
-    }
-    /// Norm of the energy gradient at the solution.
-    #[getter]
-    fn gradient_norm(&self) -> f64 {
-        self.g.gradient_norm
-    }
-    /// The factor coordinates were multiplied by before solving.
-    #[getter]
-    fn scale(&self) -> f64 {
-        self.g.scale
-    }
-    /// Wall-clock seconds in the solver.
-    #[getter]
-    fn seconds(&self) -> f64 {
-        self.g.seconds
     }
     /// Pickle support (Dask, multiprocessing): every field, rebuilt bit for bit by
     /// ``qcshape._pickle.geodesic``.
@@ -287,6 +261,22 @@ impl PyShapeSpace {
         let p = sequence(obj, name, None, 1)?;
         self.check_rows(obj.py(), name, p[0].len(), Some(p.len()))?;
         Ok(p)
+    }
+
+    /// `call(space)` with the GIL released (Ctrl-C stops the wait) and a library error raised as
+    /// Python's: the body of every method that runs one [`ShapeSpace`] call.
+    fn call<T: Send>(
+        py: Python<'_>,
+        space: &ShapeSpace,
+        call: impl FnOnce(&ShapeSpace) -> Result<T, SpaceError> + Send,
+    ) -> PyResult<T> {
+        detached(py, None, |_| call(space).map_err(errors::space))
+    }
+
+    /// This space with N = `steps` segments (the `steps=` keyword of a method; None keeps the
+    /// space's).
+    fn stepped(&self, steps: Option<AnyInt>) -> PyResult<ShapeSpace> {
+        self.with_steps(opt_setting(&settings::STEPS, steps)?)
     }
 
     fn with_steps(&self, steps: Option<usize>) -> PyResult<ShapeSpace> {
@@ -483,13 +473,11 @@ impl PyShapeSpace {
     }
 
     /// squared_norm(base, v) -> float: G_M(X) = <<X, X>>_M of the tangent vector v (nV, 3) at
-    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (mean-edge units
-    /// squared).
+    /// base = M (nV, 3), the first term of eq. 12 for the segment M -> M + X (the metric's
+    /// units squared).
     fn squared_norm(&self, py: Python<'_>, base: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<f64> {
         let (b, x) = (self.points(base, "base")?, self.points(v, "v")?);
-        detached(py, None, |_| {
-            self.space.squared_norm(&b, &x).map_err(errors::space)
-        })
+        Self::call(py, &self.space, |s| s.squared_norm(&b, &x))
     }
 
     /// inner(base, u, v, ends=None) -> float: <<u, v>>_M at base = M (each (nV, 3)), the
@@ -514,10 +502,8 @@ impl PyShapeSpace {
             None => None,
             Some((s, e)) => Some((self.points(&s, "ends[0]")?, self.points(&e, "ends[1]")?)),
         };
-        detached(py, None, |_| {
-            let e = ends.as_ref().map(|(s, e)| (s.as_slice(), e.as_slice()));
-            self.space.inner(&b, &x, &y, e).map_err(errors::space)
-        })
+        let e = ends.as_ref().map(|(s, e)| (s.as_slice(), e.as_slice()));
+        Self::call(py, &self.space, |s| s.inner(&b, &x, &y, e))
     }
 
     /// geodesic(a, b, steps=None) -> Geodesic: the discrete geodesic (eq. 12) from shape a to
@@ -532,14 +518,14 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<PyGeodesic> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
-        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
-        let g = detached(py, None, |_| space.geodesic(&pa, &pb).map_err(errors::space))?;
+        let space = self.stepped(steps)?;
+        let g = Self::call(py, &space, |s| s.geodesic(&pa, &pb))?;
         crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
         Ok(PyGeodesic { g })
     }
 
     /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
-    /// (mean-edge units); exactly 0 for identical shapes.
+    /// (the metric's units); exactly 0 for identical shapes.
     #[pyo3(signature = (a, b, steps=None))]
     fn dist(
         &self,
@@ -549,7 +535,7 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<f64> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
-        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
+        let space = self.stepped(steps)?;
         // ShapeSpace::dist's solve, keeping the path for the warnings.
         let g = detached(py, None, |_| crate::warn::dist_path(&space, &pa, &pb))?;
         if let Some(g) = &g {
@@ -570,8 +556,8 @@ impl PyShapeSpace {
         steps: Option<AnyInt>,
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
         let (m, q) = (self.points(base, "base")?, self.points(p, "p")?);
-        let space = self.with_steps(opt_setting(&settings::STEPS, steps)?)?;
-        let (log, d) = detached(py, None, |_| space.log(&m, &q).map_err(errors::space))?;
+        let space = self.stepped(steps)?;
+        let (log, d) = Self::call(py, &space, |s| s.log(&m, &q))?;
         Ok((points_out(py, &log)?, d))
     }
 
@@ -591,9 +577,7 @@ impl PyShapeSpace {
         let x = self.points(v, "v")?;
         // Carrying a vector along a curve: parallel transport unless told otherwise.
         let m = transport(method, Transport::Parallel)?;
-        let out = detached(py, None, |_| {
-            self.space.transport(&c, &x, m).map_err(errors::space)
-        })?;
+        let out = Self::call(py, &self.space, |s| s.transport(&c, &x, m))?;
         points_out(py, &out)
     }
 
@@ -624,11 +608,7 @@ impl PyShapeSpace {
             tolerance: tolerance.unwrap_or(d.tolerance),
             ..d
         };
-        let m = detached(py, None, |_| {
-            self.space
-                .karcher_mean(&p, i.as_deref(), &opts)
-                .map_err(errors::space)
-        })?;
+        let m = Self::call(py, &self.space, |s| s.karcher_mean(&p, i.as_deref(), &opts))?;
         points_out(py, &m.mean)
     }
 
@@ -651,11 +631,7 @@ impl PyShapeSpace {
             return Err(PyValueError::new_err("levels: must be at least 1"));
         }
         let insert = opt_setting(&settings::INSERT, insert)?.unwrap_or(d.insert);
-        let r = detached(py, None, |_| {
-            self.space
-                .interpolate(&p, insert, levels, &|| {})
-                .map_err(errors::space)
-        })?;
+        let r = Self::call(py, &self.space, |s| s.interpolate(&p, insert, levels, &|| {}))?;
         sequence_out(py, &r.poses)
     }
 
@@ -674,9 +650,7 @@ impl PyShapeSpace {
         let p = self.poses(poses, "poses")?;
         let b = self.points(base, "base")?;
         let m = transport(method, qcshape::defaults::TRANSPORT)?;
-        let r = detached(py, None, |_| {
-            self.space.transfer(&p, &b, m).map_err(errors::space)
-        })?;
+        let r = Self::call(py, &self.space, |s| s.transfer(&p, &b, m))?;
         sequence_out(py, &r.poses)
     }
 

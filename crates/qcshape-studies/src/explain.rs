@@ -3,8 +3,8 @@
 //! (eq. 13) for two named deformations of a prepared data set, as written by
 //! `qcshape similarity --details D.csv --explain A,B` (docs/maps.md).
 //!
-//! Values are lengths in the solver's normalized units (coordinates multiplied by
-//! [`Prepared::factor`]), like every distance qcshape reports: `pose_k` (#V) is vertex `v`'s
+//! Values are lengths in the metric's units (of the solver's coordinates, the input's multiplied
+//! by [`Prepared::factor`]), like every distance qcshape reports: `pose_k` (#V) is vertex `v`'s
 //! share `l_v` of `dis(M_k, N_k)` and `total` (#V) is `sum_k pose_k`, which sums over the
 //! vertices to the pair's similarity.
 

@@ -14,3 +14,4 @@ pub mod localize;
 pub mod lv;
 pub mod plot;
 pub mod render;
+pub mod study_defaults;

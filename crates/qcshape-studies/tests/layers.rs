@@ -1,53 +1,32 @@
-//! The studies' layers, checked as the core's are (`crates/qcshape/tests/layers.rs`; both
-//! include the scanner `scripts/test-support/scan.rs`): every study module may import only study
-//! modules below it in [`ORDER`] (`crate::X` paths in its non-test code). The core is reached
-//! only as `qcshape::...`, through its public API (the compiler refuses anything else), and no
-//! module is in both crates: the core's own layer test requires its ORDER to name exactly its
-//! `src/` modules, and [`no_study_module_is_in_the_core`] checks that none of them is a study.
+//! The studies' floors, checked as the core's are (`crates/qcshape/tests/layers.rs`, which also
+//! shows that planted defects fail; both include `scripts/test-support/scan.rs` and
+//! `floors.rs`): in every folder of `src/` a study module imports only modules on lower floors
+//! of that folder, as `crates/qcshape-studies/floors.txt` places them, and never an item of the
+//! folder's own file; `pending N` folders may not gain upward or looping arrows. The core is
+//! reached only as `qcshape::...`, through its public API (the compiler refuses anything else),
+//! and no module is in both crates ([`no_study_module_is_in_the_core`]).
 
 #[path = "../../../scripts/test-support/scan.rs"]
 mod scan;
 
-use std::path::{Path, PathBuf};
+#[path = "../../../scripts/test-support/floors.rs"]
+mod floors;
 
-use scan::{top_modules, upward_imports};
+use std::path::Path;
 
-/// The study modules from the ground floor up.
-const ORDER: &[&str] = &[
-    // figures and mesh renderings
-    "plot",
-    "render",
-    // per-vertex maps
-    "contribution",
-    "explain",
-    "localize",
-    // the left-ventricle study and the paper's experiments
-    "lv",
-    "experiment",
-];
-
-fn src() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
-}
+use scan::top_modules;
 
 #[test]
-fn no_study_imports_a_study_above_it() {
-    let upward = upward_imports(&src(), ORDER);
-    assert!(upward.is_empty(), "imports that run upward:\n{upward:#?}");
-}
-
-#[test]
-fn every_study_is_placed_once() {
-    let mut order: Vec<String> = ORDER.iter().map(|s| s.to_string()).collect();
-    order.sort();
-    assert_eq!(top_modules(&src()), order);
+fn every_folder_keeps_its_floors() {
+    floors::assert_floors(Path::new(env!("CARGO_MANIFEST_DIR")));
 }
 
 #[test]
 fn no_study_module_is_in_the_core() {
+    let studies = top_modules(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
     let core = top_modules(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../qcshape/src"));
     assert!(core.len() > 10, "the core's modules were not found: {core:?}");
-    let both: Vec<&String> = core.iter().filter(|m| ORDER.contains(&m.as_str())).collect();
+    let both: Vec<&String> = core.iter().filter(|m| studies.contains(m)).collect();
     assert!(
         both.is_empty(),
         "modules in the core and in the studies: {both:?}"

@@ -59,14 +59,14 @@ pub enum DatasetError {
         error: std::io::Error,
     },
     /// A manifest problem on a given line (1-based; the header is line 1).
-    #[error("{}: line {line}: {message}", path.display())]
+    #[error("{}: line {line}: {problem}", path.display())]
     Manifest {
         /// The manifest.
         path: PathBuf,
         /// Line number.
         line: u64,
-        /// What is wrong.
-        message: String,
+        /// What is wrong, with the offending values.
+        problem: ManifestProblem,
     },
     /// A pose whose connectivity differs from the first pose of its deformation.
     #[error("{}: {}{}", path.display(), difference.describe(first), in_manifest(.manifest))]
@@ -343,10 +343,10 @@ fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, Data
         });
         group.push((line, row));
     }
-    let bad = |line: u64, message: String| DatasetError::Manifest {
+    let bad = |line: u64, problem: ManifestProblem| DatasetError::Manifest {
         path: path.into(),
         line,
-        message,
+        problem,
     };
     let mut deformations = Vec::with_capacity(order.len());
     for name in order {
@@ -356,10 +356,12 @@ fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, Data
             if w[0].1.pose == w[1].1.pose {
                 return Err(bad(
                     w[1].0,
-                    format!(
-                        "deformation {name:?} has pose {} twice (lines {} and {})",
-                        w[0].1.pose, w[0].0, w[1].0
-                    ),
+                    ManifestProblem::DuplicatePose {
+                        name: name.clone(),
+                        pose: w[0].1.pose,
+                        first_line: w[0].0,
+                        line: w[1].0,
+                    },
                 ));
             }
         }
@@ -367,21 +369,22 @@ fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, Data
         for (k, (line, row)) in group.iter().enumerate() {
             if row.pose < 0 {
                 return Err(bad(
-                        *line,
-                        format!(
-                            "deformation {name:?} has the negative pose index {}: poses are numbered 0, 1, ..., K-1",
-                            row.pose
-                        ),
-                    ));
+                    *line,
+                    ManifestProblem::NegativePose {
+                        name: name.clone(),
+                        pose: row.pose,
+                    },
+                ));
             }
             if row.pose != k as i64 {
                 return Err(bad(
-                        *line,
-                        format!(
-                            "deformation {name:?} has no pose {k} (the next one is pose {} here): poses are numbered 0, 1, ..., K-1 without gaps",
-                            row.pose
-                        ),
-                    ));
+                    *line,
+                    ManifestProblem::PoseGap {
+                        name: name.clone(),
+                        missing: k,
+                        found: row.pose,
+                    },
+                ));
             }
         }
         let (first_line, first) = &group[0];
@@ -390,11 +393,12 @@ fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, Data
             if row.label != label {
                 return Err(bad(
                     *line,
-                    format!(
-                        "deformation {name:?} has label {:?} here but {:?} on line {first_line}",
-                        row.label.as_deref().unwrap_or(""),
-                        label.as_deref().unwrap_or("")
-                    ),
+                    ManifestProblem::LabelChanges {
+                        name: name.clone(),
+                        label: row.label.clone(),
+                        first: label.clone(),
+                        first_line: *first_line,
+                    },
                 ));
             }
         }
@@ -404,11 +408,11 @@ fn manifest_files(path: &Path) -> Result<Vec<(DeformationFiles, Vec<u64>)>, Data
             if !file.is_file() {
                 return Err(bad(
                     *line,
-                    format!(
-                        "pose {} of deformation {name:?}: file {} does not exist",
-                        row.pose,
-                        file.display()
-                    ),
+                    ManifestProblem::MissingFile {
+                        name: name.clone(),
+                        pose: row.pose,
+                        file,
+                    },
                 ));
             }
             files.push(file);
@@ -663,13 +667,93 @@ impl TableErrors for DatasetError {
             error,
         }
     }
-    fn at_line(path: &Path, line: u64, message: String) -> Self {
+    fn malformed(path: &Path, line: u64, error: csv::Error) -> Self {
         DatasetError::Manifest {
             path: path.into(),
             line,
-            message,
+            problem: ManifestProblem::Csv(error),
         }
     }
+}
+
+/// What is wrong on a line of a manifest ([`DatasetError::Manifest`]).
+#[derive(Debug, Error)]
+pub enum ManifestProblem {
+    /// Not CSV as qcshape reads it (the csv crate's error).
+    #[error("malformed CSV: {0}")]
+    Csv(csv::Error),
+    /// A column the manifest needs is not in its header.
+    #[error("missing column {name:?}: the header must name the columns {}", MANIFEST_COLUMNS.join(","), name = .0)]
+    MissingColumn(&'static str),
+    /// An empty `deformation` field.
+    #[error("the deformation name is empty")]
+    EmptyName,
+    /// A `pose` field that is not an integer.
+    #[error("pose {text:?} is not an integer")]
+    PoseNotInteger {
+        /// The field.
+        text: String,
+        /// The parser's error.
+        error: std::num::ParseIntError,
+    },
+    /// An empty `path` field.
+    #[error("the path is empty")]
+    EmptyPath,
+    /// A header and no row.
+    #[error("the manifest lists no poses")]
+    NoPoses,
+    /// A pose index listed twice for one deformation.
+    #[error("deformation {name:?} has pose {pose} twice (lines {first_line} and {line})")]
+    DuplicatePose {
+        /// The deformation.
+        name: String,
+        /// The pose index.
+        pose: i64,
+        /// The line of its first listing.
+        first_line: u64,
+        /// This line.
+        line: u64,
+    },
+    /// A negative pose index.
+    #[error("deformation {name:?} has the negative pose index {pose}: poses are numbered 0, 1, ..., K-1")]
+    NegativePose {
+        /// The deformation.
+        name: String,
+        /// The index.
+        pose: i64,
+    },
+    /// A gap in the pose indices.
+    #[error("deformation {name:?} has no pose {missing} (the next one is pose {found} here): poses are numbered 0, 1, ..., K-1 without gaps")]
+    PoseGap {
+        /// The deformation.
+        name: String,
+        /// The missing index.
+        missing: usize,
+        /// The index found instead.
+        found: i64,
+    },
+    /// A label that changes within a deformation.
+    #[error("deformation {name:?} has label {:?} here but {:?} on line {first_line}", .label.as_deref().unwrap_or(""), .first.as_deref().unwrap_or(""))]
+    LabelChanges {
+        /// The deformation.
+        name: String,
+        /// The label on this line.
+        label: Option<String>,
+        /// The label on its first line.
+        first: Option<String>,
+        /// Its first line.
+        first_line: u64,
+    },
+    /// A pose file that does not exist.
+    #[error("pose {pose} of deformation {name:?}: file {} does not exist", file.display())]
+    MissingFile {
+        /// The deformation.
+        name: String,
+        /// The pose index.
+        pose: i64,
+        /// The file, as resolved.
+        file: PathBuf,
+    },
 }
 
 /// The manifest's columns, in the order [`write_manifest`] writes them.
@@ -677,20 +761,18 @@ pub const MANIFEST_COLUMNS: [&str; 4] = ["deformation", "label", "pose", "path"]
 
 /// Reads and checks a manifest's rows (with their line numbers); files are not opened.
 pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetError> {
-    let bad = |line: u64, message: String| DatasetError::at_line(path, line, message);
+    let bad = |line: u64, problem: ManifestProblem| DatasetError::Manifest {
+        path: path.into(),
+        line,
+        problem,
+    };
     let mut table = Table::<DatasetError>::read(path, false)?;
     let header_line = table.header_line;
     let mut col = [0usize; 4];
     for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
-        *slot = table.column(name).ok_or_else(|| {
-            bad(
-                header_line,
-                format!(
-                    "missing column {name:?}: the header must name the columns {}",
-                    MANIFEST_COLUMNS.join(",")
-                ),
-            )
-        })?;
+        *slot = table
+            .column(name)
+            .ok_or_else(|| bad(header_line, ManifestProblem::MissingColumn(name)))?;
     }
     let mut rows = Vec::new();
     for rec in table.rows() {
@@ -698,15 +780,21 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetErro
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
         let deformation = field(0);
         if deformation.is_empty() {
-            return Err(bad(line, "the deformation name is empty".into()));
+            return Err(bad(line, ManifestProblem::EmptyName));
         }
         let pose_text = field(2);
-        let pose = pose_text
-            .parse::<i64>()
-            .map_err(|_| bad(line, format!("pose {pose_text:?} is not an integer")))?;
+        let pose = pose_text.parse::<i64>().map_err(|error| {
+            bad(
+                line,
+                ManifestProblem::PoseNotInteger {
+                    text: pose_text.to_string(),
+                    error,
+                },
+            )
+        })?;
         let file = field(3);
         if file.is_empty() {
-            return Err(bad(line, "the path is empty".into()));
+            return Err(bad(line, ManifestProblem::EmptyPath));
         }
         let label = Some(field(1)).filter(|l| !l.is_empty()).map(str::to_string);
         rows.push((
@@ -720,7 +808,7 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetErro
         ));
     }
     if rows.is_empty() {
-        return Err(bad(header_line, "the manifest lists no poses".into()));
+        return Err(bad(header_line, ManifestProblem::NoPoses));
     }
     Ok(rows)
 }

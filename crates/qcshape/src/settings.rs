@@ -269,8 +269,9 @@ pub const LAMBDA: Setting = Setting {
     python: "lam",
     python_alias: Some("lambda_"),
     group: Group::Metric,
-    about: "Weight of the L2 regularizer (eq. 11); 0 disables it. On the calibrated scale a ratio of \
-            two dimensionless terms; on the raw scale the previous releases' weight (their default was 0.1)",
+    about: "Weight of the L2 regularizer (eq. 11); 0 disables it. On the invariant scale (the default) \
+            and the calibrated scale a ratio of two dimensionless terms; on the raw scale the previous \
+            releases' weight (their default was 0.1)",
     value: real(MAX_LAMBDA),
     default: || Some(metric().lambda.to_string()),
 };

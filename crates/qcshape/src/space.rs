@@ -101,8 +101,9 @@ pub struct SimilarityResult {
     pub prepared: Prepared,
     /// Every pair `i < j` in row order, with its per-pose distances.
     pub pairs: Vec<PairDistance>,
-    /// The symmetric n x n matrix of eq. 13 (normalized units: coordinates divided by the mean
-    /// edge length of the base pose).
+    /// The symmetric n x n matrix of eq. 13 (dimensionless on the default invariant scale; on the
+    /// calibrated and raw scales in mean-edge units, coordinates divided by the mean edge length
+    /// of the base pose).
     pub matrix: DistanceMatrix,
 }
 
@@ -338,7 +339,7 @@ impl ShapeSpace {
     }
 
     /// `dis(a, b)`: the length of the discrete geodesic (eq. 12, `L = sum_i sqrt((G_{P_i}(X_i) +
-    /// G_{P_{i+1}}(X_i)) / 2)`), normalized units; exactly 0 for identical shapes (no solve,
+    /// G_{P_{i+1}}(X_i)) / 2)`), in the metric's units; exactly 0 for identical shapes (no solve,
     /// as in [`crate::similarity::pose_distances`]). A distance solve
     /// ([`GeodesicSolver::distance_near_with`]: stopped once the length has settled), the
     /// same number as [`Self::pairwise_distances`] gives for the pair.
@@ -364,7 +365,7 @@ impl ShapeSpace {
 
     /// The discrete log map `log_M(P) = N (P_1 - M)` (#V x 3, input units), `P_1` the first
     /// interior pose of the geodesic from `base` = M to `p` ([`log_map`]), and `dis(M, P)`
-    /// (normalized units).
+    /// (the metric's units).
     pub fn log(&self, base: &[[f64; 3]], p: &[[f64; 3]]) -> Result<(Pose, f64), SpaceError> {
         self.shape("the base", base)?;
         self.shape("the shape", p)?;
@@ -418,7 +419,7 @@ impl ShapeSpace {
     /// The Karcher mean of `poses` (each #V x 3), started from `init` (default the first pose):
     /// `mu <- mu + step mean_k log_mu(P_k)`, damped ([`karcher_mean`], docs/method.md
     /// "Clustering"). The mean is in input
-    /// units, the variance `sum_k dis(mu, P_k)^2` in normalized units squared.
+    /// units, the variance `sum_k dis(mu, P_k)^2` in the metric's units squared.
     pub fn karcher_mean(
         &self,
         poses: &[Pose],
@@ -532,10 +533,11 @@ impl ShapeSpace {
         }
         let u = self.units(&[first])?;
         let names: Vec<String> = (0..deformations.len()).map(|i| i.to_string()).collect();
+        let metric = self.metric(&u);
         let input = Comparison {
             names: &names,
             topology: self.topology.clone(),
-            calibration: &u.calibration,
+            metric: metric.as_ref(),
             factor: u.factor,
             poses: deformations,
         };

@@ -25,9 +25,9 @@ use qcshape::settings as S;
 /// Without INPUT the built-in genus-0 benchmark (6 shapes x 8 deformations, 3 poses) is used.
 ///
 /// With --real, each interior frame k of a real sequence is also interpolated from frames
-/// k - 1 and k + 1 (leave-one-frame-out). The biv-me example in ../shared/data/real/
-/// biv-me-patient1 (1572 vertices, 25 frames) is not run unless given, as it is slow:
-/// `--real ../shared/data/real/biv-me-patient1 --real-pattern LV_ENDO --real-frames 8`.
+/// k - 1 and k + 1 (leave-one-frame-out). A biv-me patient (the biv-me example data, Apache-2.0,
+/// not shipped with qcshape: 1572 vertices, 25 frames) is run only when given, as it is slow:
+/// `--real DIR --real-pattern LV_ENDO --real-frames 8`, DIR the patient's folder of frames.
 ///
 /// Writes DIR/interpolation.{csv,md,svg,png}, DIR/interpolation_cases.csv, error-map PLYs of
 /// one deformation (Fig. 4a-b: predicted middle pose with the error as scalar `error` and as

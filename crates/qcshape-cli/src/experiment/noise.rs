@@ -16,7 +16,7 @@ use crate::args::{choice, count, MetricArgs, SolverArgs};
 use crate::progress::PipelineBars;
 use qcshape::settings as S;
 
-/// `--steps`' default here: [`qcshape::defaults::NOISE_STEPS`] (a named exception).
+/// `--steps`' default here: [`qcshape_studies::study_defaults::NOISE_STEPS`] (a named exception).
 const NOISE_STEPS: &str = "4";
 
 /// Noise resistance of the classification (Table 3, eq. 17).
@@ -73,7 +73,7 @@ pub struct Args {
     /// Kernel k-means restarts. Default 10, not the other commands' 20: the setting the README's
     /// Table 3 was measured with.
     /// At most 10,000.
-    #[arg(long, default_value_t = qcshape::defaults::NOISE_RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = qcshape_studies::study_defaults::NOISE_RESTARTS, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_RESTARTS as u64), allow_negative_numbers = true)]
     restarts: usize,
     /// Seed of the noise and the clustering.
     #[arg(long, default_value_t = qcshape::defaults::SEED)]

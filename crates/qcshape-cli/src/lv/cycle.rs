@@ -14,7 +14,7 @@ use qcshape_studies::lv::study_report::cycle_report;
 use super::bars::Bars;
 use crate::args::{in_pool, MetricArgs, SolverArgs};
 
-/// `--steps`' default in `lv run` and `lv cycle`: [`qcshape::defaults::PAPER_STEPS`] (a named
+/// `--steps`' default in `lv run` and `lv cycle`: [`qcshape_studies::study_defaults::PAPER_STEPS`] (a named
 /// exception, checked by tests/defaults.rs).
 const PAPER_STEPS: &str = "4";
 

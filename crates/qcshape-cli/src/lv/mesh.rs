@@ -55,7 +55,7 @@ pub(crate) struct Args {
     /// Image refinement of every carried frame: each vertex moves along its normal to the
     /// cavity threshold of that frame's own image, searched within MM mm; `none` keeps the
     /// landmark splines alone (the paper's step 3).
-    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
+    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape_studies::study_defaults::LV_REFINE_MM))]
     refine: super::Refine,
     /// Free-wall sector centre, degrees from the septum landmark about the long axis.
     #[arg(long, default_value_t = 180.0, allow_negative_numbers = true)]

@@ -79,14 +79,14 @@ pub struct RunArgs {
     /// frame-to-frame landmark jitter; `none` registers the raw landmarks (the paper's). Not
     /// applied with --open. The default was chosen on five harder phantom cohorts
     /// (docs/log/lv-clustering.md).
-    #[arg(long, value_name = "H|none", default_value_t = Harmonics(qcshape::defaults::LANDMARK_HARMONICS))]
+    #[arg(long, value_name = "H|none", default_value_t = Harmonics(qcshape_studies::study_defaults::LANDMARK_HARMONICS))]
     pub(crate) harmonics: Harmonics,
     /// Image refinement of every carried frame: each vertex moves along its normal to the
     /// cavity threshold of that frame's own image, searched within MM mm on both sides; `none`
     /// keeps the landmark splines alone (the paper's). Image cohorts only: meshes given as input
     /// are used as they are. The default was chosen on five harder phantom cohorts
     /// (docs/log/lv-clustering.md).
-    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape::defaults::LV_REFINE_MM))]
+    #[arg(long, value_name = "MM|none", default_value_t = super::Refine(qcshape_studies::study_defaults::LV_REFINE_MM))]
     pub(crate) refine: super::Refine,
     /// Name of the subject whose cycle is mapped in Fig. 9 (default: the first).
     #[arg(long)]
@@ -108,7 +108,7 @@ pub struct RunArgs {
     pub(crate) align: Alignment,
     /// Transport of every subject's cycle to the base: parallel (the paper's section 4
     /// pipeline, the default here), schild or euclidean (the other commands' default).
-    #[arg(long, default_value = qcshape::defaults::LV_TRANSPORT.label())]
+    #[arg(long, default_value = qcshape_studies::study_defaults::LV_TRANSPORT.label())]
     pub(crate) transport: Transport,
     #[arg(long, help = qcshape::settings::APPROX.help(), default_value = qcshape::settings::APPROX.default_text(), value_parser = crate::args::choice::<qcshape::similarity::Approx>())]
     pub(crate) approx: qcshape::similarity::Approx,

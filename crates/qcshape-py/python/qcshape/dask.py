@@ -94,7 +94,7 @@ def similarity_matrix(
     ``options``: those of ``qcshape.similarity_matrix`` (metric, steps, transport, approx, ...;
     ``threads`` applies to the preparation here, every task uses one thread).
 
-    Returns an (n, n) float64 array in mean-edge units, equal to
+    Returns an (n, n) float64 array in the metric's units, equal to
     ``qcshape.similarity_matrix(ds, **options)``.
     """
     if batch_size is None:

@@ -209,7 +209,7 @@ pub struct PairContributions {
     pub total: Vec<f64>,
     /// `dis(M_k, N_k)` recomputed from the split (#poses).
     pub pose_distances: Vec<f64>,
-    /// `sum_k dis(M_k, N_k)` (normalized units of the solver's input).
+    /// `sum_k dis(M_k, N_k)` (the metric's units).
     pub distance: f64,
     /// Whether every geodesic converged.
     pub converged: bool,

@@ -11,7 +11,7 @@ use qcshape::metric::Metric;
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoseSpeeds {
     /// The vertex's share of the segment's metric length
-    /// ([`super::PathContributions::segment_length`]; normalized units).
+    /// ([`super::PathContributions::segment_length`]; the metric's units).
     pub speed: Vec<Vec<f64>>,
     /// The length of [`PoseSpeeds::velocity`] (input units per step).
     pub euclidean: Vec<Vec<f64>>,

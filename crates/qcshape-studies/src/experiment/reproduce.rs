@@ -129,7 +129,7 @@ pub struct Reproduction {
 
 impl Reproduction {
     /// The full settings: level 2 (162 vertices), [`defaults::PAPER_INSERT`] (3) inserted
-    /// poses, N = [`defaults::PAPER_STEPS`] (4), [`defaults::RESTARTS`] (20) restarts, noise
+    /// poses, N = [`crate::study_defaults::PAPER_STEPS`] (4), [`defaults::RESTARTS`] (20) restarts, noise
     /// levels 1, 2.5, 5, 10, 20 %, the metrics rigid, isometric, conformal, quasi-conformal and
     /// l2, and the common defaults for the rest: [`defaults::LAMBDA`], [`defaults::TRANSPORT`]
     /// (Euclidean), [`defaults::ALIGN`] (rigid), the length filter of [`defaults::SMOOTH_LENGTH`],
@@ -138,7 +138,7 @@ impl Reproduction {
         Reproduction {
             level: 2,
             insert: defaults::PAPER_INSERT,
-            steps: defaults::PAPER_STEPS,
+            steps: crate::study_defaults::PAPER_STEPS,
             restarts: defaults::RESTARTS,
             noise_levels: vec![1.0, 2.5, 5.0, 10.0, 20.0],
             metrics: vec![

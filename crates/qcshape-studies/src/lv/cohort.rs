@@ -82,8 +82,8 @@ impl TableErrors for LvError {
     fn unreadable(path: &Path, error: std::io::Error) -> Self {
         layout(path, LayoutProblem::Read(error))
     }
-    fn at_line(path: &Path, line: u64, message: String) -> Self {
-        layout(path, LayoutProblem::Row { line, message })
+    fn malformed(path: &Path, line: u64, error: qcshape::io::table::CsvError) -> Self {
+        layout(path, LayoutProblem::Row { line, error })
     }
 }
 
@@ -103,13 +103,13 @@ pub enum LayoutProblem {
     /// The folder cannot be created.
     #[error("cannot create: {0}")]
     Create(std::io::Error),
-    /// A malformed row of a CSV file (the CSV reader's diagnostic, on a 1-based line).
-    #[error("line {line}: {message}")]
+    /// A malformed row of a CSV file (on a 1-based line), with the CSV reader's error.
+    #[error("line {line}: malformed CSV: {error}")]
     Row {
         /// Line number.
         line: u64,
-        /// The diagnostic.
-        message: String,
+        /// The CSV reader's error.
+        error: qcshape::io::table::CsvError,
     },
     /// A CSV header without the expected columns.
     #[error("the header must be {0}")]

@@ -46,7 +46,7 @@ pub struct CycleMap {
     pub names: Vec<String>,
     /// `key` (a frame) or `interpolated`, per pose.
     pub kinds: Vec<String>,
-    /// The pose-to-pose distances (n x n, normalized units).
+    /// The pose-to-pose distances (n x n, the metric's units).
     #[serde(skip)]
     pub distances: DistanceMatrix,
     /// SMACOF coordinates (n x 2).
@@ -61,7 +61,7 @@ pub struct CycleMap {
     pub converged: bool,
     /// Seconds (geodesics and MDS).
     pub seconds: f64,
-    /// Length of the closed (or open) path through the poses in order (normalized units).
+    /// Length of the closed (or open) path through the poses in order (the metric's units).
     pub path_length: f64,
     /// Largest pose-to-pose distance and its pair of pose names.
     pub diameter: (f64, String, String),

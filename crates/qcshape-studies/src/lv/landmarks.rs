@@ -33,14 +33,14 @@ pub enum LandmarkError {
         error: std::io::Error,
     },
     /// A malformed, non-numeric or non-finite row (1-based line; the header is line 1).
-    #[error("{}: line {line}: {message}", path.display())]
+    #[error("{}: line {line}: {problem}", path.display())]
     Row {
         /// The file.
         path: PathBuf,
         /// Line number.
         line: u64,
-        /// What is wrong.
-        message: String,
+        /// What is wrong, with the offending values.
+        problem: RowProblem,
     },
     /// The rows do not form a complete frames x landmarks table.
     #[error("{}: {gap}", path.display())]
@@ -160,18 +160,67 @@ impl TableErrors for LandmarkError {
             error,
         }
     }
-    fn at_line(path: &Path, line: u64, message: String) -> Self {
+    fn malformed(path: &Path, line: u64, error: qcshape::io::table::CsvError) -> Self {
         LandmarkError::Row {
             path: path.into(),
             line,
-            message,
+            problem: RowProblem::Csv(error),
         }
     }
 }
 
+/// What is wrong on a row of a landmark CSV ([`LandmarkError::Row`]).
+#[derive(Debug, thiserror::Error)]
+pub enum RowProblem {
+    /// Not CSV as qcshape reads it (the csv crate's error).
+    #[error("malformed CSV: {0}")]
+    Csv(qcshape::io::table::CsvError),
+    /// A column the file needs is not in its header.
+    #[error("missing column {0:?}: the header must be frame,landmark,x,y,z")]
+    MissingColumn(&'static str),
+    /// A frame that is not a non-negative integer.
+    #[error("frame {text:?} is not a non-negative integer")]
+    Frame {
+        /// The field.
+        text: String,
+        /// The parser's error.
+        error: std::num::ParseIntError,
+    },
+    /// A landmark id that is not a non-negative integer.
+    #[error("landmark {text:?} is not a non-negative integer")]
+    Landmark {
+        /// The field.
+        text: String,
+        /// The parser's error.
+        error: std::num::ParseIntError,
+    },
+    /// A coordinate that is not a finite number.
+    #[error("{axis} = {text:?} is not a finite number")]
+    Coordinate {
+        /// The column (`x`, `y` or `z`).
+        axis: &'static str,
+        /// The field.
+        text: String,
+    },
+    /// A landmark given twice for one frame.
+    #[error("landmark {id} of frame {frame} is given twice (also on line {first})")]
+    Repeated {
+        /// The landmark.
+        id: u32,
+        /// The frame.
+        frame: usize,
+        /// The line of the first.
+        first: u64,
+    },
+}
+
 /// Reads a landmark CSV (header `frame,landmark,x,y,z`, columns in any order, `#` comments).
 pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
-    let row_err = |line: u64, message: String| LandmarkError::at_line(path, line, message);
+    let row_err = |line: u64, problem: RowProblem| LandmarkError::Row {
+        path: path.into(),
+        line,
+        problem,
+    };
     let incomplete = |gap: LandmarkGap| LandmarkError::Incomplete {
         path: path.into(),
         gap,
@@ -180,27 +229,30 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
     const COLS: [&str; 5] = ["frame", "landmark", "x", "y", "z"];
     let mut col = [0usize; 5];
     for (slot, name) in col.iter_mut().zip(COLS) {
-        *slot = table.column(name).ok_or_else(|| {
-            row_err(
-                table.header_line,
-                format!("missing column {name:?}: the header must be frame,landmark,x,y,z"),
-            )
-        })?;
+        *slot = table
+            .column(name)
+            .ok_or_else(|| row_err(table.header_line, RowProblem::MissingColumn(name)))?;
     }
     let mut rows: Vec<(usize, u32, [f64; 3], u64)> = Vec::new();
     for rec in table.rows() {
         let (line, rec) = rec?;
         let field = |k: usize| rec.get(col[k]).unwrap_or("");
-        let frame = field(0).parse::<usize>().map_err(|_| {
+        let frame = field(0).parse::<usize>().map_err(|error| {
             row_err(
                 line,
-                format!("frame {:?} is not a non-negative integer", field(0)),
+                RowProblem::Frame {
+                    text: field(0).to_string(),
+                    error,
+                },
             )
         })?;
-        let id = field(1).parse::<u32>().map_err(|_| {
+        let id = field(1).parse::<u32>().map_err(|error| {
             row_err(
                 line,
-                format!("landmark {:?} is not a non-negative integer", field(1)),
+                RowProblem::Landmark {
+                    text: field(1).to_string(),
+                    error,
+                },
             )
         })?;
         let mut p = [0.0; 3];
@@ -210,7 +262,15 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| row_err(line, format!("{} = {text:?} is not a finite number", COLS[2 + c])))?;
+                .ok_or_else(|| {
+                    row_err(
+                        line,
+                        RowProblem::Coordinate {
+                            axis: COLS[2 + c],
+                            text: text.to_string(),
+                        },
+                    )
+                })?;
         }
         rows.push((frame, id, p, line));
     }
@@ -226,10 +286,7 @@ pub fn read_landmarks(path: &Path) -> Result<Landmarks, LandmarkError> {
     for (frame, id, p, line) in rows {
         let k = ids.binary_search(&id).unwrap_or(0);
         if let Some((_, first)) = table[frame][k] {
-            return Err(row_err(
-                line,
-                format!("landmark {id} of frame {frame} is given twice (also on line {first})"),
-            ));
+            return Err(row_err(line, RowProblem::Repeated { id, frame, first }));
         }
         table[frame][k] = Some((p, line));
     }

@@ -334,7 +334,7 @@ pub struct Analysis {
     /// Interpolated and transferred deformations (not serialized).
     #[serde(skip)]
     pub prepared: Prepared,
-    /// The similarity matrix (eq. 13), n x n, normalized units (not serialized: written as
+    /// The similarity matrix (eq. 13), n x n, in the metric's units (not serialized: written as
     /// `similarity.csv`).
     #[serde(skip)]
     pub matrix: DistanceMatrix,

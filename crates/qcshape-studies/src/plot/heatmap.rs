@@ -31,7 +31,7 @@ struct Heatmap {
 /// by class). With `labels` (n, in matrix order), axis names read `name (label)` and white
 /// lines separate consecutive runs of one label. Names are written up to 80 deformations.
 /// `title` is drawn above the map (say which metric and data set), `value_label` beside the
-/// colour bar (what the colours measure, e.g. `distance (normalized units)`).
+/// colour bar (what the colours measure, e.g. `distance`).
 pub fn heatmap(
     path: &Path,
     d: &DistanceMatrix,

@@ -1095,6 +1095,31 @@ impl FaceBuilder {
 }
 
 /// Checks one coordinate triple, reporting the first non-finite value.
+/// Vertex `vertex`'s x, y and z from the next three tokens of its line `line` (the OBJ `v` and
+/// OFF vertex lines), finite ([`check_finite`]), and whether more tokens follow (a colour, a
+/// weight: ignored, counted by the caller).
+pub(crate) fn read_vertex<'a>(
+    toks: &mut impl Iterator<Item = &'a [u8]>,
+    vertex: usize,
+    line: usize,
+) -> Result<([f64; 3], bool), ParseError> {
+    let mut p = [0.0; 3];
+    for (c, axis) in p.iter_mut().zip(["x", "y", "z"]) {
+        let tok = toks.next().ok_or_else(|| ParseError::Syntax {
+            line,
+            message: format!("vertex {vertex} has no {axis} coordinate"),
+        })?;
+        *c = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
+            line,
+            message: format!(
+                "cannot read the {axis} coordinate of vertex {vertex} from {}",
+                text::show(tok)
+            ),
+        })?;
+    }
+    Ok((check_finite(vertex, p, Some(line))?, toks.next().is_some()))
+}
+
 pub(crate) fn check_finite(vertex: usize, p: [f64; 3], line: Option<usize>) -> Result<[f64; 3], ParseError> {
     match p.iter().find(|c| !c.is_finite()) {
         Some(&value) => Err(ParseError::NonFinite { vertex, value, line }),

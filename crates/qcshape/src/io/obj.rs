@@ -11,7 +11,7 @@
 use std::io::Write;
 
 use super::text::{self, Float};
-use super::{check_finite, FaceBuilder, MeshData, ParseError};
+use super::{read_vertex, FaceBuilder, MeshData, ParseError};
 
 /// OBJ keywords that are read (`v`, `f`, `fo`) or knowingly ignored (everything else here).
 const KNOWN: [&[u8]; 36] = [
@@ -74,25 +74,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         let Some(keyword) = toks.next() else { continue };
         match keyword {
             b"v" => {
-                let vertex = positions.len();
-                let mut p = [0.0; 3];
-                for (c, axis) in p.iter_mut().zip(["x", "y", "z"]) {
-                    let tok = toks.next().ok_or_else(|| ParseError::Syntax {
-                        line,
-                        message: format!("vertex {vertex} has no {axis} coordinate"),
-                    })?;
-                    *c = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
-                        line,
-                        message: format!(
-                            "cannot read the {axis} coordinate of vertex {vertex} from {}",
-                            text::show(tok)
-                        ),
-                    })?;
-                }
-                if toks.next().is_some() {
-                    n_ignored_v += 1;
-                }
-                positions.push(check_finite(vertex, p, Some(line))?);
+                let (p, extra) = read_vertex(&mut toks, positions.len(), line)?;
+                n_ignored_v += usize::from(extra);
+                positions.push(p);
             }
             b"f" | b"fo" => {
                 let face = faces.n_polygons();

@@ -12,7 +12,7 @@
 use std::io::Write;
 
 use super::text::{self, Float};
-use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, UnsupportedFeature};
+use super::{check_index, read_vertex, FaceBuilder, MeshData, ParseError, UnsupportedFeature};
 
 /// Content lines: comments stripped, blank lines skipped.
 fn content_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
@@ -88,25 +88,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         let (line, l) = lines.next().ok_or_else(|| ParseError::UnexpectedEnd {
             expected: format!("{nv} vertices, found {vertex}"),
         })?;
-        let mut toks = text::tokens(l);
-        let mut p = [0.0; 3];
-        for (c, axis) in p.iter_mut().zip(["x", "y", "z"]) {
-            let tok = toks.next().ok_or_else(|| ParseError::Syntax {
-                line,
-                message: format!("vertex {vertex} has no {axis} coordinate"),
-            })?;
-            *c = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
-                line,
-                message: format!(
-                    "cannot read the {axis} coordinate of vertex {vertex} from {}",
-                    text::show(tok)
-                ),
-            })?;
-        }
-        if toks.next().is_some() {
-            extra += 1;
-        }
-        positions.push(check_finite(vertex, p, Some(line))?);
+        let (p, more) = read_vertex(&mut text::tokens(l), vertex, line)?;
+        extra += usize::from(more);
+        positions.push(p);
     }
     let expects_extra = keyword.ends_with(b"OFF") && keyword.len() > 3;
     if extra > 0 && !expects_extra {

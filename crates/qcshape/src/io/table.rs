@@ -7,12 +7,15 @@ use std::path::{Path, PathBuf};
 
 use csv::StringRecord;
 
+/// The csv crate's error, which a table's malformed-CSV problem keeps ([`TableErrors::malformed`]).
+pub use csv::Error as CsvError;
+
 /// An error type that a table's problems become.
 pub trait TableErrors: Sized {
     /// `path` could not be read (missing, not a regular file, too large).
     fn unreadable(path: &Path, error: std::io::Error) -> Self;
-    /// A problem on `line` of `path` (1-based; 0 if unknown), e.g. malformed CSV.
-    fn at_line(path: &Path, line: u64, message: String) -> Self;
+    /// Malformed CSV on `line` of `path` (1-based; 0 if unknown): the csv crate's error, kept.
+    fn malformed(path: &Path, line: u64, error: csv::Error) -> Self;
 }
 
 /// A CSV table after its header; its problems are `E`s.
@@ -59,9 +62,9 @@ impl Lines {
     }
 }
 
-fn malformed<E: TableErrors>(path: &Path, e: &csv::Error, lines: &Lines, default_line: u64) -> E {
+fn malformed<E: TableErrors>(path: &Path, e: csv::Error, lines: &Lines, default_line: u64) -> E {
     let line = e.position().map_or(default_line, |p| lines.of(p.byte()));
-    E::at_line(path, line, format!("malformed CSV: {e}"))
+    E::malformed(path, line, e)
 }
 
 impl<E: TableErrors> Table<E> {
@@ -77,7 +80,7 @@ impl<E: TableErrors> Table<E> {
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
             .from_reader(std::io::Cursor::new(bytes));
-        let header = rdr.headers().map_err(|e| malformed(path, &e, &lines, 1))?.clone();
+        let header = rdr.headers().map_err(|e| malformed(path, e, &lines, 1))?.clone();
         let header_line = header.position().map_or(1, |p| lines.of(p.byte()));
         Ok(Table {
             header,
@@ -98,7 +101,7 @@ impl<E: TableErrors> Table<E> {
     pub fn rows(&mut self) -> impl Iterator<Item = Result<(u64, StringRecord), E>> + '_ {
         let (path, lines) = (&self.path, &self.lines);
         self.rdr.records().map(move |rec| {
-            let rec = rec.map_err(|e| malformed(path, &e, lines, 0))?;
+            let rec = rec.map_err(|e| malformed(path, e, lines, 0))?;
             Ok((rec.position().map_or(0, |p| lines.of(p.byte())), rec))
         })
     }
@@ -111,15 +114,15 @@ mod tests {
     #[derive(Debug)]
     enum TableError {
         Read,
-        Line(u64, String),
+        Line(u64, csv::Error),
     }
 
     impl TableErrors for TableError {
         fn unreadable(_: &Path, _: std::io::Error) -> Self {
             TableError::Read
         }
-        fn at_line(_: &Path, line: u64, message: String) -> Self {
-            TableError::Line(line, message)
+        fn malformed(_: &Path, line: u64, error: csv::Error) -> Self {
+            TableError::Line(line, error)
         }
     }
 
@@ -155,7 +158,7 @@ mod tests {
         std::fs::write(&path, "name,label\n# c\n\na,x,extra\n").unwrap();
         let err = read(&path, false).unwrap().rows().next().unwrap().unwrap_err();
         assert!(
-            matches!(&err, TableError::Line(4, m) if m.starts_with("malformed CSV: ")),
+            matches!(&err, TableError::Line(4, e) if e.to_string().contains("found record with 3 fields")),
             "{err:?}"
         );
         assert_eq!(read(&path, true).unwrap().rows().count(), 1);

@@ -5,246 +5,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use thiserror::Error;
 
 use crate::geodesic::{GeodesicError, GeodesicSolver, SolveContext};
 
-pub use crate::mesh::Pose;
-
-/// Why a similarity computation failed.
-#[derive(Debug, Error)]
-pub enum SimilarityError {
-    /// A pair to compute is not `(i, j)` with `i < j < n`.
-    #[error("pair ({i}, {j}) is not a pair i < j of the {n} deformations")]
-    NotAPair {
-        /// First index.
-        i: usize,
-        /// Second index.
-        j: usize,
-        /// Number of deformations.
-        n: usize,
-    },
-    /// The names and the deformations differ in number.
-    #[error("{names} names for {deformations} deformations")]
-    NameCount {
-        /// Number of names.
-        names: usize,
-        /// Number of deformations.
-        deformations: usize,
-    },
-    /// Two deformations have different pose counts, so they cannot be compared pose by pose.
-    #[error("deformation '{name}' has {poses} poses, '{first}' has {first_poses}: interpolate them to one count first")]
-    PoseCount {
-        /// The deformation.
-        name: String,
-        /// Its pose count.
-        poses: usize,
-        /// The first deformation.
-        first: String,
-        /// Its pose count.
-        first_poses: usize,
-    },
-    /// A listed selection of pairs was asked to write a journal (only shards are journaled).
-    #[error("a listed selection of pairs is not journaled (use a shard)")]
-    ListedNotJournaled,
-    /// No shard file to merge.
-    #[error("no shard files given")]
-    NoShards,
-    /// Shards of the run are missing from the merge.
-    #[error("shard(s) {} of the run of {} missing", shard_list(.missing, *.count), .run.display())]
-    MissingShards {
-        /// The missing shards' numbers (1-based).
-        missing: Vec<usize>,
-        /// The run's shard count.
-        count: usize,
-        /// The first shard file given.
-        run: std::path::PathBuf,
-    },
-    /// The tangent approximation was asked of a metric whose squared norm at the base is not a
-    /// quadratic form with fixed weights.
-    #[error(
-        "the tangent approximation needs a metric whose squared norm at the base is a quadratic form of \
-         the displacement with fixed weights (l2, rigid, isometric, conformal, or quasi-conformal with \
-         the quadratic form and endpoint weights); {metric} is not (use --approx straight)"
-    )]
-    NotTangent {
-        /// The metric's name.
-        metric: String,
-    },
-    /// The metric's auxiliary Jacobian has a length that is not a multiple of its auxiliary
-    /// unknowns.
-    #[error("the auxiliary Jacobian has {values} values, not a multiple of {n_aux}")]
-    AuxJacobian {
-        /// Its length.
-        values: usize,
-        /// The number of auxiliary unknowns.
-        n_aux: usize,
-    },
-    /// The auxiliary Jacobian is not finite at the base (a degenerate base pose).
-    #[error(
-        "the metric's Jacobian with respect to its auxiliary unknowns (the rigid motion) is not \
-         finite at the base: the base pose is degenerate"
-    )]
-    AuxNotFinite,
-    /// The eigen-decomposition of the auxiliary unknowns' normal matrix did not converge.
-    #[error("the eigen-decomposition of the auxiliary unknowns' normal matrix failed (NoConvergence)")]
-    AuxEigen,
-    /// A geodesic between two corresponding poses failed.
-    #[error("deformations '{a}' and '{b}', pose {pose}: {error}")]
-    Geodesic {
-        /// First deformation.
-        a: String,
-        /// Second deformation.
-        b: String,
-        /// The pose index.
-        pose: usize,
-        /// The solver's error (boxed: a geodesic error holds a setting's names).
-        error: Box<GeodesicError>,
-    },
-    /// The journal of a resumable run cannot be read or written.
-    #[error("{}: {problem}", path.display())]
-    Journal {
-        /// The journal file.
-        path: std::path::PathBuf,
-        /// What went wrong.
-        problem: super::journal::JournalProblem,
-    },
-    /// The run was cancelled (finished pairs are in the journal).
-    #[error("cancelled")]
-    Cancelled,
-}
-
-/// `k/count` for each missing shard `k`, comma-separated.
-fn shard_list(missing: &[usize], count: usize) -> String {
-    let list: Vec<String> = missing.iter().map(|k| format!("{k}/{count}")).collect();
-    list.join(", ")
-}
-
-/// The distance between two deformations and how it was obtained.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PairDistance {
-    /// Index of the first deformation (`i < j`).
-    pub i: usize,
-    /// Index of the second deformation.
-    pub j: usize,
-    /// `sum_k dis(M_k, N_k)` (eq. 13), in the solver's normalized length units.
-    pub distance: f64,
-    /// `dis(M_k, N_k)` for every pose `k`.
-    pub per_pose: Vec<f64>,
-    /// For every pose `k`, the energy (eq. 12) of the path whose length is `dis(M_k, N_k)`
-    /// split as `[geometric, regularizer]` (the geometric term `c_G G` and the L2 regularizer
-    /// `lambda c_L L2` of eq. 11, in the metric's units; [`crate::geodesic::Geodesic`]): the
-    /// geodesic's for [`Approx::Exact`], the straight path's for [`Approx::Straight`], `[0, 0]`
-    /// for identical poses. `None` when unknown: [`Approx::Tangent`] measures no path, and
-    /// pairs read from journals or shard files written before the parts were recorded have
-    /// none.
-    pub per_pose_energy: Option<Vec<[f64; 2]>>,
-    /// Whether every geodesic converged.
-    pub converged: bool,
-    /// Solver iterations, summed over the poses.
-    pub iterations: usize,
-    /// Wall-clock seconds for this pair.
-    pub seconds: f64,
-}
-
-impl PairDistance {
-    /// The pair's energy split `[geometric, regularizer]`, each summed over the poses (in the
-    /// metric's units); `None` when the parts are unknown ([`PairDistance::per_pose_energy`]).
-    pub fn energy_parts(&self) -> Option<[f64; 2]> {
-        self.per_pose_energy
-            .as_ref()
-            .map(|e| e.iter().fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]]))
-    }
-
-    /// The L2 regularizer's share of the pair's energy, `sum_k regularizer_k / sum_k
-    /// (geometric_k + regularizer_k)` in [0, 1] (0 for a pair of zero energy,
-    /// [`crate::geodesic::share`]); above 0.5 the pair's distance measures L2 displacement more
-    /// than the metric's geometry. `None` when the parts are unknown.
-    pub fn regularizer_share(&self) -> Option<f64> {
-        self.energy_parts().map(|[g, r]| crate::geodesic::share(g, r))
-    }
-}
-
-/// The per-pose distances of `pairs` as CSV: header
-/// `a,b,pose,distance,converged,geometric_energy,regularizer_energy,regularizer_share`, one
-/// row per pair and pose `k` with `dis(M_k, N_k)` at full precision, the energy split of its
-/// path ([`PairDistance::per_pose_energy`]) and the pair's regularizer share
-/// ([`PairDistance::regularizer_share`], the same on every row of a pair); the three energy
-/// fields are empty when the parts are unknown (tangent mode, old journals). `names` (n) name
-/// the deformations (quoted when they hold a comma, a quote or a line break).
-pub fn details_csv(names: &[String], pairs: &[PairDistance]) -> String {
-    fn field(s: &str) -> String {
-        if s.contains([',', '"', '\n']) {
-            format!("\"{}\"", s.replace('"', "\"\""))
-        } else {
-            s.to_string()
-        }
-    }
-    let mut text =
-        String::from("a,b,pose,distance,converged,geometric_energy,regularizer_energy,regularizer_share\n");
-    for p in pairs {
-        let share = p.regularizer_share();
-        for (k, d) in p.per_pose.iter().enumerate() {
-            let parts = match (p.per_pose_energy.as_ref().and_then(|e| e.get(k)), share) {
-                (Some([g, r]), Some(s)) => format!("{g:?},{r:?},{s:?}"),
-                _ => ",,".to_string(),
-            };
-            text.push_str(&format!(
-                "{},{},{k},{d:?},{},{parts}\n",
-                field(&names[p.i]),
-                field(&names[p.j]),
-                p.converged
-            ));
-        }
-    }
-    text
-}
-
-/// How the pose distances `dis(M_k, N_k)` of a similarity matrix are computed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Approx {
-    /// The length of the discrete geodesic (eq. 12 minimized): the paper's distance.
-    #[default]
-    Exact,
-    /// The length of the straight path with the same N segments, no optimization
-    /// ([`GeodesicSolver::straight_length`]): an upper bound of the geodesic length, 2N metric
-    /// evaluations per pose instead of a solve (the energy split is the straight path's). Its
-    /// error against the exact matrix is measured by `qcshape experiment approx`
-    /// (docs/scale.md).
-    Straight,
-    /// The metric linearized at the common base: `|y(M_k) - y(N_k)|` with `y(P) = J_B (P - B)`,
-    /// `J_B` the residual Jacobian at the base `B` ([`super::tangent`]; for the rigid metric
-    /// minus its projection onto the rigid motions, the optimal motion in closed form), so that
-    /// `|y(P) - y(Q)|^2 = G_B(P - Q)`: one sparse product per pose, then one Euclidean distance
-    /// per pair and pose. For every metric; the quasi-conformal metric (quadratic form,
-    /// endpoint weights) weighs each pair's feature difference by that pair's curvature-change
-    /// weights, and its paper form and segment weights are refused. No path is measured, so the energy split
-    /// of [`PairDistance::per_pose_energy`] is unknown (`None`).
-    Tangent,
-}
-
-impl std::fmt::Display for Approx {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Approx::Exact => "exact",
-            Approx::Straight => "straight",
-            Approx::Tangent => "tangent",
-        })
-    }
-}
-
-impl std::str::FromStr for Approx {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Approx, String> {
-        match s {
-            "exact" => Ok(Approx::Exact),
-            "straight" => Ok(Approx::Straight),
-            "tangent" => Ok(Approx::Tangent),
-            _ => Err(format!("{s:?}: expected exact, straight or tangent")),
-        }
-    }
-}
+use super::error::SimilarityError;
+use super::tangent::TangentModel;
+use super::types::{Approx, PairDistance, Pose};
 
 /// `dis(M_k, N_k)` for every pose `k` of two deformations given as pose lists (each #V x 3,
 /// already multiplied by the common normalization factor). Identical poses (bit for bit, such
@@ -323,11 +89,6 @@ fn pose_distances_with(
     })
 }
 
-/// All pairs `(i, j)`, `i < j`, of `n` items, in row order.
-pub fn all_pairs(n: usize) -> Vec<(usize, usize)> {
-    (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j))).collect()
-}
-
 /// Computes the distance of every pair `i < j` of `deformations` (each a list of poses on the
 /// solver's topology, #V x 3, already scaled by one common factor; all with the same number of
 /// poses) that is not in `done`, in parallel on the current rayon pool; `approx` chooses
@@ -350,7 +111,7 @@ pub(crate) fn compute_pairs<F>(
 where
     F: Fn(&PairDistance) -> Result<(), SimilarityError> + Sync,
 {
-    let todo: Vec<(usize, usize)> = all_pairs(deformations.len())
+    let todo: Vec<(usize, usize)> = super::types::all_pairs(deformations.len())
         .into_iter()
         .filter(|p| !done.contains(p))
         .collect();
@@ -381,11 +142,7 @@ where
     let tangent = match approx {
         Approx::Tangent => {
             let pe = solver.path_energy();
-            Some(super::tangent::TangentModel::new(
-                pe.metric,
-                &pe.topo,
-                deformations,
-            )?)
+            Some(TangentModel::new(pe.metric, &pe.topo, deformations)?)
         }
         _ => None,
     };
@@ -538,7 +295,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(calls.load(Ordering::Relaxed), 3);
-        let d = crate::similarity::run::assemble(3, &pairs);
+        let d = crate::similarity::matrix::assemble(3, &pairs);
         for i in 0..3 {
             assert_eq!(d[i * 3 + i], 0.0);
             for j in 0..3 {

@@ -6,9 +6,11 @@
 //! words, to name what differs when a journal is refused), then one `pair` line per finished
 //! pair, appended and flushed as soon as the pair is done. Every pair line ends with
 //! `,#<16 hex digits>`, the FNV-1a hash of the text before it: a record torn by a kill or a full
-//! disk, or changed on disk, fails its check and is dropped (and recomputed) on resume, with
-//! the count in [`Journal::dropped`]. A journal whose key differs from the current run's is
-//! never reused.
+//! disk, or changed on disk, fails its check and is dropped (and recomputed) on resume, and so
+//! is a record that passes its check but holds what no run writes (another pose count than the
+//! run's, a value out of its range, a distance that is not its poses' sum, a repeated pair):
+//! [`Journal::dropped_records`] names each with its line and reason. A journal whose key differs
+//! from the current run's is never reused.
 //!
 //! A pair line is `pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE,ENERGY,#CHECK`:
 //! `PER_POSE` the pose distances separated by `;`, `ENERGY` the energy split of every pose's
@@ -24,17 +26,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use super::engine::{PairDistance, Pose, SimilarityError};
+use super::error::{JournalProblem, SimilarityError, HEADER, HEADER_V2};
 use super::shard::Shard;
-
-const HEADER: &str = "# qcshape similarity journal v3";
-
-/// [`HEADER`], for the tests of the other modules.
-#[cfg(test)]
-pub(crate) const HEADER_FOR_TESTS: &str = HEADER;
-
-/// The header of version 2 (pair lines without the energy split), still read.
-const HEADER_V2: &str = "# qcshape similarity journal v2";
+use super::types::{DroppedRecord, PairDistance, Pose, RecordProblem};
 
 /// FNV-1a 64-bit hash of the names, every coordinate's bits and a settings string (metric,
 /// solver options, scale): identical inputs give the same key on every machine and version.
@@ -84,7 +78,7 @@ fn checksum(text: &str) -> u64 {
 pub struct Journal {
     path: PathBuf,
     file: Mutex<File>,
-    dropped: usize,
+    dropped: Vec<DroppedRecord>,
 }
 
 /// Whether a journal may be written at `path`: nothing is there, an empty file, or a file that
@@ -106,7 +100,8 @@ fn replaceable(path: &Path) -> bool {
 }
 
 impl Journal {
-    /// Opens the journal at `path` for a run with fingerprint `key` over `n` deformations;
+    /// Opens the journal at `path` for a run with fingerprint `key` over `n` deformations of
+    /// `poses` poses each (`None`: not checked);
     /// `settings` is the run's settings string (see [`super::settings_key`]), kept in the
     /// journal to name the settings that differ when a journal is refused.
     ///
@@ -119,6 +114,7 @@ impl Journal {
         key: u64,
         settings: &str,
         n: usize,
+        poses: Option<usize>,
         resume: bool,
     ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
         Self::open_with(
@@ -126,6 +122,7 @@ impl Journal {
             &Head {
                 key,
                 n,
+                poses,
                 settings,
                 shard: None,
                 names: None,
@@ -136,18 +133,20 @@ impl Journal {
 
     /// Opens the journal of shard `shard` of a sharded run (`qcshape similarity --shard K/S`):
     /// as [`Journal::open`], and the file also records the shard and the deformation `names`
-    /// (n), so that [`super::shard::merge`] can check and assemble the shards without the data.
+    /// (n), so that [`super::merge_shards`] can check and assemble the shards without the data.
     pub fn open_shard(
         path: &Path,
         key: u64,
         settings: &str,
         names: &[String],
+        poses: Option<usize>,
         shard: Shard,
         resume: bool,
     ) -> Result<(Journal, Vec<PairDistance>), SimilarityError> {
         let head = Head {
             key,
             n: names.len(),
+            poses,
             settings,
             shard: Some(shard),
             names: Some(names),
@@ -170,7 +169,7 @@ impl Journal {
         if !replaceable(path) {
             return Err(err(JournalProblem::NotReplaceable));
         }
-        let (mut done, mut dropped) = (Vec::new(), 0);
+        let (mut done, mut dropped) = (Vec::new(), Vec::new());
         if resume && path.exists() {
             (done, dropped) = read(path, head)?;
         }
@@ -225,10 +224,16 @@ impl Journal {
             .map_err(|e| self.error(JournalProblem::Append(e)))
     }
 
-    /// The number of records of the resumed journal that were torn or corrupt (failed their
-    /// check, were malformed or repeated a pair): dropped, so that their pairs are recomputed.
+    /// The number of records of the resumed journal that were dropped, so that their pairs are
+    /// recomputed: torn or corrupt (failed their check), malformed, out of range, of another
+    /// pose count, or repeating a pair ([`Journal::dropped_records`] names them).
     pub fn dropped(&self) -> usize {
-        self.dropped
+        self.dropped.len()
+    }
+
+    /// The records of the resumed journal that were dropped, each with its line and reason.
+    pub fn dropped_records(&self) -> &[DroppedRecord] {
+        &self.dropped
     }
 
     /// The journal's path.
@@ -270,26 +275,59 @@ fn line(p: &PairDistance) -> String {
     format!("{body},#{check:016x}\n")
 }
 
-/// One record, if it is whole (its check matches) and well formed.
-fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
-    let (body, check) = text.rsplit_once(",#")?;
-    if check.len() != 16 || u64::from_str_radix(check, 16).ok()? != checksum(body) {
-        return None;
+/// One record, if it is whole (its check matches), well formed, of `poses` pose distances (when
+/// given), and every value in its range: distances, energies and seconds finite and >= 0, the
+/// distance the sum of the pose distances. Otherwise the pair (when readable) and the reason.
+fn parse_pair(
+    text: &str,
+    n: usize,
+    poses: Option<usize>,
+) -> Result<PairDistance, (Option<(usize, usize)>, RecordProblem)> {
+    let (body, check) = text.rsplit_once(",#").ok_or((None, RecordProblem::Checksum))?;
+    if check.len() != 16 || u64::from_str_radix(check, 16).ok() != Some(checksum(body)) {
+        return Err((None, RecordProblem::Checksum));
     }
+    let malformed = |field, expected| RecordProblem::Malformed { field, expected };
     let f: Vec<&str> = body.split(',').collect();
     // Version 2 records have 8 fields (no energy split), version 3 records 9.
     if !(f.len() == 8 || f.len() == 9) || f[0] != "pair" {
-        return None;
+        return Err((
+            None,
+            malformed(
+                "record",
+                "pair,I,J,DISTANCE,CONVERGED,ITERATIONS,SECONDS,PER_POSE,ENERGY",
+            ),
+        ));
     }
-    let i: usize = f[1].parse().ok()?;
-    let j: usize = f[2].parse().ok()?;
+    let i: usize = f[1].parse().map_err(|_| (None, malformed("I", "a count")))?;
+    let j: usize = f[2].parse().map_err(|_| (None, malformed("J", "a count")))?;
+    let at = Some((i, j));
+    let bad = |problem| (at, problem);
     if i >= j || j >= n {
-        return None;
+        return Err(bad(RecordProblem::NotAPair { i, j, n }));
     }
-    let per_pose: Vec<f64> = f[7].split(';').map(|s| s.parse().ok()).collect::<Option<_>>()?;
-    let distance: f64 = f[3].parse().ok()?;
-    if !distance.is_finite() || per_pose.iter().any(|d| !d.is_finite()) {
-        return None;
+    let number = |field: &'static str, s: &str| -> Result<f64, (Option<(usize, usize)>, RecordProblem)> {
+        let v: f64 = s.parse().map_err(|_| bad(malformed(field, "a number")))?;
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(bad(RecordProblem::Range { field, value: v }))
+        }
+    };
+    let per_pose: Vec<f64> = f[7]
+        .split(';')
+        .map(|s| number("pose distance", s))
+        .collect::<Result<_, _>>()?;
+    if let Some(k) = poses.filter(|k| *k != per_pose.len()) {
+        return Err(bad(RecordProblem::PoseCount {
+            found: per_pose.len(),
+            expected: k,
+        }));
+    }
+    let distance = number("distance", f[3])?;
+    let sum: f64 = per_pose.iter().sum();
+    if (distance - sum).abs() > 1e-12 * sum.max(1.0) {
+        return Err(bad(RecordProblem::Sum { distance, sum }));
     }
     let per_pose_energy = match f.get(8) {
         None | Some(&"") => None,
@@ -297,25 +335,34 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
             let parts: Vec<[f64; 2]> = text
                 .split(';')
                 .map(|gr| {
-                    let (g, r) = gr.split_once(':')?;
-                    Some([g.parse().ok()?, r.parse().ok()?])
+                    let (g, r) = gr
+                        .split_once(':')
+                        .ok_or_else(|| bad(malformed("energy", "geometric:regularizer")))?;
+                    Ok([number("geometric energy", g)?, number("regularizer energy", r)?])
                 })
-                .collect::<Option<_>>()?;
-            if parts.len() != per_pose.len() || parts.iter().flatten().any(|v| !v.is_finite()) {
-                return None;
+                .collect::<Result<_, _>>()?;
+            if parts.len() != per_pose.len() {
+                return Err(bad(RecordProblem::EnergyCount {
+                    found: parts.len(),
+                    expected: per_pose.len(),
+                }));
             }
             Some(parts)
         }
     };
-    Some(PairDistance {
+    Ok(PairDistance {
         i,
         j,
         distance,
         per_pose,
         per_pose_energy,
-        converged: f[4].parse().ok()?,
-        iterations: f[5].parse().ok()?,
-        seconds: f[6].parse().ok()?,
+        converged: f[4]
+            .parse()
+            .map_err(|_| bad(malformed("CONVERGED", "true or false")))?,
+        iterations: f[5]
+            .parse()
+            .map_err(|_| bad(malformed("ITERATIONS", "a count")))?,
+        seconds: number("seconds", f[6])?,
     })
 }
 
@@ -323,6 +370,8 @@ fn parse_pair(text: &str, n: usize) -> Option<PairDistance> {
 struct Head<'a> {
     key: u64,
     n: usize,
+    /// The run's pose count, when known: a record with another is dropped.
+    poses: Option<usize>,
     settings: &'a str,
     shard: Option<Shard>,
     names: Option<&'a [String]>,
@@ -343,13 +392,23 @@ pub struct JournalFile {
     pub names: Option<Vec<String>>,
     /// The whole records, in file order, without repeats.
     pub pairs: Vec<PairDistance>,
-    /// Records dropped: torn, corrupt (failed their check), malformed or repeated.
+    /// Records dropped: torn, corrupt (failed their check), malformed, out of range, of
+    /// another pose count than given to [`JournalFile::read_checked`], or repeated.
     pub dropped: usize,
+    /// The dropped records, each with its line and reason.
+    pub dropped_records: Vec<DroppedRecord>,
 }
 
 impl JournalFile {
-    /// Reads the journal at `path`.
+    /// Reads the journal at `path`; every record of a pair is checked for its fields' ranges
+    /// (and its pose count against the other records' is not: see [`JournalFile::read_checked`]).
     pub fn read(path: &Path) -> Result<JournalFile, SimilarityError> {
+        Self::read_checked(path, None)
+    }
+
+    /// [`JournalFile::read`], with every record's pose count checked against `poses` (the
+    /// run's), when given.
+    pub fn read_checked(path: &Path, poses: Option<usize>) -> Result<JournalFile, SimilarityError> {
         let err = |problem: JournalProblem| SimilarityError::Journal {
             path: path.to_path_buf(),
             problem,
@@ -401,6 +460,7 @@ impl JournalFile {
             names: None,
             pairs: Vec::new(),
             dropped: 0,
+            dropped_records: Vec::new(),
         };
         let mut seen = std::collections::HashSet::new();
         for (k, raw) in lines.iter().enumerate().skip(4) {
@@ -427,9 +487,23 @@ impl JournalFile {
                 }
                 file.names = Some(names);
             } else {
-                match parse_pair(raw, n) {
-                    Some(p) if seen.insert((p.i, p.j)) => file.pairs.push(p),
-                    _ => file.dropped += 1,
+                let record = parse_pair(raw, n, poses).and_then(|p| {
+                    if seen.insert((p.i, p.j)) {
+                        Ok(p)
+                    } else {
+                        Err((Some((p.i, p.j)), RecordProblem::Repeated))
+                    }
+                });
+                match record {
+                    Ok(p) => file.pairs.push(p),
+                    Err((pair, problem)) => {
+                        file.dropped += 1;
+                        file.dropped_records.push(DroppedRecord {
+                            line: k + 1,
+                            pair,
+                            problem,
+                        });
+                    }
                 }
             }
         }
@@ -437,196 +511,13 @@ impl JournalFile {
     }
 }
 
-/// Why a journal (or a shard journal to merge) cannot be written, read, resumed or merged
-/// ([`SimilarityError::Journal`]).
-#[derive(Debug, thiserror::Error)]
-pub enum JournalProblem {
-    /// The settings string holds a line break (it is one line of the header).
-    #[error("the settings string has a line break")]
-    SettingsLineBreak,
-    /// The file exists and is not a journal: it is not replaced.
-    #[error("exists and is not a qcshape similarity journal; refusing to replace it (remove it or choose another file)")]
-    NotReplaceable,
-    /// The deformation names cannot be encoded as JSON.
-    #[error("cannot encode the names: {0}")]
-    EncodeNames(serde_json::Error),
-    /// The temporary file cannot be written.
-    #[error("cannot write {}: {error}", tmp.display())]
-    WriteTemporary {
-        /// The temporary file.
-        tmp: PathBuf,
-        /// The system error.
-        error: std::io::Error,
-    },
-    /// The temporary file cannot be renamed over the journal.
-    #[error("cannot write: {0}")]
-    Write(std::io::Error),
-    /// A record cannot be appended.
-    #[error("cannot append: {0}")]
-    Append(std::io::Error),
-    /// The journal cannot be removed.
-    #[error("cannot remove: {0}")]
-    Remove(std::io::Error),
-    /// The journal cannot be read.
-    #[error("cannot read: {0}")]
-    Read(std::io::Error),
-    /// The first line is not a journal header of this version.
-    #[error("not a qcshape similarity journal of this version (expected the first line {HEADER:?} or {HEADER_V2:?})")]
-    NotAJournal,
-    /// A header line (2 to 4) that does not hold what it must.
-    #[error("line {line}: expected `{expected}`, found {found:?}")]
-    HeaderLine {
-        /// Line number.
-        line: usize,
-        /// Its expected form.
-        expected: &'static str,
-        /// The line.
-        found: String,
-    },
-    /// A `shard,` line whose value is not `K/S`.
-    #[error("line {line}: {found:?}: expected K/S, two whole numbers with 1 <= K <= S (e.g. 2/8)")]
-    ShardLine {
-        /// Line number.
-        line: usize,
-        /// The value.
-        found: String,
-    },
-    /// A `names,` line that is not a JSON list of strings.
-    #[error("line {line}: the names do not parse: {error}")]
-    NamesLine {
-        /// Line number.
-        line: usize,
-        /// The JSON error.
-        error: serde_json::Error,
-    },
-    /// A `names,` line with another count than `n`.
-    #[error("line {line}: {names} names for n = {n}")]
-    NameCount {
-        /// Line number.
-        line: usize,
-        /// Names listed.
-        names: usize,
-        /// The header's count.
-        n: usize,
-    },
-    /// A journal that cannot be read, found when resuming.
-    #[error("{0}; remove it or run without --resume")]
-    NotResumable(Box<JournalProblem>),
-    /// A journal of a run with another number of deformations.
-    #[error("the journal belongs to another run (n = {journal}, this run has {run} deformations); remove it or run without --resume")]
-    OtherCount {
-        /// The journal's count.
-        journal: usize,
-        /// This run's.
-        run: usize,
-    },
-    /// A journal of a run with the same settings but other inputs.
-    #[error("the journal belongs to another run (the same settings but different inputs (names or coordinates of the transferred deformations)); remove it or run without --resume")]
-    OtherInputs,
-    /// A journal of a run with other settings: `(name, in the journal, now)`.
-    #[error("the journal belongs to another run (different settings: {}); remove it or run without --resume", journal_now(.0))]
-    OtherSettings(Vec<(String, String, String)>),
-    /// A journal of another shard (or of the whole matrix).
-    #[error("the journal is of {}, this run computes {}; remove it or run without --resume", shard_name(.journal), shard_name(.run))]
-    OtherShard {
-        /// The journal's shard (`None`: the whole matrix).
-        journal: Option<Shard>,
-        /// This run's.
-        run: Option<Shard>,
-    },
-    /// A journal of a whole run given to merge.
-    #[error("a journal of a whole run, not of a shard (--shard K/S)")]
-    WholeRun,
-    /// A shard journal without the deformation names.
-    #[error("the shard journal does not record the deformation names")]
-    NoNames,
-    /// A shard of a run with other settings than the first file's: `(name, there, here)`.
-    #[error("belongs to another run than {}: other settings: {}", first.display(), here_not_there(differing))]
-    ShardSettings {
-        /// The first file.
-        first: PathBuf,
-        /// The differing settings.
-        differing: Vec<(String, String, String)>,
-    },
-    /// A shard of a run with other data than the first file's.
-    #[error("belongs to another run than {}: other data (names or coordinates of the deformations)", first.display())]
-    ShardData {
-        /// The first file.
-        first: PathBuf,
-    },
-    /// A shard of a run cut into another number of shards than the first file's.
-    #[error("belongs to another run than {}: {count} shards, {} has {first_count}", first.display(), first.display())]
-    ShardCount {
-        /// The first file.
-        first: PathBuf,
-        /// This file's shard count.
-        count: usize,
-        /// The first file's.
-        first_count: usize,
-    },
-    /// A shard with torn or corrupt records.
-    #[error("{0} torn or corrupt record(s); rerun this shard with --resume to recompute them")]
-    Torn(usize),
-    /// A header count too large for a shard.
-    #[error("n = {0} deformations is more than a shard can hold")]
-    TooLarge(usize),
-    /// A shard without all of its pairs.
-    #[error("shard {shard} is incomplete: {have} of its {want} pairs (still running or interrupted: rerun it with --resume)")]
-    Incomplete {
-        /// The shard.
-        shard: Shard,
-        /// Pairs held.
-        have: usize,
-        /// Pairs of its share.
-        want: usize,
-    },
-    /// A pair that belongs to another shard.
-    #[error("holds pair ({i}, {j}), which is not in shard {shard}")]
-    ForeignPair {
-        /// First deformation.
-        i: usize,
-        /// Second deformation.
-        j: usize,
-        /// The file's shard.
-        shard: Shard,
-    },
-    /// A shard given twice.
-    #[error("shard {shard} is also given as {}", other.display())]
-    DuplicateShard {
-        /// The shard.
-        shard: Shard,
-        /// The other file.
-        other: PathBuf,
-    },
-}
-
-fn journal_now(differing: &[(String, String, String)]) -> String {
-    let named: Vec<String> = differing
-        .iter()
-        .map(|(name, x, y)| format!("{name}: journal {x}, now {y}"))
-        .collect();
-    named.join(", ")
-}
-
-fn here_not_there(differing: &[(String, String, String)]) -> String {
-    let named: Vec<String> = differing
-        .iter()
-        .map(|(name, x, y)| format!("{name} {y} (not {x})"))
-        .collect();
-    named.join("; ")
-}
-
-fn shard_name(s: &Option<Shard>) -> String {
-    s.map_or("the whole matrix".to_string(), |s| format!("shard {s}"))
-}
-
-/// The whole records of a journal to resume with `head`, and the number of records dropped.
-fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, usize), SimilarityError> {
+/// The whole records of a journal to resume with `head`, and the records dropped.
+fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, Vec<DroppedRecord>), SimilarityError> {
     let err = |problem: JournalProblem| SimilarityError::Journal {
         path: path.to_path_buf(),
         problem,
     };
-    let file = JournalFile::read(path).map_err(|e| match e {
+    let file = JournalFile::read_checked(path, head.poses).map_err(|e| match e {
         SimilarityError::Journal { path, problem } => SimilarityError::Journal {
             path,
             problem: JournalProblem::NotResumable(Box::new(problem)),
@@ -654,7 +545,7 @@ fn read(path: &Path, head: &Head) -> Result<(Vec<PairDistance>, usize), Similari
             run: head.shard,
         }));
     }
-    Ok((file.pairs, file.dropped))
+    Ok((file.pairs, file.dropped_records))
 }
 
 /// The settings in which two settings strings differ, as `(name, value in a, value in b)`:
@@ -727,7 +618,9 @@ mod tests {
         let path = dir.path().join("data.csv");
         std::fs::write(&path, "name,value\na,1\n").unwrap();
         for resume in [false, true] {
-            let e = Journal::open(&path, 1, "s", 3, resume).unwrap_err().to_string();
+            let e = Journal::open(&path, 1, "s", 3, None, resume)
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.contains("data.csv") && e.contains("not a qcshape similarity journal"),
                 "{e}"
@@ -735,17 +628,17 @@ mod tests {
         }
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "name,value\na,1\n");
         // A folder is refused too; an empty file and an old journal are replaced.
-        assert!(Journal::open(dir.path(), 1, "s", 3, false).is_err());
+        assert!(Journal::open(dir.path(), 1, "s", 3, None, false).is_err());
         std::fs::write(&path, "").unwrap();
-        drop(Journal::open(&path, 1, "s", 3, false).unwrap());
-        drop(Journal::open(&path, 2, "t", 3, false).unwrap());
+        drop(Journal::open(&path, 1, "s", 3, None, false).unwrap());
+        drop(Journal::open(&path, 2, "t", 3, None, false).unwrap());
     }
 
     #[test]
     fn records_survive_a_partial_last_line_and_keys_must_match() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.journal");
-        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, None, true).unwrap();
         assert!(done.is_empty());
         let a = pair(0, 1, 0.1 + 0.2);
         let b = pair(1, 3, std::f64::consts::PI);
@@ -756,27 +649,27 @@ mod tests {
         let mut f = OpenOptions::new().append(true).open(&path).unwrap();
         f.write_all(b"pair,2,3,0.5,tr").unwrap();
         drop(f);
-        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, None, true).unwrap();
         assert_eq!(done, vec![a.clone(), b.clone()]); // bit-exact floats
         assert_eq!(j.dropped(), 1);
         let c = pair(2, 3, 1.5);
         j.record(&c).unwrap();
         drop(j);
-        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 42, "m=a|s=4", 4, None, true).unwrap();
         assert_eq!(done, vec![a, b, c]);
         assert_eq!(j.dropped(), 0);
         drop(j);
         // Another run's key or size is refused, not silently reused, naming what differs.
-        let e = Journal::open(&path, 43, "m=b|s=4", 4, true).unwrap_err();
+        let e = Journal::open(&path, 43, "m=b|s=4", 4, None, true).unwrap_err();
         assert!(
             e.to_string().contains("another run") && e.to_string().contains("m: journal a, now b"),
             "{e}"
         );
-        let e = Journal::open(&path, 43, "m=a|s=4", 4, true).unwrap_err();
+        let e = Journal::open(&path, 43, "m=a|s=4", 4, None, true).unwrap_err();
         assert!(e.to_string().contains("different inputs"), "{e}");
-        assert!(Journal::open(&path, 42, "m=a|s=4", 5, true).is_err());
+        assert!(Journal::open(&path, 42, "m=a|s=4", 5, None, true).is_err());
         // Without resume a fresh journal is started.
-        let (j, done) = Journal::open(&path, 43, "m=a|s=4", 4, false).unwrap();
+        let (j, done) = Journal::open(&path, 43, "m=a|s=4", 4, None, false).unwrap();
         assert!(done.is_empty());
         j.remove().unwrap();
         assert!(!path.exists());
@@ -786,7 +679,7 @@ mod tests {
     fn every_cut_of_the_last_record_and_a_changed_digit_are_dropped() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.journal");
-        let (j, _) = Journal::open(&path, 7, "x", 3, false).unwrap();
+        let (j, _) = Journal::open(&path, 7, "x", 3, None, false).unwrap();
         let a = pair(0, 1, 1.164056);
         let b = PairDistance {
             per_pose: vec![0.0, 1.164056789, 2.5],
@@ -800,7 +693,7 @@ mod tests {
         let last = line(&b).len();
         for cut in whole.len() - last..whole.len() {
             std::fs::write(&path, &whole[..cut]).unwrap();
-            let (j, done) = Journal::open(&path, 7, "x", 3, true).unwrap();
+            let (j, done) = Journal::open(&path, 7, "x", 3, None, true).unwrap();
             // A record is whole when nothing but its newline is missing.
             if cut == whole.len() - 1 {
                 assert_eq!(done, vec![a.clone(), b.clone()], "cut at {cut}");
@@ -816,7 +709,7 @@ mod tests {
             .unwrap()
             .replacen("1.164056,", "1.164057,", 1);
         std::fs::write(&path, text).unwrap();
-        let (j, done) = Journal::open(&path, 7, "x", 3, true).unwrap();
+        let (j, done) = Journal::open(&path, 7, "x", 3, None, true).unwrap();
         assert_eq!(done, vec![b]);
         assert_eq!(j.dropped(), 1);
     }
@@ -827,7 +720,7 @@ mod tests {
     fn energy_parts_round_trip_and_bad_parts_are_dropped() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.journal");
-        let (j, _) = Journal::open(&path, 9, "s", 4, false).unwrap();
+        let (j, _) = Journal::open(&path, 9, "s", 4, None, false).unwrap();
         let a = PairDistance {
             per_pose_energy: Some(vec![
                 [0.0, 0.0],
@@ -849,7 +742,7 @@ mod tests {
             text.contains(";0.30000000000000004:2.718281828459045,#"),
             "{text}"
         );
-        let (j, done) = Journal::open(&path, 9, "s", 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 9, "s", 4, None, true).unwrap();
         assert_eq!(done, vec![a.clone(), tangent.clone()]);
         assert_eq!(done[0].regularizer_share(), a.regularizer_share());
         assert_eq!(done[1].regularizer_share(), None);
@@ -866,9 +759,53 @@ mod tests {
             writeln!(f, "{body},#{:016x}", checksum(&body)).unwrap();
         }
         drop((f, j));
-        let (j, done) = Journal::open(&path, 9, "s", 4, true).unwrap();
+        let (j, done) = Journal::open(&path, 9, "s", 4, None, true).unwrap();
         assert_eq!(done, vec![a, tangent]);
         assert_eq!(j.dropped(), 3);
+    }
+
+    /// Records with a valid check but values no run writes are dropped, each named with its
+    /// line and reason, and their pairs recomputed (issue 60 item 4): one pose distance where
+    /// three are due, a negative or infinite value, a distance that is not its poses' sum, a
+    /// repeated pair. The first whole record of a pair is the one kept.
+    #[test]
+    fn forged_records_with_a_valid_check_are_dropped_and_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.journal");
+        let (j, _) = Journal::open(&path, 5, "s", 4, Some(3), false).unwrap();
+        let good = pair(0, 3, 1.5);
+        j.record(&good).unwrap();
+        drop(j);
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        for body in [
+            "pair,0,1,1.5,true,3,0.5,1.5,0.5:0.5",
+            "pair,0,2,1.5,true,3,0.5,0.0;-0.5;2.0,",
+            "pair,1,2,1.5,true,3,0.5,0.0;0.5;inf,",
+            "pair,1,3,9.5,true,3,0.5,0.0;0.5;1.0,",
+            "pair,2,3,1.5,true,3,-1,0.0;0.5;1.0,",
+            "pair,0,3,1.5,true,3,0.5,0.0;0.5;1.0,",
+        ] {
+            writeln!(f, "{body},#{:016x}", checksum(body)).unwrap();
+        }
+        drop(f);
+        let (j, done) = Journal::open(&path, 5, "s", 4, Some(3), true).unwrap();
+        assert_eq!(done, vec![good]);
+        let named: Vec<String> = j.dropped_records().iter().map(|d| d.to_string()).collect();
+        assert_eq!(
+            named,
+            [
+                "the record on line 6 (pair 0, 1): 1 pose distance(s) where the run has 3 poses",
+                "the record on line 7 (pair 0, 2): pose distance = -0.5 is out of range (finite and >= 0)",
+                "the record on line 8 (pair 1, 2): pose distance = inf is out of range (finite and >= 0)",
+                "the record on line 9 (pair 1, 3): distance 9.5 is not the sum of its pose distances (1.5)",
+                "the record on line 10 (pair 2, 3): seconds = -1.0 is out of range (finite and >= 0)",
+                "the record on line 11 (pair 0, 3): repeats a pair recorded before",
+            ]
+        );
+        // The rewritten journal holds the good record only: a second resume drops nothing.
+        drop(j);
+        let (j, done) = Journal::open(&path, 5, "s", 4, Some(3), true).unwrap();
+        assert_eq!((done.len(), j.dropped()), (1, 0));
     }
 
     /// A journal of version 2 (no energy field) still resumes: its pairs come back without
@@ -896,18 +833,20 @@ mod tests {
             seconds: 0.5,
         };
         assert_eq!((file.pairs.clone(), file.dropped), (vec![want.clone()], 0));
-        let (j, done) = Journal::open(&path, 77, "m=a", 3, true).unwrap();
+        let (j, done) = Journal::open(&path, 77, "m=a", 3, None, true).unwrap();
         assert_eq!(done, vec![want.clone()]);
         let b = pair(0, 1, 2.0);
         j.record(&b).unwrap();
         drop(j);
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.starts_with("# qcshape similarity journal v3\n"), "{text}");
-        let (_, done) = Journal::open(&path, 77, "m=a", 3, true).unwrap();
+        let (_, done) = Journal::open(&path, 77, "m=a", 3, None, true).unwrap();
         assert_eq!(done, vec![want, b]);
         // Another first line is still refused.
         std::fs::write(&path, "# qcshape similarity journal v1\nkey,0\nn,3\nsettings,\n").unwrap();
-        let e = Journal::open(&path, 77, "m=a", 3, true).unwrap_err().to_string();
+        let e = Journal::open(&path, 77, "m=a", 3, None, true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("v3") && e.contains("v2"), "{e}");
     }
 

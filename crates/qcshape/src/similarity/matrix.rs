@@ -24,6 +24,8 @@ use crate::dataset::{read_manifest, DatasetError};
 use crate::io::table::{Table, TableErrors};
 use crate::io::{write_atomically, IoError};
 
+use super::types::PairDistance;
+
 /// Relative tolerance of the symmetry and zero-diagonal checks of [`DistanceMatrix::new`]:
 /// `|d_ij - d_ji|` and `|d_ii|` may be at most `MATRIX_REL_TOL * max_ij |d_ij|`.
 pub const MATRIX_REL_TOL: f64 = 1e-9;
@@ -97,6 +99,119 @@ pub enum MatrixError {
     },
 }
 
+/// What is wrong on a line of a matrix or label file ([`MatrixFileError::Line`]).
+#[derive(Debug, Error)]
+pub enum LineProblem {
+    /// Not CSV as qcshape reads it (the csv crate's error).
+    #[error("malformed CSV: {0}")]
+    Csv(csv::Error),
+    /// A matrix header without names.
+    #[error("the header names no deformation: expected name,<name_1>,...,<name_n>")]
+    NoNames,
+    /// A row past the n the header names.
+    #[error("extra row: the header names {n} deformations, so there must be {n} rows")]
+    ExtraRow {
+        /// The header's count.
+        n: usize,
+    },
+    /// A row with another field count than a name and n distances.
+    #[error("{fields} fields, expected {} (a name and {n} distances): the matrix must be square", n + 1)]
+    FieldCount {
+        /// Fields in the row.
+        fields: usize,
+        /// The header's count.
+        n: usize,
+    },
+    /// A row named otherwise than its column.
+    #[error("row {row} is named {name:?}, but column {row} of the header is {expected:?}: rows must follow the header's order")]
+    RowName {
+        /// The row (1-based).
+        row: usize,
+        /// Its name.
+        name: String,
+        /// The header's name for it.
+        expected: String,
+    },
+    /// An entry that is not a number.
+    #[error("column {column:?}: {text:?} is not a number")]
+    NotANumber {
+        /// The column's name.
+        column: String,
+        /// The field.
+        text: String,
+        /// The parser's error.
+        error: std::num::ParseFloatError,
+    },
+    /// An entry that is not finite.
+    #[error("column {column:?}: {value} is not finite")]
+    NotFinite {
+        /// The column's name.
+        column: String,
+        /// The entry.
+        value: f64,
+    },
+    /// A negative entry.
+    #[error("column {column:?}: {value} is negative")]
+    Negative {
+        /// The column's name.
+        column: String,
+        /// The entry.
+        value: f64,
+    },
+    /// A diagonal entry other than zero.
+    #[error("diagonal entry (column {column:?}) is {value}, not zero")]
+    Diagonal {
+        /// The column's name.
+        column: String,
+        /// The entry.
+        value: f64,
+    },
+    /// An entry that differs from its mirror.
+    #[error("column {column:?} is {a} but line {other_line} (row {column:?}) has {b} in column {row:?}: the matrix is not symmetric")]
+    Asymmetric {
+        /// The column's name.
+        column: String,
+        /// This row's name.
+        row: String,
+        /// The entry here.
+        a: f64,
+        /// The mirror entry.
+        b: f64,
+        /// The mirror's line.
+        other_line: u64,
+    },
+    /// A header column without a name (2-based, as in the file).
+    #[error("header column {0} has an empty name")]
+    EmptyName(usize),
+    /// A name given twice in the header.
+    #[error("the name {0:?} occurs twice")]
+    DuplicateName(String),
+    /// A label file giving one name two labels.
+    #[error("{name:?} has label {label:?} here but {first:?} on line {first_line}")]
+    LabelChanges {
+        /// The name.
+        name: String,
+        /// The label here.
+        label: String,
+        /// The first label.
+        first: String,
+        /// The first label's line.
+        first_line: u64,
+    },
+    /// A label file without a name column.
+    #[error("no name column: a label file has a header with columns name,label (or is a data set manifest)")]
+    NoNameColumn,
+    /// A label file without a label column.
+    #[error("no label column: a label file has a header with columns name,label")]
+    NoLabelColumn,
+    /// A label row without a name.
+    #[error("the name is empty")]
+    EmptyRowName,
+    /// A label row without a label.
+    #[error("{0:?} has an empty label")]
+    EmptyLabel(String),
+}
+
 /// A file-level error of the matrix and label readers and writers; every message starts with
 /// the file.
 #[derive(Debug, Error)]
@@ -110,14 +225,14 @@ pub enum MatrixFileError {
         error: std::io::Error,
     },
     /// A problem on a given line (1-based; the header is line 1).
-    #[error("{}: line {line}: {message}", path.display())]
+    #[error("{}: line {line}: {problem}", path.display())]
     Line {
         /// The file.
         path: PathBuf,
         /// Line number.
         line: u64,
-        /// What is wrong.
-        message: String,
+        /// What is wrong, with the offending values.
+        problem: LineProblem,
     },
     /// The matrix cannot be encoded as CSV.
     #[error("{}: cannot encode the matrix: {error}", path.display())]
@@ -355,17 +470,21 @@ impl TableErrors for MatrixFileError {
             error,
         }
     }
-    fn at_line(path: &Path, line: u64, message: String) -> Self {
+    fn malformed(path: &Path, line: u64, error: csv::Error) -> Self {
         MatrixFileError::Line {
             path: path.into(),
             line,
-            message,
+            problem: LineProblem::Csv(error),
         }
     }
 }
 
 fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
-    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let bad = |line: u64, problem: LineProblem| MatrixFileError::Line {
+        path: path.into(),
+        line,
+        problem,
+    };
     let mut table = Table::<MatrixFileError>::read(path, true)?;
     let (header, header_line) = (table.header.clone(), table.header_line);
     if header.is_empty() {
@@ -374,10 +493,7 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
     let names: Vec<String> = header.iter().skip(1).map(str::to_string).collect();
     let n = names.len();
     if n == 0 {
-        return Err(bad(
-            header_line,
-            "the header names no deformation: expected name,<name_1>,...,<name_n>".into(),
-        ));
+        return Err(bad(header_line, LineProblem::NoNames));
     }
     let mut lines = Vec::with_capacity(n);
     let mut values = Vec::with_capacity(n * n);
@@ -385,37 +501,33 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
         let (line, rec) = rec?;
         let i = lines.len();
         if i == n {
-            return Err(bad(
-                line,
-                format!("extra row: the header names {n} deformations, so there must be {n} rows"),
-            ));
+            return Err(bad(line, LineProblem::ExtraRow { n }));
         }
         if rec.len() != n + 1 {
-            return Err(bad(
-                line,
-                format!(
-                    "{} fields, expected {} (a name and {n} distances): the matrix must be square",
-                    rec.len(),
-                    n + 1
-                ),
-            ));
+            return Err(bad(line, LineProblem::FieldCount { fields: rec.len(), n }));
         }
         let name = rec.get(0).unwrap_or("");
         if name != names[i] {
             return Err(bad(
                 line,
-                format!(
-                    "row {} is named {name:?}, but column {} of the header is {:?}: rows must follow the header's order",
-                    i + 1,
-                    i + 1,
-                    names[i]
-                ),
+                LineProblem::RowName {
+                    row: i + 1,
+                    name: name.to_string(),
+                    expected: names[i].clone(),
+                },
             ));
         }
         for (j, text) in rec.iter().skip(1).enumerate() {
-            let v: f64 = text
-                .parse()
-                .map_err(|_| bad(line, format!("column {:?}: {text:?} is not a number", names[j])))?;
+            let v: f64 = text.parse().map_err(|error| {
+                bad(
+                    line,
+                    LineProblem::NotANumber {
+                        column: names[j].clone(),
+                        text: text.to_string(),
+                        error,
+                    },
+                )
+            })?;
             values.push(v);
         }
         lines.push(line);
@@ -428,34 +540,41 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
         });
     }
     DistanceMatrix::new(names.clone(), values).map_err(|e| {
-        let col = |j: usize| names.get(j).map_or(String::new(), |s| format!("{s:?}"));
+        let col = |j: usize| names.get(j).cloned().unwrap_or_default();
         match e {
-            MatrixError::NotFinite { i, j, value } => {
-                bad(lines[i], format!("column {}: {value} is not finite", col(j)))
-            }
-            MatrixError::Negative { i, j, value } => {
-                bad(lines[i], format!("column {}: {value} is negative", col(j)))
-            }
+            MatrixError::NotFinite { i, j, value } => bad(
+                lines[i],
+                LineProblem::NotFinite {
+                    column: col(j),
+                    value,
+                },
+            ),
+            MatrixError::Negative { i, j, value } => bad(
+                lines[i],
+                LineProblem::Negative {
+                    column: col(j),
+                    value,
+                },
+            ),
             MatrixError::Diagonal { i, value } => bad(
                 lines[i],
-                format!("diagonal entry (column {}) is {value}, not zero", col(i)),
+                LineProblem::Diagonal {
+                    column: col(i),
+                    value,
+                },
             ),
             MatrixError::Asymmetric { i, j, a, b } => bad(
                 lines[i],
-                format!(
-                    "column {} is {a} but line {} (row {}) has {b} in column {}: the matrix is not symmetric",
-                    col(j),
-                    lines[j],
-                    col(j),
-                    col(i)
-                ),
+                LineProblem::Asymmetric {
+                    column: col(j),
+                    row: col(i),
+                    a,
+                    b,
+                    other_line: lines[j],
+                },
             ),
-            MatrixError::EmptyName(j) => {
-                bad(header_line, format!("header column {} has an empty name", j + 2))
-            }
-            MatrixError::DuplicateName { name, .. } => {
-                bad(header_line, format!("the name {name:?} occurs twice"))
-            }
+            MatrixError::EmptyName(j) => bad(header_line, LineProblem::EmptyName(j + 2)),
+            MatrixError::DuplicateName { name, .. } => bad(header_line, LineProblem::DuplicateName(name)),
             other => MatrixFileError::Matrix {
                 path: path.into(),
                 error: other,
@@ -475,7 +594,11 @@ fn parse_csv(path: &Path) -> Result<DistanceMatrix, MatrixFileError> {
 /// Errors name the file and line: no such columns, an empty name or label, a name given two
 /// different labels, or no label at all.
 pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError> {
-    let bad = |line: u64, message: String| MatrixFileError::at_line(path, line, message);
+    let bad = |line: u64, problem: LineProblem| MatrixFileError::Line {
+        path: path.into(),
+        line,
+        problem,
+    };
     let mut table = Table::<MatrixFileError>::read(path, true)?;
     let header_line = table.header_line;
     let mut pairs: Vec<(String, String)> = Vec::new();
@@ -486,10 +609,12 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
                 if pairs[k].1 != label {
                     return Err(bad(
                         line,
-                        format!(
-                            "{name:?} has label {label:?} here but {:?} on line {first_line}",
-                            pairs[k].1
-                        ),
+                        LineProblem::LabelChanges {
+                            name,
+                            label,
+                            first: pairs[k].1.clone(),
+                            first_line,
+                        },
                     ));
                 }
             }
@@ -508,28 +633,19 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
             }
         }
     } else {
-        let name_col = find("name").or_else(|| find("deformation")).ok_or_else(|| {
-            bad(
-                header_line,
-                "no name column: a label file has a header with columns name,label (or is a data set manifest)"
-                    .into(),
-            )
-        })?;
-        let label_col = find("label").ok_or_else(|| {
-            bad(
-                header_line,
-                "no label column: a label file has a header with columns name,label".into(),
-            )
-        })?;
+        let name_col = find("name")
+            .or_else(|| find("deformation"))
+            .ok_or_else(|| bad(header_line, LineProblem::NoNameColumn))?;
+        let label_col = find("label").ok_or_else(|| bad(header_line, LineProblem::NoLabelColumn))?;
         for rec in table.rows() {
             let (line, rec) = rec?;
             let name = rec.get(name_col).unwrap_or("");
             let label = rec.get(label_col).unwrap_or("");
             if name.is_empty() {
-                return Err(bad(line, "the name is empty".into()));
+                return Err(bad(line, LineProblem::EmptyRowName));
             }
             if label.is_empty() {
-                return Err(bad(line, format!("{name:?} has an empty label")));
+                return Err(bad(line, LineProblem::EmptyLabel(name.to_string())));
             }
             push(line, name.to_string(), label.to_string())?;
         }
@@ -538,6 +654,21 @@ pub fn read_labels(path: &Path) -> Result<Vec<(String, String)>, MatrixFileError
         return Err(MatrixFileError::NoLabels { path: path.into() });
     }
     Ok(pairs)
+}
+
+/// The symmetric `n x n` matrix (row-major, zero diagonal) of the pair distances.
+pub(crate) fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
+    let mut d = vec![0.0; n * n];
+    for p in pairs {
+        d[p.i * n + p.j] = p.distance;
+        d[p.j * n + p.i] = p.distance;
+    }
+    d
+}
+
+/// The distance matrix (eq. 13) of every pair `i < j` of the deformations `names`.
+pub(crate) fn matrix_of(names: &[String], pairs: &[PairDistance]) -> Result<DistanceMatrix, MatrixError> {
+    DistanceMatrix::new(names.to_vec(), assemble(names.len(), pairs))
 }
 
 #[cfg(test)]

@@ -16,9 +16,10 @@ use crate::mesh::{MeshError, Topology};
 use crate::metric::{Calibration, Metric, MetricSpec};
 use crate::transport::{TransferOptions, TransferSetup, Transport, TransportError};
 
-use super::engine::{Approx, Pose, SimilarityError};
-use super::run::Event;
-use super::Smoothing;
+use super::error::SimilarityError;
+use super::matrix::MatrixError;
+use super::types::{Approx, Event, Pose, Stage};
+use crate::mesh::smooth::Smoothing;
 
 /// Options of the whole pipeline.
 #[derive(Debug, Clone)]
@@ -36,7 +37,7 @@ pub struct PipelineOptions {
     /// [`Transport::Translate`]: it gave lower transfer errors and better classification than
     /// parallel transport in the measurements (README).
     pub transport: Transport,
-    /// Index of the reference deformation whose first pose is the common base (METHOD.md).
+    /// Index of the reference deformation whose first pose is the common base (docs/method.md).
     pub base: usize,
     /// The low-pass filter applied to every pose of every deformation (the base included)
     /// before anything else, one linear operator for every pose, that takes vertex noise out of
@@ -168,18 +169,7 @@ pub enum PipelineError {
     Setting(#[from] crate::limits::LimitError),
     /// The distances do not make a distance matrix (a non-finite or negative distance).
     #[error(transparent)]
-    Matrix(#[from] super::matrix::MatrixError),
-}
-
-/// The pipeline stage a progress report is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stage {
-    /// Temporal interpolation (one report per deformation).
-    Interpolation,
-    /// Transfer to the base (one report per deformation).
-    Transfer,
-    /// Pairwise similarity (one report per pair).
-    Similarity,
+    Matrix(#[from] MatrixError),
 }
 
 /// Deformations ready for comparison: interpolated and transferred to one base.
@@ -198,6 +188,10 @@ pub struct Prepared {
     /// every geodesic of the data set uses the metric [`Prepared::metric`] builds with them,
     /// so distances are in the metric's units ([`crate::metric::MetricScale`]).
     pub calibration: Calibration,
+    /// The metric of [`PipelineOptions::metric`] with [`Prepared::calibration`], built once by
+    /// [`prepare`]: the interpolation, the transfer and the pairs of [`Prepared::comparison`]
+    /// all use it.
+    pub run_metric: Arc<dyn Metric>,
     /// Interpolated deformations before transfer, after the alignment of
     /// [`PipelineOptions::align`] (#deformations x #poses x #V x 3; input units).
     pub interpolated: Vec<Vec<Pose>>,
@@ -215,7 +209,8 @@ pub struct Prepared {
 }
 
 impl Prepared {
-    /// The metric `spec` with this data set's [`Prepared::calibration`].
+    /// The metric `spec` with this data set's [`Prepared::calibration`] (a new one; the run's
+    /// own is [`Prepared::run_metric`]).
     pub fn metric(&self, spec: &MetricSpec) -> Box<dyn Metric> {
         spec.build(&self.calibration)
     }
@@ -306,7 +301,8 @@ pub fn prepare(
         .metric
         .calibrate(&topo, &[&scaled_base])
         .map_err(GeodesicError::from)?;
-    let metric = opts.metric.build(&calibration);
+    // The run's one metric: interpolation, transfer and the pairs ([`Prepared::comparison`]).
+    let metric: Arc<dyn Metric> = Arc::from(opts.metric.build(&calibration));
     let mut converged = true;
 
     // Placement on the base (the deformation's own motion is kept).
@@ -352,8 +348,9 @@ pub fn prepare(
     converged &= interpolated.iter().all(|x| x.3);
 
     // Transfer to the base.
-    let setup = TransferSetup::new(
+    let setup = TransferSetup::with_metric(
         &opts.metric,
+        metric.clone(),
         &calibration,
         topo.clone(),
         TransferOptions {
@@ -394,6 +391,7 @@ pub fn prepare(
         topology: topo,
         factor,
         calibration,
+        run_metric: metric,
         interpolation_seconds: interpolated.iter().map(|x| x.2).collect(),
         interpolated: interpolated.into_iter().map(|x| x.0).collect(),
         is_key,

@@ -5,7 +5,8 @@
 //! the deformations to compare ([`Comparison`], e.g. [`Prepared::comparison`]), the pipeline
 //! options, which pairs ([`Selection`]: all, one shard, a list), where finished pairs are
 //! recorded ([`Sink`]: memory, or a journal file a later run resumes from), a cancel flag and one
-//! event callback ([`Event`]). [`compute`] builds the metric and the geodesic solver once and
+//! event callback ([`Event`]). [`compute`] builds the geodesic solver once with the metric the
+//! caller built once ([`Comparison::metric`]) and
 //! returns an [`Outcome`]; [`similarity_matrix`] is [`prepare`] followed by [`compute`].
 
 use std::collections::HashSet;
@@ -16,13 +17,15 @@ use std::sync::Arc;
 use crate::dataset::Deformation;
 use crate::geodesic::GeodesicSolver;
 use crate::mesh::Topology;
-use crate::metric::Calibration;
+use crate::metric::Metric;
 
-use super::engine::{all_pairs, compute_listed_pairs, PairDistance, Pose, SimilarityError};
+use super::engine::compute_listed_pairs;
+use super::error::SimilarityError;
 use super::journal::{fingerprint, Journal};
-use super::matrix::{DistanceMatrix, MatrixError};
-use super::pipeline::{prepare, settings_key, PipelineError, PipelineOptions, Prepared, Stage};
+use super::matrix::{matrix_of, DistanceMatrix};
+use super::pipeline::{prepare, settings_key, PipelineError, PipelineOptions, Prepared};
 use super::shard::Shard;
+use super::types::{all_pairs, Event, PairDistance, Pose};
 
 /// Which pairs `(i, j)`, `i < j`, of the n deformations a run computes.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -54,33 +57,6 @@ pub enum Sink {
         /// Keep the pairs an earlier run recorded there.
         resume: bool,
     },
-}
-
-/// What a run reports while it works, to one callback (called from worker threads).
-#[derive(Debug, Clone, Copy)]
-pub enum Event<'a> {
-    /// A deformation finished a stage of [`prepare`] (interpolation or transfer).
-    Prepared {
-        /// The stage.
-        stage: Stage,
-        /// The deformation's name.
-        name: &'a str,
-    },
-    /// The journal is open, before any pair is computed.
-    Journal {
-        /// The journal file.
-        path: &'a Path,
-        /// Pairs read back from an earlier run (0 without `resume`).
-        recorded: usize,
-        /// Records of the earlier run dropped because they failed their checksum (recomputed).
-        dropped: usize,
-        /// Pairs of the selection.
-        total: usize,
-        /// An earlier journal existed and was started over (no `resume`).
-        discarded: bool,
-    },
-    /// A pair finished (its distances are final and, with a journal sink, recorded).
-    Pair(&'a PairDistance),
 }
 
 /// How to run: which pairs, where they go, cancellation and progress.
@@ -118,9 +94,10 @@ pub struct Comparison<'a> {
     pub names: &'a [String],
     /// The shared connectivity.
     pub topology: Arc<Topology>,
-    /// The metric's factors, calibrated at the base in the solver's coordinates
-    /// ([`crate::metric::MetricSpec::calibrate`]).
-    pub calibration: &'a Calibration,
+    /// The run's metric, built once by the caller from the options' metric and its factors
+    /// calibrated at the base in the solver's coordinates
+    /// ([`crate::metric::MetricSpec::calibrate`]); [`compute`] uses it as given.
+    pub metric: &'a dyn Metric,
     /// The factor every coordinate is multiplied by before solving (1 / mean edge of the base;
     /// 1 for poses already in the solver's coordinates).
     pub factor: f64,
@@ -134,7 +111,7 @@ impl Prepared {
         Comparison {
             names: &self.names,
             topology: self.topology.clone(),
-            calibration: &self.calibration,
+            metric: self.run_metric.as_ref(),
             factor: self.factor,
             poses: &self.transferred,
         }
@@ -179,8 +156,8 @@ pub fn journal_path(output: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// The similarity (eq. 13) of the selected pairs of `input`, with the metric, solver and
-/// approximation of `opts`: the metric and the solver's symbolic factorization are built once,
+/// The similarity (eq. 13) of the selected pairs of `input`, with the metric of `input` and the
+/// solver and approximation of `opts`: the solver's symbolic factorization is built once,
 /// pairs run in parallel on the current rayon pool, each is recorded in the sink as it
 /// finishes. The distances do not depend on the sink, the selection, the thread count or a
 /// resume: the same pair gives the same bits.
@@ -209,15 +186,19 @@ pub fn compute(
             let settings = settings_key(opts);
             let key = fingerprint(input.names, input.poses, &settings);
             let existed = path.exists();
+            // Records of another pose count than this run's are dropped and recomputed.
+            let poses = input.poses.first().map(Vec::len);
             let (journal, recorded) = match &run.selection {
-                Selection::All => Journal::open(path, key, &settings, n, *resume)?,
-                Selection::Shard(s) => Journal::open_shard(path, key, &settings, input.names, *s, *resume)?,
+                Selection::All => Journal::open(path, key, &settings, n, poses, *resume)?,
+                Selection::Shard(s) => {
+                    Journal::open_shard(path, key, &settings, input.names, poses, *s, *resume)?
+                }
                 Selection::Listed(_) => return Err(SimilarityError::ListedNotJournaled.into()),
             };
             (run.events)(Event::Journal {
                 path,
                 recorded: recorded.len(),
-                dropped: journal.dropped(),
+                dropped: journal.dropped_records(),
                 total: todo.len(),
                 discarded: existed && !*resume,
             });
@@ -237,8 +218,7 @@ pub fn compute(
                 .collect()
         })
         .collect();
-    let metric = opts.metric.build(input.calibration);
-    let solver = GeodesicSolver::new(metric.as_ref(), input.topology.clone(), opts.geodesic.clone())?;
+    let solver = GeodesicSolver::new(input.metric, input.topology.clone(), opts.geodesic.clone())?;
     let fresh = compute_listed_pairs(
         &solver,
         opts.approx,
@@ -272,21 +252,6 @@ pub fn compute(
         journal,
         keep_journal: matches!(run.selection, Selection::Shard(_)),
     })
-}
-
-/// The symmetric `n x n` matrix (row-major, zero diagonal) of the pair distances.
-pub(crate) fn assemble(n: usize, pairs: &[PairDistance]) -> Vec<f64> {
-    let mut d = vec![0.0; n * n];
-    for p in pairs {
-        d[p.i * n + p.j] = p.distance;
-        d[p.j * n + p.i] = p.distance;
-    }
-    d
-}
-
-/// The distance matrix (eq. 13) of every pair `i < j` of the deformations `names`.
-pub(crate) fn matrix_of(names: &[String], pairs: &[PairDistance]) -> Result<DistanceMatrix, MatrixError> {
-    DistanceMatrix::new(names.to_vec(), assemble(names.len(), pairs))
 }
 
 /// The whole pipeline of the paper (Fig. 1, eq. 13) on raw deformations: [`prepare`]
@@ -348,10 +313,11 @@ mod tests {
         let base: Pose = defs[0][0].iter().map(|p| p.map(|c| c * factor)).collect();
         let opts = options();
         let calibration = opts.metric.calibrate(&topo, &[&base]).unwrap();
+        let metric = opts.metric.build(&calibration);
         let input = Comparison {
             names: &names,
             topology: topo,
-            calibration: &calibration,
+            metric: metric.as_ref(),
             factor,
             poses: &defs,
         };

@@ -3,7 +3,7 @@
 //! a path's energy, the distance measures L2 displacement more than the metric's own geometry;
 //! the commands print this summary and warn when it is so for most pairs.
 
-use super::engine::PairDistance;
+use super::types::PairDistance;
 
 /// The distribution of the L2 regularizer's energy share over the pairs of a matrix
 /// ([`PairDistance::regularizer_share`], each in [0, 1]).

@@ -34,7 +34,8 @@
 
 use rayon::prelude::*;
 
-use super::engine::{Pose, SimilarityError};
+use super::error::SimilarityError;
+use super::types::Pose;
 use crate::geodesic::dot;
 use crate::mesh::Topology;
 use crate::metric::{At, Jacobian, Metric, Segment};

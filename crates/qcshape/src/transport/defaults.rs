@@ -13,8 +13,3 @@ pub const TRANSPORT: Transport = Transport::Translate;
 /// Placement of each deformation on the base before transfer: rigid (area-weighted Procrustes
 /// of its first pose onto the base, the same motion for all its poses).
 pub const ALIGN: Alignment = Alignment::Rigid;
-
-/// Transport of `lv run`: parallel, the paper's section 4 pipeline, with which
-/// the README's LV tables were measured (euclidean gave the same splits on the five harder
-/// phantom cohorts).
-pub const LV_TRANSPORT: Transport = Transport::Parallel;

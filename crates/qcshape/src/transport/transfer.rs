@@ -98,7 +98,7 @@ impl Default for TransferOptions {
 /// Diagnostics of one transferred segment `X_k -> Y_k`.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct SegmentReport {
-    /// Length of `gamma_k` (normalized units; 0 for Euclidean transfer).
+    /// Length of `gamma_k` (the metric's units; 0 for Euclidean transfer).
     pub geodesic_length: f64,
     /// Iterations of the geodesic solver.
     pub geodesic_iterations: usize,
@@ -140,7 +140,7 @@ pub struct Transferred {
 /// transport metric (its quadratic companion) and the options. `Send + Sync`.
 #[derive(Debug)]
 pub struct TransferSetup {
-    metric: Box<dyn Metric>,
+    metric: Arc<dyn Metric>,
     transport: TransportMetric,
     topo: Arc<Topology>,
     options: TransferOptions,
@@ -157,9 +157,29 @@ impl TransferSetup {
         topo: Arc<Topology>,
         options: TransferOptions,
     ) -> Result<Self, TransportError> {
-        spec.validate().and_then(|_| options.geodesic.validate())?;
+        spec.validate()?;
+        Self::with_metric(
+            spec,
+            Arc::from(spec.build(calibration)),
+            calibration,
+            topo,
+            options,
+        )
+    }
+
+    /// [`TransferSetup::new`] with the metric of the geodesics already built (`spec` with the
+    /// factors `calibration`), so that a run that builds its metric once passes it down
+    /// (`crate::similarity::prepare`). Errors on invalid geodesic options.
+    pub fn with_metric(
+        spec: &MetricSpec,
+        metric: Arc<dyn Metric>,
+        calibration: &Calibration,
+        topo: Arc<Topology>,
+        options: TransferOptions,
+    ) -> Result<Self, TransportError> {
+        options.geodesic.validate()?;
         Ok(TransferSetup {
-            metric: spec.build(calibration),
+            metric,
             transport: TransportMetric::new(spec, calibration, topo.clone()),
             topo,
             options,
