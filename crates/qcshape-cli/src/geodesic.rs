@@ -172,7 +172,14 @@ fn run_in_pool(args: &Args) -> Result<()> {
     }
     crate::progress::start(&pb);
     let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::Factor(factor));
-    pb.finish_and_clear();
+    crate::progress::finish_with_line(
+        &pb,
+        &format!(
+            "solving: {} iterations, done in {:.1} s",
+            crate::progress::iterations(),
+            pb.elapsed().as_secs_f64()
+        ),
+    );
     let g = g?;
     let share = g.regularizer_share();
     if share > 0.5 {

@@ -196,6 +196,16 @@ pub(crate) fn start(pb: &ProgressBar) {
     }
 }
 
+/// Clears `pb` and, in the plain-line mode when it ran at least one interval (so lines of it
+/// were printed), prints `last` as its closing line (a solve that ends between two lines still
+/// says where it ended).
+pub(crate) fn finish_with_line(pb: &ProgressBar, last: &str) {
+    pb.finish_and_clear();
+    if !is_quiet() && !std::io::stderr().is_terminal() && pb.elapsed() >= line_interval() {
+        eprintln!("{last}");
+    }
+}
+
 /// A progress bar of `len` steps labelled `what`.
 pub(crate) fn bar(len: usize, what: &str) -> ProgressBar {
     let pb = new_bar(len);

@@ -394,11 +394,14 @@ fn a_single_geodesic_logs_its_iterations() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let err = String::from_utf8_lossy(&out.stderr);
     let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("solving: ")).collect();
-    assert!(!lines.is_empty(), "{err}");
+    // At least one line while it runs, and a closing line with the count and the time.
+    assert!(lines.len() >= 2, "{err}");
+    let (last, running) = lines.split_last().unwrap();
     assert!(
-        lines
+        running
             .iter()
             .all(|l| l.contains(" of at most ") && l.contains("iterations/s")),
         "{err}"
     );
+    assert!(last.contains("iterations, done in"), "{err}");
 }
