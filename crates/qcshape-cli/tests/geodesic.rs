@@ -405,3 +405,50 @@ fn a_single_geodesic_logs_its_iterations() {
     );
     assert!(last.contains("iterations, done in"), "{err}");
 }
+
+/// Issue 60, item 2: Ctrl-C (SIGINT) ends a long single geodesic at once (the command installs
+/// no handler: the signal ends the process) and leaves no output behind.
+#[cfg(unix)]
+#[test]
+fn sigint_ends_a_long_geodesic_within_a_second() {
+    use std::io::BufRead;
+    use std::os::unix::process::ExitStatusExt;
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("path");
+    let mut child = qcshape()
+        .args(["geodesic", "--demo", "--demo-level", "5", "--out"])
+        .arg(&out_dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // The first line is printed when the solve starts (10,242 vertices: minutes of work).
+    let mut first = String::new();
+    std::io::BufReader::new(child.stderr.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("solving"), "{first}");
+    std::thread::sleep(Duration::from_secs(1));
+    assert!(child.try_wait().unwrap().is_none(), "the solve ended before the signal");
+    let sent = Instant::now();
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if sent.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("still running 30 s after SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let latency = sent.elapsed();
+    assert_eq!(status.signal(), Some(2), "{status:?}");
+    assert!(latency < Duration::from_secs(1), "{latency:?}");
+    assert!(!out_dir.exists(), "an interrupted solve wrote {}", out_dir.display());
+}
