@@ -38,6 +38,11 @@ pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf, point_data: bool) -> PyRes
             error: qcshape::mesh::MeshError::NoFaces,
         }));
     }
+    // The reader's remarks (fan-triangulated polygons, ignored trailing data, welded STL
+    // corners), as `qcshape info` lists them: not silent (issue 60).
+    for w in &m.warnings {
+        crate::warn::warn(py, &format!("{}: {w}", path.display()))?;
+    }
     let v = points_out(py, &m.positions)?;
     let f = faces_out(py, &m.faces)?;
     if !point_data {
@@ -256,6 +261,7 @@ impl PyDataset {
         let d = py
             .detach(|| Dataset::from_manifest(&path))
             .map_err(errors::dataset)?;
+        reader_warnings(py, &d)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
             fit_quality: None,
@@ -277,6 +283,7 @@ impl PyDataset {
             return fitted(py, &path, template);
         }
         let d = py.detach(|| Dataset::load(&path)).map_err(errors::dataset)?;
+        reader_warnings(py, &d)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
             fit_quality: None,
@@ -412,6 +419,17 @@ impl PyDataset {
             self.n_vertices()
         )
     }
+}
+
+/// The mesh readers' remarks on a data set's files (fan-triangulated polygons, ...), one
+/// `QcshapeWarning` each, as `qs.read_mesh` gives them.
+fn reader_warnings(py: Python<'_>, d: &Dataset) -> PyResult<()> {
+    for def in &d.deformations {
+        for w in &def.warnings {
+            crate::warn::warn(py, &format!("deformation {:?}: {w}", def.name))?;
+        }
+    }
+    Ok(())
 }
 
 /// `opts` with the monitor of `w` on its geodesics: Ctrl-C stops a solve between two iterations.

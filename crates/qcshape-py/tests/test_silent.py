@@ -67,3 +67,12 @@ def test_geodesic_flags_an_unconverged_distance(pair):
     VA, VB, F = pair
     g, msgs = caught(lambda: qs.ShapeSpace(F, metric="conformal").geodesic(VA, VB, steps=2))
     assert g.converged is True and not any("iteration limit" in m for m in msgs)
+
+
+def test_a_quad_file_is_triangulated_with_a_warning(tmp_path):
+    # Issue 60: quad files were triangulated silently while quad mesh objects are refused.
+    obj = tmp_path / "quad.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 4 3 2\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n")
+    (V, F), msgs = caught(lambda: qs.read_mesh(str(obj)))
+    assert F.shape == (6, 3)
+    assert len(msgs) == 1 and "quad.obj: fan-triangulated 1 polygon(s)" in msgs[0]

@@ -66,7 +66,8 @@ def _flat_faces(flat: Any, what: str) -> np.ndarray:
         if n != 3:
             raise ValueError(
                 f"faces: {what} face {face} has {n} corners, not 3: qcshape needs triangles "
-                "(call mesh.triangulate() on a pyvista mesh first)"
+                "(call mesh.triangulate() on a pyvista mesh first; qcshape.read_mesh triangulates "
+                "a file's polygons and warns that it did)"
             )
         pos += 4
         face += 1
@@ -100,7 +101,8 @@ def _meshio_arrays(obj: Any) -> Tuple[np.ndarray, np.ndarray]:
         elif kind in _OTHER_SURFACE_CELLS:
             raise ValueError(
                 f"faces: the meshio mesh has {len(data)} '{kind}' cells: qcshape needs triangles "
-                "(triangulate them first, e.g. read the file with qcshape.read_mesh)"
+                "(triangulate them first, e.g. read the file with qcshape.read_mesh, which "
+                "triangulates polygons and warns that it did)"
             )
     if not blocks:
         kinds = ", ".join(sorted({b.type for b in obj.cells})) or "none"
