@@ -168,32 +168,19 @@ fn run_in_pool(args: &Args) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     // Euclidean transport translates: it uses neither the metric nor geodesics.
     let translate = args.transport == qcshape::transport::Transport::Translate;
-    if translate {
-        eprintln!(
-            "transferring {} deformation(s) to {} ({} vertices) with {} transport: N_k = N_0 + M_k - \
-             M_0, no metric and no geodesic ...",
-            deformations.len(),
-            args.to.display(),
-            base.n_vertices(),
-            args.transport.label(),
-        );
-    } else {
-        eprintln!(
-            "transferring {} deformation(s) to {} ({} vertices) with {} transport, {}, N = {} ...",
-            deformations.len(),
-            args.to.display(),
-            base.n_vertices(),
-            args.transport.label(),
-            spec.label(),
-            args.solver.steps
-        );
-        if !args.json {
-            eprintln!(
-                "per deformation: the longest geodesic the transport solved (mean-edge units), the \
-                 largest relative change of a displacement's norm |out/in - 1|, the largest \
-                 inner-product / norm residuals of the transport, and whether every geodesic converged"
-            );
-        }
+    let how = match translate {
+        true => "N_k = N_0 + M_k - M_0, no metric and no geodesic".to_string(),
+        false => format!("{}, N = {}", spec.label(), args.solver.steps),
+    };
+    eprintln!(
+        "transferring {} deformation(s) to {} ({} vertices) with {} transport, {how} ...",
+        deformations.len(),
+        args.to.display(),
+        base.n_vertices(),
+        args.transport.label(),
+    );
+    if !translate && !args.json {
+        eprintln!("per deformation: the longest geodesic the transport solved (mean-edge units), the largest relative change of a displacement's norm |out/in - 1|, the largest inner-product / norm residuals of the transport, and whether every geodesic converged");
     }
     let pb = progress(deformations.len());
     let mut rows = Vec::new();
@@ -257,13 +244,14 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "seconds": out.seconds,
         });
         if !args.json && translate {
+            let line = format!(
+                "{:<20} poses {:>3}  translated  {:.2}s",
+                d.name,
+                out.poses.len(),
+                out.seconds
+            );
             pb.suspend(|| -> anyhow::Result<()> {
-                outln!(
-                    "{:<20} poses {:>3}  translated  {:.2}s",
-                    d.name,
-                    out.poses.len(),
-                    out.seconds
-                );
+                outln!("{line}");
                 Ok(())
             })?;
         } else if !args.json {

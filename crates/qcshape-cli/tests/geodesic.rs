@@ -430,7 +430,10 @@ fn sigint_ends_a_long_geodesic_within_a_second() {
         .unwrap();
     assert!(first.starts_with("solving"), "{first}");
     std::thread::sleep(Duration::from_secs(1));
-    assert!(child.try_wait().unwrap().is_none(), "the solve ended before the signal");
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the solve ended before the signal"
+    );
     let sent = Instant::now();
     let kill = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
@@ -450,5 +453,9 @@ fn sigint_ends_a_long_geodesic_within_a_second() {
     let latency = sent.elapsed();
     assert_eq!(status.signal(), Some(2), "{status:?}");
     assert!(latency < Duration::from_secs(1), "{latency:?}");
-    assert!(!out_dir.exists(), "an interrupted solve wrote {}", out_dir.display());
+    assert!(
+        !out_dir.exists(),
+        "an interrupted solve wrote {}",
+        out_dir.display()
+    );
 }
