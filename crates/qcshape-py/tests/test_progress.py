@@ -157,7 +157,7 @@ def test_a_single_geodesic_logs_iteration_lines():
     assert len(lines) >= 3, err
     # Count, limit and rate; the last line the count and the time.
     assert " of at most " in lines[0] and ("/s" in lines[0] or "/min" in lines[0]), lines
-    assert ", done in " in lines[-1], lines
+    assert lines[-1].startswith("qcshape: iterations ") and " in " in lines[-1] and " of at most " not in lines[-1], lines
     assert "\r" not in err
 
 

@@ -148,7 +148,7 @@ class _Plain:
     the stage finished so far (done / time since the stage began), so the estimate does not
     jump while an item runs. Solver iterations (stage "iterations") have no time left (a solver
     stops when it converges, not at a count): the line gives the count, the iteration limit
-    and the rate, and the display's end the count and the time."""
+    and the rate, and the display's end (a converged solve or an interrupt) the count and the time."""
 
     def __init__(self, stream, final):
         self.stream = stream
@@ -199,5 +199,6 @@ class _Plain:
         if "iterations" in self.counts and (self.final or "iterations" in self.printed):
             done, _ = self.counts["iterations"]
             took = _duration(time.monotonic() - self.began["iterations"])
-            self.stream.write(f"qcshape: iterations {done}, done in {took}\n")
+            # Also after Ctrl-C: the count where the solver stopped, not "done".
+            self.stream.write(f"qcshape: iterations {done} in {took}\n")
             self.stream.flush()
