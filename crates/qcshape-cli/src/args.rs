@@ -148,6 +148,8 @@ impl SolverArgs {
             gradient_tolerance: self.tolerance,
             energy_tolerance: self.energy_tolerance,
             length_tolerance: self.length_tolerance,
+            // Counts solver iterations for the progress lines.
+            monitor: Some(crate::progress::monitor()),
             ..Default::default()
         };
         g.validate().map_err(flag_error)?;

@@ -139,7 +139,7 @@ pub fn run(args: &Args) -> Result<()> {
         }
         std::fs::create_dir_all(args.out.join(&folder))?;
         for (k, f) in fitted.iter().enumerate() {
-            let rel = PathBuf::from(&folder).join(format!("pose{k}.{}", args.format.extension()));
+            let rel = PathBuf::from(&folder).join(format!("pose{k:03}.{}", args.format.extension()));
             let attrs = VertexAttributes {
                 scalar: args
                     .format
@@ -167,10 +167,12 @@ pub fn run(args: &Args) -> Result<()> {
     let manifest_path = args.out.join(MANIFEST_NAME);
     write_manifest(&manifest_path, &manifest)?;
     outln!(
-        "fitted {} ({} vertices) to {total} poses of {} deformations{}; worst mean distance {:.3} edge lengths, {} poor; wrote {} and {}",
+        "fitted {} ({} vertices) to {total} pose{} of {} deformation{}{}; worst mean distance {:.3} edge lengths, {} poor; wrote {} and {}",
         args.template.display(),
         template.n_vertices(),
+        if total == 1 { "" } else { "s" },
         groups.len(),
+        if groups.len() == 1 { "" } else { "s" },
         if args.sequence { " (tracked)" } else { "" },
         tally.worst,
         tally.poor,

@@ -155,26 +155,54 @@ fn run_in_pool(args: &Args) -> Result<()> {
         a.n_vertices(),
         opts.steps
     );
-    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::Factor(factor))?;
+    // Every warning goes to stderr and into --json's "warnings".
+    let mut warnings = Vec::new();
+    if let Some((la, lb)) = qcshape::space::size_mismatch(&a.topology, &a.positions, &b.positions) {
+        eprintln!("warning: {}", size_warning(la, lb));
+        warnings.push(size_warning(la, lb));
+    }
+    let before_solve = warnings.len();
+    // Solver iterations, at least every 10 s in a log (the first line once an interval passed).
+    let limit = opts.iteration_limit(a.n_vertices());
+    let pb = crate::progress::new_bar(limit);
+    if let Some(style) = crate::progress::style(
+        "solving: {iterations} of at most {len} iterations, {rate} [{elapsed_precise}]",
+    ) {
+        pb.set_style(style);
+    }
+    crate::progress::start(&pb);
+    let g = geodesic(metric.as_ref(), &a, &b, &opts, Normalization::Factor(factor));
+    crate::progress::finish_with_line(
+        &pb,
+        &format!(
+            "solving: {} iterations, done in {:.1} s",
+            crate::progress::iterations(),
+            pb.elapsed().as_secs_f64()
+        ),
+    );
+    let g = g?;
     let share = g.regularizer_share();
     if share > 0.5 {
-        eprintln!(
-            "warning: the L2 regularizer carries {:.0} % of the energy: this {} distance measures \
+        warnings.push(format!(
+            "the L2 regularizer carries {:.0} % of the energy: this {} distance measures \
              L2 displacement more than its own geometry (lower --lambda)",
             100.0 * share,
             spec.kind.label()
-        );
+        ));
     }
     if g.stop == StopReason::MaxIterations {
         let hint = opts
             .solver
             .stall_hint()
             .map(|h| format!(" ({h}: --max-iterations)"));
-        eprintln!(
-            "warning: the solver stopped at its iteration limit after {} iterations{}",
+        warnings.push(format!(
+            "the solver stopped at its iteration limit after {} iterations{}: the distance is not converged",
             g.iterations,
             hint.unwrap_or_default()
-        );
+        ));
+    }
+    for w in &warnings[before_solve..] {
+        eprintln!("warning: {w}");
     }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -208,6 +236,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "iterations": g.iterations,
             "converged": g.converged,
             "stop": g.stop,
+            "warnings": warnings,
             "gradient_norm": g.gradient_norm,
             "scale": g.scale,
             "normalization": "mean-edge units: coordinates times scale, scale = 1 / mean of the mean edge lengths of A and B",
@@ -237,8 +266,33 @@ fn run_in_pool(args: &Args) -> Result<()> {
             100.0 * share
         );
         outln!("iterations  {}", g.iterations);
-        outln!("converged   {} ({:?})", g.converged, g.stop);
+        outln!(
+            "converged   {} ({:?}){}",
+            g.converged,
+            g.stop,
+            if g.converged {
+                ""
+            } else {
+                ": the distance is not converged"
+            }
+        );
         outln!("seconds     {:.3}", g.seconds);
     }
     Ok(())
+}
+
+/// The warning for poses whose mean edge lengths `la` (A's) and `lb` (B's), in the files'
+/// units, differ by more than [`qcshape::space::SIZE_RATIO_WARNING`].
+fn size_warning(la: f64, lb: f64) -> String {
+    let num = |x: f64| qcshape::numfmt::significant(x, 3);
+    format!(
+        "A's mean edge length ({}) and B's ({}) differ by a factor of {} (more than {}), in the \
+         files' own units: are they in the same units (e.g. metres and millimetres)? Both are \
+         divided by the mean of the two (mean-edge units), so the smaller shape is nearly a point; \
+         such a geodesic converges slowly and `geodesic A B` and `geodesic B A` can differ",
+        num(la),
+        num(lb),
+        num(la.max(lb) / la.min(lb)),
+        qcshape::space::SIZE_RATIO_WARNING
+    )
 }

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use indicatif::ProgressStyle;
 use qcshape::dataset::{Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
@@ -111,6 +110,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         gradient_tolerance: args.tolerance,
         energy_tolerance: args.energy_tolerance,
         max_iterations: args.max_iterations,
+        monitor: Some(crate::progress::monitor()),
         ..Default::default()
     };
     geodesic.validate().map_err(flag_error)?;
@@ -133,10 +133,9 @@ fn run_in_pool(args: &Args) -> Result<()> {
         spec.label()
     );
     let bar = crate::progress::new_bar(n_pairs);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} pairs, {elapsed} (eta {eta})")
-            .expect("valid progress template"),
-    );
+    if let Some(style) = crate::progress::style("{bar:40} {pos}/{len} pairs, {elapsed} (eta {eta}{solver})") {
+        bar.set_style(style);
+    }
     crate::progress::start(&bar);
     // One interpolator (hierarchy and solvers) per distinct topology.
     let mut interpolators: Vec<(Arc<Topology>, Interpolator)> = Vec::new();

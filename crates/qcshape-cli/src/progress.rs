@@ -1,17 +1,24 @@
 //! Progress on stderr for the library's progress callbacks, in three modes: bars with an ETA when
 //! stderr is a terminal; plain lines (`step  done/total [elapsed, ETA]`) at most every 10 s
 //! (`QCSHAPE_PROGRESS_SECONDS` overrides the interval) when it is not, so that the log of a batch
-//! job shows where a run is; nothing with `--quiet`.
+//! job shows where a run is; nothing with `--quiet`. The ETA is the time left at the average
+//! rate of everything finished so far (`{eta}` of [`style`]), so it does not jump while one
+//! slow item runs; the solver iterations of the command ([`monitor`], on every geodesic's
+//! options) are shown beside (`{solver}`), so a line appears while the first item is still
+//! being solved.
 
 use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
+use indicatif::{ProgressBar, ProgressDrawTarget, TermLike};
 use qcshape::similarity::{Event, Stage};
 
 static QUIET: AtomicBool = AtomicBool::new(false);
+
+mod keys;
+pub(crate) use keys::{iterations, monitor, style};
 
 /// Silences every progress bar and line (the global `--quiet`).
 pub(crate) fn set_quiet(quiet: bool) {
@@ -53,7 +60,8 @@ fn nothing_done(line: &str) -> bool {
 impl LogLines {
     fn emit(&self, s: &str) -> std::io::Result<()> {
         let s = s.trim();
-        if s.is_empty() || nothing_done(s) {
+        // A line with no item done is still news while the solver iterates.
+        if s.is_empty() || (nothing_done(s) && iterations() == 0) {
             return Ok(());
         }
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
@@ -123,12 +131,20 @@ pub(crate) fn start(pb: &ProgressBar) {
     }
 }
 
+/// Clears `pb` and, in the plain-line mode when it ran at least one interval (so lines of it
+/// were printed), prints `last` as its closing line (a solve that ends between two lines still
+/// says where it ended).
+pub(crate) fn finish_with_line(pb: &ProgressBar, last: &str) {
+    pb.finish_and_clear();
+    if !is_quiet() && !std::io::stderr().is_terminal() && pb.elapsed() >= line_interval() {
+        eprintln!("{last}");
+    }
+}
+
 /// A progress bar of `len` steps labelled `what`.
 pub(crate) fn bar(len: usize, what: &str) -> ProgressBar {
     let pb = new_bar(len);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>14} {bar:40} {pos}/{len} [{elapsed_precise}, ETA {eta}]")
-    {
+    if let Some(style) = style("{msg:>14} {bar:40} {pos}/{len} [{elapsed_precise}, ETA {eta}{solver}]") {
         pb.set_style(style);
     }
     pb.set_message(what.to_string());

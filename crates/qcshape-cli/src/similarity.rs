@@ -17,9 +17,10 @@ use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares
 /// Every deformation is interpolated (--insert poses between consecutive key poses), carried
 /// to one common base (the first pose of --base, default the first deformation) by --transport,
 /// and `similarity(M, N) = sum_i dis(M_i, N_i)` over corresponding poses (eq. 13) is computed for
-/// every pair, pairs in parallel. Distances are dimensionless on the default invariant scale
-/// (rates of relative change, the same at any size and resolution); with --scale calibrated or
-/// raw they are in mean-edge units (coordinates divided by the mean edge length of the base pose).
+/// every pair, pairs in parallel. Units: with the default --scale invariant every term is a
+/// relative rate, so distances are dimensionless (they do not change when the shapes are scaled
+/// or the mesh refined); with --scale calibrated or raw they are in mean-edge units
+/// (coordinates divided by the mean edge length of the base pose).
 ///
 /// The L2 regularizer's share of each pair's path energy is summarized on stderr (min, median,
 /// max, pairs above 50 %), with a warning when it is above one half for more than half of the
@@ -138,9 +139,27 @@ fn run_in_pool(args: &Args) -> Result<()> {
         }
     }
     let opts = args.pipeline.options(&data)?;
+    // Different pose counts are refused by the pipeline; refused here, before the summary line
+    // claims one count for all.
+    let base = &data.deformations[opts.base];
+    if let Some(d) = data
+        .deformations
+        .iter()
+        .find(|d| d.poses.len() != base.poses.len())
+    {
+        bail!(
+            "{}: deformation {:?} has {} poses but {:?} has {}: all deformations need the same \
+             number of key poses",
+            args.input.display(),
+            d.name,
+            d.poses.len(),
+            base.name,
+            base.poses.len()
+        );
+    }
     eprintln!(
         "{n} deformations, {} poses each, {} vertices; {}",
-        data.deformations[0].poses.len(),
+        base.poses.len(),
         data.deformations[0].topology.n_vertices(),
         opts.metric.label()
     );

@@ -108,7 +108,7 @@ fn folder_for(name: &str) -> String {
 
 fn progress(n: usize) -> indicatif::ProgressBar {
     let pb = crate::progress::new_bar(n);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]") {
+    if let Some(style) = crate::progress::style("{bar:40} {pos}/{len} {msg} [{elapsed}, ETA {eta}{solver}]") {
         pb.set_style(style);
     }
     crate::progress::start(&pb);
@@ -166,15 +166,22 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let setup = TransferSetup::new(&spec, &calibration, base.topology.clone(), options)?;
     let transfer = setup.solver()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // Euclidean transport translates: it uses neither the metric nor geodesics.
+    let translate = args.transport == qcshape::transport::Transport::Translate;
+    let how = match translate {
+        true => "N_k = N_0 + M_k - M_0, no metric and no geodesic".to_string(),
+        false => format!("{}, N = {}", spec.label(), args.solver.steps),
+    };
     eprintln!(
-        "transferring {} deformation(s) to {} ({} vertices) with {} transport, {}, N = {} ...",
+        "transferring {} deformation(s) to {} ({} vertices) with {} transport, {how} ...",
         deformations.len(),
         args.to.display(),
         base.n_vertices(),
         args.transport.label(),
-        spec.label(),
-        args.solver.steps
     );
+    if !translate && !args.json {
+        eprintln!("per deformation: the longest geodesic the transport solved (mean-edge units), the largest relative change of a displacement's norm |out/in - 1|, the largest inner-product / norm residuals of the transport, and whether every geodesic converged");
+    }
     let pb = progress(deformations.len());
     let mut rows = Vec::new();
     let mut summaries = Vec::new();
@@ -236,7 +243,18 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "scale": out.scale,
             "seconds": out.seconds,
         });
-        if !args.json {
+        if !args.json && translate {
+            let line = format!(
+                "{:<20} poses {:>3}  translated  {:.2}s",
+                d.name,
+                out.poses.len(),
+                out.seconds
+            );
+            pb.suspend(|| -> anyhow::Result<()> {
+                outln!("{line}");
+                Ok(())
+            })?;
+        } else if !args.json {
             pb.suspend(|| -> anyhow::Result<()> {
                 let num = |x: f64| qcshape::numfmt::significant(x, 3);
                 outln!(

@@ -456,6 +456,10 @@ fn dataset_cases() -> Vec<Case> {
         case("run: one deformation without a label", "run {d}/S/manifest.csv --steps 2 --out {d}/R", &["manifest.csv", "needs a label for every deformation", "\"sphere-twist\""]).dataset()
             .edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").edit("sphere-twist,twist,", "sphere-twist,,").no_output("R"),
         case("label differs within a deformation", sim, &["manifest.csv", "line 3", "label"]).dataset().edit("sphere-twist,twist,1", "sphere-twist,bulge,1"),
+        // Issue 60: messages that said what failed but not why.
+        case("manifest separated by semicolons", sim, &["manifest.csv", "missing column \"deformation\"", "the manifest's separator is a comma, not ';'"]).dataset().edit("deformation,label,pose,path", "deformation;label;pose;path").no_output("D.csv"),
+        case("a mesh file given as the data set", "similarity {d}/S/sphere-twist/pose000.ply --steps 2 -o {d}/D.csv", &["pose000.ply", "is a mesh file, not a data set"]).dataset().no_output("D.csv"),
+        case("deformations with different pose counts", sim, &["manifest.csv", "\"sphere-twist\"", "poses but", "same number of key poses"]).dataset().edit("sphere-twist,twist,2,sphere-twist/pose002.ply\n", "").no_output("D.csv"),
         case("pose with another vertex count", sim, &["odd.ply", "vertices", "manifest", "line 3"]).dataset().edit("sphere-twist/pose001.ply", "odd.ply").file("S/odd.ply", {
             let (p, f) = octahedron();
             ply(&p, &f)

@@ -173,5 +173,7 @@ fn refuses_to_write_over_its_inputs_and_bad_targets() {
         s(&target),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert!(out.join("blob/pose0.ply").is_file());
+    // Named as every other command names poses (issue 60: it wrote pose0.ply).
+    assert!(out.join("blob/pose000.ply").is_file());
+    assert!(!out.join("blob/pose0.ply").exists());
 }

@@ -278,3 +278,184 @@ fn every_geodesic_command_takes_threads() {
         );
     }
 }
+
+/// Issue 60, items 3 and 5: poses of very different sizes warn naming the units, every warning is
+/// in the JSON, and a single solve logs its iterations.
+#[test]
+fn a_size_mismatch_warns_in_stderr_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    write_sphere(&a, 1, 1.0);
+    let s = qcshape::synth::icosphere(1);
+    let big: Vec<[f64; 3]> = s.positions.iter().map(|p| p.map(|c| 1000.0 * c)).collect();
+    qcshape::io::write_mesh(&b, &big, s.topology.faces(), &Default::default()).unwrap();
+    let out = qcshape()
+        .args([
+            "geodesic",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--json",
+            "--steps",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: A's mean edge length") && err.contains("differ by a factor of 1000"),
+        "{err}"
+    );
+    assert!(
+        err.contains("in the files' own units") && err.contains("mean-edge units"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("differ by a factor of 1000")),
+        "{v}"
+    );
+    // Same-size poses: no warning, an empty list.
+    let out = qcshape()
+        .args([
+            "geodesic",
+            a.to_str().unwrap(),
+            a.to_str().unwrap(),
+            "--json",
+            "--steps",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["warnings"], serde_json::json!([]), "{v}");
+}
+
+#[test]
+fn an_unconverged_geodesic_says_so_in_every_output() {
+    let out = qcshape()
+        .args([
+            "geodesic",
+            "--demo",
+            "--demo-level",
+            "2",
+            "--max-iterations",
+            "3",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["converged"], false);
+    assert!(
+        v["warnings"][0]
+            .as_str()
+            .unwrap()
+            .contains("the distance is not converged"),
+        "{v}"
+    );
+    let out = qcshape()
+        .args(["geodesic", "--demo", "--demo-level", "2", "--max-iterations", "3"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("converged   false (MaxIterations): the distance is not converged"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_single_geodesic_logs_its_iterations() {
+    // The lines' interval made 0: a line at every redraw (once a second) while the solver runs.
+    let out = qcshape()
+        // Tolerances 0: the solver runs to its limit, 400 iterations (a few seconds).
+        .args([
+            "geodesic",
+            "--demo",
+            "--demo-level",
+            "3",
+            "--metric",
+            "conformal",
+            "--tolerance",
+            "0",
+            "--energy-tolerance",
+            "0",
+            "--max-iterations",
+            "400",
+        ])
+        .env("QCSHAPE_PROGRESS_SECONDS", "0")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("solving: ")).collect();
+    // At least one line while it runs, and a closing line with the count and the time.
+    assert!(lines.len() >= 2, "{err}");
+    let (last, running) = lines.split_last().unwrap();
+    assert!(
+        running
+            .iter()
+            .all(|l| l.contains(" of at most ") && l.contains("iterations/s")),
+        "{err}"
+    );
+    assert!(last.contains("iterations, done in"), "{err}");
+}
+
+/// Issue 60, item 2: Ctrl-C (SIGINT) ends a long single geodesic at once (the command installs
+/// no handler: the signal ends the process) and leaves no output behind.
+#[cfg(unix)]
+#[test]
+fn sigint_ends_a_long_geodesic_within_a_second() {
+    use std::io::BufRead;
+    use std::os::unix::process::ExitStatusExt;
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("path");
+    let mut child = qcshape()
+        .args(["geodesic", "--demo", "--demo-level", "5", "--out"])
+        .arg(&out_dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // The first line is printed when the solve starts (10,242 vertices: minutes of work).
+    let mut first = String::new();
+    std::io::BufReader::new(child.stderr.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("solving"), "{first}");
+    std::thread::sleep(Duration::from_secs(1));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the solve ended before the signal"
+    );
+    let sent = Instant::now();
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if sent.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("still running 30 s after SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let latency = sent.elapsed();
+    assert_eq!(status.signal(), Some(2), "{status:?}");
+    assert!(latency < Duration::from_secs(1), "{latency:?}");
+    assert!(
+        !out_dir.exists(),
+        "an interrupted solve wrote {}",
+        out_dir.display()
+    );
+}

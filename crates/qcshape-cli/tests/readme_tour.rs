@@ -87,7 +87,7 @@ fn the_readme_tour_runs_as_written() {
         "map.svg",
         "analysis/report.md",
         "R/report.md",
-        "fitted/fit/pose2.ply",
+        "fitted/fit/pose002.ply",
         "fitted/quality.csv",
     ] {
         assert!(dir.path().join(f).is_file(), "the tour did not write {f}");

@@ -156,3 +156,50 @@ fn a_base_of_another_connectivity_is_a_clear_error() {
         "{err}"
     );
 }
+
+/// Issue 60: Euclidean transfer printed "max geodesic 0  norm change ...  residuals 0/0" and
+/// a metric and N it does not use; it now says it translates, and parallel transport explains
+/// its columns.
+#[test]
+fn euclidean_transfer_says_it_translates() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir_all(data.join("up")).unwrap();
+    for k in 0..2 {
+        write(&data.join("up").join(format!("p{k}.obj")), 1, |p| {
+            twist(p, k as f64 / 2.0)
+        });
+    }
+    let base = dir.path().join("base.ply");
+    write(&base, 1, |p| [1.3 * p[0], p[1], 0.8 * p[2]]);
+    let run = |transport: &str, out: &str| {
+        qcshape()
+            .args(["transfer", data.to_str().unwrap(), "--to", base.to_str().unwrap()])
+            .args(["--steps", "2", "--transport", transport, "--out"])
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap()
+    };
+    let out = run("euclidean", "eu");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (text, err) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(
+        text.contains("translated") && !text.contains("max geodesic"),
+        "{text}"
+    );
+    assert!(
+        err.contains("no metric and no geodesic") && !err.contains("N = 2"),
+        "{err}"
+    );
+    let out = run("parallel", "par");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (text, err) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(text.contains("max geodesic"), "{text}");
+    assert!(err.contains("per deformation: the longest geodesic"), "{err}");
+}

@@ -38,6 +38,11 @@ pub fn read_mesh<'py>(py: Python<'py>, path: PathBuf, point_data: bool) -> PyRes
             error: qcshape::mesh::MeshError::NoFaces,
         }));
     }
+    // The reader's remarks (fan-triangulated polygons, ignored trailing data, welded STL
+    // corners), as `qcshape info` lists them: not silent (issue 60).
+    for w in &m.warnings {
+        crate::warn::warn(py, &format!("{}: {w}", path.display()))?;
+    }
     let v = points_out(py, &m.positions)?;
     let f = faces_out(py, &m.faces)?;
     if !point_data {
@@ -141,7 +146,9 @@ pub fn icosphere<'py>(py: Python<'py>, level: AnyInt) -> PyResult<(Bound<'py, Py
 /// A data set of deformations: each a sequence of poses (K, nV, 3) on one shared
 /// connectivity, with a name and an optional class label.
 ///
-/// ``Dataset(poses=[(K, nV, 3) arrays], faces=F, names=None, labels=None)``, or
+/// ``Dataset(poses=[(K, nV, 3) arrays], faces=F, names=None, labels=None)`` (a deformation may
+/// be a list of trimesh / pyvista / meshio meshes: each is checked against ``faces``, which
+/// defaults to the first mesh's, as ``ShapeSpace`` checks its arguments), or
 /// ``Dataset.from_manifest(path)`` / ``Dataset.load(path)`` (a manifest CSV
 /// ``deformation,label,pose,path`` or a folder of deformation folders), or
 /// ``Dataset.synthetic(level=1)`` (the paper's 48 synthetic deformations, as ``qcshape synth``).
@@ -156,10 +163,10 @@ pub struct PyDataset {
 #[pymethods]
 impl PyDataset {
     #[new]
-    #[pyo3(signature = (poses, faces, names=None, labels=None))]
+    #[pyo3(signature = (poses, faces=None, names=None, labels=None))]
     fn new(
         poses: &Bound<'_, PyAny>,
-        faces: &Bound<'_, PyAny>,
+        faces: Option<&Bound<'_, PyAny>>,
         names: Option<Vec<String>>,
         labels: Option<Vec<Option<String>>>,
     ) -> PyResult<Self> {
@@ -167,9 +174,33 @@ impl PyDataset {
         if list.is_empty() {
             return Err(PyValueError::new_err("poses: the data set has no deformations"));
         }
-        let first = sequence(&list[0], "poses[0]", None, 1)?;
+        // Without faces: the first pose's, when it is a mesh object.
+        let first_mesh = match faces {
+            Some(_) => None,
+            None => list[0]
+                .try_iter()
+                .ok()
+                .and_then(|mut it| it.next())
+                .and_then(Result::ok)
+                .filter(|m| !m.is_instance_of::<numpy::PyUntypedArray>()),
+        };
+        let faces = match (faces, &first_mesh) {
+            (Some(f), _) => f.clone(),
+            (None, Some(m)) => m.clone(),
+            (None, None) => {
+                return Err(PyValueError::new_err(
+                    "faces: required when the poses are arrays (only mesh objects carry their faces)",
+                ))
+            }
+        };
+        let (faces, mesh_nv) = crate::meshes::faces_arg(&faces)?;
+        let first = match mesh_nv {
+            // The faces' mesh gives the vertex count.
+            Some(n) => vec![vec![[0.0; 3]; n]],
+            None => sequence(&crate::meshes::poses_arg(&list[0])?, "poses[0]", None, 1)?,
+        };
         let nv = first[0].len();
-        let topo = topology_from(faces, "faces", nv)?;
+        let topo = topology_from(&faces, "faces", nv)?;
         let n = list.len();
         let names = names.unwrap_or_else(|| (0..n).map(|i| format!("d{i}")).collect());
         if names.len() != n {
@@ -195,7 +226,9 @@ impl PyDataset {
         }
         let mut defs = Vec::with_capacity(n);
         for (i, ((d, name), label)) in list.iter().zip(names).zip(labels).enumerate() {
-            let poses = sequence(d, &format!("poses[{i}]"), Some(nv), 1)?;
+            let name_i = format!("poses[{i}]");
+            let d = crate::meshes::on_connectivity(d, &topo, &name_i, true)?;
+            let poses = sequence(&d, &name_i, Some(nv), 1)?;
             // The checks the mesh readers make on every pose file (zero-area faces included).
             for (k, p) in poses.iter().enumerate() {
                 qcshape::mesh::Shape::new_checked(topo.clone(), p.clone(), io::DEGENERATE_REL_TOL)
@@ -228,6 +261,7 @@ impl PyDataset {
         let d = py
             .detach(|| Dataset::from_manifest(&path))
             .map_err(errors::dataset)?;
+        reader_warnings(py, &d)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
             fit_quality: None,
@@ -249,6 +283,7 @@ impl PyDataset {
             return fitted(py, &path, template);
         }
         let d = py.detach(|| Dataset::load(&path)).map_err(errors::dataset)?;
+        reader_warnings(py, &d)?;
         Ok(PyDataset {
             defs: Arc::new(d.deformations),
             fit_quality: None,
@@ -386,6 +421,25 @@ impl PyDataset {
     }
 }
 
+/// The mesh readers' remarks on a data set's files (fan-triangulated polygons, ...), one
+/// `QcshapeWarning` each, as `qs.read_mesh` gives them.
+fn reader_warnings(py: Python<'_>, d: &Dataset) -> PyResult<()> {
+    for def in &d.deformations {
+        for w in &def.warnings {
+            crate::warn::warn(py, &format!("deformation {:?}: {w}", def.name))?;
+        }
+    }
+    Ok(())
+}
+
+/// `opts` with the monitor of `w` on its geodesics: Ctrl-C stops a solve between two iterations.
+fn watched(opts: &PipelineOptions, w: &crate::run::Watch) -> PipelineOptions {
+    PipelineOptions {
+        geodesic: w.geodesic(&opts.geodesic),
+        ..opts.clone()
+    }
+}
+
 /// The progress of a preparation (interpolation and transfer of `n` deformations) for the
 /// `progress=` keyword of `kw`.
 fn preparation_progress(py: Python<'_>, kw: &PipelineKw, n: usize) -> PyResult<Progress> {
@@ -425,15 +479,16 @@ pub fn run_pipeline(
         ),
         Sink::Memory => None,
     };
-    let r = detached_with(py, kw.threads, Some(&bar), |cancel| {
+    let r = detached_with(py, kw.threads, Some(&bar), |w| {
         let events = |e: Event<'_>| bar.event(e);
         let run = Run {
             selection: Selection::All,
             sink,
-            cancel: Some(cancel),
+            cancel: Some(w.flag()),
             events: &events,
         };
-        space
+        // Ctrl-C also stops the geodesic being solved (between two iterations).
+        crate::space::watched(&space, w)?
             .similarity_matrix(&defs, template, &run)
             .map_err(errors::space)
     })?;
@@ -619,7 +674,8 @@ pub fn pair_contributions<'py>(
     let (na, nb) = (name_of(a, "a")?, name_of(b, "b")?);
     let opts = kw.options(&names)?;
     let bar = preparation_progress(py, &kw, defs.len())?;
-    let total = detached_with(py, kw.threads, Some(&bar), |_| {
+    let total = detached_with(py, kw.threads, Some(&bar), |w| {
+        let opts = watched(&opts, w);
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         qcshape_studies::explain::explain(&prepared, &opts, &na, &nb)
@@ -665,7 +721,8 @@ pub fn motion_maps<'py>(
     let raw = opts.metric.build(&qcshape::metric::Calibration::RAW);
     MotionMeasure::parse(measure, raw.as_ref()).map_err(bad("measure"))?;
     let bar = preparation_progress(py, &kw, defs.len())?;
-    let (rows, nv, values) = detached_with(py, kw.threads, Some(&bar), |_| {
+    let (rows, nv, values) = detached_with(py, kw.threads, Some(&bar), |w| {
+        let opts = watched(&opts, w);
         let prepared = qcshape::similarity::prepare(&defs, &opts, &|e| bar.event(e))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let metric = prepared.metric(&opts.metric);

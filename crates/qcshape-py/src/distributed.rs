@@ -48,7 +48,11 @@ pub fn prepare_pairs<'py>(
         ShapeSpace::new(base.topology.clone(), opts.metric, opts.geodesic.clone()).map_err(errors::space)?;
     let opts = space.pipeline_options(opts);
     let defs = ds.defs.clone();
-    let prepared = detached(py, kw.threads, |_| {
+    let prepared = detached(py, kw.threads, |w| {
+        let opts = qcshape::similarity::PipelineOptions {
+            geodesic: w.geodesic(&opts.geodesic),
+            ..opts.clone()
+        };
         prepare(&defs, &opts, &|_| {}).map_err(|e| errors::space(e.into()))
     })?;
     let poses = deformations_out(py, &prepared.scaled())?;
@@ -76,7 +80,11 @@ pub fn pair_distances<'py>(
     let todo = index_pairs(pairs, "pairs", defs.len())?;
     let names: Vec<String> = (0..defs.len()).map(|i| i.to_string()).collect();
     let opts = kw.options(&names)?;
-    let out = detached(py, kw.threads, |cancel| {
+    let out = detached(py, kw.threads, |w| {
+        let opts = qcshape::similarity::PipelineOptions {
+            geodesic: w.geodesic(&opts.geodesic),
+            ..opts.clone()
+        };
         // Every transferred deformation starts at the (scaled) base pose: the pipeline's
         // calibration, bit for bit.
         let calibration = opts
@@ -94,7 +102,7 @@ pub fn pair_distances<'py>(
         };
         let run = Run {
             selection: Selection::Listed(todo),
-            cancel: Some(cancel),
+            cancel: Some(w.flag()),
             ..Default::default()
         };
         compute(&input, &opts, &run)

@@ -27,7 +27,8 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// default), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
 /// stages; max_samples: target points pulling the template surface at most (at least twice
 /// the template's vertex count are used). ValueError for bad input (empty target, NaN, a
-/// non-manifold template, no overlap).
+/// non-manifold template, no overlap). A poor fit (quality["poor"]) issues a QcshapeWarning
+/// naming what makes it poor, as ``qcshape fit`` does.
 #[pyfunction]
 #[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="smooth", stages=AnyInt::new(6), max_samples=AnyInt::new(1000)))]
 #[allow(clippy::too_many_arguments)]
@@ -68,19 +69,29 @@ pub fn fit<'py>(
             _ => Vec::new(),
         },
     };
-    let fitted = py
-        .detach(|| {
-            qcshape::fit::fit(
-                &template,
-                &Target {
-                    positions: &pv,
-                    faces: &pf,
-                },
-                &opts,
-            )
-        })
-        .map_err(|e| PyValueError::new_err(format!("fit: {e}")))?;
+    // The fit's loop has no stop hook yet: Ctrl-C is raised when it returns (not lost).
+    let fitted = crate::run::detached(py, None, |_| {
+        qcshape::fit::fit(
+            &template,
+            &Target {
+                positions: &pv,
+                faces: &pf,
+            },
+            &opts,
+        )
+        .map_err(|e| PyValueError::new_err(format!("fit: {e}")))
+    })?;
     let q = &fitted.quality;
+    if q.poor {
+        // As `qcshape fit` and `Dataset.load(template=...)` warn.
+        crate::warn::warn(
+            py,
+            &format!(
+                "poor fit of the template to the target: {} (quality[\"poor\"] is True; docs/fit.md)",
+                q.problems().join(", ")
+            ),
+        )?;
+    }
     let d = PyDict::new(py);
     for (k, v) in [
         ("mean", q.mean),

@@ -91,16 +91,8 @@ impl MetricKw {
             Some(QcScaling::Raw) => None,
         };
         spec.validate().map_err(keyword_error)?;
-        if let Some(w) = spec.warning() {
-            Python::attach(|py| {
-                PyErr::warn(
-                    py,
-                    &py.get_type::<pyo3::exceptions::PyUserWarning>(),
-                    &std::ffi::CString::new(w).unwrap_or_default(),
-                    2,
-                )
-            })?;
-        }
+        // The metric's own warning, once and in Python's words (`lam`, `stretch=`).
+        Python::attach(|py| crate::warn::spec(py, &spec))?;
         Ok(spec)
     }
 }

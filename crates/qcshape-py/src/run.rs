@@ -1,25 +1,65 @@
 //! Running library calls without the GIL: the work runs on a worker thread (in a rayon pool of
 //! the requested size) while the calling thread, GIL released, polls for Ctrl-C; an interrupt
-//! sets the cancel flag the library checks between pairs, waits for the worker and raises
-//! `KeyboardInterrupt`. Progress: the workers count finished items ([`Progress::tick`], atomics
-//! only) and the polling thread hands the counts to the Python reporter of
-//! `qcshape._progress` (a tqdm bar, a line, plain log lines or the user's callable) with the GIL.
+//! sets the stop flag ([`Watch`]) that the library checks between pairs and that every geodesic
+//! solver checks once per iteration (through [`Watch::geodesic`]'s monitor), waits for the
+//! worker and raises `KeyboardInterrupt`. Progress: the workers count finished items and solver
+//! iterations ([`Progress::tick`], atomics only) and the polling thread hands the counts to the
+//! Python reporter of `qcshape._progress` (a tqdm bar, a line, plain log lines or the user's
+//! callable) with the GIL.
 
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use qcshape::geodesic::{GeodesicOptions, Monitor};
 use qcshape::similarity::{Event, Stage};
 
-/// Runs `work(cancel)` on `threads` worker threads (None: rayon's global pool, all cores) with
+/// What the worker shares with the polling thread: the stop flag (set on Ctrl-C or an error of
+/// the progress reporter) and, when iterations are shown, the solver iterations done.
+pub struct Watch {
+    stop: Arc<AtomicBool>,
+    iterations: Option<Arc<AtomicUsize>>,
+}
+
+impl Watch {
+    /// The stop flag the library's pair loops check.
+    pub fn flag(&self) -> &AtomicBool {
+        &self.stop
+    }
+
+    /// `options` with a monitor that every solver calls once per iteration: it counts the
+    /// iteration for the progress display and stops the solve
+    /// ([`qcshape::geodesic::GeodesicError::Interrupted`]) once the stop flag is set, so that
+    /// Ctrl-C reaches a single long geodesic between two iterations.
+    pub fn geodesic(&self, options: &GeodesicOptions) -> GeodesicOptions {
+        let stop = self.stop.clone();
+        let count = self.iterations.clone();
+        GeodesicOptions {
+            monitor: Some(Monitor::new(move |_, _| {
+                if let Some(c) = &count {
+                    c.fetch_add(1, Ordering::Relaxed);
+                }
+                if stop.load(Ordering::Relaxed) {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            })),
+            ..options.clone()
+        }
+    }
+}
+
+/// Runs `work(watch)` on `threads` worker threads (None: rayon's global pool, all cores) with
 /// the GIL released, honouring Ctrl-C.
 pub fn detached<T, F>(py: Python<'_>, threads: Option<usize>, work: F) -> PyResult<T>
 where
     T: Send,
-    F: FnOnce(&AtomicBool) -> PyResult<T> + Send,
+    F: FnOnce(&Watch) -> PyResult<T> + Send,
 {
     detached_with(py, threads, None, work)
 }
@@ -35,7 +75,7 @@ pub fn detached_with<T, F>(
 ) -> PyResult<T>
 where
     T: Send,
-    F: FnOnce(&AtomicBool) -> PyResult<T> + Send,
+    F: FnOnce(&Watch) -> PyResult<T> + Send,
 {
     let pool = match threads {
         None => None,
@@ -53,16 +93,19 @@ where
                 })?,
         ),
     };
-    let cancel = AtomicBool::new(false);
+    let watch = Watch {
+        stop: Arc::new(AtomicBool::new(false)),
+        iterations: progress.and_then(|p| p.iterations.as_ref().map(|(c, _)| c.clone())),
+    };
     let (out, interrupt) = py.detach(|| {
         std::thread::scope(|s| {
             let (tx, rx) = mpsc::channel::<()>();
-            let cancel = &cancel;
+            let watch = &watch;
             let pool = pool.as_ref();
             let handle = s.spawn(move || {
                 let r = match pool {
-                    Some(p) => p.install(|| work(cancel)),
-                    None => work(cancel),
+                    Some(p) => p.install(|| work(watch)),
+                    None => work(watch),
                 };
                 // The receiver may be gone only if the caller panicked.
                 let _ = tx.send(());
@@ -82,7 +125,7 @@ where
                                 }
                             });
                             if let Err(e) = polled {
-                                cancel.store(true, Ordering::Relaxed);
+                                watch.stop.store(true, Ordering::Relaxed);
                                 interrupt = Some(e);
                             }
                         }
@@ -122,6 +165,11 @@ pub struct Progress {
     totals: [usize; 3],
     counts: [AtomicUsize; 3],
     shown: Mutex<[usize; 3]>,
+    /// Solver iterations (stage "iterations"): the count the monitors of [`Watch::geodesic`]
+    /// tick, and the total shown with it (the iteration limit of one geodesic; 0 when the
+    /// call solves several and the total is not known).
+    iterations: Option<(Arc<AtomicUsize>, usize)>,
+    shown_iterations: AtomicUsize,
 }
 
 impl Progress {
@@ -141,7 +189,25 @@ impl Progress {
             totals,
             counts: Default::default(),
             shown: Mutex::new([0; 3]),
+            iterations: None,
+            shown_iterations: AtomicUsize::new(0),
         })
+    }
+
+    /// Progress of geodesic solves: the solver iterations (stage "iterations"), out of `limit`
+    /// (one geodesic's iteration limit; 0 when unknown: several solves), ticked by the monitor
+    /// of [`Watch::geodesic`]; `pairs` geodesics to solve (0: none shown).
+    pub fn solving(
+        py: Python<'_>,
+        progress: Option<&Bound<'_, PyAny>>,
+        limit: usize,
+        pairs: usize,
+    ) -> PyResult<Self> {
+        let mut p = Progress::new(py, progress, [0, 0, pairs])?;
+        if p.reporter.is_some() {
+            p.iterations = Some((Arc::new(AtomicUsize::new(0)), limit));
+        }
+        Ok(p)
     }
 
     /// Only pairs (pairwise distances).
@@ -185,6 +251,12 @@ impl Progress {
                 shown[s] = n;
                 r.bind(py)
                     .call_method1("update", (LABELS[s], n, self.totals[s]))?;
+            }
+        }
+        if let Some((count, limit)) = &self.iterations {
+            let n = count.load(Ordering::Relaxed);
+            if n != self.shown_iterations.swap(n, Ordering::Relaxed) {
+                r.bind(py).call_method1("update", ("iterations", n, *limit))?;
             }
         }
         Ok(())

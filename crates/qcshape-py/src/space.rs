@@ -241,16 +241,33 @@ impl PyShapeSpace {
                 name,
             ));
         }
+        // More rows than a vertex count taken from the faces: the extra vertices are in no face.
+        let hint = if rows > nv && self.inferred_nv(py) {
+            format!(
+                " (the space took its {nv} vertices from the faces' largest index, {}; vertices \
+                 {nv}..{} of {name} are in no face: give ShapeSpace(F, n_vertices={rows}), or pass \
+                 the mesh itself, to keep them)",
+                nv - 1,
+                rows - 1
+            )
+        } else {
+            String::new()
+        };
         Err(PyValueError::new_err(match poses {
-            None => format!("{name}: expected an array of shape ({nv}, 3), got ({rows}, 3)"),
+            None => format!("{name}: expected an array of shape ({nv}, 3), got ({rows}, 3){hint}"),
             Some(k) => {
-                format!("{name}: expected an array of shape (K, {nv}, 3) with K >= 1, got ({k}, {rows}, 3)")
+                format!(
+                    "{name}: expected an array of shape (K, {nv}, 3) with K >= 1, got ({k}, {rows}, 3){hint}"
+                )
             }
         }))
     }
 
     /// `obj` as a shape of this space (nV, 3).
+    /// A mesh object's faces are checked against the space's connectivity first
+    /// ([`crate::meshes::on_connectivity`]).
     fn points(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f64; 3]>> {
+        let obj = &crate::meshes::on_connectivity(obj, self.space.topology(), name, false)?;
         let p = points(obj, name, None)?;
         self.check_rows(obj.py(), name, p.len(), None)?;
         Ok(p)
@@ -258,6 +275,7 @@ impl PyShapeSpace {
 
     /// `obj` as poses of this space (K, nV, 3), K >= 1.
     fn poses(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vec<[f64; 3]>>> {
+        let obj = &crate::meshes::on_connectivity(obj, self.space.topology(), name, true)?;
         let p = sequence(obj, name, None, 1)?;
         self.check_rows(obj.py(), name, p[0].len(), Some(p.len()))?;
         Ok(p)
@@ -277,6 +295,18 @@ impl PyShapeSpace {
     /// space's).
     fn stepped(&self, steps: Option<AnyInt>) -> PyResult<ShapeSpace> {
         self.with_steps(opt_setting(&settings::STEPS, steps)?)
+    }
+
+    /// The progress display of one geodesic solve in `space` (its iterations out of the
+    /// iteration limit on this mesh).
+    fn one_solve(
+        &self,
+        py: Python<'_>,
+        space: &ShapeSpace,
+        progress: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Progress> {
+        let limit = space.geodesic_options().iteration_limit(self.nv());
+        Progress::solving(py, progress, limit, 0)
     }
 
     fn with_steps(&self, steps: Option<usize>) -> PyResult<ShapeSpace> {
@@ -395,7 +425,6 @@ impl PyShapeSpace {
             qc_smooth,
         }
         .spec()?;
-        crate::warn::spec(py, &spec)?;
         let geo = SolverKw {
             steps,
             solver,
@@ -506,38 +535,51 @@ impl PyShapeSpace {
         Self::call(py, &self.space, |s| s.inner(&b, &x, &y, e))
     }
 
-    /// geodesic(a, b, steps=None) -> Geodesic: the discrete geodesic (eq. 12) from shape a to
-    /// shape b (each (nV, 3)) with N = steps segments (default the space's). ``g.path`` is
-    /// (steps + 1, nV, 3).
-    #[pyo3(signature = (a, b, steps=None))]
+    /// geodesic(a, b, steps=None, progress=None) -> Geodesic: the discrete geodesic (eq. 12)
+    /// from shape a to shape b (each (nV, 3)) with N = steps segments (default the space's).
+    /// ``g.path`` is (steps + 1, nV, 3). ``progress`` (as for similarity_matrix) shows the
+    /// solver's iterations (stage "iterations", out of its iteration limit); Ctrl-C stops the
+    /// solver between two iterations.
+    #[pyo3(signature = (a, b, steps=None, progress=None))]
     fn geodesic(
         &self,
         py: Python<'_>,
         a: &Bound<'_, PyAny>,
         b: &Bound<'_, PyAny>,
         steps: Option<AnyInt>,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyGeodesic> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
         let space = self.stepped(steps)?;
-        let g = Self::call(py, &space, |s| s.geodesic(&pa, &pb))?;
+        crate::warn::sizes(py, &space, &pa, &pb)?;
+        let bar = self.one_solve(py, &space, progress)?;
+        let g = detached_with(py, None, Some(&bar), |w| {
+            watched(&space, w)?.geodesic(&pa, &pb).map_err(errors::space)
+        })?;
         crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
         Ok(PyGeodesic { g })
     }
 
-    /// dist(a, b, steps=None) -> float: dis(a, b), the length of the discrete geodesic
-    /// (the metric's units); exactly 0 for identical shapes.
-    #[pyo3(signature = (a, b, steps=None))]
+    /// dist(a, b, steps=None, progress=None) -> float: dis(a, b), the length of the discrete
+    /// geodesic (the metric's units); exactly 0 for identical shapes. ``progress`` as for
+    /// ``geodesic``.
+    #[pyo3(signature = (a, b, steps=None, progress=None))]
     fn dist(
         &self,
         py: Python<'_>,
         a: &Bound<'_, PyAny>,
         b: &Bound<'_, PyAny>,
         steps: Option<AnyInt>,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<f64> {
         let (pa, pb) = (self.points(a, "a")?, self.points(b, "b")?);
         let space = self.stepped(steps)?;
+        crate::warn::sizes(py, &space, &pa, &pb)?;
+        let bar = self.one_solve(py, &space, progress)?;
         // ShapeSpace::dist's solve, keeping the path for the warnings.
-        let g = detached(py, None, |_| crate::warn::dist_path(&space, &pa, &pb))?;
+        let g = detached_with(py, None, Some(&bar), |w| {
+            crate::warn::dist_path(&watched(&space, w)?, &pa, &pb)
+        })?;
         if let Some(g) = &g {
             crate::warn::geodesic(py, g, space.spec(), space.geodesic_options().solver)?;
         }
@@ -557,7 +599,9 @@ impl PyShapeSpace {
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
         let (m, q) = (self.points(base, "base")?, self.points(p, "p")?);
         let space = self.stepped(steps)?;
-        let (log, d) = Self::call(py, &space, |s| s.log(&m, &q))?;
+        let (log, d) = detached(py, None, |w| {
+            watched(&space, w)?.log(&m, &q).map_err(errors::space)
+        })?;
         Ok((points_out(py, &log)?, d))
     }
 
@@ -577,7 +621,11 @@ impl PyShapeSpace {
         let x = self.points(v, "v")?;
         // Carrying a vector along a curve: parallel transport unless told otherwise.
         let m = transport(method, Transport::Parallel)?;
-        let out = Self::call(py, &self.space, |s| s.transport(&c, &x, m))?;
+        let out = detached(py, None, |w| {
+            watched(&self.space, w)?
+                .transport(&c, &x, m)
+                .map_err(errors::space)
+        })?;
         points_out(py, &out)
     }
 
@@ -608,21 +656,28 @@ impl PyShapeSpace {
             tolerance: tolerance.unwrap_or(d.tolerance),
             ..d
         };
-        let m = Self::call(py, &self.space, |s| s.karcher_mean(&p, i.as_deref(), &opts))?;
+        let m = detached(py, None, |w| {
+            watched(&self.space, w)?
+                .karcher_mean(&p, i.as_deref(), &opts)
+                .map_err(errors::space)
+        })?;
         points_out(py, &m.mean)
     }
 
-    /// interpolate(poses, insert=3, levels=1) -> ndarray (K*(insert+1)+1, nV, 3): temporal
-    /// interpolation (section 2.2.1) of the key poses (K + 1, nV, 3): ``insert`` poses between
-    /// each consecutive pair (key poses kept bit for bit), on ``levels`` spatial levels (1 =
-    /// none); defaults as ``qcshape interpolate``.
-    #[pyo3(signature = (poses, insert=None, levels=None))]
+    /// interpolate(poses, insert=3, levels=1, progress=None) -> ndarray (K*(insert+1)+1, nV,
+    /// 3): temporal interpolation (section 2.2.1) of the key poses (K + 1, nV, 3): ``insert``
+    /// poses between each consecutive pair (key poses kept bit for bit), on ``levels`` spatial
+    /// levels (1 = none); defaults as ``qcshape interpolate``. ``progress`` (as for
+    /// similarity_matrix) shows the solver iterations (stage "iterations") and the pairs of key
+    /// poses done ("pairs").
+    #[pyo3(signature = (poses, insert=None, levels=None, progress=None))]
     fn interpolate<'py>(
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         insert: Option<AnyInt>,
         levels: Option<AnyInt>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = self.poses(poses, "poses")?;
         let d = InterpolationOptions::default();
@@ -631,26 +686,39 @@ impl PyShapeSpace {
             return Err(PyValueError::new_err("levels: must be at least 1"));
         }
         let insert = opt_setting(&settings::INSERT, insert)?.unwrap_or(d.insert);
-        let r = Self::call(py, &self.space, |s| s.interpolate(&p, insert, levels, &|| {}))?;
+        let bar = Progress::solving(py, progress, 0, p.len().saturating_sub(1))?;
+        let r = detached_with(py, None, Some(&bar), |w| {
+            watched(&self.space, w)?
+                .interpolate(&p, insert, levels, &|| bar.tick(Stage::Similarity))
+                .map_err(errors::space)
+        })?;
         sequence_out(py, &r.poses)
     }
 
-    /// transfer(poses, base, method="euclidean") -> ndarray (K + 1, nV, 3): deformation transfer
-    /// (section 2.2.2) of the deformation poses = M_0 .. M_K (K + 1, nV, 3) to the new base N_0
-    /// (nV, 3), returning N_0 .. N_K; method "euclidean" (N_k = N_0 + M_k - M_0, the default of
-    /// every command, `qcshape::defaults::TRANSPORT`), "parallel" (the paper's) or "schild".
-    #[pyo3(signature = (poses, base, method=None))]
+    /// transfer(poses, base, method="euclidean", progress=None) -> ndarray (K + 1, nV, 3):
+    /// deformation transfer (section 2.2.2) of the deformation poses = M_0 .. M_K (K + 1, nV, 3)
+    /// to the new base N_0 (nV, 3), returning N_0 .. N_K; method "euclidean" (N_k = N_0 + M_k -
+    /// M_0, the default of every command, `qcshape::defaults::TRANSPORT`), "parallel" (the
+    /// paper's) or "schild". ``progress`` shows the solver iterations of the geodesics
+    /// "parallel" and "schild" solve (stage "iterations").
+    #[pyo3(signature = (poses, base, method=None, progress=None))]
     fn transfer<'py>(
         &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         base: &Bound<'py, PyAny>,
         method: Option<&str>,
+        progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let p = self.poses(poses, "poses")?;
         let b = self.points(base, "base")?;
         let m = transport(method, qcshape::defaults::TRANSPORT)?;
-        let r = Self::call(py, &self.space, |s| s.transfer(&p, &b, m))?;
+        let bar = Progress::solving(py, progress, 0, 0)?;
+        let r = detached_with(py, None, Some(&bar), |w| {
+            watched(&self.space, w)?
+                .transfer(&p, &b, m)
+                .map_err(errors::space)
+        })?;
         sequence_out(py, &r.poses)
     }
 
@@ -708,9 +776,9 @@ impl PyShapeSpace {
         let bar = Progress::pairs(py, progress, n * n.saturating_sub(1) / 2)?;
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let pairs = std::sync::Mutex::new(Vec::new());
-        let d = detached_with(py, threads, Some(&bar), |cancel| {
-            self.space
-                .similarity(defs, Some(cancel), &|p| {
+        let d = detached_with(py, threads, Some(&bar), |w| {
+            watched(&self.space, w)?
+                .similarity(defs, Some(w.flag()), &|p| {
                     bar.tick(Stage::Similarity);
                     if let Ok(mut v) = pairs.lock() {
                         v.push(p.clone());
@@ -728,6 +796,15 @@ impl PyShapeSpace {
         )?;
         matrix_out(py, d, n, n)
     }
+}
+
+/// `space` with the monitor of `watch` on its geodesic options: every solver of the call
+/// stops between two iterations on Ctrl-C and counts its iterations for the progress display.
+pub fn watched(space: &ShapeSpace, watch: &crate::run::Watch) -> PyResult<ShapeSpace> {
+    space
+        .clone()
+        .with_geodesic(watch.geodesic(space.geodesic_options()))
+        .map_err(errors::space)
 }
 
 /// Faces from an array argument (for the other modules).

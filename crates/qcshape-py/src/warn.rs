@@ -28,24 +28,29 @@ pub fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
     PyErr::warn(py, category.as_any(), &msg, 1)
 }
 
-/// What lowers the regularizer's share for the metric at hand. For the isometric, rigid and L2
-/// metrics a smaller lambda does; for the conformal metrics on the invariant scale it does not
-/// (issue 50, synth --level 2 sphere-twist: lambda 0.1 / 0.01 / 0.001 gave a share of 73 / 84 /
-/// 91 %), so the advice there is not to lower it.
+/// What to do about a regularizer share above one half, for the metric at hand. For the
+/// isometric, rigid and L2 metrics a smaller lambda lowers it; for the conformal metrics on the
+/// invariant scale it does not (issue 50, synth --level 2 sphere-twist: lambda 0.1 / 0.01 /
+/// 0.001 gave a share of 73 / 84 / 91 %), so the advice there is not to lower it.
 fn advice(kind: MetricKind) -> &'static str {
     match kind {
         MetricKind::Conformal | MetricKind::QuasiConformal => {
-            "for this metric a lower lam does not lower the share (it rises as lam falls); the \
-             conformal metrics leave the deformation's scaling and null space to the regularizer"
+            "for this metric a lower lam raises the share instead of lowering it: the conformal \
+             metrics leave the deformation's scaling and their null space to the regularizer"
         }
-        _ => "lower lam",
+        _ => "a lower lam lowers the share",
     }
 }
 
-/// The metric's own warning (e.g. lambda = 0 with a conformal metric), at construction.
+/// The metric's own warning (lambda = 0 with a conformal metric) in Python's words: the
+/// keywords `lam` and `stretch`, not the CLI's flags.
 pub fn spec(py: Python<'_>, spec: &MetricSpec) -> PyResult<()> {
     match spec.warning() {
-        Some(w) => warn(py, &w.replace("--stretch", "stretch=")),
+        Some(w) => warn(
+            py,
+            &w.replace("lambda = 0", "lam=0")
+                .replace("unless --stretch charges them", "unless stretch= charges them"),
+        ),
         None => Ok(()),
     }
 }
@@ -59,7 +64,7 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver)
             py,
             &format!(
                 "the L2 regularizer carries {:.0} % of the energy: this {} distance measures L2 \
-                 displacement more than its own geometry ({})",
+                 displacement more than its own geometry; {}",
                 100.0 * share,
                 spec.kind.label(),
                 advice(spec.kind)
@@ -94,7 +99,7 @@ pub fn pairs(
             py,
             &format!(
                 "the L2 regularizer carries more than half of the energy for {} of {} pairs: the {} \
-                 distances measure L2 displacement more than the metric's geometry ({})",
+                 distances measure L2 displacement more than the metric's geometry; {}",
                 s.above_half,
                 s.pairs,
                 spec.kind.label(),
@@ -151,4 +156,27 @@ pub fn dist_path(space: &ShapeSpace, a: &[[f64; 3]], b: &[[f64; 3]]) -> PyResult
         )
         .map_err(|e| crate::errors::space(e.into()))?;
     Ok(Some(g))
+}
+
+/// The warning of `qcshape geodesic` for two shapes whose mean edge lengths differ by more than
+/// [`qcshape::space::SIZE_RATIO_WARNING`] (different units, e.g. metres and millimetres), for the
+/// arguments `a` and `b` of `geodesic` and `dist`.
+pub fn sizes(py: Python<'_>, space: &ShapeSpace, a: &[[f64; 3]], b: &[[f64; 3]]) -> PyResult<()> {
+    let Some((la, lb)) = qcshape::space::size_mismatch(space.topology(), a, b) else {
+        return Ok(());
+    };
+    let num = |x: f64| qcshape::numfmt::significant(x, 3);
+    warn(
+        py,
+        &format!(
+            "a's mean edge length ({}) and b's ({}) differ by a factor of {} (more than {}), in the \
+             arrays' own units: are they in the same units (e.g. metres and millimetres)? Both are \
+             divided by the mean of the two (mean-edge units), so the smaller shape is nearly a \
+             point; such a geodesic converges slowly and dist(a, b) and dist(b, a) can differ",
+            num(la),
+            num(lb),
+            num(la.max(lb) / la.min(lb)),
+            qcshape::space::SIZE_RATIO_WARNING
+        ),
+    )
 }

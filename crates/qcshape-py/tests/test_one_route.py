@@ -123,7 +123,7 @@ def test_out_of_range_values_are_named_by_their_keyword(synthetic, pair):
             qs.similarity_matrix(synthetic, smooth_length=bad, progress=False)
     with pytest.raises(ValueError, match="^smooth and smooth_length exclude each other"):
         qs.similarity_matrix(synthetic, smooth=10, smooth_length=0.2, progress=False)
-    with pytest.warns(UserWarning, match="lambda = 0 leaves the conformal metric"):
+    with pytest.warns(UserWarning, match="lam=0 leaves the conformal metric"):
         qs.ShapeSpace(F, metric="conformal", lam=0.0)
 
 

@@ -135,3 +135,65 @@ def test_bar_in_jupyter():
     # A kernel (ipykernel imported) gets the bar although its stderr is no terminal.
     err = stderr_of("", prelude="import sys, types; sys.modules['ipykernel'] = types.ModuleType('ipykernel')\n")
     assert "qcshape: pairs" in err and "100%" in err
+
+
+# Issue 60, item 3: single geodesics, interpolation and transfer report solver iterations.
+SINGLE = """
+import numpy as np
+import qcshape as qs
+V, F = qs.icosphere(3)
+B = V * np.array([1.0, 1.3, 0.8]) + 0.2 * V[:, [1, 2, 0]] ** 2
+qs.ShapeSpace(F, metric="conformal").geodesic(V, B{kw})
+"""
+
+
+def test_a_single_geodesic_logs_iteration_lines():
+    # The lines' interval made 0 (it is 10 s): every count the poller sees becomes a line.
+    err = subprocess.run(
+        [sys.executable, "-c", "import qcshape._progress as p; p.LINE_EVERY = 0.0\n" + SINGLE.format(kw="")],
+        capture_output=True, text=True, check=True,
+    ).stderr
+    lines = [line for line in err.splitlines() if line.startswith("qcshape: iterations")]
+    assert len(lines) >= 3, err
+    # Count, limit and rate; the last line the count and the time.
+    assert " of at most " in lines[0] and ("/s" in lines[0] or "/min" in lines[0]), lines
+    assert lines[-1].startswith("qcshape: iterations ") and " in " in lines[-1] and " of at most " not in lines[-1], lines
+    assert "\r" not in err
+
+
+def test_a_short_single_geodesic_is_silent_in_a_log():
+    err = subprocess.run([sys.executable, "-c", SINGLE.format(kw="")], capture_output=True, text=True, check=True).stderr
+    assert "qcshape:" not in err
+
+
+def test_progress_callable_sees_solver_iterations(pair):
+    VA, VB, F = pair
+    space = qs.ShapeSpace(F, metric="conformal")
+    seen = []
+    g = space.geodesic(VA, VB, progress=lambda *a: seen.append(a))
+    assert seen and all(stage == "iterations" for stage, _, _ in seen)
+    counts = [done for _, done, _ in seen]
+    assert counts == sorted(counts) and counts[-1] == g.iterations
+    assert all(total >= g.iterations for _, _, total in seen)
+    seen.clear()
+    space.dist(VA, VB, progress=lambda *a: seen.append(a))
+    assert seen and seen[-1][0] == "iterations"
+    seen.clear()
+    space.interpolate([VA, VB, VA], insert=1, progress=lambda *a: seen.append(a))
+    assert ("pairs", 2, 2) in seen and any(s[0] == "iterations" and s[2] == 0 for s in seen)
+
+
+def test_eta_of_plain_lines_is_the_average_rate():
+    from qcshape import _progress
+
+    assert _progress._duration(42) == "42 s" and _progress._duration(185) == "3 min 05 s"
+    import io
+
+    out = io.StringIO()
+    r = _progress._Plain(out, final=False)
+    r.start -= 100.0
+    r.stage_mark = r.start
+    r.last = r.start
+    # 2 of 6 pairs in 100 s: 4 left at 50 s each.
+    r.update("pairs", 2, 6)
+    assert out.getvalue() == "qcshape: pairs 2/6, 1.2/min, ETA 3 min 20 s\n"

@@ -40,7 +40,9 @@ def test_conformal_advice_does_not_say_lower_lam(pair):
     VA, VB, F = pair
     g, msgs = caught(lambda: qs.ShapeSpace(F, metric="conformal", lam=100.0).geodesic(VA, VB, steps=2))
     assert g.regularizer_share > 0.5
-    assert len(msgs) == 1 and "does not lower the share" in msgs[0]
+    assert len(msgs) == 1 and "a lower lam raises the share instead of lowering it" in msgs[0]
+    # Issue 60: one sentence, balanced parentheses.
+    assert msgs[0].count("(") == msgs[0].count(")")
 
 
 def test_no_warning_when_the_metric_dominates(pair):
@@ -69,8 +71,13 @@ def test_pairwise_distances_and_similarity_warn_for_dominated_pairs(pair):
 
 def test_lambda_zero_conformal_warns_at_construction(sphere):
     _, F = sphere
-    _, msgs = caught(lambda: qs.ShapeSpace(F, metric="conformal", lam=0.0))
-    assert len(msgs) == 1 and "lambda = 0" in msgs[0]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        qs.ShapeSpace(F, metric="conformal", lam=0.0)
+    # Issue 60: once (it was twice, in two wordings), as a QcshapeWarning, in Python's words.
+    msgs = [str(x.message) for x in w]
+    assert len(msgs) == 1 and issubclass(w[0].category, qs.QcshapeWarning), msgs
+    assert "lam=0" in msgs[0] and "stretch=" in msgs[0] and "--stretch" not in msgs[0]
 
 
 def test_iteration_limit_warns(pair):

@@ -157,6 +157,9 @@ pub enum DatasetLayout {
         /// All deformations.
         total: usize,
     },
+    /// A mesh file given where a data set (a manifest or a folder) is expected.
+    #[error("is a mesh file, not a data set: give a manifest CSV (deformation,label,pose,path) or a folder with one sub-folder of poses per deformation (docs/formats.md)")]
+    MeshFile,
     /// A folder given as one sequence without mesh files.
     #[error("contains no mesh files ({})", known_extensions())]
     NoMeshFiles,
@@ -258,6 +261,13 @@ impl Dataset {
             error,
         })?;
         if !meta.is_dir() {
+            // A mesh file is no data set (its CSV error would only confuse: issue 60).
+            if crate::io::Format::from_path(path).is_some() {
+                return Err(DatasetError::Layout {
+                    path: path.into(),
+                    problem: DatasetLayout::MeshFile,
+                });
+            }
             return Dataset::from_manifest(path);
         }
         let manifest = path.join(MANIFEST_NAME);
@@ -683,8 +693,14 @@ pub enum ManifestProblem {
     #[error("malformed CSV: {0}")]
     Csv(csv::Error),
     /// A column the manifest needs is not in its header.
-    #[error("missing column {name:?}: the header must name the columns {}", MANIFEST_COLUMNS.join(","), name = .0)]
-    MissingColumn(&'static str),
+    #[error("missing column {name:?}: the header must name the columns {}{hint}", MANIFEST_COLUMNS.join(","))]
+    MissingColumn {
+        /// The column.
+        name: &'static str,
+        /// What the header looks like instead, when it is one column holding another
+        /// separator (empty otherwise).
+        hint: String,
+    },
     /// An empty `deformation` field.
     #[error("the deformation name is empty")]
     EmptyName,
@@ -768,11 +784,31 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(u64, ManifestRow)>, DatasetErro
     };
     let mut table = Table::<DatasetError>::read(path, false)?;
     let header_line = table.header_line;
+    // A header read as one column that holds another separator: say which (issue 60).
+    let separator = match table.header.len() {
+        1 => [';', '\t', '|']
+            .into_iter()
+            .find(|c| table.header.get(0).is_some_and(|h| h.contains(*c))),
+        _ => None,
+    };
+    let hint = match separator {
+        Some(c) => format!(
+            " (the header is one column, {:?}: the manifest's separator is a comma, not {c:?})",
+            table.header.get(0).unwrap_or("")
+        ),
+        None => String::new(),
+    };
     let mut col = [0usize; 4];
     for (slot, name) in col.iter_mut().zip(MANIFEST_COLUMNS) {
-        *slot = table
-            .column(name)
-            .ok_or_else(|| bad(header_line, ManifestProblem::MissingColumn(name)))?;
+        *slot = table.column(name).ok_or_else(|| {
+            bad(
+                header_line,
+                ManifestProblem::MissingColumn {
+                    name,
+                    hint: hint.clone(),
+                },
+            )
+        })?;
     }
     let mut rows = Vec::new();
     for rec in table.rows() {
@@ -1287,5 +1323,20 @@ mod tests {
         assert!(e.contains("contains no mesh files"), "{e}");
         let e = load_sequence(&[]).unwrap_err().to_string();
         assert!(e.contains("no mesh files given"), "{e}");
+    }
+
+    #[test]
+    fn a_mesh_file_or_a_semicolon_manifest_is_named_as_such() {
+        // Issue 60: both gave "missing column deformation" without a word on why.
+        let d = tempfile::tempdir().unwrap();
+        let (faces, poses) = poses(1);
+        let mesh = write(d.path(), "a.ply", &poses[0], &faces);
+        let e = Dataset::load(&mesh).unwrap_err().to_string();
+        assert!(e.contains("is a mesh file, not a data set"), "{e}");
+        let m = d.path().join("m.csv");
+        std::fs::write(&m, "deformation;label;pose;path\nw;x;0;a.ply\n").unwrap();
+        let e = Dataset::load(&m).unwrap_err().to_string();
+        assert!(e.contains("missing column \"deformation\""), "{e}");
+        assert!(e.contains("the manifest's separator is a comma, not ';'"), "{e}");
     }
 }

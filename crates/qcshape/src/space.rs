@@ -618,6 +618,23 @@ impl ShapeSpace {
     }
 }
 
+/// Two poses whose mean edge lengths differ by more than this factor get a warning from
+/// `qcshape geodesic` and the Python `geodesic` / `dist` (issue 60): both are divided by the
+/// mean of the two mean edge lengths (mean-edge units), so one of them becomes nearly a point,
+/// which usually means the files are in different units (millimetres against metres); the
+/// quasi-conformal geodesic between a pose and the same pose scaled 1,000 x stopped at its
+/// iteration limit both ways, 2 % apart.
+pub const SIZE_RATIO_WARNING: f64 = 10.0;
+
+/// The mean edge lengths of `a` and `b` (input units) when they differ by more than
+/// [`SIZE_RATIO_WARNING`], `None` otherwise.
+pub fn size_mismatch(topology: &Topology, a: &[[f64; 3]], b: &[[f64; 3]]) -> Option<(f64, f64)> {
+    let la = crate::mesh::geometry::mean_edge_length(topology, a);
+    let lb = crate::mesh::geometry::mean_edge_length(topology, b);
+    let (lo, hi) = if la < lb { (la, lb) } else { (lb, la) };
+    (lo > 0.0 && hi / lo > SIZE_RATIO_WARNING).then_some((la, lb))
+}
+
 /// `p` with every coordinate multiplied by `f`.
 fn scaled(p: &[[f64; 3]], f: f64) -> Pose {
     p.iter().map(|v| v.map(|c| c * f)).collect()

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use qcshape::dataset::{load_sequence, mesh_files, Dataset, Deformation};
 use qcshape::geodesic::{GeodesicOptions, Solver};
 use qcshape::metric::MetricKind;
@@ -102,12 +102,11 @@ pub struct Args {
 
 fn progress_bar(n: usize, what: &str) -> ProgressBar {
     let bar = crate::progress::new_bar(n);
-    bar.set_style(
-        ProgressStyle::with_template(&format!(
-            "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} (eta {{eta}})"
-        ))
-        .expect("valid progress template"),
-    );
+    if let Some(style) = crate::progress::style(&format!(
+        "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} (eta {{eta}}{{solver}})"
+    )) {
+        bar.set_style(style);
+    }
     crate::progress::start(&bar);
     bar
 }
@@ -162,6 +161,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         gradient_tolerance: args.tolerance,
         energy_tolerance: args.energy_tolerance,
         max_iterations: args.max_iterations,
+        monitor: Some(crate::progress::monitor()),
         ..Default::default()
     };
     geodesic.validate().map_err(flag_error)?;

@@ -115,7 +115,7 @@ pub fn run(args: &Args) -> Result<()> {
         args.solver.steps
     );
     let pb = crate::progress::new_bar(n);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} [{elapsed}<{eta}]") {
+    if let Some(style) = crate::progress::style("{bar:40} {pos}/{len} [{elapsed}<{eta}{solver}]") {
         pb.set_style(style);
     }
     crate::progress::start(&pb);

@@ -195,8 +195,10 @@ class ShapeSpace:
     def inner(
         self, base: _Points, u: _Points, v: _Points, ends: Optional[Tuple[_Points, _Points]] = None
     ) -> float: ...
-    def geodesic(self, a: _Points, b: _Points, steps: Optional[int] = None) -> Geodesic: ...
-    def dist(self, a: _Points, b: _Points, steps: Optional[int] = None) -> float: ...
+    def geodesic(
+        self, a: _Points, b: _Points, steps: Optional[int] = None, progress: _Progress = None
+    ) -> Geodesic: ...
+    def dist(self, a: _Points, b: _Points, steps: Optional[int] = None, progress: _Progress = None) -> float: ...
     def log(self, base: _Points, p: _Points, steps: Optional[int] = None) -> Tuple[_F64, float]:
         """(log (nV, 3), dis(base, p))."""
     def transport(self, curve: _Poses, v: _Points, method: Optional[str] = None) -> _F64:
@@ -208,9 +210,17 @@ class ShapeSpace:
         max_iterations: Optional[int] = None,
         tolerance: Optional[float] = None,
     ) -> _F64: ...
-    def interpolate(self, poses: _Poses, insert: Optional[int] = None, levels: Optional[int] = None) -> _F64:
+    def interpolate(
+        self,
+        poses: _Poses,
+        insert: Optional[int] = None,
+        levels: Optional[int] = None,
+        progress: _Progress = None,
+    ) -> _F64:
         """(K * (insert + 1) + 1, nV, 3)."""
-    def transfer(self, poses: _Poses, base: _Points, method: Optional[str] = None) -> _F64:
+    def transfer(
+        self, poses: _Poses, base: _Points, method: Optional[str] = None, progress: _Progress = None
+    ) -> _F64:
         """(K + 1, nV, 3), starting at base."""
     def pairwise_distances(self, poses: _Poses, threads: Optional[int] = None, progress: _Progress = None) -> _F64:
         """(n, n) dis(P_i, P_j)."""
@@ -223,7 +233,7 @@ class Dataset:
     def __init__(
         self,
         poses: Sequence[_Poses],
-        faces: _Faces,
+        faces: Optional[_Faces] = None,
         names: Optional[Sequence[str]] = None,
         labels: Optional[Sequence[Optional[str]]] = None,
     ) -> None: ...

@@ -66,7 +66,8 @@ def _flat_faces(flat: Any, what: str) -> np.ndarray:
         if n != 3:
             raise ValueError(
                 f"faces: {what} face {face} has {n} corners, not 3: qcshape needs triangles "
-                "(call mesh.triangulate() on a pyvista mesh first)"
+                "(call mesh.triangulate() on a pyvista mesh first; qcshape.read_mesh triangulates "
+                "a file's polygons and warns that it did)"
             )
         pos += 4
         face += 1
@@ -100,7 +101,8 @@ def _meshio_arrays(obj: Any) -> Tuple[np.ndarray, np.ndarray]:
         elif kind in _OTHER_SURFACE_CELLS:
             raise ValueError(
                 f"faces: the meshio mesh has {len(data)} '{kind}' cells: qcshape needs triangles "
-                "(triangulate them first, e.g. read the file with qcshape.read_mesh)"
+                "(triangulate them first, e.g. read the file with qcshape.read_mesh, which "
+                "triangulates polygons and warns that it did)"
             )
     if not blocks:
         kinds = ", ".join(sorted({b.type for b in obj.cells})) or "none"
@@ -204,3 +206,81 @@ def to_meshio(vertices: Any, faces: Any) -> Any:
     import meshio
 
     return _many(vertices, faces, lambda v, f: meshio.Mesh(v, [("triangle", f)]))
+
+
+def _described(obj: Any) -> str:
+    kind = _kind(obj)
+    names = {"trimesh": "trimesh.Trimesh", "pyvista": "pyvista.PolyData", "meshio": "meshio.Mesh"}
+    return names.get(kind or "", type(obj).__name__)
+
+
+def _face_text(face: Any) -> str:
+    return "[" + ", ".join(str(int(i)) for i in face) + "]"
+
+
+def _on_connectivity(
+    v: np.ndarray, f: np.ndarray, faces: np.ndarray, nv: int, name: str, what: str
+) -> Tuple[np.ndarray, Optional[str]]:
+    """The positions v of a mesh with faces f checked against the space's faces (nF, 3):
+    (v, None) when the faces are the same; (v renumbered, warning) when they are the same face
+    for face after renumbering the vertices (face k has the corners of the space's face k in
+    the same order: a mesh whose vertices were reordered, e.g. by trimesh's processing, with
+    its faces kept in order); a ValueError with the CLI's message otherwise. nv: the space's
+    vertex count."""
+    if f.shape != faces.shape:
+        raise ValueError(
+            f"{name}: shapes do not share one connectivity: {len(faces)} faces against {len(f)} "
+            f"(the {what} has {len(v)} vertices and {len(f)} faces; the space {len(faces)} faces)"
+        )
+    differ = np.flatnonzero(np.any(f != faces, axis=1))
+    if differ.size == 0:
+        return v, None
+    k = int(differ[0])
+    refused = (
+        f"{name}: shapes do not share one connectivity: face {k} is {_face_text(faces[k])} in one "
+        f"and {_face_text(f[k])} in the other (the {what}'s faces differ from the space's, and no "
+        "renumbering of its vertices maps them onto the space's face for face: pass a mesh with "
+        "the space's connectivity, or fit one with qcshape.fit / Dataset.load(template=...))"
+    )
+    if len(v) < nv or f.min() < 0 or f.max() >= len(v):
+        raise ValueError(refused)
+    # The renumbering face order gives: vertex f[k][c] of the mesh is vertex faces[k][c] of the space.
+    new_of = np.full(len(v), -1, dtype=np.int64)
+    new_of[f.ravel()] = faces.ravel()
+    consistent = np.array_equal(new_of[f.ravel()], faces.ravel())
+    used = new_of[new_of >= 0]
+    one_to_one = len(np.unique(used)) == len(used)
+    if not (consistent and one_to_one and len(v) == nv and len(used) == nv):
+        raise ValueError(refused)
+    out = np.empty_like(v)
+    out[new_of] = v
+    return out, (
+        f"{name}: the {what}'s vertices are numbered differently from the space's (face {k} is "
+        f"{_face_text(f[k])} in it, {_face_text(faces[k])} in the space); its faces are the "
+        "space's face for face after renumbering its vertices, so its positions were renumbered "
+        "to the space's order"
+    )
+
+
+def _points_on(obj: Any, faces: np.ndarray, nv: int, name: str) -> Tuple[Any, Optional[str]]:
+    """For a mesh object: (its positions in the space's vertex order, a warning or None), after
+    checking its faces against the space's faces (``_on_connectivity``); anything else
+    unchanged, (obj, None)."""
+    if _kind(obj) is None:
+        return obj, None
+    v, f = as_arrays(obj)
+    return _on_connectivity(v, f, faces, nv, name, _described(obj))
+
+
+def _poses_on(obj: Any, faces: np.ndarray, nv: int, name: str) -> Tuple[Any, Optional[str]]:
+    """A list or tuple of mesh objects (or arrays) as (K, nV, 3), each mesh checked against the
+    space's faces as ``_points_on`` does (the first warning, naming the pose, is returned);
+    anything else unchanged."""
+    if not (isinstance(obj, (list, tuple)) and any(_kind(x) is not None for x in obj)):
+        return obj, None
+    out, warning = [], None
+    for k, x in enumerate(obj):
+        p, w = _points_on(x, faces, nv, f"{name}[{k}]")
+        out.append(np.asarray(p, dtype=np.float64))
+        warning = warning or w
+    return np.stack(out), warning

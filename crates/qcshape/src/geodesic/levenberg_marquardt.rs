@@ -44,6 +44,7 @@ pub(crate) fn minimize(
             break;
         }
         iterations += 1;
+        opts.monitor(iterations, energy)?;
         let jtj = layout.values(&blocks);
         let dmax = layout.diag_idx().iter().map(|&i| jtj[i]).fold(0.0f64, f64::max);
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);

@@ -67,7 +67,7 @@ pub use interpolate::{
     insertion_schedule, interpolate_middle, interpolate_sequence, Interpolated, InterpolationError,
     InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation, PairStats,
 };
-pub use options::{GeodesicOptions, Solver, StopReason};
+pub use options::{GeodesicOptions, Monitor, MonitorFn, Solver, StopReason};
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
 use crate::metric::{At, CalibrationError, Metric, MetricSpec, Segment};
@@ -208,6 +208,13 @@ pub enum GeodesicError {
     /// The metric could not be calibrated on its reference pose(s).
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
+    /// The solve was stopped by [`GeodesicOptions::monitor`] (e.g. Ctrl-C) before iteration
+    /// `iteration`.
+    #[error("interrupted at solver iteration {iteration}")]
+    Interrupted {
+        /// The iteration that was about to run.
+        iteration: usize,
+    },
     /// The energy became NaN or infinite (degenerate poses along the path).
     #[error("the path energy is not finite ({what} {value}); the poses may be degenerate")]
     NonFinite {

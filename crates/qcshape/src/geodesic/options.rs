@@ -216,6 +216,32 @@ pub struct GeodesicOptions {
     /// quasi-conformal 4.7 / 5.0 / 5.3 / 5.4 / 6.5, conformal 13.0 / 13.2 / 13.8 / 14.3 / 18.6;
     /// CPU time of the matrix lowest for 4-10; docs/log/speed.md).
     pub preconditioner_reuse: usize,
+    /// Called by every solver once per iteration ([`Monitor`]): progress reports, and a way
+    /// to stop a solve (Ctrl-C) with [`super::GeodesicError::Interrupted`]. Default `None`.
+    pub monitor: Option<Monitor>,
+}
+
+/// A callback every geodesic solver calls once per outer iteration, before the iteration's
+/// work, with the iteration number (1, 2, ...) and the current path energy. Returning
+/// [`std::ops::ControlFlow::Break`] stops the solve with [`super::GeodesicError::Interrupted`].
+/// It runs on the solver's thread: keep it cheap (an atomic load, a counter).
+#[derive(Clone)]
+pub struct Monitor(std::sync::Arc<MonitorFn>);
+
+/// The function inside a [`Monitor`]: `(iteration, energy) -> ControlFlow`.
+pub type MonitorFn = dyn Fn(usize, f64) -> std::ops::ControlFlow<()> + Send + Sync;
+
+impl Monitor {
+    /// A monitor calling `f(iteration, energy)`.
+    pub fn new(f: impl Fn(usize, f64) -> std::ops::ControlFlow<()> + Send + Sync + 'static) -> Self {
+        Monitor(std::sync::Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for Monitor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Monitor")
+    }
 }
 
 impl GeodesicOptions {
@@ -269,6 +295,7 @@ impl Default for GeodesicOptions {
             preconditioner_refresh: 45,
             vertex_block_weight: 0.3,
             preconditioner_reuse: 10,
+            monitor: None,
         }
     }
 }
@@ -320,6 +347,17 @@ impl GeodesicOptions {
             Some(StopReason::GradientTolerance)
         } else {
             None
+        }
+    }
+
+    /// The solvers' once-per-iteration call of [`GeodesicOptions::monitor`]:
+    /// [`super::GeodesicError::Interrupted`] when it asks to stop.
+    pub(crate) fn monitor(&self, iteration: usize, energy: f64) -> Result<(), super::GeodesicError> {
+        match &self.monitor {
+            Some(m) if (m.0)(iteration, energy).is_break() => {
+                Err(super::GeodesicError::Interrupted { iteration })
+            }
+            _ => Ok(()),
         }
     }
 

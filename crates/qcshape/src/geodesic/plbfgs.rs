@@ -285,6 +285,7 @@ pub(crate) fn minimize<'l>(
             break;
         }
         iterations += 1;
+        opts.monitor(iterations, e)?;
         // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
         // valid secant information; their `M^{-1} y` are recomputed).
         if layout.is_some() && refresh > 0 && iterations % refresh == 0 {

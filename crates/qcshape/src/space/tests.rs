@@ -210,3 +210,15 @@ fn space_is_shareable() {
     fn sync<T: Send + Sync + Clone + 'static>() {}
     sync::<ShapeSpace>();
 }
+
+#[test]
+fn poses_of_very_different_sizes_are_recognized() {
+    // Issue 60: a pose and the same pose scaled 1,000 x (millimetres against metres).
+    let s = crate::synth::icosphere(1);
+    let times = |f: f64| -> Vec<[f64; 3]> { s.positions.iter().map(|p| p.map(|c| c * f)).collect() };
+    let (la, lb) = super::size_mismatch(&s.topology, &s.positions, &times(1000.0)).unwrap();
+    assert!((lb / la - 1000.0).abs() < 1e-9, "{la} {lb}");
+    assert!(super::size_mismatch(&s.topology, &times(1000.0), &s.positions).is_some());
+    assert!(super::size_mismatch(&s.topology, &s.positions, &times(9.0)).is_none());
+    assert!(super::size_mismatch(&s.topology, &s.positions, &times(11.0)).is_some());
+}

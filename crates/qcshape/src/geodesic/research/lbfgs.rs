@@ -1,6 +1,7 @@
 //! L-BFGS (the paper's quasi-Newton method) through argmin, on the exact gradient.
 
-use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, TerminationStatus};
+use argmin::core::observers::{Observe, ObserverMode};
+use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, TerminationStatus, KV};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 
@@ -27,6 +28,16 @@ impl Gradient for Problem<'_, '_> {
         let mut g = vec![0.0; x.len()];
         self.pe.energy_gradient(x, self.ends, &mut g);
         Ok(g)
+    }
+}
+
+/// [`GeodesicOptions::monitor`] as an argmin observer.
+struct Monitored(GeodesicOptions);
+
+impl<I: State<Float = f64>> Observe<I> for Monitored {
+    fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), argmin::core::Error> {
+        // argmin counts from 0 here; the solvers number iterations from 1.
+        Ok(self.0.monitor(state.get_iter() as usize + 1, state.get_cost())?)
     }
 }
 
@@ -61,7 +72,18 @@ pub(crate) fn minimize(
         opts.max_iterations
             .unwrap_or_else(|| crate::geodesic::Solver::Lbfgs.default_max_iterations()) as u64;
     let target = opts.target_energy;
-    let res = Executor::new(problem, solver)
+    // The monitor runs after each of argmin's iterations; its stop travels as argmin's error.
+    let err = |e: argmin::core::Error| match e.downcast::<GeodesicError>() {
+        Ok(stopped) => stopped,
+        Err(e) => err(e),
+    };
+    let monitored = Executor::new(problem, solver);
+    let monitored = if opts.monitor.is_some() {
+        monitored.add_observer(Monitored(opts.clone()), ObserverMode::Always)
+    } else {
+        monitored
+    };
+    let res = monitored
         .configure(|state| {
             let s = state.param(x0).max_iters(max_iters);
             match target {

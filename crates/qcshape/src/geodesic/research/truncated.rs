@@ -335,6 +335,7 @@ pub(crate) fn minimize(
             break;
         }
         iterations += 1;
+        opts.monitor(iterations, energy)?;
         let eta = (gn / g0).sqrt().min(0.1);
         let p = model.step(&g, eta);
         // Backtracking line search on the true energy (Armijo), full step first.
