@@ -97,6 +97,9 @@ pub fn fit<'py>(
         d.set_item(k, v)?;
     }
     d.set_item("flipped", q.flipped)?;
+    d.set_item("template_min_angle", q.template_min_angle)?;
+    d.set_item("new_slivers", q.new_slivers)?;
+    d.set_item("slide", q.slide)?;
     d.set_item("iterations", fitted.iterations)?;
     d.set_item("poor", q.poor)?;
     let residual = numpy::PyArray1::from_vec(py, fitted.residual).into_any();

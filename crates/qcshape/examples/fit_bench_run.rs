@@ -80,6 +80,9 @@ fn main() {
         .map(|k| k.split(',').map(str::to_string).collect());
     let mut table: BTreeMap<(String, String), Vec<f64>> = BTreeMap::new();
     let mut time = 0.0;
+    let mut slides = Vec::new();
+    let mut poor = 0;
+    let mut truth_slides: Vec<(f64, String)> = Vec::new();
     let mut fits = 0;
     let mut cases: Vec<_> = std::fs::read_dir(dir).expect("DIR").flatten().map(|e| e.path()).collect();
     cases.sort();
@@ -98,6 +101,7 @@ fn main() {
         let topo = Topology::new(t.positions.len(), t.faces.clone()).expect("template faces");
         let template = Shape::new(topo.clone(), t.positions.clone()).expect("shape");
         let lbar = mean_edge_length(&topo, &t.positions);
+        truth_slides.push((qcshape::fit::quality::slide(&topo, &t.positions, &x.positions), name.clone()));
         for m in &meshings {
             let p = case.join(format!("{m}.ply"));
             if !Path::new(&p).exists() {
@@ -116,6 +120,13 @@ fn main() {
             );
             time += t0.elapsed().as_secs_f64();
             fits += 1;
+            if let Ok(f) = &f {
+                slides.push(f.quality.slide);
+                poor += usize::from(f.quality.poor);
+                if f.quality.poor && std::env::var_os("VERBOSE").is_some() {
+                    eprintln!("{name} {m}: {}", f.quality.problems().join(", "));
+                }
+            }
             let med = match f {
                 Ok(f) => median(
                     f.positions
@@ -143,6 +154,17 @@ fn main() {
         line.push_str(&format!("{}/{} {:.3} | ", &k[..k.len().min(5)], &m[..1], med));
     }
     println!("{line}");
+    slides.sort_by(f64::total_cmp);
+    truth_slides.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(t) = truth_slides.last() {
+        println!("quality.slide of the true poses: largest {:.3} ({})", t.0, t.1);
+    }
+    println!(
+        "quality.slide over the fits: median {:.3}, largest {:.3}; poor fits {poor} of {}",
+        median(slides.clone()),
+        slides.last().copied().unwrap_or(f64::NAN),
+        slides.len()
+    );
     println!(
         "mean of medians {:.3}; {:.2} s per fit",
         all.iter().sum::<f64>() / all.len().max(1) as f64,
