@@ -153,7 +153,7 @@ def main():
                     "(with template.ply and truth.ply) for `cargo run --example fit_bench_run`")
     a = ap.parse_args()
     shapes = a.shapes.split(",") if a.shapes else (["ellipsoid", "pear", "peanut"] if a.quick else SHAPES)
-    kinds = a.kinds.split(",") if a.kinds else KINDS
+    kinds = [k for k in a.kinds.split(",") if k] if a.kinds is not None else KINDS
     meshings = a.meshings.split(",") if a.meshings else (["jitter", "decimate"] if a.quick else MESHINGS[:3])
     methods = a.methods.split(",")
     scales = [float(s) for s in a.scales.split(",")]
