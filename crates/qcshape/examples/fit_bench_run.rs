@@ -34,11 +34,9 @@ fn main() {
         eprintln!("usage: fit_bench_run DIR [MESHING,...]");
         std::process::exit(2);
     };
-    let meshings: Vec<String> = args
-        .get(2)
-        .map_or(vec!["jitter".into(), "decimate".into()], |m| {
-            m.split(',').map(str::to_string).collect()
-        });
+    let meshings: Vec<String> = args.get(2).map_or(vec!["jitter".into(), "decimate".into()], |m| {
+        m.split(',').map(str::to_string).collect()
+    });
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     let mut opts = FitOptions::default();
     if let Ok(p) = std::env::var("PRIOR") {
@@ -84,7 +82,11 @@ fn main() {
     let mut poor = 0;
     let mut truth_slides: Vec<(f64, String)> = Vec::new();
     let mut fits = 0;
-    let mut cases: Vec<_> = std::fs::read_dir(dir).expect("DIR").flatten().map(|e| e.path()).collect();
+    let mut cases: Vec<_> = std::fs::read_dir(dir)
+        .expect("DIR")
+        .flatten()
+        .map(|e| e.path())
+        .collect();
     cases.sort();
     for case in cases {
         let name = case.file_name().unwrap().to_string_lossy().to_string();
@@ -101,7 +103,10 @@ fn main() {
         let topo = Topology::new(t.positions.len(), t.faces.clone()).expect("template faces");
         let template = Shape::new(topo.clone(), t.positions.clone()).expect("shape");
         let lbar = mean_edge_length(&topo, &t.positions);
-        truth_slides.push((qcshape::fit::quality::slide(&topo, &t.positions, &x.positions), name.clone()));
+        truth_slides.push((
+            qcshape::fit::quality::slide(&topo, &t.positions, &x.positions),
+            name.clone(),
+        ));
         for m in &meshings {
             let p = case.join(format!("{m}.ply"));
             if !Path::new(&p).exists() {

@@ -37,9 +37,9 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use super::nonrigid::{matches, Sample, Solver};
-use crate::align::{horn_rotation, Motion};
 use super::rigid::stride;
 use super::{FitError, FitOptions, Prepared};
+use crate::align::{horn_rotation, Motion};
 use crate::mesh::geometry::{dot, mean_edge_length, sub};
 use crate::mesh::Topology;
 
@@ -387,7 +387,11 @@ pub(crate) fn fit(
             center[k] += p[k] / nv as f64;
         }
     }
-    let radius = (start.iter().map(|p| dot(sub(*p, center), sub(*p, center))).sum::<f64>() / nv as f64)
+    let radius = (start
+        .iter()
+        .map(|p| dot(sub(*p, center), sub(*p, center)))
+        .sum::<f64>()
+        / nv as f64)
         .sqrt()
         .max(f64::MIN_POSITIVE);
     let to = |p: [f64; 3]| sub(p, center).map(|v| v / radius);
@@ -427,14 +431,7 @@ pub(crate) fn fit(
                 });
             }
             let y: Vec<[f64; 3]> = m.y.iter().map(|p| to(*p)).collect();
-            let pulls: Vec<Sample> = m
-                .samples
-                .iter()
-                .map(|s| Sample {
-                    s: to(s.s),
-                    ..*s
-                })
-                .collect();
+            let pulls: Vec<Sample> = m.samples.iter().map(|s| Sample { s: to(s.s), ..*s }).collect();
             let rotations: Vec<[[f64; 3]; 3]> = if opts.isometric > 0.0 {
                 maps.iter().map(nearest_rotation).collect()
             } else {
@@ -500,7 +497,13 @@ mod tests {
         let y: Vec<[f64; 3]> = s
             .positions
             .iter()
-            .map(|p| [1.3 * p[0] + 0.2 * p[2], p[1] - 0.1, 0.7 * p[2] + 0.05 * p[0] * p[0]])
+            .map(|p| {
+                [
+                    1.3 * p[0] + 0.2 * p[2],
+                    p[1] - 0.1,
+                    0.7 * p[2] + 0.05 * p[0] * p[0],
+                ]
+            })
             .collect();
         let samples = vec![
             Sample {

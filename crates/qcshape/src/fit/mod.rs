@@ -212,7 +212,9 @@ impl std::str::FromStr for Prior {
             "arap" => Ok(Prior::Arap),
             "asap" => Ok(Prior::Asap),
             "affine" => Ok(Prior::Affine),
-            _ => Err(format!("unknown prior '{s}' (expected affine, smooth, arap or asap)")),
+            _ => Err(format!(
+                "unknown prior '{s}' (expected affine, smooth, arap or asap)"
+            )),
         }
     }
 }
@@ -583,7 +585,14 @@ fn fit_prepared(
     let motion = rigid::initial_alignment(template, target, opts)?;
     let rest: Vec<[f64; 3]> = template.positions.iter().map(|p| motion.apply(*p)).collect();
     let (positions, iterations) = solvers.nonrigid(&rest, rest.clone(), target, opts, landmarks)?;
-    Ok(finish(&solvers.edge, &rest, positions, motion, iterations, target))
+    Ok(finish(
+        &solvers.edge,
+        &rest,
+        positions,
+        motion,
+        iterations,
+        target,
+    ))
 }
 
 fn finish(
@@ -632,7 +641,14 @@ pub fn fit_sequence(
             Some(prev) => {
                 let (positions, iterations) =
                     solvers.nonrigid(&rest, prev.positions.clone(), &prepared, opts, &[])?;
-                finish(&solvers.edge, &rest, positions, Motion::IDENTITY, iterations, &prepared)
+                finish(
+                    &solvers.edge,
+                    &rest,
+                    positions,
+                    Motion::IDENTITY,
+                    iterations,
+                    &prepared,
+                )
             }
         };
         out.push(fitted);

@@ -5,7 +5,9 @@ use super::closest::SurfaceIndex;
 use super::nonrigid::median;
 use super::rigid::stride;
 use super::Prepared;
-use crate::mesh::geometry::{corner_angles, dot, edge_lengths, face_normals, mean_edge_length, sub, vertex_normals};
+use crate::mesh::geometry::{
+    corner_angles, dot, edge_lengths, face_normals, mean_edge_length, sub, vertex_normals,
+};
 use crate::mesh::Topology;
 use rayon::prelude::*;
 
@@ -182,7 +184,12 @@ fn inverse3(m: [[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
         m[r1][k1] * m[r2][k2] - m[r1][k2] * m[r2][k1]
     };
     let det = m[0][0] * c(0, 0) + m[0][1] * c(0, 1) + m[0][2] * c(0, 2);
-    let scale: f64 = m.iter().flatten().map(|x| x.abs()).sum::<f64>().max(f64::MIN_POSITIVE);
+    let scale: f64 = m
+        .iter()
+        .flatten()
+        .map(|x| x.abs())
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
     if !(det.abs() > 1e-12 * scale.powi(3)) {
         return None;
     }
@@ -273,7 +280,11 @@ pub(crate) fn measure(
     let mut near_sliver: Vec<bool> = rest_angles.iter().map(|a| *a < SLIVER_ANGLE).collect();
     for ef in topo.edge_faces() {
         let (a, b) = (ef[0] as usize, ef[1] as usize);
-        if a < near_sliver.len() && b < near_sliver.len() && a != b && (rest_angles[a] < SLIVER_ANGLE || rest_angles[b] < SLIVER_ANGLE) {
+        if a < near_sliver.len()
+            && b < near_sliver.len()
+            && a != b
+            && (rest_angles[a] < SLIVER_ANGLE || rest_angles[b] < SLIVER_ANGLE)
+        {
             near_sliver[a] = true;
             near_sliver[b] = true;
         }
@@ -288,7 +299,9 @@ pub(crate) fn measure(
     let slide = slide(topo, rest, fitted);
     let slide_limit = {
         let n = rest.len().max(1) as f64;
-        let c = rest.iter().fold([0.0; 3], |a, p| [0, 1, 2].map(|k| a[k] + p[k] / n));
+        let c = rest
+            .iter()
+            .fold([0.0; 3], |a, p| [0, 1, 2].map(|k| a[k] + p[k] / n));
         let r = (rest.iter().map(|p| dot(sub(*p, c), sub(*p, c))).sum::<f64>() / n).sqrt();
         let h = if r > 0.0 { lbar / r } else { 0.0 };
         POOR_SLIDE * (h / SLIDE_REFERENCE_EDGE).powi(2).max(1.0)

@@ -334,7 +334,11 @@ fn a_planted_slide_is_flagged_and_a_good_fit_is_not() {
     let f = fit(&t, &target, &opts).unwrap();
     assert!(!f.quality.poor, "{:?}", f.quality.problems());
     assert!(f.quality.slide < f.quality.slide_limit, "{:?}", f.quality);
-    assert!((f.quality.slide_limit - quality::POOR_SLIDE).abs() < 0.05, "{:?}", f.quality);
+    assert!(
+        (f.quality.slide_limit - quality::POOR_SLIDE).abs() < 0.05,
+        "{:?}",
+        f.quality
+    );
     // Slide a patch (the vertices within 0.3 of the +x pole) by 1.5 edge lengths along the
     // surface (the y direction, tangent there), then put it back on the target: the surface
     // distance stays small, the correspondence is wrong.
@@ -346,7 +350,11 @@ fn a_planted_slide_is_flagged_and_a_good_fit_is_not() {
         .iter()
         .map(|p| {
             if norm(sub(*p, pole)) < 0.3 {
-                prepared.index.closest(add(*p, [0.0, 1.5 * lbar, 0.0])).unwrap().point
+                prepared
+                    .index
+                    .closest(add(*p, [0.0, 1.5 * lbar, 0.0]))
+                    .unwrap()
+                    .point
             } else {
                 *p
             }
@@ -389,7 +397,12 @@ fn landmarks_pull_their_vertices() {
     let d = |f: &Fitted| norm(sub(f.positions[0], goal)) / f.quality.edge_length;
     assert!(d(&free) > 0.5, "{}", d(&free));
     // Measured 0.20 edge lengths from the goal (0.84 without the landmark).
-    assert!(d(&pulled) < 0.3 && d(&pulled) < 0.5 * d(&free), "{} {}", d(&pulled), d(&free));
+    assert!(
+        d(&pulled) < 0.3 && d(&pulled) < 0.5 * d(&free),
+        "{} {}",
+        d(&pulled),
+        d(&free)
+    );
     let bad = fit_with_landmarks(
         &t,
         &target,
