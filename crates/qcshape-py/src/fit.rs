@@ -12,7 +12,7 @@ use qcshape::mesh::Shape;
 use crate::convert::{count, faces, points, points_out, AnyInt};
 
 /// fit(template_vertices, template_faces, target_vertices, target_faces=None, *,
-/// alignment="similarity", prior="affine", stages=6, max_samples=1000) -> (V, residual, quality)
+/// alignment="similarity", prior="smooth", stages=6, max_samples=1000) -> (V, residual, quality)
 ///
 /// Fits the template (vertices (nV, 3), faces (nF, 3); a trimesh / pyvista / meshio mesh may
 /// stand for either) to the target surface (vertices (nP, 3) and faces (nT, 3) of any
@@ -23,14 +23,14 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// median_vertex (symmetric surface distance in template mean edge lengths), min_angle
 /// (degrees), flipped (triangles), strain_rms, strain_max, edge_length (target units), scale
 /// (of the initial alignment), iterations and poor (bool). alignment: "similarity", "rigid" or
-/// "none"; prior: "affine" (one affine map per vertex, stiffness annealed from one map for
-/// the whole template to edge-scale detail; the default), "smooth" (local affine maps near
-/// similarities varying smoothly), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
+/// "none"; prior: "smooth" (local affine maps near similarities varying smoothly; the
+/// default), "affine" (one affine map per vertex, stiffness annealed from one map for the
+/// whole template to edge-scale detail), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
 /// stages; max_samples: target points pulling the template surface at most (at least twice
 /// the template's vertex count are used). ValueError for bad input (empty target, NaN, a
 /// non-manifold template, no overlap).
 #[pyfunction]
-#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="affine", stages=AnyInt::new(6), max_samples=AnyInt::new(1000)))]
+#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="smooth", stages=AnyInt::new(6), max_samples=AnyInt::new(1000)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,

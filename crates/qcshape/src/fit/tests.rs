@@ -376,8 +376,10 @@ fn landmarks_pull_their_vertices() {
         positions: &g.positions,
         faces: g.topology.faces(),
     };
+    // Landmarks are a term of the affine prior.
     let opts = FitOptions {
         alignment: Alignment::None,
+        prior: Prior::Affine,
         ..FitOptions::default()
     };
     let p0 = t.positions[0];
