@@ -298,25 +298,28 @@ fn a_template_sliver_fitted_onto_its_own_surface_is_not_poor() {
     assert!(angle(&t) < 1.0, "{}", angle(&t));
     // The target: the same surface, another (finer) triangulation.
     let g = ellipsoid(4, 0.3);
-    let opts = FitOptions {
-        alignment: Alignment::None,
-        ..FitOptions::default()
-    };
-    let f = fit(
-        &t,
-        &Target {
-            positions: &g.positions,
-            faces: g.topology.faces(),
-        },
-        &opts,
-    )
-    .unwrap();
-    let q = f.quality;
-    // The template's own sliver is reported, not counted against the fit.
-    assert!(q.template_min_angle < 1.0, "{q:?}");
-    assert_eq!(q.new_slivers, 0, "{q:?}");
-    assert_eq!(q.flipped, 0, "{q:?}");
-    assert!(!q.poor, "{:?}", q.problems());
+    for prior in [Prior::Smooth, Prior::Affine] {
+        let opts = FitOptions {
+            alignment: Alignment::None,
+            prior,
+            ..FitOptions::default()
+        };
+        let f = fit(
+            &t,
+            &Target {
+                positions: &g.positions,
+                faces: g.topology.faces(),
+            },
+            &opts,
+        )
+        .unwrap();
+        let q = f.quality;
+        // The template's own sliver is reported, not counted against the fit.
+        assert!(q.template_min_angle < 1.0, "{prior:?} {q:?}");
+        assert_eq!(q.new_slivers, 0, "{prior:?} {q:?}");
+        assert_eq!(q.flipped, 0, "{prior:?} {q:?}");
+        assert!(!q.poor, "{prior:?} {:?}", q.problems());
+    }
 }
 
 #[test]
