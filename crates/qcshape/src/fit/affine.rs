@@ -28,6 +28,9 @@
 //! or after `iterations` solves. Correspondences are refreshed at every iteration (closest
 //! points both ways, normal and distance tests: [`super::nonrigid::matches`]).
 
+// Index loops over the 4 x 3 maps and 4 x 4 blocks read as the formulas.
+#![allow(clippy::needless_range_loop)]
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{

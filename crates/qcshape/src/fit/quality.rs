@@ -190,7 +190,8 @@ fn inverse3(m: [[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
         .map(|x| x.abs())
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
-    if !(det.abs() > 1e-12 * scale.powi(3)) {
+    let bound = 1e-12 * scale.powi(3);
+    if det.is_nan() || det.abs() <= bound {
         return None;
     }
     Some([0, 1, 2].map(|r| [0, 1, 2].map(|k| c(k, r) / det)))
@@ -200,6 +201,7 @@ fn inverse3(m: [[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
 /// map's difference from the mean of its neighbours' ([`local_maps`]): zero to first order for
 /// any smooth field of maps (a smooth deformation), about half the jump at the border of a
 /// patch slid along the surface.
+#[allow(clippy::needless_range_loop)]
 pub fn slide(topo: &Topology, rest: &[[f64; 3]], fitted: &[[f64; 3]]) -> f64 {
     let maps = local_maps(topo, rest, fitted);
     let mut jump: Vec<f64> = (0..maps.len())
