@@ -54,9 +54,11 @@ pub struct Args {
     /// template is already placed on the targets).
     #[arg(long, default_value = FitOptions::default().alignment.label())]
     pub alignment: Alignment,
-    /// Deformation prior: smooth (local affine maps near similarities that vary smoothly:
-    /// smooth stretches, shears and bends cost little; the default), arap (as-rigid-as-possible:
-    /// every edge strain costs) or asap (as-similar-as-possible: local scaling is free).
+    /// Deformation prior: smooth (local affine maps near similarities that vary smoothly; the
+    /// default), affine (one affine map per vertex, stiffness annealed from one map for the
+    /// whole template to edge-scale detail, as Amberg et al.'s NICP: better on stretches and
+    /// shears), arap (as-rigid-as-possible: every edge strain costs) or asap (local scaling is
+    /// free).
     #[arg(long, default_value = FitOptions::default().prior.label())]
     pub prior: qcshape::fit::Prior,
     /// Deformation name when TARGETS are mesh files or a folder.

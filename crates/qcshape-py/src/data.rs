@@ -808,6 +808,9 @@ fn fitted(
                 row.set_item(c, v)?;
             }
             row.set_item(columns[13], q.poor)?;
+            row.set_item(columns[14], q.template_min_angle)?;
+            row.set_item(columns[15], q.new_slivers)?;
+            row.set_item(columns[16], q.slide)?;
             if q.poor {
                 crate::warn::warn(
                     py,

@@ -24,7 +24,8 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// (degrees), flipped (triangles), strain_rms, strain_max, edge_length (target units), scale
 /// (of the initial alignment), iterations and poor (bool). alignment: "similarity", "rigid" or
 /// "none"; prior: "smooth" (local affine maps near similarities varying smoothly; the
-/// default), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
+/// default), "affine" (one affine map per vertex, stiffness annealed from one map for the
+/// whole template to edge-scale detail), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
 /// stages; max_samples: target points pulling the template surface at most (at least twice
 /// the template's vertex count are used). ValueError for bad input (empty target, NaN, a
 /// non-manifold template, no overlap). A poor fit (quality["poor"]) issues a QcshapeWarning
@@ -107,6 +108,9 @@ pub fn fit<'py>(
         d.set_item(k, v)?;
     }
     d.set_item("flipped", q.flipped)?;
+    d.set_item("template_min_angle", q.template_min_angle)?;
+    d.set_item("new_slivers", q.new_slivers)?;
+    d.set_item("slide", q.slide)?;
     d.set_item("iterations", fitted.iterations)?;
     d.set_item("poor", q.poor)?;
     let residual = numpy::PyArray1::from_vec(py, fitted.residual).into_any();

@@ -34,16 +34,19 @@ fn main() {
     let mut opts = FitOptions::default();
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     if let Some(v) = env("STIFF_END") {
-        opts.stiffness_end = v;
+        opts.stiffness_end = Some(v);
     }
     if let Some(v) = env("STIFF_START") {
-        opts.stiffness_start = v;
+        opts.stiffness_start = Some(v);
     }
     if let Some(v) = env("SAMPLES") {
         opts.max_samples = v as usize;
     }
     if let Some(v) = env("S2P") {
         opts.surface_to_point = v;
+    }
+    if let Some(v) = env("PLANE") {
+        opts.point_to_plane = v != 0.0;
     }
     if let Ok(a) = std::env::var("PRIOR") {
         opts.prior = a.parse().expect("smooth, arap or asap");

@@ -102,7 +102,7 @@ def fit(
     target_faces: Optional[_Faces] = None,
     *,
     alignment: Literal["similarity", "rigid", "none"] = "similarity",
-    prior: Literal["smooth", "arap", "asap"] = "smooth",
+    prior: Literal["smooth", "affine", "arap", "asap"] = "smooth",
     stages: int = 6,
     max_samples: int = 1000,
 ) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:

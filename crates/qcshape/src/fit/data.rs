@@ -158,7 +158,10 @@ pub fn fit_dataset(
 /// template's mean edge lengths), the smallest angle (degrees), flipped triangles, the rms and
 /// largest relative edge strain, the edge length (target units), the initial alignment's scale
 /// and whether the fit is poor ([`super::FitQuality`]).
-pub const QUALITY_COLUMNS: [&str; 14] = [
+///
+/// Then, after `poor`: the template's own smallest angle, the triangles the fit made slivers
+/// and the local slide measure ([`super::FitQuality::slide`]).
+pub const QUALITY_COLUMNS: [&str; 17] = [
     "deformation",
     "pose",
     "source",
@@ -173,6 +176,9 @@ pub const QUALITY_COLUMNS: [&str; 14] = [
     "edge_length",
     "scale",
     "poor",
+    "template_min_angle",
+    "new_slivers",
+    "slide",
 ];
 
 /// One row of the quality table ([`QUALITY_COLUMNS`]) for pose `pose` of deformation `name`,
@@ -186,6 +192,9 @@ pub fn quality_record(name: &str, pose: usize, source: &Path, f: &Fitted) -> Vec
     let more = [q.strain_rms, q.strain_max, q.edge_length, f.motion.scale];
     row.extend(more.iter().map(|x| format!("{x:.6}")));
     row.push(q.poor.to_string());
+    row.push(format!("{:.6}", q.template_min_angle));
+    row.push(q.new_slivers.to_string());
+    row.push(format!("{:.6}", q.slide));
     row
 }
 

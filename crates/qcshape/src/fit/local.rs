@@ -102,7 +102,8 @@ pub(crate) fn maps(topo: &Topology, p: &[[f64; 3]], x: &[[f64; 3]], prior: Prior
     match prior {
         Prior::Arap => fans.iter().map(|f| f.rotation).collect(),
         Prior::Asap => fans.iter().map(Fan::similarity).collect(),
-        Prior::Smooth => SmoothMaps::new(topo, &fans, lbar).solve(SWEEPS),
+        // The affine prior has its own solver (`super::affine`); its maps are never asked for.
+        Prior::Smooth | Prior::Affine => SmoothMaps::new(topo, &fans, lbar).solve(SWEEPS),
     }
 }
 

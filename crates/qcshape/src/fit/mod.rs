@@ -24,6 +24,7 @@
 //! aligned template's mean edge length `lbar`, so the result does not depend on the scale of
 //! the data.
 
+pub mod affine;
 pub mod closest;
 pub mod data;
 pub mod local;
@@ -126,6 +127,16 @@ pub enum FitError {
     /// A solve of the fit's system gave non-finite positions.
     #[error("the fit's linear system gave a non-finite solution")]
     NotFinite,
+    /// A landmark names a template vertex that does not exist or a non-finite point.
+    #[error("landmark {landmark}: vertex {vertex} is out of range (the template has {n_vertices} vertices) or its point is not finite")]
+    Landmark {
+        /// The landmark's index.
+        landmark: usize,
+        /// Its template vertex.
+        vertex: usize,
+        /// Template vertex count.
+        n_vertices: usize,
+    },
     /// No candidate of the initial alignment has a finite score or scale.
     #[error("the initial alignment did not converge (no candidate with a finite score and scale)")]
     Alignment,
@@ -141,16 +152,23 @@ pub struct Target<'a> {
     pub faces: &'a [[u32; 3]],
 }
 
-/// The deformation prior of the non-rigid fit ([`nonrigid`], [`local`]): which local maps the
-/// fitted edge vectors are compared with.
+/// The deformation prior of the non-rigid fit ([`affine`], [`nonrigid`], [`local`]): how the
+/// fit charges the template's deformation, which decides where vertices go along the surface
+/// where the data leave them free.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Prior {
     /// Smooth local affine maps near each vertex fan's best similarity (the default): smooth
-    /// deformations of the whole shape (stretch, shear, taper, bend) cost little and local
-    /// strain is charged, so the fit places vertices along the surface as a smooth motion
-    /// would. Best on the ground-truth fixtures (docs/fit.md).
+    /// deformations of the whole shape cost little and local strain is charged. Better than
+    /// [`Prior::Affine`] on tapers, bulges and dents and on the distances measured after a fit
+    /// (docs/fit.md), worse on stretches and shears.
     #[default]
     Smooth,
+    /// One affine map per vertex with Amberg et al.'s stiffness (differences of neighbouring
+    /// maps), annealed from one map for the whole template to edge-scale detail ([`affine`]):
+    /// the gross deformation is found first, globally, then the detail. Lowest mean error on
+    /// the issue-59 benchmark (stretch and shear recovered), but it slides tapers and bulges
+    /// along their axis and changes the distances measured afterwards more (docs/fit.md).
+    Affine,
     /// As-rigid-as-possible with uniform edge weights: every edge strain is charged, the
     /// discrete analogue of the library's isometric metric.
     Arap,
@@ -165,9 +183,27 @@ impl Prior {
             Prior::Smooth => "smooth",
             Prior::Arap => "arap",
             Prior::Asap => "asap",
+            Prior::Affine => "affine",
         }
     }
 }
+
+impl Prior {
+    /// The prior's default stiffness at the first and the last stage, chosen on the
+    /// ground-truth fixtures (docs/fit.md): 2 to 0.3 for the edge-vector priors (for ARAP as
+    /// good as the earlier 20 to 0.1); for [`Prior::Affine`] 1 to 1, the first multiplied by
+    /// the template's vertex count (one affine map for the whole template first, edge-scale
+    /// detail last).
+    pub fn stiffness(self) -> (f64, f64) {
+        match self {
+            Prior::Affine => (AFFINE_STIFFNESS.0, AFFINE_STIFFNESS.1),
+            _ => (2.0, 0.3),
+        }
+    }
+}
+
+/// [`Prior::Affine`]'s default stiffness ends (see [`Prior::stiffness`]).
+pub const AFFINE_STIFFNESS: (f64, f64) = (1.0, 1.0);
 
 impl std::str::FromStr for Prior {
     type Err = String;
@@ -176,7 +212,10 @@ impl std::str::FromStr for Prior {
             "smooth" => Ok(Prior::Smooth),
             "arap" => Ok(Prior::Arap),
             "asap" => Ok(Prior::Asap),
-            _ => Err(format!("unknown prior '{s}' (expected smooth, arap or asap)")),
+            "affine" => Ok(Prior::Affine),
+            _ => Err(format!(
+                "unknown prior '{s}' (expected affine, smooth, arap or asap)"
+            )),
         }
     }
 }
@@ -194,12 +233,16 @@ pub struct FitOptions {
     /// Iterations (closest points, weights, rotations, one solve) per stage at most (1-1,000;
     /// default 12).
     pub iterations: usize,
-    /// Stiffness of the prior at the first stage, relative to the data term (default 2).
-    pub stiffness_start: f64,
-    /// Stiffness at the last stage (default 0.3); stages in between are geometric. The
-    /// defaults were chosen on the ground-truth fixtures (docs/fit.md): for the ARAP prior
-    /// they fit as well as the earlier 20 to 0.1, for the smooth prior better.
-    pub stiffness_end: f64,
+    /// Stiffness of the prior at the first stage, relative to the data term; `None` (the
+    /// default) is the prior's own ([`Prior::stiffness`]). For [`Prior::Affine`] it is
+    /// multiplied by the template's vertex count (see [`affine`]).
+    pub stiffness_start: Option<f64>,
+    /// Stiffness at the last stage (`None`: the prior's own); stages in between are
+    /// geometric.
+    pub stiffness_end: Option<f64>,
+    /// Weight of each landmark ([`fit_with_landmarks`]) relative to one vertex's data term, at
+    /// the first stage (default 10; it falls with the stiffness to a tenth).
+    pub landmark_weight: f64,
     /// Weight of the surface-to-point term relative to the point-to-surface term, in total
     /// (default 2; 0 turns it off).
     pub surface_to_point: f64,
@@ -215,6 +258,16 @@ pub struct FitOptions {
     /// Correspondences whose normals differ by more than this angle (degrees) are rejected
     /// (default 70; surfaces only).
     pub normal_angle: f64,
+    /// Pull along the normal only (point-to-plane): each closest target point is replaced by
+    /// the foot of the vertex on the target's tangent plane there (and each surface-to-point
+    /// sample by its foot on the template's tangent plane), so the data do not drag vertices
+    /// along the surface and the prior alone places them there. Surfaces only.
+    pub point_to_plane: bool,
+    /// [`Prior::Affine`] only: weight of the isometric term `sum_i |A_i - R_i|_F^2` (`A_i` the
+    /// linear part of vertex `i`'s affine map, `R_i` its nearest rotation, updated at every
+    /// iteration) relative to one vertex's data term (0 turns it off): rigid local motion is
+    /// free, local stretch and shear cost it.
+    pub isometric: f64,
 }
 
 impl Default for FitOptions {
@@ -224,17 +277,26 @@ impl Default for FitOptions {
             prior: Prior::Smooth,
             stages: 6,
             iterations: 12,
-            stiffness_start: 2.0,
-            stiffness_end: 0.3,
+            stiffness_start: None,
+            stiffness_end: None,
+            landmark_weight: 10.0,
             surface_to_point: 2.0,
             max_samples: 1_000,
             outlier_distance: 2.0,
             normal_angle: 70.0,
+            point_to_plane: false,
+            isometric: 0.0,
         }
     }
 }
 
 impl FitOptions {
+    /// The stiffness schedule's ends (first, last stage): the options, or the prior's own.
+    pub fn stiffness(&self) -> (f64, f64) {
+        let (a, b) = self.prior.stiffness();
+        (self.stiffness_start.unwrap_or(a), self.stiffness_end.unwrap_or(b))
+    }
+
     /// Errors on the first option out of range.
     pub fn check(&self) -> Result<(), FitError> {
         let bad = |name, value: f64, expected| {
@@ -250,13 +312,17 @@ impl FitOptions {
         if !(1..=MAX_SWEEPS).contains(&self.iterations) {
             return bad("iterations", self.iterations as f64, "1 to 1000");
         }
-        for (name, v) in [
-            ("stiffness_start", self.stiffness_start),
-            ("stiffness_end", self.stiffness_end),
-        ] {
+        let (s0, s1) = self.stiffness();
+        for (name, v) in [("stiffness_start", s0), ("stiffness_end", s1)] {
             if !(v.is_finite() && v > 0.0 && v <= 1e6) {
                 return bad(name, v, "positive, at most 1e6");
             }
+        }
+        if !(self.landmark_weight.is_finite() && (0.0..=1e6).contains(&self.landmark_weight)) {
+            return bad("landmark_weight", self.landmark_weight, "0 to 1e6");
+        }
+        if !(self.isometric.is_finite() && (0.0..=1e6).contains(&self.isometric)) {
+            return bad("isometric", self.isometric, "0 to 1e6");
         }
         if !(self.surface_to_point.is_finite() && (0.0..=1e6).contains(&self.surface_to_point)) {
             return bad("surface_to_point", self.surface_to_point, "0 to 1e6");
@@ -440,23 +506,94 @@ pub fn initial_alignment(template: &Shape, target: &Target, opts: &FitOptions) -
 /// non-rigid fit, then its quality. The result has the template's connectivity in the
 /// target's frame and units.
 pub fn fit(template: &Shape, target: &Target, opts: &FitOptions) -> Result<Fitted, FitError> {
+    fit_with_landmarks(template, target, opts, &[])
+}
+
+/// [`fit`] with landmarks: template vertex `l.vertex` is pulled onto `l.point` (target units)
+/// with weight [`FitOptions::landmark_weight`] (relaxed to a tenth over the stages). Only
+/// [`Prior::Affine`] uses them; the other priors ignore them. Landmarks whose vertex is out of
+/// range are refused ([`FitError::Landmark`]).
+pub fn fit_with_landmarks(
+    template: &Shape,
+    target: &Target,
+    opts: &FitOptions,
+    landmarks: &[affine::Landmark],
+) -> Result<Fitted, FitError> {
     opts.check()?;
     check_template(template)?;
+    check_landmarks(template, landmarks)?;
     let prepared = prepare(target)?;
-    let solver = nonrigid::Solver::new(&template.topology)?;
-    fit_prepared(template, &solver, &prepared, opts)
+    let solvers = Solvers::new(&template.topology, opts)?;
+    fit_prepared(template, &solvers, &prepared, opts, landmarks)
+}
+
+fn check_landmarks(template: &Shape, landmarks: &[affine::Landmark]) -> Result<(), FitError> {
+    let nv = template.positions.len();
+    for (k, l) in landmarks.iter().enumerate() {
+        if l.vertex >= nv || l.point.iter().any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE) {
+            return Err(FitError::Landmark {
+                landmark: k,
+                vertex: l.vertex,
+                n_vertices: nv,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The linear solvers of a template: the edge-vector priors' and, for [`Prior::Affine`], the
+/// affine field's.
+pub(crate) struct Solvers {
+    edge: nonrigid::Solver,
+    affine: Option<affine::AffineSolver>,
+}
+
+impl Solvers {
+    fn new(topo: &std::sync::Arc<crate::mesh::Topology>, opts: &FitOptions) -> Result<Solvers, FitError> {
+        Ok(Solvers {
+            edge: nonrigid::Solver::new(topo)?,
+            affine: match opts.prior {
+                Prior::Affine => Some(affine::AffineSolver::new(topo)?),
+                _ => None,
+            },
+        })
+    }
+
+    /// The non-rigid fit from `start` under the prior of `rest` (the aligned template); the
+    /// affine prior measures its stiffness from `start` itself.
+    fn nonrigid(
+        &self,
+        rest: &[[f64; 3]],
+        start: Vec<[f64; 3]>,
+        target: &Prepared,
+        opts: &FitOptions,
+        landmarks: &[affine::Landmark],
+    ) -> Result<(Vec<[f64; 3]>, usize), FitError> {
+        match &self.affine {
+            Some(a) => affine::fit(&self.edge, a, start, target, opts, landmarks),
+            None => nonrigid::fit(&self.edge, rest, start, target, opts),
+        }
+    }
 }
 
 fn fit_prepared(
     template: &Shape,
-    solver: &nonrigid::Solver,
+    solvers: &Solvers,
     target: &Prepared,
     opts: &FitOptions,
+    landmarks: &[affine::Landmark],
 ) -> Result<Fitted, FitError> {
     let motion = rigid::initial_alignment(template, target, opts)?;
     let rest: Vec<[f64; 3]> = template.positions.iter().map(|p| motion.apply(*p)).collect();
-    let (positions, iterations) = nonrigid::fit(solver, &rest, rest.clone(), target, opts)?;
-    Ok(finish(solver, &rest, positions, motion, iterations, target))
+    let (positions, iterations) = solvers.nonrigid(&rest, rest.clone(), target, opts, landmarks)?;
+    Ok(finish(
+        &solvers.edge,
+        &rest,
+        positions,
+        motion,
+        iterations,
+        target,
+    ))
 }
 
 fn finish(
@@ -478,8 +615,11 @@ fn finish(
 }
 
 /// Tracks a sequence: frame 0 is fitted from the template ([`fit`]), each next frame from the
-/// previous frame's fit (no new initial alignment; the prior stays the aligned template, so
-/// errors do not accumulate in the template's shape). `on_frame(k)` is called after frame `k`.
+/// previous frame's fit (no new initial alignment). The edge-vector priors stay measured
+/// against the aligned template (errors do not accumulate in the template's shape); the affine
+/// prior measures the frame-to-frame deformation (the previous fit is its rest shape), so the
+/// correspondence follows the motion from frame to frame. `on_frame(k)` is called after frame
+/// `k`.
 pub fn fit_sequence(
     template: &Shape,
     targets: &[Target],
@@ -488,21 +628,28 @@ pub fn fit_sequence(
 ) -> Result<Vec<Fitted>, FitError> {
     opts.check()?;
     check_template(template)?;
-    let solver = nonrigid::Solver::new(&template.topology)?;
+    let solvers = Solvers::new(&template.topology, opts)?;
     let mut out: Vec<Fitted> = Vec::with_capacity(targets.len().min(MAX_SWEEPS));
     let mut rest: Vec<[f64; 3]> = Vec::new();
     for (k, t) in targets.iter().enumerate() {
         let prepared = prepare(t)?;
         let fitted = match out.last() {
             None => {
-                let f = fit_prepared(template, &solver, &prepared, opts)?;
+                let f = fit_prepared(template, &solvers, &prepared, opts, &[])?;
                 rest = template.positions.iter().map(|p| f.motion.apply(*p)).collect();
                 f
             }
             Some(prev) => {
                 let (positions, iterations) =
-                    nonrigid::fit(&solver, &rest, prev.positions.clone(), &prepared, opts)?;
-                finish(&solver, &rest, positions, Motion::IDENTITY, iterations, &prepared)
+                    solvers.nonrigid(&rest, prev.positions.clone(), &prepared, opts, &[])?;
+                finish(
+                    &solvers.edge,
+                    &rest,
+                    positions,
+                    Motion::IDENTITY,
+                    iterations,
+                    &prepared,
+                )
             }
         };
         out.push(fitted);

@@ -191,10 +191,26 @@ impl Solver {
 /// A surface-to-point pull: target point `s` on the template point `sum bary_m x_{face_m}`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sample {
-    face: [u32; 3],
-    bary: [f64; 3],
-    weight: f64,
-    s: [f64; 3],
+    /// The template face holding the pulled point.
+    pub face: [u32; 3],
+    /// Its barycentric coordinates on `face`.
+    pub bary: [f64; 3],
+    /// The pull's weight.
+    pub weight: f64,
+    /// The target point.
+    pub s: [f64; 3],
+}
+
+/// The correspondences of one iteration at the current fit `x` (#V x 3).
+pub(crate) struct Matches {
+    /// Point-to-surface weight per template vertex (0 = rejected, else 1) (#V).
+    pub c: Vec<f64>,
+    /// The closest target point per template vertex (`x_i` itself when rejected) (#V x 3).
+    pub y: Vec<[f64; 3]>,
+    /// The accepted surface-to-point pulls, weights summing to `surface_to_point * #V`.
+    pub samples: Vec<Sample>,
+    /// Template vertices with an accepted match within [`OVERLAP`] outlier distances.
+    pub matched: usize,
 }
 
 /// The energy's terms at fixed rotations, correspondences and weights (see the module docs).
@@ -321,19 +337,16 @@ pub(crate) fn median(d: impl Iterator<Item = f64>) -> f64 {
     *d.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
-#[allow(clippy::too_many_arguments)]
-/// Builds the terms at `x` (closest points, robust weights, rotations); also returns how many
-/// template vertices found a correspondence within [`OVERLAP`] outlier distances.
-fn terms(
+/// The correspondences at `x` (closest points both ways, robust weights; see the module docs),
+/// for the surface-to-point `samples` (target vertex indices).
+pub(crate) fn matches(
     solver: &Solver,
-    p: &[[f64; 3]],
     x: &[[f64; 3]],
     target: &Prepared,
     samples: &[usize],
-    alpha: f64,
     opts: &FitOptions,
     lbar: f64,
-) -> (Terms, usize) {
+) -> Matches {
     let topo = &*solver.topo;
     let nv = x.len();
     let cos_max = opts.normal_angle.to_radians().cos();
@@ -372,7 +385,15 @@ fn terms(
             }
         }
         c[i] = 1.0;
-        y[i] = h.point;
+        y[i] = if opts.point_to_plane && target.is_surface() {
+            // Only the normal part of the pull: the target point moved to the foot of x_i on
+            // the target's tangent plane at the closest point, so the data do not drag the
+            // vertex along the surface (the prior places it there).
+            let n = target.face_normals[h.primitive as usize];
+            add(x[i], scale(n, dot(sub(h.point, x[i]), n)))
+        } else {
+            h.point
+        };
         if dist(h.distance_sq) <= OVERLAP * opts.outlier_distance * lbar {
             matched += 1;
         }
@@ -399,11 +420,18 @@ fn terms(
             {
                 continue;
             }
+            let s = if opts.point_to_plane {
+                // The template point moves along the template's normal only.
+                let n = fnormals[h.primitive as usize];
+                add(h.point, scale(n, dot(sub(target.positions[k], h.point), n)))
+            } else {
+                target.positions[k]
+            };
             pulls.push(Sample {
                 face,
                 bary: h.bary,
                 weight: 1.0,
-                s: target.positions[k],
+                s,
             });
         }
         let w = opts.surface_to_point * nv as f64 / pulls.len().max(1) as f64;
@@ -411,15 +439,37 @@ fn terms(
             s.weight = w;
         }
     }
-    let t = Terms {
-        alpha,
-        maps: local::maps(topo, p, x, opts.prior, lbar),
+    Matches {
         c,
         y,
         samples: pulls,
+        matched,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+/// Builds the terms at `x` (closest points, robust weights, rotations); also returns how many
+/// template vertices found a correspondence within [`OVERLAP`] outlier distances.
+fn terms(
+    solver: &Solver,
+    p: &[[f64; 3]],
+    x: &[[f64; 3]],
+    target: &Prepared,
+    samples: &[usize],
+    alpha: f64,
+    opts: &FitOptions,
+    lbar: f64,
+) -> (Terms, usize) {
+    let m = matches(solver, x, target, samples, opts, lbar);
+    let t = Terms {
+        alpha,
+        maps: local::maps(&solver.topo, p, x, opts.prior, lbar),
+        c: m.c,
+        y: m.y,
+        samples: m.samples,
         anchor: x.to_vec(),
     };
-    (t, matched)
+    (t, m.matched)
 }
 
 /// Fits the template from `start` (#V x 3) to `target` under the ARAP prior of the rest shape
@@ -437,12 +487,13 @@ pub(crate) fn fit(
     let samples: Vec<usize> = stride(target.positions.len(), opts.max_samples.max(2 * nv)).collect();
     let mut x = start;
     let mut solves = 0;
+    let (s0, s1) = opts.stiffness();
     for stage in 0..opts.stages {
         let alpha = if opts.stages == 1 {
-            opts.stiffness_end
+            s1
         } else {
             let f = stage as f64 / (opts.stages - 1) as f64;
-            opts.stiffness_start * (opts.stiffness_end / opts.stiffness_start).powf(f)
+            s0 * (s1 / s0).powf(f)
         };
         for _ in 0..opts.iterations {
             let (t, matched) = terms(solver, p, &x, target, &samples, alpha, opts, lbar);

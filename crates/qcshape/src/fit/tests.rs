@@ -263,3 +263,159 @@ fn refuses_bad_input_with_one_line() {
         "the template cannot be fitted: it is not manifold: vertex 0 joins 2 separate fans of faces"
     );
 }
+
+/// An ellipsoid (semi-axes 1.2, 0.9, 0.8) on icosphere level `level`, turned by `turn` radians
+/// about z (so that no vertex of one level sits on a vertex of another).
+fn ellipsoid(level: u32, turn: f64) -> Shape {
+    let s = icosphere(level);
+    let (sn, cs) = turn.sin_cos();
+    let p = s
+        .positions
+        .iter()
+        .map(|p| {
+            let q = [cs * p[0] - sn * p[1], sn * p[0] + cs * p[1], p[2]];
+            [1.2 * q[0], 0.9 * q[1], 0.8 * q[2]]
+        })
+        .collect();
+    Shape::new(s.topology.clone(), p).unwrap()
+}
+
+#[test]
+fn a_template_sliver_fitted_onto_its_own_surface_is_not_poor() {
+    // The template has a sliver: one vertex moved almost onto the opposite edge of one of its
+    // triangles (an angle well below 1 degree there).
+    let mut t = ellipsoid(2, 0.0);
+    let [a, b, c] = t.topology.faces()[10].map(|i| i as usize);
+    let mid = scale(add(t.positions[a], t.positions[b]), 0.5);
+    t.positions[c] = add(mid, scale(sub(t.positions[c], mid), 0.004));
+    let angle = |s: &Shape| {
+        crate::mesh::geometry::corner_angles(&s.topology, &s.positions)
+            .iter()
+            .flatten()
+            .fold(f64::INFINITY, |m, x| m.min(*x))
+            .to_degrees()
+    };
+    assert!(angle(&t) < 1.0, "{}", angle(&t));
+    // The target: the same surface, another (finer) triangulation.
+    let g = ellipsoid(4, 0.3);
+    for prior in [Prior::Smooth, Prior::Affine] {
+        let opts = FitOptions {
+            alignment: Alignment::None,
+            prior,
+            ..FitOptions::default()
+        };
+        let f = fit(
+            &t,
+            &Target {
+                positions: &g.positions,
+                faces: g.topology.faces(),
+            },
+            &opts,
+        )
+        .unwrap();
+        let q = f.quality;
+        // The template's own sliver is reported, not counted against the fit.
+        assert!(q.template_min_angle < 1.0, "{prior:?} {q:?}");
+        assert_eq!(q.new_slivers, 0, "{prior:?} {q:?}");
+        assert_eq!(q.flipped, 0, "{prior:?} {q:?}");
+        assert!(!q.poor, "{prior:?} {:?}", q.problems());
+    }
+}
+
+#[test]
+fn a_planted_slide_is_flagged_and_a_good_fit_is_not() {
+    let t = ellipsoid(3, 0.0);
+    let g = ellipsoid(4, 0.3);
+    let target = Target {
+        positions: &g.positions,
+        faces: g.topology.faces(),
+    };
+    let opts = FitOptions {
+        alignment: Alignment::None,
+        ..FitOptions::default()
+    };
+    let f = fit(&t, &target, &opts).unwrap();
+    assert!(!f.quality.poor, "{:?}", f.quality.problems());
+    assert!(f.quality.slide < f.quality.slide_limit, "{:?}", f.quality);
+    assert!(
+        (f.quality.slide_limit - quality::POOR_SLIDE).abs() < 0.05,
+        "{:?}",
+        f.quality
+    );
+    // Slide a patch (the vertices within 0.3 of the +x pole) by 1.5 edge lengths along the
+    // surface (the y direction, tangent there), then put it back on the target: the surface
+    // distance stays small, the correspondence is wrong.
+    let prepared = prepare(&target).unwrap();
+    let lbar = f.quality.edge_length;
+    let pole = [1.2, 0.0, 0.0];
+    let slid: Vec<[f64; 3]> = f
+        .positions
+        .iter()
+        .map(|p| {
+            if norm(sub(*p, pole)) < 0.3 {
+                prepared
+                    .index
+                    .closest(add(*p, [0.0, 1.5 * lbar, 0.0]))
+                    .unwrap()
+                    .point
+            } else {
+                *p
+            }
+        })
+        .collect();
+    let (q, _) = quality::measure(&t.topology, &t.positions, &slid, &prepared, quality::SAMPLES);
+    assert!(q.mean < quality::POOR_MEAN, "{q:?}");
+    assert!(q.slide > q.slide_limit, "{q:?}");
+    assert!(q.poor, "{q:?}");
+}
+
+#[test]
+fn landmarks_pull_their_vertices() {
+    // A sphere fitted to a sphere: without landmarks vertex 0 stays; a landmark on another
+    // point of the surface, a few edges away, moves it there.
+    let t = icosphere(2);
+    let g = icosphere(3);
+    let target = Target {
+        positions: &g.positions,
+        faces: g.topology.faces(),
+    };
+    // Landmarks are a term of the affine prior.
+    let opts = FitOptions {
+        alignment: Alignment::None,
+        prior: Prior::Affine,
+        ..FitOptions::default()
+    };
+    let p0 = t.positions[0];
+    let (sn, cs) = 0.25f64.sin_cos();
+    let goal = [cs * p0[0] - sn * p0[1], sn * p0[0] + cs * p0[1], p0[2]];
+    let free = fit(&t, &target, &opts).unwrap();
+    let pulled = fit_with_landmarks(
+        &t,
+        &target,
+        &opts,
+        &[affine::Landmark {
+            vertex: 0,
+            point: goal,
+        }],
+    )
+    .unwrap();
+    let d = |f: &Fitted| norm(sub(f.positions[0], goal)) / f.quality.edge_length;
+    assert!(d(&free) > 0.5, "{}", d(&free));
+    // Measured 0.20 edge lengths from the goal (0.84 without the landmark).
+    assert!(
+        d(&pulled) < 0.3 && d(&pulled) < 0.5 * d(&free),
+        "{} {}",
+        d(&pulled),
+        d(&free)
+    );
+    let bad = fit_with_landmarks(
+        &t,
+        &target,
+        &opts,
+        &[affine::Landmark {
+            vertex: 10_000,
+            point: goal,
+        }],
+    );
+    assert!(matches!(bad, Err(FitError::Landmark { vertex: 10_000, .. })));
+}
