@@ -17,10 +17,8 @@ use crate::pipeline::{matrix_with_progress, prepare_with_progress, report_shares
 /// Every deformation is interpolated (--insert poses between consecutive key poses), carried
 /// to one common base (the first pose of --base, default the first deformation) by --transport,
 /// and `similarity(M, N) = sum_i dis(M_i, N_i)` over corresponding poses (eq. 13) is computed for
-/// every pair, pairs in parallel. Units: with the default --scale invariant every term is a
-/// relative rate, so distances are dimensionless (they do not change when the shapes are scaled
-/// or the mesh refined); with --scale calibrated or raw they are in mean-edge units
-/// (coordinates divided by the mean edge length of the base pose).
+/// every pair, pairs in parallel. Units: dimensionless with the default --scale invariant (the
+/// same at any size and resolution); mean-edge units with --scale calibrated or raw.
 ///
 /// The L2 regularizer's share of each pair's path energy is summarized on stderr (min, median,
 /// max, pairs above 50 %), with a warning when it is above one half for more than half of the

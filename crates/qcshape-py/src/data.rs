@@ -227,7 +227,7 @@ impl PyDataset {
         let mut defs = Vec::with_capacity(n);
         for (i, ((d, name), label)) in list.iter().zip(names).zip(labels).enumerate() {
             let name_i = format!("poses[{i}]");
-            let d = crate::meshes::on_connectivity(d, &topo, &name_i, true)?;
+            let d = crate::connectivity::on_connectivity(d, &topo, &name_i, true)?;
             let poses = sequence(&d, &name_i, Some(nv), 1)?;
             // The checks the mesh readers make on every pose file (zero-area faces included).
             for (k, p) in poses.iter().enumerate() {

@@ -4,6 +4,7 @@
 //! (`pip install ./crates/qcshape-py`) and re-exported by `python/qcshape/__init__.py`.
 
 mod analysis;
+mod connectivity;
 mod convert;
 mod data;
 mod distributed;

@@ -10,7 +10,7 @@ fn hook<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAny>>
     obj.py().import("qcshape._meshes")?.getattr(name)?.call1((obj,))
 }
 
-fn is_array(obj: &Bound<'_, PyAny>) -> bool {
+pub(crate) fn is_array(obj: &Bound<'_, PyAny>) -> bool {
     obj.is_instance_of::<PyUntypedArray>()
 }
 
@@ -85,32 +85,4 @@ pub fn index_error(f: &[[u32; 3]], rows: usize, what: &str) -> PyErr {
          count from the faces' largest index; give n_vertices= or a mesh object to fix it){}",
         one_based_hint(f, rows)
     ))
-}
-
-/// `obj` checked against the connectivity `topo` when it is a mesh object (`poses`: a list of
-/// them, a pose sequence), by `qcshape._meshes._points_on` / `_poses_on`: its faces must be
-/// `topo`'s face for face, the CLI's message ("shapes do not share one connectivity: face 0 is
-/// ... in one and ... in the other") otherwise, or the same after renumbering its vertices, which
-/// are then renumbered with a `QcshapeWarning` saying so. Arrays (no faces) pass unchanged.
-pub fn on_connectivity<'py>(
-    obj: &Bound<'py, PyAny>,
-    topo: &qcshape::mesh::Topology,
-    name: &str,
-    poses: bool,
-) -> PyResult<Bound<'py, PyAny>> {
-    if is_array(obj) {
-        return Ok(obj.clone());
-    }
-    let py = obj.py();
-    let faces = crate::convert::faces_out(py, topo.faces())?;
-    let hook = if poses { "_poses_on" } else { "_points_on" };
-    let (out, warning): (Bound<'py, PyAny>, Option<String>) = py
-        .import("qcshape._meshes")?
-        .getattr(hook)?
-        .call1((obj, faces, topo.n_vertices(), name))?
-        .extract()?;
-    if let Some(w) = warning {
-        crate::warn::warn(py, &w)?;
-    }
-    Ok(out)
 }

@@ -265,9 +265,9 @@ impl PyShapeSpace {
 
     /// `obj` as a shape of this space (nV, 3).
     /// A mesh object's faces are checked against the space's connectivity first
-    /// ([`crate::meshes::on_connectivity`]).
+    /// ([`crate::connectivity::on_connectivity`]).
     fn points(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f64; 3]>> {
-        let obj = &crate::meshes::on_connectivity(obj, self.space.topology(), name, false)?;
+        let obj = &crate::connectivity::on_connectivity(obj, self.space.topology(), name, false)?;
         let p = points(obj, name, None)?;
         self.check_rows(obj.py(), name, p.len(), None)?;
         Ok(p)
@@ -275,7 +275,7 @@ impl PyShapeSpace {
 
     /// `obj` as poses of this space (K, nV, 3), K >= 1.
     fn poses(&self, obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vec<[f64; 3]>>> {
-        let obj = &crate::meshes::on_connectivity(obj, self.space.topology(), name, true)?;
+        let obj = &crate::connectivity::on_connectivity(obj, self.space.topology(), name, true)?;
         let p = sequence(obj, name, None, 1)?;
         self.check_rows(obj.py(), name, p[0].len(), Some(p.len()))?;
         Ok(p)

@@ -619,9 +619,10 @@ impl ShapeSpace {
 }
 
 /// Two poses whose mean edge lengths differ by more than this factor get a warning from
-/// `qcshape geodesic` and the Python `geodesic` / `dist` (issue 60): both are divided by the
-/// mean of the two mean edge lengths (mean-edge units), so one of them becomes nearly a point,
-/// which usually means the files are in different units (millimetres against metres); the
+/// `qcshape geodesic` and the Python `geodesic` / `dist` (issue 60): the solver scales both by
+/// one factor, the inverse of the mean of their two mean edge lengths, so one of them becomes
+/// nearly a point, which usually means the files are in different units (millimetres against
+/// metres); the
 /// quasi-conformal geodesic between a pose and the same pose scaled 1,000 x stopped at its
 /// iteration limit both ways, 2 % apart.
 pub const SIZE_RATIO_WARNING: f64 = 10.0;
