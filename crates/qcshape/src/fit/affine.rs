@@ -16,7 +16,7 @@
 //! in coordinates where the rest shape has its centroid at 0 and rms radius 1 (so the fit does
 //! not depend on the unit or the size). The minimizer over `X` is one sparse solve of a
 //! 4#V x 4#V system (three right-hand sides); its symbolic Cholesky factorization is made once
-//! per topology ([`AffineSolver::new`]).
+//! per topology (`AffineSolver::new`).
 //!
 //! # Schedule
 //!
@@ -26,7 +26,7 @@
 //! are found first, without local sliding) to `stiffness_end` (detail at the scale of an edge)
 //! over `stages` stages, each ending when no vertex moved more than `1e-3` mean edge lengths
 //! or after `iterations` solves. Correspondences are refreshed at every iteration (closest
-//! points both ways, normal and distance tests: [`super::nonrigid::matches`]).
+//! points both ways, normal and distance tests: `nonrigid::matches`).
 
 // Index loops over the 4 x 3 maps and 4 x 4 blocks read as the formulas.
 #![allow(clippy::needless_range_loop)]

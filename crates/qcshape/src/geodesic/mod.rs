@@ -208,7 +208,7 @@ pub enum GeodesicError {
     /// The metric could not be calibrated on its reference pose(s).
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
-    /// The solve was stopped by [`GeodesicOptions::monitor`] (e.g. Ctrl-C) before iteration
+    /// The solve was stopped by the options' `monitor` callback ([`GeodesicOptions`]) (e.g. Ctrl-C) before iteration
     /// `iteration`.
     #[error("interrupted at solver iteration {iteration}")]
     Interrupted {
