@@ -277,8 +277,9 @@ impl MetricSpec {
     }
 
     /// Defaults: quadratic form, endpoint weights normalized as [`super::defaults::QC_NORMALIZE`],
-    /// `lambda` = [`super::defaults::LAMBDA`] on the [`MetricScale::Calibrated`] scale, frozen
-    /// areas.
+    /// `lambda` = [`super::defaults::LAMBDA`] on the [`MetricScale::Invariant`] scale
+    /// ([`super::defaults::SCALE`]), stretch [`super::defaults::STRETCH`], bending
+    /// [`super::defaults::BENDING`], frozen areas.
     pub fn new(kind: MetricKind) -> Self {
         MetricSpec {
             kind,
