@@ -32,6 +32,8 @@ fn metrics() -> Vec<Box<dyn Metric>> {
             }),
             0.2,
         )),
+        Box::new(RelativeBending),
+        Box::new(crate::metric::Bent::new(Box::new(RelativeIsometric), 0.3)),
     ]
 }
 
