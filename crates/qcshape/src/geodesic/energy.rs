@@ -169,39 +169,44 @@ impl<'m> PathEnergy<'m> {
         parts.iter().sum()
     }
 
-    /// Per segment `(G_{P_i}(X_i), G_{P_{i+1}}(X_i))`, with the auxiliary unknowns at their
-    /// optimum (so the values are the metric's squared norms).
-    pub fn segment_norms(&self, x: &[f64], ends: &Ends) -> Vec<(f64, f64)> {
+    /// `f(G_{P_i} term, G_{P_{i+1}} term)` of every segment `i` in order, segments in
+    /// parallel (the two terms of eq. 12's segment `i`, auxiliary unknowns at their optimum).
+    fn per_segment<T: Send>(
+        &self,
+        x: &[f64],
+        ends: &Ends,
+        f: impl Fn(&Segment, &Segment) -> T + Sync,
+    ) -> Vec<T> {
         (0..self.steps)
             .into_par_iter()
             .map(|s| {
-                let (s0, s1) = (
-                    self.segment(x, ends, s, At::Start),
-                    self.segment(x, ends, s, At::End),
-                );
-                let [g0, g1] =
-                    self.metric
-                        .segment_squared_norms(&self.topo, self.pattern.as_ref(), [&s0, &s1]);
-                (g0, g1)
+                f(
+                    &self.segment(x, ends, s, At::Start),
+                    &self.segment(x, ends, s, At::End),
+                )
             })
             .collect()
+    }
+
+    /// Per segment `(G_{P_i}(X_i), G_{P_{i+1}}(X_i))`, with the auxiliary unknowns at their
+    /// optimum (so the values are the metric's squared norms).
+    pub fn segment_norms(&self, x: &[f64], ends: &Ends) -> Vec<(f64, f64)> {
+        self.per_segment(x, ends, |s0, s1| {
+            let [g0, g1] = self
+                .metric
+                .segment_squared_norms(&self.topo, self.pattern.as_ref(), [s0, s1]);
+            (g0, g1)
+        })
     }
 
     /// The path energy (eq. 12) split into the geometric term and the L2 regularizer
     /// ([`Metric::segment_energy_parts`]), `[geometric, regularizer]`, each summed over the
     /// segments in order (the auxiliary unknowns at their optimum).
     pub fn energy_parts(&self, x: &[f64], ends: &Ends) -> [f64; 2] {
-        let parts: Vec<[f64; 2]> = (0..self.steps)
-            .into_par_iter()
-            .map(|s| {
-                let (s0, s1) = (
-                    self.segment(x, ends, s, At::Start),
-                    self.segment(x, ends, s, At::End),
-                );
-                self.metric
-                    .segment_energy_parts(&self.topo, self.pattern.as_ref(), [&s0, &s1])
-            })
-            .collect();
+        let parts: Vec<[f64; 2]> = self.per_segment(x, ends, |s0, s1| {
+            self.metric
+                .segment_energy_parts(&self.topo, self.pattern.as_ref(), [s0, s1])
+        });
         parts
             .iter()
             .fold([0.0, 0.0], |acc, p| [acc[0] + p[0], acc[1] + p[1]])
@@ -210,34 +215,20 @@ impl<'m> PathEnergy<'m> {
     /// The bending term's part of the path energy ([`Metric::segment_bending_energy`], summed
     /// over the segments in order): 0 for metrics without one.
     pub fn bending_energy(&self, x: &[f64], ends: &Ends) -> f64 {
-        let parts: Vec<f64> = (0..self.steps)
-            .into_par_iter()
-            .map(|s| {
-                let (s0, s1) = (
-                    self.segment(x, ends, s, At::Start),
-                    self.segment(x, ends, s, At::End),
-                );
-                self.metric
-                    .segment_bending_energy(&self.topo, self.pattern.as_ref(), [&s0, &s1])
-            })
-            .collect();
+        let parts: Vec<f64> = self.per_segment(x, ends, |s0, s1| {
+            self.metric
+                .segment_bending_energy(&self.topo, self.pattern.as_ref(), [s0, s1])
+        });
         parts.iter().sum()
     }
 
     /// [`Self::segment_norms`] and [`Self::energy_parts`] from one evaluation of each segment
     /// ([`Metric::segment_norms_and_parts`]): the same values, bit for bit.
     pub fn segment_norms_and_energy_parts(&self, x: &[f64], ends: &Ends) -> (Vec<(f64, f64)>, [f64; 2]) {
-        let both: Vec<([f64; 2], [f64; 2])> = (0..self.steps)
-            .into_par_iter()
-            .map(|s| {
-                let (s0, s1) = (
-                    self.segment(x, ends, s, At::Start),
-                    self.segment(x, ends, s, At::End),
-                );
-                self.metric
-                    .segment_norms_and_parts(&self.topo, self.pattern.as_ref(), [&s0, &s1])
-            })
-            .collect();
+        let both: Vec<([f64; 2], [f64; 2])> = self.per_segment(x, ends, |s0, s1| {
+            self.metric
+                .segment_norms_and_parts(&self.topo, self.pattern.as_ref(), [s0, s1])
+        });
         let norms = both.iter().map(|(g, _)| (g[0], g[1])).collect();
         let parts = both
             .iter()

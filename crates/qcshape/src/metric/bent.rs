@@ -2,7 +2,8 @@
 
 use super::relative::{RelativeBending, PER_FACE};
 use super::{
-    GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
+    join_frozen, split_pattern, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch,
+    SecondOrderSink, Segment, SegmentSink, SplitPattern,
 };
 use crate::mesh::Topology;
 
@@ -31,17 +32,9 @@ impl Bent {
         self.beta.max(0.0).sqrt()
     }
 
-    /// The inner rows of `pattern` and the bending rows (offsets rebased to their first
-    /// entry).
-    fn parts<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> (PatternRef<'p>, Vec<u32>, &'p [u32]) {
-        let n_in = self.inner.n_residuals(topo);
-        let e_in = pattern.offsets[n_in] as usize;
-        let inner = PatternRef {
-            offsets: &pattern.offsets[..=n_in],
-            vertices: &pattern.vertices[..e_in],
-        };
-        let offs = pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect();
-        (inner, offs, &pattern.vertices[e_in..])
+    /// The inner rows of `pattern` and the bending rows ([`split_pattern`]).
+    fn parts<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> SplitPattern<'p> {
+        split_pattern(pattern, self.inner.n_residuals(topo))
     }
 
     /// The segment as seen by the inner metric and by the bending term.
@@ -67,24 +60,11 @@ impl Bent {
     /// `beta B` of both terms of a segment (eq. 12's two terms summed): the bending term's part
     /// of [`Metric::segment_squared_norms`]. `pattern` is this metric's.
     pub fn bending_energy(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> f64 {
-        let (_, offs, verts) = self.parts(topo, pattern);
-        let bp = PatternRef {
-            offsets: &offs,
-            vertices: verts,
-        };
+        let parts = self.parts(topo, pattern);
+        let bp = parts.second();
         let (b0, b1) = (self.segments(topo, segs[0]).1, self.segments(topo, segs[1]).1);
         let [v0, v1] = RelativeBending.segment_squared_norms(topo, bp, [&b0, &b1]);
         self.beta * (v0 + v1)
-    }
-}
-
-fn join(inner: Option<Vec<f64>>, bend: Option<Vec<f64>>) -> Option<Vec<f64>> {
-    match (inner, bend) {
-        (Some(mut i), Some(b)) => {
-            i.extend_from_slice(&b);
-            Some(i)
-        }
-        (i, b) => i.or(b),
     }
 }
 
@@ -118,14 +98,14 @@ impl Metric for Bent {
     }
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        join(
+        join_frozen(
             self.inner.frozen_weights(topo, start, end),
             RelativeBending.frozen_weights(topo, start, end),
         )
     }
 
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        join(
+        join_frozen(
             self.inner.pose_summary(topo, pose),
             RelativeBending.pose_summary(topo, pose),
         )
@@ -149,7 +129,7 @@ impl Metric for Bent {
         } else {
             self.inner.frozen_weights_from(topo, start, end, [ia, ib])
         };
-        join(
+        join_frozen(
             inner,
             RelativeBending.frozen_weights_from(topo, start, end, [ba, bb]),
         )
@@ -182,11 +162,8 @@ impl Metric for Bent {
         r: &mut [f64],
         jac: Option<JacobianMut>,
     ) {
-        let (ip, offs, verts) = self.parts(topo, pattern);
-        let bp = PatternRef {
-            offsets: &offs,
-            vertices: verts,
-        };
+        let parts = self.parts(topo, pattern);
+        let (ip, bp) = (parts.first, parts.second());
         let (si, sbend) = self.segments(topo, seg);
         let (n_in, e_in) = (ip.n_residuals(), ip.vertices.len());
         let (r_in, r_b) = r.split_at_mut(n_in);
@@ -232,11 +209,8 @@ impl Metric for Bent {
         scratch: &mut Scratch,
         sink: &mut GradientSink,
     ) -> f64 {
-        let (ip, offs, verts) = self.parts(topo, pattern);
-        let bp = PatternRef {
-            offsets: &offs,
-            vertices: verts,
-        };
+        let parts = self.parts(topo, pattern);
+        let (ip, bp) = (parts.first, parts.second());
         let (si, sbend) = self.segments(topo, seg);
         let v_in = self.inner.gradient(topo, ip, &si, scratch, sink);
         let mut no_aux = GradientSink {
@@ -256,11 +230,8 @@ impl Metric for Bent {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
-        let (ip, offs, verts) = self.parts(topo, pattern);
-        let bp = PatternRef {
-            offsets: &offs,
-            vertices: verts,
-        };
+        let parts = self.parts(topo, pattern);
+        let (ip, bp) = (parts.first, parts.second());
         let ((s0, b0), (s1, b1)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
         let v_in = self.inner.segment_gradient(topo, ip, [&s0, &s1], scratch, sink);
         let mut no_aux = SegmentSink {
@@ -277,11 +248,8 @@ impl Metric for Bent {
     }
 
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        let (ip, offs, verts) = self.parts(topo, pattern);
-        let bp = PatternRef {
-            offsets: &offs,
-            vertices: verts,
-        };
+        let parts = self.parts(topo, pattern);
+        let (ip, bp) = (parts.first, parts.second());
         let ((s0, b0), (s1, b1)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
         let v_in = self.inner.segment_squared_norms(topo, ip, [&s0, &s1]);
         let v_b = RelativeBending.segment_squared_norms(topo, bp, [&b0, &b1]);

@@ -1,6 +1,6 @@
 use super::{
-    FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, RelativeL2, Scratch, SecondOrderSink,
-    Segment, SegmentSink, L2,
+    join_frozen, split_pattern, FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, RelativeL2,
+    Scratch, SecondOrderSink, Segment, SegmentSink, SplitPattern, L2,
 };
 use crate::mesh::Topology;
 
@@ -79,19 +79,6 @@ impl Regularized {
     }
 }
 
-/// The inner metric's values followed by the L2 part's (frozen weights or pose summaries).
-fn join(inner: Option<Vec<f64>>, l2: Option<Vec<f64>>) -> Option<Vec<f64>> {
-    match (inner, l2) {
-        (None, None) => None,
-        (Some(i), None) => Some(i),
-        (None, Some(l)) => Some(l),
-        (Some(mut i), Some(l)) => {
-            i.extend_from_slice(&l);
-            Some(i)
-        }
-    }
-}
-
 impl Metric for Regularized {
     fn name(&self) -> String {
         format!("{}+{}*{}", self.inner.name(), self.lambda, self.l2().name())
@@ -129,7 +116,7 @@ impl Metric for Regularized {
     }
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        join(
+        join_frozen(
             self.inner.frozen_weights(topo, start, end),
             self.l2().frozen_weights(topo, start, end),
         )
@@ -138,7 +125,7 @@ impl Metric for Regularized {
     /// The inner metric's summary followed by the L2 part's (the vertex areas, #V, when the
     /// areas are frozen), split again by [`Metric::frozen_weights_from`].
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        join(
+        join_frozen(
             self.inner.pose_summary(topo, pose),
             self.l2().pose_summary(topo, pose),
         )
@@ -164,7 +151,7 @@ impl Metric for Regularized {
             (Some(a), Some(b)) => self.l2().frozen_weights_from(topo, start, end, [a, b]),
             _ => self.l2().frozen_weights(topo, start, end),
         };
-        join(inner, l2)
+        join_frozen(inner, l2)
     }
 
     /// The inner metric's factors, then 1 for every L2 residual (the regularizer's frozen
@@ -179,7 +166,7 @@ impl Metric for Regularized {
     /// The inner metric's part set to one ([`Metric::unit_frozen`]), the L2 areas unchanged.
     fn unit_frozen(&self, topo: &Topology, frozen: Vec<f64>) -> Vec<f64> {
         match self.split_frozen(topo, Some(&frozen)) {
-            (Some(inner), l2) => join(
+            (Some(inner), l2) => join_frozen(
                 Some(self.inner.unit_frozen(topo, inner.to_vec())),
                 l2.map(<[f64]>::to_vec),
             )
@@ -198,7 +185,7 @@ impl Metric for Regularized {
     ) {
         // The inner pattern is a prefix of the combined one (rows and entries).
         let parts = self.patterns(topo, pattern);
-        let (inner_pat, l2_pat) = (parts.inner, parts.l2());
+        let (inner_pat, l2_pat) = (parts.first, parts.second());
         let (seg_in, seg_l2) = self.segments(topo, seg);
         let (n_in, e_in) = (inner_pat.n_residuals(), inner_pat.vertices.len());
         let (r_in, r_l2) = r.split_at_mut(n_in);
@@ -249,7 +236,7 @@ impl Metric for Regularized {
     ) -> f64 {
         let parts = self.patterns(topo, pattern);
         let (seg_in, seg_l2) = self.segments(topo, seg);
-        let v_in = self.inner.gradient(topo, parts.inner, &seg_in, scratch, sink);
+        let v_in = self.inner.gradient(topo, parts.first, &seg_in, scratch, sink);
         let weight = sink.weight;
         sink.weight = weight * self.lambda.max(0.0);
         // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
@@ -261,7 +248,7 @@ impl Metric for Regularized {
         };
         let v_l2 = self
             .l2()
-            .gradient(topo, parts.l2(), &seg_l2, scratch, &mut no_aux);
+            .gradient(topo, parts.second(), &seg_l2, scratch, &mut no_aux);
         sink.weight = weight;
         v_in + v_l2
     }
@@ -278,7 +265,7 @@ impl Metric for Regularized {
         let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
         let v_in = self
             .inner
-            .segment_gradient(topo, parts.inner, [&s0_in, &s1_in], scratch, sink);
+            .segment_gradient(topo, parts.first, [&s0_in, &s1_in], scratch, sink);
         // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
         let mut no_aux = SegmentSink {
             ga: &mut *sink.ga,
@@ -288,7 +275,7 @@ impl Metric for Regularized {
         };
         let v_l2 = self
             .l2()
-            .segment_gradient(topo, parts.l2(), [&s0_l2, &s1_l2], scratch, &mut no_aux);
+            .segment_gradient(topo, parts.second(), [&s0_l2, &s1_l2], scratch, &mut no_aux);
         v_in + v_l2
     }
 
@@ -341,29 +328,12 @@ impl Metric for Regularized {
         }
         let parts = self.patterns(topo, pattern);
         let (seg_in, seg_l2) = self.segments(topo, seg);
-        let n_in = parts.inner.n_residuals();
+        let n_in = parts.first.n_residuals();
         self.inner
-            .add_second_order(topo, parts.inner, &seg_in, &r[..n_in], sink)
+            .add_second_order(topo, parts.first, &seg_in, &r[..n_in], sink)
             && self
                 .l2()
-                .add_second_order(topo, parts.l2(), &seg_l2, &r[n_in..], sink)
-    }
-}
-
-/// The two parts of a [`Regularized`] pattern: the inner metric's rows, and the L2 rows with
-/// their offsets rebased to their first entry.
-struct Parts<'p> {
-    inner: PatternRef<'p>,
-    l2_offsets: Vec<u32>,
-    l2_vertices: &'p [u32],
-}
-
-impl Parts<'_> {
-    fn l2(&self) -> PatternRef<'_> {
-        PatternRef {
-            offsets: &self.l2_offsets,
-            vertices: self.l2_vertices,
-        }
+                .add_second_order(topo, parts.second(), &seg_l2, &r[n_in..], sink)
     }
 }
 
@@ -386,26 +356,19 @@ impl Regularized {
             let parts = self.patterns(topo, pattern);
             let v_in = self
                 .inner
-                .segment_squared_norms(topo, parts.inner, [&s0_in, &s1_in]);
+                .segment_squared_norms(topo, parts.first, [&s0_in, &s1_in]);
             let v_l2 = self
                 .l2()
-                .segment_squared_norms(topo, parts.l2(), [&s0_l2, &s1_l2]);
+                .segment_squared_norms(topo, parts.second(), [&s0_l2, &s1_l2]);
             (v_in, v_l2)
         };
         let lambda = self.lambda.max(0.0);
         (v_in, v_l2.map(|v| lambda * v))
     }
 
-    /// The inner metric's rows of `pattern` (a prefix of the combined pattern, rows and
-    /// entries) and the L2 rows.
-    fn patterns<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> Parts<'p> {
-        let inner = self.inner_pattern(topo, pattern);
-        let (n_in, e_in) = (inner.n_residuals(), inner.vertices.len());
-        Parts {
-            inner,
-            l2_offsets: pattern.offsets[n_in..].iter().map(|o| o - e_in as u32).collect(),
-            l2_vertices: &pattern.vertices[e_in..],
-        }
+    /// The inner metric's rows of `pattern` and the L2 rows ([`split_pattern`]).
+    fn patterns<'p>(&self, topo: &Topology, pattern: PatternRef<'p>) -> SplitPattern<'p> {
+        split_pattern(pattern, self.inner.n_residuals(topo))
     }
 
     /// The inner metric's rows of `pattern` (its prefix), without the L2 rows.
