@@ -8,7 +8,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use crate::mesh::Topology;
-use crate::metric::{At, Jacobian, Metric, Pattern, Scratch, Segment, SegmentSink};
+use crate::metric::{At, Jacobian, Metric, Pattern, PoseShare, Scratch, Segment, SegmentSink};
 
 /// One segment's energy and gradient parts: (energy, d/dP_i, d/dP_{i+1}, d/daux).
 /// One segment's energy and its gradient parts: at its start pose, at its end pose, and for its
@@ -19,12 +19,19 @@ struct SegmentGradient {
     ga: Vec<[f64; 3]>,
     gb: Vec<[f64; 3]>,
     gaux: Vec<f64>,
+    /// [`Metric::segment_gradient_with`]'s coefficients for its first and last pose.
+    ca: Vec<f64>,
+    cb: Vec<f64>,
 }
 
 /// Reusable per-segment accumulators of [`PathEnergy::energy_gradient_with`].
 #[derive(Default)]
 pub(crate) struct SegmentWork {
     parts: Vec<SegmentGradient>,
+    /// [`Metric::pose_values`] of every pose of the path (`N + 1`; empty for metrics without).
+    poses: Vec<Vec<f64>>,
+    /// Per interior pose: its two segments' coefficients summed, and its pose gradient.
+    pose_grads: Vec<(Vec<f64>, Vec<[f64; 3]>)>,
 }
 
 /// Fixed data of one path problem: the two end poses and the frozen metric weights.
@@ -270,6 +277,20 @@ impl<'m> PathEnergy<'m> {
         let nv = nv3 / 3;
         let n_aux = self.metric.n_aux();
         work.parts.resize_with(self.steps, SegmentGradient::default);
+        // Pass 1: each pose's shared values once (a pose belongs to two segments); none if
+        // the metric has none.
+        let pattern = self.pattern.as_ref();
+        work.poses.resize_with(self.steps + 1, Vec::new);
+        self.metric
+            .pose_values(&self.topo, pattern, self.pose(x, ends, 0), &mut work.poses[0]);
+        let shared = !work.poses[0].is_empty();
+        if shared {
+            work.poses[1..].par_iter_mut().enumerate().for_each(|(i, out)| {
+                self.metric
+                    .pose_values(&self.topo, pattern, self.pose(x, ends, i + 1), out)
+            });
+        }
+        let poses = &work.poses;
         work.parts
             .par_iter_mut()
             .enumerate()
@@ -291,14 +312,43 @@ impl<'m> PathEnergy<'m> {
                     gaux: &mut part.gaux,
                     weight: 1.0,
                 };
-                part.energy = self.metric.segment_gradient(
+                // Pass 2: the segment's value and gradient, and its poses' coefficients.
+                let values: [&[f64]; 2] = if shared {
+                    [&poses[s], &poses[s + 1]]
+                } else {
+                    [&[], &[]]
+                };
+                part.ca.resize(values[0].len(), 0.0);
+                part.cb.resize(values[1].len(), 0.0);
+                part.energy = self.metric.segment_gradient_with(
                     &self.topo,
-                    self.pattern.as_ref(),
+                    pattern,
                     [&s0, &s1],
+                    PoseShare {
+                        values,
+                        coeffs: [&mut part.ca, &mut part.cb],
+                    },
                     scratch,
                     &mut sink,
                 );
             });
+        // Pass 3: each interior pose's gradient from its two segments' coefficients.
+        if shared {
+            let parts = &work.parts;
+            work.pose_grads.resize_with(self.steps - 1, Default::default);
+            work.pose_grads
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(k, (c, g))| {
+                    let i = k + 1;
+                    c.clear();
+                    c.extend(parts[i - 1].cb.iter().zip(&parts[i].ca).map(|(u, v)| u + v));
+                    g.clear();
+                    g.resize(nv, [0.0; 3]);
+                    self.metric
+                        .pose_gradient(&self.topo, pattern, self.pose(x, ends, i), c, g);
+                });
+        }
         grad.fill(0.0);
         let np = self.n_pose_vars();
         let mut e = 0.0;
@@ -324,6 +374,13 @@ impl<'m> PathEnergy<'m> {
                 }
             }
             grad[np + 2 * s * n_aux..np + 2 * (s + 1) * n_aux].copy_from_slice(&part.gaux);
+        }
+        if shared {
+            for (k, (_, g)) in work.pose_grads.iter().enumerate() {
+                for (out, v) in grad[k * nv3..(k + 1) * nv3].iter_mut().zip(g.as_flattened()) {
+                    *out += v;
+                }
+            }
         }
         e
     }

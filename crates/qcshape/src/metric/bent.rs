@@ -2,14 +2,14 @@
 
 use super::relative::{RelativeBending, PER_FACE};
 use super::{
-    join_frozen, split_pattern, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch,
+    join_frozen, split_pattern, GradientSink, JacobianMut, Metric, Pattern, PatternRef, PoseShare, Scratch,
     SecondOrderSink, Segment, SegmentSink, SplitPattern,
 };
 use crate::mesh::Topology;
 
 /// `G + beta * B`: a membrane metric `G` (the invariant isometric, conformal or quasi-conformal
 /// form) followed by `sqrt(beta)` times the residuals of the bending term `B`
-/// ([`RelativeBending`], docs/method.md "Bending term"), which charges the rate of change of
+/// ([`RelativeBending`], docs/method.md "Bending term"), which charges the change of
 /// the dihedral angles that the membrane terms see only through the curvature. Dimensionless
 /// and scale-invariant like its parts. Frozen values: the inner metric's, then the bending
 /// term's face values (2 #F). [`Metric::segment_energy_parts`] counts the bending term as
@@ -230,6 +230,35 @@ impl Metric for Bent {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
+        self.segment_gradient_with(topo, pattern, segs, PoseShare::none(), scratch, sink)
+    }
+
+    /// The bending term's ([`RelativeBending::pose_values`]; the membrane metrics have none).
+    fn pose_values(&self, topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
+        RelativeBending.pose_values(topo, self.parts(topo, pattern).second(), pose, out);
+    }
+
+    /// The bending term's (the coefficients carry `beta`).
+    fn pose_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        pose: &[[f64; 3]],
+        coeffs: &[f64],
+        g: &mut [[f64; 3]],
+    ) {
+        RelativeBending.pose_gradient(topo, self.parts(topo, pattern).second(), pose, coeffs, g);
+    }
+
+    fn segment_gradient_with(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        share: PoseShare,
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
         let parts = self.parts(topo, pattern);
         let (ip, bp) = (parts.first, parts.second());
         let ((s0, b0), (s1, b1)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
@@ -240,7 +269,7 @@ impl Metric for Bent {
             gaux: &mut [],
             weight: sink.weight * self.beta.max(0.0),
         };
-        v_in + RelativeBending.segment_gradient(topo, bp, [&b0, &b1], scratch, &mut no_aux)
+        v_in + RelativeBending.segment_gradient_with(topo, bp, [&b0, &b1], share, scratch, &mut no_aux)
     }
 
     fn segment_bending_energy(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> f64 {

@@ -66,6 +66,37 @@ pub fn segment_gradient_per_term<M: Metric + ?Sized>(
     value
 }
 
+/// What the path energy shares between a segment and its two poses
+/// ([`Metric::segment_gradient_with`]): the [`Metric::pose_values`] of the segment's first and
+/// last pose, and the segment's coefficients for each (each as long as its pose's values), from
+/// which [`Metric::pose_gradient`] gives the rest of the gradient at each pose.
+pub struct PoseShare<'a> {
+    /// The pose values of `a` and `b` (empty: none).
+    pub values: [&'a [f64]; 2],
+    /// The segment's coefficients for `a` and `b`, written by the metric.
+    pub coeffs: [&'a mut [f64]; 2],
+}
+
+impl PoseShare<'_> {
+    /// Nothing shared: [`Metric::segment_gradient_with`] is [`Metric::segment_gradient`].
+    pub fn none() -> PoseShare<'static> {
+        PoseShare {
+            values: [&[], &[]],
+            coeffs: [&mut [], &mut []],
+        }
+    }
+}
+
+/// Whether a segment's two terms carry the same frozen values (the path energy's always do):
+/// fused kernels share per-element weights between the terms only then.
+pub(crate) fn same_frozen(segs: [&Segment; 2]) -> bool {
+    match (segs[0].frozen, segs[1].frozen) {
+        (None, None) => true,
+        (Some(f), Some(g)) => std::ptr::eq(f, g) || f == g,
+        _ => false,
+    }
+}
+
 /// Residual and Jacobian storage for a metric pattern, reused across evaluations.
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
@@ -186,6 +217,15 @@ mod tests {
                 Box::new(QuasiConformal::new(ConformalForm::Paper, QcWeights::Segment)),
                 0.3,
             )),
+            Box::new(crate::metric::RelativeIsometric),
+            Box::new(crate::metric::RelativeBending),
+            Box::new(Regularized::relative(
+                Box::new(crate::metric::Bent::new(
+                    Box::new(crate::metric::RelativeIsometric),
+                    0.3,
+                )),
+                0.3,
+            )),
         ]
     }
 
@@ -276,44 +316,51 @@ mod tests {
             let b2: Vec<[f64; 3]> = b.iter().map(|p| [p[0] * 1.1, p[1], p[2] * 0.9]).collect();
             let f1 = m.frozen_weights(topo, &s.positions, &b2);
             let aux: Vec<f64> = (0..n_aux).map(|k| 0.01 * k as f64).collect();
-            let segs = [(At::Start, f0.as_deref()), (At::End, f1.as_deref())].map(|(at, frozen)| Segment {
-                a: &s.positions,
-                b: &b,
-                at,
-                aux: &aux,
-                frozen,
-            });
-            let mut scratch = Scratch::new(&pat, n_aux);
-            let (mut ga0, mut gb0) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
-            let mut gx0 = vec![0.0; 2 * n_aux];
-            let mut v0 = 0.0;
-            for (k, seg) in segs.iter().enumerate() {
-                let mut sink = GradientSink {
-                    ga: &mut ga0,
-                    gb: &mut gb0,
-                    gaux: &mut gx0[k * n_aux..(k + 1) * n_aux],
+            // Both terms with the same frozen values (as the path energy's: fused kernels
+            // share them) and with different ones.
+            for f1 in [f0.clone(), f1.clone()] {
+                let segs =
+                    [(At::Start, f0.as_deref()), (At::End, f1.as_deref())].map(|(at, frozen)| Segment {
+                        a: &s.positions,
+                        b: &b,
+                        at,
+                        aux: &aux,
+                        frozen,
+                    });
+                let mut scratch = Scratch::new(&pat, n_aux);
+                let (mut ga0, mut gb0) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+                let mut gx0 = vec![0.0; 2 * n_aux];
+                let mut v0 = 0.0;
+                for (k, seg) in segs.iter().enumerate() {
+                    let mut sink = GradientSink {
+                        ga: &mut ga0,
+                        gb: &mut gb0,
+                        gaux: &mut gx0[k * n_aux..(k + 1) * n_aux],
+                        weight: 0.7,
+                    };
+                    v0 +=
+                        gradient_from_jacobian(m.as_ref(), topo, pat.as_ref(), seg, &mut scratch, &mut sink);
+                }
+                let (mut ga1, mut gb1) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+                let mut gx1 = vec![0.0; 2 * n_aux];
+                let mut sink = SegmentSink {
+                    ga: &mut ga1,
+                    gb: &mut gb1,
+                    gaux: &mut gx1,
                     weight: 0.7,
                 };
-                v0 += gradient_from_jacobian(m.as_ref(), topo, pat.as_ref(), seg, &mut scratch, &mut sink);
-            }
-            let (mut ga1, mut gb1) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
-            let mut gx1 = vec![0.0; 2 * n_aux];
-            let mut sink = SegmentSink {
-                ga: &mut ga1,
-                gb: &mut gb1,
-                gaux: &mut gx1,
-                weight: 0.7,
-            };
-            let v1 = m.segment_gradient(topo, pat.as_ref(), [&segs[0], &segs[1]], &mut scratch, &mut sink);
-            assert!(v0 > 0.0);
-            assert!((v0 - v1).abs() < 1e-10 * v0, "{}: {v0} vs {v1}", m.name());
-            let flat = |g: &[[f64; 3]]| g.iter().flatten().copied().collect::<Vec<f64>>();
-            let want: Vec<f64> = flat(&ga0).into_iter().chain(flat(&gb0)).chain(gx0).collect();
-            let got: Vec<f64> = flat(&ga1).into_iter().chain(flat(&gb1)).chain(gx1).collect();
-            let scale = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            assert!(scale > 0.0);
-            for (x, y) in want.iter().zip(&got) {
-                assert!((x - y).abs() < 1e-10 * scale, "{}: {x} vs {y}", m.name());
+                let v1 =
+                    m.segment_gradient(topo, pat.as_ref(), [&segs[0], &segs[1]], &mut scratch, &mut sink);
+                assert!(v0 > 0.0);
+                assert!((v0 - v1).abs() < 1e-10 * v0, "{}: {v0} vs {v1}", m.name());
+                let flat = |g: &[[f64; 3]]| g.iter().flatten().copied().collect::<Vec<f64>>();
+                let want: Vec<f64> = flat(&ga0).into_iter().chain(flat(&gb0)).chain(gx0).collect();
+                let got: Vec<f64> = flat(&ga1).into_iter().chain(flat(&gb1)).chain(gx1).collect();
+                let scale = want.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+                assert!(scale > 0.0);
+                for (x, y) in want.iter().zip(&got) {
+                    assert!((x - y).abs() < 1e-10 * scale, "{}: {x} vs {y}", m.name());
+                }
             }
         }
     }

@@ -33,7 +33,10 @@ pub(crate) mod fdcheck;
 
 pub use bent::Bent;
 pub use conformal::{Conformal, ConformalForm};
-pub use gradient::{gradient_from_jacobian, segment_gradient_per_term, GradientSink, Scratch, SegmentSink};
+pub(crate) use gradient::same_frozen;
+pub use gradient::{
+    gradient_from_jacobian, segment_gradient_per_term, GradientSink, PoseShare, Scratch, SegmentSink,
+};
 pub use isometric::Isometric;
 pub use l2::{FrozenL2, L2};
 pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
@@ -317,6 +320,47 @@ pub trait Metric: Send + Sync + Debug {
         sink: &mut SegmentSink,
     ) -> f64 {
         segment_gradient_per_term(self, topo, pattern, segs, scratch, sink)
+    }
+
+    /// Values of one pose that the terms of both segments at that pose share (the bending
+    /// term's dihedral angles and sliver factors, [`RelativeBending`]), written to `out`: the
+    /// path energy computes them once per pose and evaluation and passes them to
+    /// [`Metric::segment_gradient_with`]. Left empty (the default) by metrics without any.
+    /// `pattern` is this metric's, `pose` #V x 3.
+    fn pose_values(&self, _topo: &Topology, _pattern: PatternRef, _pose: &[[f64; 3]], out: &mut Vec<f64>) {
+        out.clear();
+    }
+
+    /// [`Metric::segment_gradient`] in the path energy's three passes. With the
+    /// [`Metric::pose_values`] of the segment's poses `a` and `b` in `share` (non-empty), it
+    /// returns the same value, adds to `sink` the gradient of every part that has no pose
+    /// values, and writes to `share`'s coefficients those from which [`Metric::pose_gradient`]
+    /// gives the rest at each pose, once the coefficients of the pose's two segments are
+    /// summed. With empty values it is [`Metric::segment_gradient`] (the default, whatever
+    /// `share`).
+    fn segment_gradient_with(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        _share: PoseShare,
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        self.segment_gradient(topo, pattern, segs, scratch, sink)
+    }
+
+    /// Adds to `g` (#V x 3) the gradient at `pose` of the parts with pose values, from the
+    /// summed coefficients `coeffs` of [`Metric::segment_gradient_with`]. Nothing (the default)
+    /// for metrics without pose values.
+    fn pose_gradient(
+        &self,
+        _topo: &Topology,
+        _pattern: PatternRef,
+        _pose: &[[f64; 3]],
+        _coeffs: &[f64],
+        _g: &mut [[f64; 3]],
+    ) {
     }
 
     /// Second-order part of the Hessian of `|r|^2 / 2`: adds `sum_i r_i d2 r_i` (second

@@ -1,6 +1,6 @@
 use super::{
-    join_frozen, split_pattern, FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, RelativeL2,
-    Scratch, SecondOrderSink, Segment, SegmentSink, SplitPattern, L2,
+    join_frozen, split_pattern, FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, PoseShare,
+    RelativeL2, Scratch, SecondOrderSink, Segment, SegmentSink, SplitPattern, L2,
 };
 use crate::mesh::Topology;
 
@@ -261,11 +261,42 @@ impl Metric for Regularized {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
+        self.segment_gradient_with(topo, pattern, segs, PoseShare::none(), scratch, sink)
+    }
+
+    /// The inner metric's (the L2 part has none).
+    fn pose_values(&self, topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
+        let parts = self.patterns(topo, pattern);
+        self.inner.pose_values(topo, parts.first, pose, out);
+    }
+
+    /// The inner metric's.
+    fn pose_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        pose: &[[f64; 3]],
+        coeffs: &[f64],
+        g: &mut [[f64; 3]],
+    ) {
+        let parts = self.patterns(topo, pattern);
+        self.inner.pose_gradient(topo, parts.first, pose, coeffs, g);
+    }
+
+    fn segment_gradient_with(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        share: PoseShare,
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
         let parts = self.patterns(topo, pattern);
         let ((s0_in, s0_l2), (s1_in, s1_l2)) = (self.segments(topo, segs[0]), self.segments(topo, segs[1]));
-        let v_in = self
-            .inner
-            .segment_gradient(topo, parts.first, [&s0_in, &s1_in], scratch, sink);
+        let v_in =
+            self.inner
+                .segment_gradient_with(topo, parts.first, [&s0_in, &s1_in], share, scratch, sink);
         // The L2 part does not depend on the auxiliary unknowns: no aux gradient.
         let mut no_aux = SegmentSink {
             ga: &mut *sink.ga,

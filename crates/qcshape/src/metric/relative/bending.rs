@@ -1,39 +1,50 @@
-//! The bending term: the rate of change of the dihedral angles (the discrete shells' bending
-//! energy of Grinspun et al. 2003 and Heeren et al. 2012, linearized at the pose), weighted so
+//! The bending term: the change of the dihedral angles (the discrete shells' bending
+//! energy of Grinspun et al. 2003 and Heeren et al. 2012) over each path segment, weighted so
 //! that it is scale-invariant and converges as the mesh is refined (docs/method.md "Bending
 //! term").
 
 use super::{segment_faces, PER_FACE};
-use crate::mesh::geometry::{add, cross, dot, norm, scale, sub};
+use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::{
-    split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment,
+    same_frozen, segment_gradient_per_term, squared_norm_from_residuals, GradientSink, JacobianMut, Metric,
+    Pattern, PatternRef, PoseShare, Scratch, Segment, SegmentSink,
 };
 
 /// [`Topology::edge_faces`]' mark of a boundary side.
 const NO_FACE: u32 = u32::MAX;
 
-/// The scale-invariant bending term: `G_M(X) = sum over interior edges e of w_e (dtheta_e)^2`,
-/// `dtheta_e = d/dt theta_e(M + t X)` the rate of change of the dihedral angle at `e` (radians
-/// per unit of path parameter), `w_e = (L_1 + L_2) / (2 (A_1 + A_2))` (`L_f` the sum of face
-/// `f`'s squared edge lengths, `A_f` its area; for equilateral faces `3 |e|^2 / (A_1 + A_2)`, the
-/// discrete shells' weight) from the frozen face values of the path's ends, like every relative
-/// form (docs/method.md "Scale-invariant forms"). `sum_e w_e dtheta_e^2` approximates the
+/// The scale-invariant bending term of the discrete shells (Grinspun et al. 2003; Heeren et al.
+/// 2012): on a path segment from pose `a` to pose `b`, `sum over interior edges e of
+/// w_e (Phi_a Phi_b c_e)^2`, `c_e = 2 sin((theta_e(b) - theta_e(a)) / 2)` the chord of the
+/// change of the dihedral angle `theta_e` (radians; the change itself to within its cube over
+/// 24, periodic, so no wrapping), with `w_e = (L_1 + L_2) / (2 (A_1 + A_2))` (`L_f` the sum of
+/// face `f`'s squared edge lengths, `A_f` its area; for equilateral faces
+/// `3 |e|^2 / (A_1 + A_2)`, the discrete shells' weight) from the frozen face values of the path's
+/// ends, like every relative form (docs/method.md "Scale-invariant forms"), and `Phi` each
+/// pose's sliver factor ([`SLIVER`], 0.99 on regular faces). Both of the segment's terms (eq.
+/// 12's `G_{P_i}(X_i)` and `G_{P_{i+1}}(X_i)`) are this one value.
+///
+/// To second order in the step it is the rate form `w_e (dtheta_e / dt)^2` at the segment's
+/// midpoint (`c_e = <grad theta(M), b - a> + O(|b - a|^3)`), so the path energy discretizes the
 /// integral of the squared rate of change of the curvature over the surface: dimensionless,
 /// `G_{sM}(sX) = G_M(X)`, and the same on every refinement of a smooth surface. It vanishes on
-/// infinitesimal rigid motions and on isometric motions that keep the dihedral angles (a
-/// developable bend of a flat sheet does not), and charges vertex-scale normal wrinkles, which
-/// the membrane terms (isometric, conformal) see only through the curvature.
+/// every rigid motion of the pose, finite or not (the angles do not change), and on isometric
+/// motions that keep the dihedral angles, and charges vertex-scale normal wrinkles, which the
+/// membrane terms (isometric, conformal) see only through the curvature. Its gradient needs
+/// only the angles' first derivatives at the two poses; the path energy computes each pose's
+/// angles once ([`Metric::pose_values`]) and each pose's gradient once
+/// ([`Metric::pose_gradient`]).
 ///
 /// One residual per interior edge, depending on the edge's two vertices and the two opposite
 /// ones (pattern order: the edge's `(min, max)` vertices `i, j`, then `k` opposite in the
 /// edge's first face, `l` in its second). Boundary edges (open meshes: the LV surfaces) have no
 /// dihedral angle and no residual.
 ///
-/// With `dtheta = F_1 + F_2`, each wing `F = |E| ((X_k - X_i) - alpha (X_j - X_i)) . N / |N|^2`
-/// is the rate of rotation of one face about the edge: `E` the edge from its tail `i` to its
-/// head `j` (reversed for the second face, so that a rigid rotation cancels), `K = k - i`,
-/// `N = E x K`, `alpha = <E, K> / |E|^2` (`|N| / |E|` is the face's height over the edge).
+/// The angle's gradient: for each wing (the first face about the edge `i -> j` with apex `k`,
+/// the second about `j -> i` with apex `l`), `E` the edge from its tail to its head, `K` from
+/// the tail to the apex, `N = E x K`, `alpha = <E, K> / |E|^2`: the apex gets `c = |E| N / |N|^2`
+/// (the unit normal over the wing's height), the tail `(alpha - 1) c`, the head `-alpha c`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RelativeBending;
 
@@ -56,123 +67,164 @@ pub(crate) fn hinges(topo: &Topology) -> Vec<([u32; 4], [u32; 2])> {
         .collect()
 }
 
-/// One wing's rotation rate `F` (see [`RelativeBending`]) and its derivatives: with respect to
-/// the geometry of the tail, head and apex (`dg`), and to their displacements (`dx`).
-struct Wing {
-    f: f64,
-    dg: [[f64; 3]; 3],
-    dx: [[f64; 3]; 3],
-    /// The wing's factor `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)` ([`SLIVER`]) and its derivatives
-    /// with respect to the tail, head and apex.
-    phi: f64,
-    dphi: [[f64; 3]; 3],
-}
-
-/// The edge shared by a hinge's two wings: `E = h - t`, `|E|^2`, `|E|` and `1 / |E|^2`
-/// (the second wing's edge is `-E`, same lengths).
-#[derive(Clone, Copy)]
-struct Edge {
-    ee: f64,
-    le: f64,
-    inv_ee: f64,
-}
-
-impl Edge {
-    /// `None` for a degenerate edge (zero or non-finite length).
-    fn new(e: [f64; 3]) -> Option<Edge> {
-        let ee = dot(e, e);
-        (ee > 0.0 && ee.is_finite()).then(|| Edge {
-            ee,
-            le: ee.sqrt(),
-            inv_ee: 1.0 / ee,
-        })
-    }
-}
-
-/// `eta` of the wings' regularized denominator `|N|^2 + eta^2 |E|^4`: the height `h = |N| / |E|`
-/// is floored near `eta |E|`, so that a face collapsing on a path cannot make the rate and its
-/// gradient blow up (without it the default solver stalled on the bent tube with a face at 4e-6
-/// of the mean area). The residual is `G_1 phi_2 + G_2 phi_1`, `G` each wing's regularized rate
-/// and `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)`: both wings take the factor `phi_1 phi_2`, so a
-/// rigid rotation still cancels. On regular faces (`|N|^2 = 0.75 |E|^4`) the factor is 0.997.
-/// Dimensionless, so the term stays scale-invariant.
+/// `eta` of the sliver factor `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)` of each wing (`|N| / |E|` its
+/// height over the edge): the residual carries `Phi = phi_1 phi_2` of each of its two poses, so
+/// that a face collapsing on a path, where the dihedral angle jumps and its gradient blows up
+/// like `1 / h`, contributes nothing instead (without it the default solver stalled on the bent
+/// tube with a face at 4e-6 of the mean area). On regular faces (`|N|^2 = 0.75 |E|^4`) `phi` is
+/// 0.997; rigid motions keep it; dimensionless, so the term stays scale-invariant.
 const SLIVER: f64 = 0.05;
 
-/// The intermediates of one wing: `N = E x K`, `1 / (|N|^2 + eta^2 |E|^4)`, `alpha`,
-/// `v = D - alpha DE`, `s = <v, N>` and the factor `phi`.
-type WingParts = ([f64; 3], f64, f64, [f64; 3], f64, f64);
-
-/// [`WingParts`] of one wing; `None` for a degenerate face.
-fn wing_parts(ed: Edge, e: [f64; 3], k: [f64; 3], d: [f64; 3], de: [f64; 3]) -> Option<WingParts> {
-    let n = cross(e, k);
-    // |N|^2 + eta^2 |E|^4 (SLIVER): the rate stays finite on a collapsing face.
-    let raw = dot(n, n);
-    let n2 = raw + SLIVER * SLIVER * ed.ee * ed.ee;
-    if !(n2 > 0.0 && n2.is_finite()) {
-        return None;
-    }
-    let alpha = dot(e, k) * ed.inv_ee;
-    // v = D - alpha DE: the apex's velocity relative to the hinge point below it.
-    let v = sub(d, scale(de, alpha));
-    Some((n, 1.0 / n2, alpha, v, dot(v, n), raw / n2))
+/// One hinge at one pose: its signed dihedral angle `theta` as `(sin theta, cos theta)` (as
+/// [`dihedral_angles`]), its sliver factor `Phi = phi_1 phi_2` ([`SLIVER`]) and, where asked
+/// for, the gradients of `theta` and `Phi` with respect to the hinge's four vertices
+/// `[i, j, k, l]`.
+#[derive(Clone, Copy, Default)]
+struct HingeState {
+    angle: [f64; 2],
+    phi: f64,
+    dtheta: [[f64; 3]; 4],
+    dphi: [[f64; 3]; 4],
 }
 
-/// The rotation rate `F = |E| <v, N> / |N|^2` of the wing with hinge `t -> h` and apex `k`
-/// (positions `g`, displacements `x`), value only.
-fn wing_value(ed: Edge, g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> (f64, f64) {
-    let (e, k) = (sub(g[1], g[0]), sub(g[2], g[0]));
-    match wing_parts(ed, e, k, sub(x[2], x[0]), sub(x[1], x[0])) {
-        Some((_, inv_n2, _, _, s, phi)) => (ed.le * s * inv_n2, phi),
-        None => (0.0, 0.0),
-    }
+/// Values per hinge in a pose's [`RelativeBending::pose_values`] (`sin theta`, `cos theta`,
+/// `Phi`) and in a segment's coefficients for [`RelativeBending::pose_gradient`] (of
+/// `grad theta`, of `grad Phi`, and an unused 0).
+const PER_HINGE: usize = 3;
+
+/// The two wings of a hinge at positions `p = [x_i, x_j, x_k, x_l]`: the edge `E = x_j - x_i`,
+/// `|E|^2`, `|E|`, each wing's `K` (from its tail to its apex: `x_k - x_i` for the first wing
+/// about `i -> j`, `x_l - x_j` for the second about `j -> i`), `N` (`E x K_1` and
+/// `(-E) x K_2`) and `|N|^2`; `None` for a degenerate edge or face.
+struct Wings {
+    e: [f64; 3],
+    ee: f64,
+    le: f64,
+    k: [[f64; 3]; 2],
+    n: [[f64; 3]; 2],
+    nn: [f64; 2],
 }
 
-/// [`Wing`] of the wing with hinge `t -> h` and apex `k` (positions `g`, displacements `x`).
-fn wing(ed: Edge, g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> Wing {
-    let (e, k) = (sub(g[1], g[0]), sub(g[2], g[0]));
-    let de = sub(x[1], x[0]);
-    let Some((n, inv_n2, alpha, v, s, phi)) = wing_parts(ed, e, k, sub(x[2], x[0]), de) else {
-        return Wing {
-            f: 0.0,
-            dg: [[0.0; 3]; 3],
-            dx: [[0.0; 3]; 3],
-            phi: 0.0,
-            dphi: [[0.0; 3]; 3],
-        };
+#[inline(always)]
+fn wings(p: &[[f64; 3]; 4]) -> Option<Wings> {
+    let [xi, xj, xk, xl] = *p;
+    let e = sub(xj, xi);
+    let ee = dot(e, e);
+    let (k1, k2) = (sub(xk, xi), sub(xl, xj));
+    let (n1, n2) = (cross(e, k1), cross(k2, e));
+    let (r1, r2) = (dot(n1, n1), dot(n2, n2));
+    let ok = |v: f64| v > 0.0 && v.is_finite();
+    (ok(ee) && ok(r1) && ok(r2)).then(|| Wings {
+        e,
+        ee,
+        le: ee.sqrt(),
+        k: [k1, k2],
+        n: [n1, n2],
+        nn: [r1, r2],
+    })
+}
+
+/// The sliver factors `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)` of both wings.
+#[inline(always)]
+fn wing_factors(w: &Wings) -> [f64; 2] {
+    let delta = SLIVER * SLIVER * w.ee * w.ee;
+    w.nn.map(|r| r / (r + delta))
+}
+
+/// The hinge's signed dihedral angle `theta` (as [`dihedral_angles`]) as
+/// `[sin theta, cos theta]` and its sliver factor `Phi = phi_1 phi_2` at positions `p`;
+/// `([0, 1], 0)` for a degenerate hinge.
+#[inline(always)]
+fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
+    let Some(w) = wings(p) else {
+        return ([0.0, 1.0], 0.0);
     };
-    let (ee, le, inv_ee) = (ed.ee, ed.le, ed.inv_ee);
-    let (ek, kk) = (dot(e, k), dot(k, k));
-    // With alpha = <E, K> / |E|^2, s = <v, N>, |N|^2 = |E|^2 |K|^2 - <E, K>^2, F = |E| s / |N|^2:
-    // ds/dE = -<DE, N> dalpha/dE + K x v, ds/dK = -<DE, N> E / |E|^2 + v x E,
-    // dalpha/dE = K / |E|^2 - 2 <E, K> E / |E|^4, d|N|^2/dE = 2 (|K|^2 E - <E, K> K),
-    // d|N|^2/dK = 2 (|E|^2 K - <E, K> E).
-    let den = dot(de, n);
-    let a = le * inv_n2;
-    let b = 2.0 * a * s * inv_n2;
-    // dF/dE = s E / (|E| |N|^2) + a ds/dE - b (|K|^2 E - <E, K> K).
-    // (|N|^2's regularization adds 4 eta^2 |E|^2 E to its derivative in E.)
-    let ce = s * inv_n2 / le + 2.0 * a * den * ek * inv_ee * inv_ee - b * kk - 2.0 * b * SLIVER * SLIVER * ee;
-    let cke = -a * den * inv_ee + b * ek;
-    let df_de = add(add(scale(e, ce), scale(k, cke)), scale(cross(k, v), a));
-    // dF/dK = a ds/dK - b (|E|^2 K - <E, K> E).
-    let df_dk = add(add(scale(e, cke), scale(k, -b * ee)), scale(cross(v, e), a));
-    let c = scale(n, a);
-    // phi = |N|^2 / D, D = |N|^2 + delta, delta = eta^2 |E|^4:
-    // dphi = (delta d|N|^2 - |N|^2 d delta) / D^2, d delta/dE = 4 eta^2 |E|^2 E.
-    let delta = SLIVER * SLIVER * ee * ee;
-    let raw = phi / inv_n2;
-    let q = inv_n2 * inv_n2;
-    let dphi_de = sub(
-        scale(add(scale(e, kk), scale(k, -ek)), 2.0 * delta * q),
-        scale(e, 4.0 * SLIVER * SLIVER * ee * raw * q),
-    );
-    let dphi_dk = scale(add(scale(k, ee), scale(e, -ek)), 2.0 * delta * q);
-    Wing {
-        f: le * s * inv_n2,
-        dg: [scale(add(df_de, df_dk), -1.0), df_de, df_dk],
-        dx: [scale(c, alpha - 1.0), scale(c, -alpha), c],
+    let [phi1, phi2] = wing_factors(&w);
+    let [n1, n2] = w.n;
+    // |N_1| |N_2| (sin theta, cos theta).
+    let (y, x) = (dot(cross(n2, n1), w.e) / w.le, dot(n1, n2));
+    let rho = (y * y + x * x).sqrt();
+    if !(rho > 0.0 && rho.is_finite()) {
+        return ([0.0, 1.0], 0.0);
+    }
+    ([y / rho, x / rho], phi1 * phi2)
+}
+
+/// `ct grad theta + cp grad Phi` of the hinge at positions `p`, per vertex `[i, j, k, l]`;
+/// zeros for a degenerate hinge.
+///
+/// The angle's gradient, per wing (tail `t`, head `h`, apex `a`): `c = |E| N / |N|^2` at the
+/// apex, `(alpha - 1) c` at the tail, `-alpha c` at the head, `alpha = <E_w, K> / |E|^2` with
+/// the wing's own edge `E_w` (`E`, then `-E`). The factor's, per wing: with `D = |N|^2 + delta`,
+/// `delta = eta^2 |E|^4`, `|N|^2 = |E|^2 |K|^2 - <E, K>^2`:
+/// `dphi/dE_w = 2 delta (|K|^2 E_w - <E_w, K> K) / D^2 - 4 eta^2 |E|^2 |N|^2 E_w / D^2`,
+/// `dphi/dK = 2 delta (|E|^2 K - <E_w, K> E_w) / D^2`; the head gets `dphi/dE_w`, the apex
+/// `dphi/dK`, the tail minus their sum.
+#[inline(always)]
+fn hinge_gradient(p: &[[f64; 3]; 4], ct: f64, cp: f64) -> [[f64; 3]; 4] {
+    let Some(w) = wings(p) else {
+        return [[0.0; 3]; 4];
+    };
+    let phi = wing_factors(&w);
+    let delta = SLIVER * SLIVER * w.ee * w.ee;
+    // Per wing: the head's, apex's and tail's parts.
+    let part = |m: usize| -> [[f64; 3]; 3] {
+        let ew = if m == 0 { w.e } else { scale(w.e, -1.0) };
+        let (k, n, nn) = (w.k[m], w.n[m], w.nn[m]);
+        let ek = dot(ew, k);
+        let alpha = ek / w.ee;
+        let c = scale(n, ct * w.le / nn);
+        // The factor Phi = phi_1 phi_2: this wing's phi times the other's.
+        let den = nn + delta;
+        let q = cp * phi[1 - m] / (den * den);
+        let kk = dot(k, k);
+        let dphi_de = sub(
+            scale(sub(scale(ew, kk), scale(k, ek)), 2.0 * delta * q),
+            scale(ew, 4.0 * SLIVER * SLIVER * w.ee * nn * q),
+        );
+        let dphi_dk = scale(sub(scale(k, w.ee), scale(ew, ek)), 2.0 * delta * q);
+        let head = sub(dphi_de, scale(c, alpha));
+        let apex = add(dphi_dk, c);
+        let tail = scale(add(head, apex), -1.0);
+        [head, apex, tail]
+    };
+    let [h1, a1, t1] = part(0);
+    let [h2, a2, t2] = part(1);
+    // Wing 1: tail i, head j, apex k; wing 2: tail j, head i, apex l.
+    [add(t1, h2), add(h1, t2), a1, a2]
+}
+
+/// [`HingeState`] of the hinge at positions `p = [x_i, x_j, x_k, x_l]`; the gradients only if
+/// `want`. A degenerate edge or face gives the zero state (`Phi = 0`: no residual).
+fn hinge_state(p: [[f64; 3]; 4], want: bool) -> HingeState {
+    let (angle, phi) = hinge_value(&p);
+    let mut st = HingeState {
+        angle,
         phi,
-        dphi: [scale(add(dphi_de, dphi_dk), -1.0), dphi_de, dphi_dk],
+        ..HingeState::default()
+    };
+    if want {
+        st.dtheta = hinge_gradient(&p, 1.0, 0.0);
+        st.dphi = hinge_gradient(&p, 0.0, 1.0);
+    }
+    st
+}
+
+/// The change of an angle from `a` to `b` (each `[sin, cos]`) as the chord
+/// `2 sin((theta_b - theta_a) / 2)` (the change itself to within its cube over 24; smooth and
+/// periodic, so no wrapping and no arctangent), with its derivative `cos((theta_b - theta_a) /
+/// 2)` with respect to `theta_b` (minus that with respect to `theta_a`). At a half turn the
+/// chord is taken as 2 and its derivative as 0.
+#[inline(always)]
+fn angle_chord(a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
+    let sin = b[0] * a[1] - b[1] * a[0];
+    let cos = b[1] * a[1] + b[0] * a[0];
+    // h = 2 cos(delta / 2) >= 0; 2 sin(delta / 2) = 2 sin(delta) / h.
+    let h = (2.0 * (1.0 + cos)).max(0.0).sqrt();
+    if h > 0.0 {
+        (2.0 * sin / h, 0.5 * h)
+    } else {
+        (2.0, 0.0)
     }
 }
 
@@ -235,13 +287,10 @@ impl Metric for RelativeBending {
         let want = jac.is_some();
         for_each_hinge(topo, pattern, seg, want, |hi, _, ri, d| {
             r[hi] = ri;
-            if let (Some(jm), Some((dg, dx))) = (jac.as_mut(), d) {
+            if let (Some(jm), Some((da, db))) = (jac.as_mut(), d) {
                 let first = pattern.offsets[hi] as usize;
-                for m in 0..4 {
-                    let (da, db) = split_segment(seg.at, dg[m], dx[m]);
-                    jm.da[first + m] = da;
-                    jm.db[first + m] = db;
-                }
+                jm.da[first..first + 4].copy_from_slice(da);
+                jm.db[first..first + 4].copy_from_slice(db);
             }
         });
     }
@@ -255,44 +304,147 @@ impl Metric for RelativeBending {
         _scratch: &mut Scratch,
         sink: &mut GradientSink,
     ) -> f64 {
-        let mut value = 0.0;
-        for_each_hinge(topo, pattern, seg, true, |_, vs, ri, d| {
-            value += ri * ri;
-            if let Some((dg, dx)) = d {
-                for m in 0..4 {
-                    let (da, db) = split_segment(seg.at, dg[m], dx[m]);
-                    sink.add(vs[m], ri, da, db);
-                }
-            }
-        });
-        sink.weight * value
+        gradient_pass(topo, pattern, seg, sink)
     }
 
-    /// Value-only passes.
+    /// Both terms of a segment are the same residuals (the change of the angles from `a` to
+    /// `b`): one pass, counted twice.
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        if !same_frozen(segs) {
+            return segment_gradient_per_term(self, topo, pattern, segs, scratch, sink);
+        }
+        let mut both = GradientSink {
+            ga: &mut *sink.ga,
+            gb: &mut *sink.gb,
+            gaux: &mut [],
+            weight: 2.0 * sink.weight,
+        };
+        gradient_pass(topo, pattern, segs[0], &mut both)
+    }
+
+    /// Every hinge's angle and sliver factor at `pose` ([`PER_HINGE`] values per hinge).
+    fn pose_values(&self, _topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
+        let n = pattern.n_residuals();
+        out.clear();
+        out.reserve(PER_HINGE * n);
+        for hi in 0..n {
+            let ([sin, cos], phi) = hinge_value(&hinge_positions(pattern, hi, pose));
+            out.extend_from_slice(&[sin, cos, phi]);
+        }
+    }
+
+    /// The segment's value from its poses' angles and factors, and per hinge and pose the
+    /// coefficients of `grad theta` and `grad Phi` in `2 weight r dr/dP` (both terms counted).
+    fn segment_gradient_with(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        share: PoseShare,
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        let n = PER_HINGE * pattern.n_residuals();
+        let PoseShare {
+            values: poses,
+            coeffs,
+        } = share;
+        if poses.iter().any(|p| p.len() != n) || coeffs.iter().any(|c| c.len() != n) || !same_frozen(segs) {
+            return self.segment_gradient(topo, pattern, segs, scratch, sink);
+        }
+        let [ca, cb] = coeffs;
+        let weight = 2.0 * sink.weight;
+        let mut value = 0.0;
+        for_each_weight(topo, segs[0], |hi, sw| {
+            let at = PER_HINGE * hi;
+            let (va, vb) = (&poses[0][at..at + 3], &poses[1][at..at + 3]);
+            let (pa, pb) = (va[2], vb[2]);
+            let (chord, slope) = angle_chord([va[0], va[1]], [vb[0], vb[1]]);
+            let both = sw * pa * pb;
+            let r = both * chord;
+            value += r * r;
+            // dr/db = sw Phi_a Phi_b slope grad theta_b + sw Phi_a chord grad Phi_b; dr/da with
+            // -slope and Phi_b.
+            let s = 2.0 * weight * r;
+            ca[at] = -s * both * slope;
+            ca[at + 1] = s * sw * pb * chord;
+            cb[at] = s * both * slope;
+            cb[at + 1] = s * sw * pa * chord;
+        });
+        weight * value
+    }
+
+    /// `g += c_theta grad theta + c_Phi grad Phi` over the hinges at `pose`.
+    fn pose_gradient(
+        &self,
+        _topo: &Topology,
+        pattern: PatternRef,
+        pose: &[[f64; 3]],
+        coeffs: &[f64],
+        g: &mut [[f64; 3]],
+    ) {
+        for (hi, c) in coeffs.chunks_exact(PER_HINGE).enumerate() {
+            debug_assert!(c[2] == 0.0);
+            let (ct, cp) = (c[0], c[1]);
+            if ct == 0.0 && cp == 0.0 {
+                continue;
+            }
+            let first = pattern.offsets[hi] as usize;
+            let d = hinge_gradient(&hinge_positions(pattern, hi, pose), ct, cp);
+            for (m, dm) in d.iter().enumerate() {
+                let v = pattern.vertices[first + m] as usize;
+                g[v] = add(g[v], *dm);
+            }
+        }
+    }
+
+    /// One value-only pass for both terms (they are equal, see
+    /// [`RelativeBending::segment_gradient`]).
     fn segment_squared_norms(&self, topo: &Topology, pattern: PatternRef, segs: [&Segment; 2]) -> [f64; 2] {
-        segs.map(|seg| {
-            let mut value = 0.0;
-            for_each_hinge(topo, pattern, seg, false, |_, _, ri, _| value += ri * ri);
-            value
-        })
+        if !same_frozen(segs) {
+            return segs.map(|seg| squared_norm_from_residuals(self, topo, pattern, seg));
+        }
+        let mut value = 0.0;
+        for_each_hinge(topo, pattern, segs[0], false, |_, _, ri, _| value += ri * ri);
+        [value; 2]
     }
 }
 
-/// Derivatives of one hinge's residual with respect to the geometry and the displacement of
-/// its four vertices `[i, j, k, l]`.
+/// `weight |r|^2` of a segment and `weight * 2 J^T r` into `sink` ([`Metric::gradient`]).
+fn gradient_pass(topo: &Topology, pattern: PatternRef, seg: &Segment, sink: &mut GradientSink) -> f64 {
+    let mut value = 0.0;
+    for_each_hinge(topo, pattern, seg, true, |_, vs, ri, d| {
+        value += ri * ri;
+        if let Some((da, db)) = d {
+            for m in 0..4 {
+                sink.add(vs[m], ri, da[m], db[m]);
+            }
+        }
+    });
+    sink.weight * value
+}
+
+/// Derivatives of one hinge's residual with respect to its four vertices `[i, j, k, l]` in the
+/// segment's first pose `a` and in its second `b`.
 type HingeDerivatives = ([[f64; 3]; 4], [[f64; 3]; 4]);
 
-/// Visits every interior edge of a segment term: `visit(hinge, [i, j, k, l], r, derivatives)`
-/// with the residual `r = sqrt(w_e) dtheta_e` and, if `want`, its derivatives. The vertices
-/// come from `pattern` (this term's rows), the weights from the segment's frozen face values.
-fn for_each_hinge(
-    topo: &Topology,
-    pattern: PatternRef,
-    seg: &Segment,
-    want: bool,
-    mut visit: impl FnMut(usize, [usize; 4], f64, Option<&HingeDerivatives>),
-) {
-    let (g, x) = crate::metric::geometry_and_displacement(seg);
+/// The positions of hinge `hi`'s four vertices `[i, j, k, l]` (`pattern`'s row) in `pose`.
+#[inline]
+fn hinge_positions(pattern: PatternRef, hi: usize, pose: &[[f64; 3]]) -> [[f64; 3]; 4] {
+    let first = pattern.offsets[hi] as usize;
+    std::array::from_fn(|m| pose[pattern.vertices[first + m] as usize])
+}
+
+/// Visits every interior edge of a segment with its `sqrt(w_e)` (from the segment's frozen
+/// face values): `visit(hinge, sqrt(w_e))`.
+fn for_each_weight(topo: &Topology, seg: &Segment, mut visit: impl FnMut(usize, f64)) {
     let faces = segment_faces(topo, seg);
     let nf = topo.n_faces();
     debug_assert!(faces.len() >= PER_FACE * nf);
@@ -301,58 +453,55 @@ fn for_each_hinge(
         .iter()
         .filter(|ef| ef[0] != NO_FACE && ef[1] != NO_FACE);
     for (hi, &[f1, f2]) in interior.enumerate() {
-        let first = pattern.offsets[hi] as usize;
-        let vs: [usize; 4] = std::array::from_fn(|m| pattern.vertices[first + m] as usize);
-        let sw = hinge_weight(faces.as_ref(), nf, f1 as usize, f2 as usize).sqrt();
-        let [i, j, k, l] = vs;
-        let Some(ed) = Edge::new(sub(g[j], g[i])) else {
-            visit(hi, vs, 0.0, want.then_some(&([[0.0; 3]; 4], [[0.0; 3]; 4])));
-            continue;
-        };
-        if !want {
-            let (f1, p1) = wing_value(ed, [g[i], g[j], g[k]], [x[i], x[j], x[k]]);
-            let (f2, p2) = wing_value(ed, [g[j], g[i], g[l]], [x[j], x[i], x[l]]);
-            visit(hi, vs, sw * (f1 * p2 + f2 * p1), None);
-            continue;
-        }
-        let w1 = wing(ed, [g[i], g[j], g[k]], [x[i], x[j], x[k]]);
-        let w2 = wing(ed, [g[j], g[i], g[l]], [x[j], x[i], x[l]]);
-        // r / sw = G_1 phi_2 + G_2 phi_1; local vertices i, j, k, l: wing 1 covers (i, j, k),
-        // wing 2 (j, i, l).
-        let mut dg = [[0.0; 3]; 4];
-        let mut dx = [[0.0; 3]; 4];
-        for (slot, src) in [(0, 0), (1, 1), (2, 2)] {
-            dg[slot] = add(
-                dg[slot],
-                add(scale(w1.dg[src], w2.phi), scale(w1.dphi[src], w2.f)),
-            );
-            dx[slot] = add(dx[slot], scale(w1.dx[src], w2.phi));
-        }
-        for (slot, src) in [(1, 0), (0, 1), (3, 2)] {
-            dg[slot] = add(
-                dg[slot],
-                add(scale(w2.dg[src], w1.phi), scale(w2.dphi[src], w1.f)),
-            );
-            dx[slot] = add(dx[slot], scale(w2.dx[src], w1.phi));
-        }
-        let d = (dg.map(|v| scale(v, sw)), dx.map(|v| scale(v, sw)));
-        visit(hi, vs, sw * (w1.f * w2.phi + w2.f * w1.phi), Some(&d));
+        visit(
+            hi,
+            hinge_weight(faces.as_ref(), nf, f1 as usize, f2 as usize).sqrt(),
+        );
     }
 }
 
-/// The signed dihedral angle at every interior edge of `pose` (radians, in the pattern's hinge
-/// order; 0 where the two faces are coplanar; its rate of change along a displacement is the
-/// term's residual over `sqrt(w_e)`). For tests and studies of the bending term.
+/// Visits every interior edge of a segment: `visit(hinge, [i, j, k, l], r, derivatives)` with
+/// the residual `r = sqrt(w_e) Phi_a Phi_b c_e` ([`angle_chord`]) and, if `want`, its
+/// derivatives. The vertices come from `pattern` (this term's rows), the weights from the
+/// segment's frozen face values.
+fn for_each_hinge(
+    topo: &Topology,
+    pattern: PatternRef,
+    seg: &Segment,
+    want: bool,
+    mut visit: impl FnMut(usize, [usize; 4], f64, Option<&HingeDerivatives>),
+) {
+    for_each_weight(topo, seg, |hi, sw| {
+        let first = pattern.offsets[hi] as usize;
+        let vs: [usize; 4] = std::array::from_fn(|m| pattern.vertices[first + m] as usize);
+        let sa = hinge_state(vs.map(|v| seg.a[v]), want);
+        let sb = hinge_state(vs.map(|v| seg.b[v]), want);
+        let (chord, slope) = angle_chord(sa.angle, sb.angle);
+        let both = sw * sa.phi * sb.phi;
+        let r = both * chord;
+        if !want {
+            visit(hi, vs, r, None);
+            return;
+        }
+        // dr/da = sw (-Phi_a Phi_b slope dtheta_a + Phi_b chord dPhi_a), dr/db likewise with +.
+        let (ka, kb) = (sw * sb.phi * chord, sw * sa.phi * chord);
+        let bs = both * slope;
+        let da = std::array::from_fn(|m| add(scale(sa.dtheta[m], -bs), scale(sa.dphi[m], ka)));
+        let db = std::array::from_fn(|m| add(scale(sb.dtheta[m], bs), scale(sb.dphi[m], kb)));
+        visit(hi, vs, r, Some(&(da, db)));
+    });
+}
+
+/// The signed dihedral angle at every interior edge of `pose` (radians in `(-pi, pi]`, in the
+/// pattern's hinge order; 0 where the two faces are coplanar or one is degenerate; the term's
+/// residual is `sqrt(w_e) Phi_a Phi_b` times the chord of its change along a segment). For tests and studies
+/// of the bending term.
 pub fn dihedral_angles(topo: &Topology, pose: &[[f64; 3]]) -> Vec<f64> {
     hinges(topo)
         .iter()
         .map(|(vs, _)| {
-            let [i, j, k, l] = vs.map(|v| pose[v as usize]);
-            let e = sub(j, i);
-            let n1 = cross(e, sub(k, i));
-            let n2 = cross(scale(e, -1.0), sub(l, j));
-            let t = scale(e, 1.0 / norm(e).max(f64::MIN_POSITIVE));
-            dot(cross(n2, n1), t).atan2(dot(n1, n2))
+            let ([sin, cos], _) = hinge_value(&vs.map(|v| pose[v as usize]));
+            sin.atan2(cos)
         })
         .collect()
 }
@@ -367,97 +516,196 @@ mod tests {
         fdcheck::check_metric(&RelativeBending, 71);
     }
 
-    /// The residual is the rate of change of the dihedral angle (times `sqrt(w_e)`): checked
-    /// against a central difference of [`dihedral_angles`] along a random displacement.
-    #[test]
-    fn residual_is_the_dihedral_angle_rate() {
+    /// A pose of icosphere(1) off the sphere and a displacement of size `step` (mean edges).
+    fn pose_and_step(step: f64) -> (crate::mesh::Shape, Vec<[f64; 3]>, Vec<[f64; 3]>) {
         let s = crate::synth::icosphere(1);
-        let topo = &s.topology;
         let a: Vec<[f64; 3]> = s
             .positions
             .iter()
             .enumerate()
             .map(|(i, p)| p.map(|c| c * (1.0 + 0.05 * ((i * 7 % 11) as f64 / 11.0))))
             .collect();
-        let x: Vec<[f64; 3]> = (0..a.len())
-            .map(|i| {
-                [
+        let b: Vec<[f64; 3]> = a
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let d = [
                     ((i * 3) % 7) as f64 - 3.0,
                     ((i * 5) % 9) as f64 - 4.0,
                     ((i * 2) % 5) as f64 - 2.0,
-                ]
+                ];
+                add(*p, scale(d, step))
             })
-            .map(|v| v.map(|c| 0.01 * c))
             .collect();
-        let b: Vec<[f64; 3]> = a.iter().zip(&x).map(|(p, d)| add(*p, *d)).collect();
+        (s, a, b)
+    }
+
+    /// The residuals of a segment and, per hinge, `sqrt(w_e) Phi_a Phi_b`.
+    fn residuals_and_factors(topo: &Topology, a: &[[f64; 3]], b: &[[f64; 3]]) -> (Vec<f64>, Vec<f64>) {
         let m = RelativeBending;
-        let frozen = m.frozen_weights(topo, &a, &b).unwrap();
-        let nf = topo.n_faces();
-        let w: Vec<f64> = hinges(topo)
-            .iter()
-            .map(|(_, [f1, f2])| hinge_weight(&frozen, nf, *f1 as usize, *f2 as usize))
-            .collect();
+        let frozen = m.frozen_weights(topo, a, b).unwrap();
         let pat = m.pattern(topo);
         let mut r = vec![0.0; pat.n_residuals()];
         let seg = Segment {
-            a: &a,
-            b: &b,
+            a,
+            b,
             at: At::Start,
             aux: &[],
             frozen: Some(&frozen),
         };
         m.residuals(topo, pat.as_ref(), &seg, &mut r, None);
-        let h = 1e-6;
-        let shifted = |t: f64| -> Vec<f64> {
-            let p: Vec<[f64; 3]> = a.iter().zip(&x).map(|(p, d)| add(*p, scale(*d, t))).collect();
-            dihedral_angles(topo, &p)
-        };
-        let (tp, tm) = (shifted(h), shifted(-h));
-        // The sliver factor phi_1 phi_2 of each hinge at the pose (0.99-1 on these faces).
-        let phis: Vec<f64> = hinges(topo)
+        let nf = topo.n_faces();
+        let factors = hinges(topo)
             .iter()
-            .map(|(vs, _)| {
-                let [i, j, k, l] = vs.map(|v| a[v as usize]);
-                let e = sub(j, i);
-                let ee = dot(e, e);
-                let phi = |n: [f64; 3]| dot(n, n) / (dot(n, n) + SLIVER * SLIVER * ee * ee);
-                phi(cross(e, sub(k, i))) * phi(cross(scale(e, -1.0), sub(l, j)))
+            .map(|(vs, [f1, f2])| {
+                let phi = |p: &[[f64; 3]]| hinge_state(vs.map(|v| p[v as usize]), false).phi;
+                hinge_weight(&frozen, nf, *f1 as usize, *f2 as usize).sqrt() * phi(a) * phi(b)
             })
             .collect();
+        (r, factors)
+    }
+
+    /// The residual is the chord `2 sin(dtheta / 2)` of the change of the dihedral angle from `a`
+    /// to `b` (times
+    /// `sqrt(w_e) Phi_a Phi_b`, the factors 0.98-1 on these faces), and to second order the
+    /// rate of change at the midpoint (a central difference of [`dihedral_angles`]).
+    #[test]
+    fn residual_is_the_change_of_the_dihedral_angle() {
+        let (s, a, b) = pose_and_step(0.01);
+        let topo = &s.topology;
+        let (r, factors) = residuals_and_factors(topo, &a, &b);
+        let (ta, tb) = (dihedral_angles(topo, &a), dihedral_angles(topo, &b));
         let mut checked = 0;
         for e in 0..r.len() {
-            let rate = (tp[e] - tm[e]) / (2.0 * h);
-            assert!(phis[e] > 0.99 && phis[e] <= 1.0, "hinge {e}: factor {}", phis[e]);
-            let expected = w[e].sqrt() * phis[e] * rate;
+            assert!(factors[e] > 0.0, "hinge {e}: factor {}", factors[e]);
+            let expected = factors[e] * 2.0 * (0.5 * (tb[e] - ta[e])).sin();
             assert!(
-                (r[e] - expected).abs() <= 1e-6 * (1.0 + expected.abs()),
-                "hinge {e}: residual {} against sqrt(w) phi dtheta/dt {expected}",
+                (r[e] - expected).abs() <= 1e-12 * (1.0 + expected.abs()),
+                "hinge {e}: residual {} against the angle's change {expected}",
                 r[e]
             );
             checked += (expected.abs() > 1e-3) as usize;
         }
-        assert!(
-            checked > r.len() / 2,
-            "the displacement bends too few hinges ({checked})"
-        );
+        assert!(checked > r.len() / 2, "the step bends too few hinges ({checked})");
+        // A small step: the change is the midpoint rate times the step to O(step^3).
+        let (s, a, b) = pose_and_step(1e-4);
+        let topo = &s.topology;
+        let (r, factors) = residuals_and_factors(topo, &a, &b);
+        let h = 1e-3;
+        let at = |t: f64| -> Vec<f64> {
+            let p: Vec<[f64; 3]> = a
+                .iter()
+                .zip(&b)
+                .map(|(p, q)| add(*p, scale(sub(*q, *p), 0.5 + t)))
+                .collect();
+            dihedral_angles(topo, &p)
+        };
+        let (tp, tm) = (at(h), at(-h));
+        let largest = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for e in 0..r.len() {
+            let rate = factors[e] * (tp[e] - tm[e]) / (2.0 * h);
+            assert!(
+                (r[e] - rate).abs() <= 1e-6 * largest,
+                "hinge {e}: residual {} against the midpoint rate {rate}",
+                r[e]
+            );
+        }
     }
 
-    /// A rigid motion (a rotation rate and a translation) does not bend anything.
+    /// The path energy's passes (pose values, segment coefficients, pose gradients) give the
+    /// segment's value bit for bit and its gradient to rounding.
+    #[test]
+    fn pose_passes_match_the_segment_gradient() {
+        let (s, a, b) = pose_and_step(0.02);
+        let topo = &s.topology;
+        let m = RelativeBending;
+        let frozen = m.frozen_weights(topo, &a, &b).unwrap();
+        let pat = m.pattern(topo);
+        let seg = |at| Segment {
+            a: &a,
+            b: &b,
+            at,
+            aux: &[],
+            frozen: Some(&frozen),
+        };
+        let (s0, s1) = (seg(At::Start), seg(At::End));
+        let nv = a.len();
+        // One segment_gradient call.
+        let (mut ga, mut gb) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+        let direct = m.segment_gradient(
+            topo,
+            pat.as_ref(),
+            [&s0, &s1],
+            &mut Scratch::default(),
+            &mut SegmentSink {
+                ga: &mut ga,
+                gb: &mut gb,
+                gaux: &mut [],
+                weight: 0.7,
+            },
+        );
+        // The three passes.
+        let (mut va, mut vb) = (Vec::new(), Vec::new());
+        m.pose_values(topo, pat.as_ref(), &a, &mut va);
+        m.pose_values(topo, pat.as_ref(), &b, &mut vb);
+        let (mut ca, mut cb) = (vec![0.0; va.len()], vec![0.0; vb.len()]);
+        let (mut pa, mut pb) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
+        let passes = m.segment_gradient_with(
+            topo,
+            pat.as_ref(),
+            [&s0, &s1],
+            PoseShare {
+                values: [&va, &vb],
+                coeffs: [&mut ca, &mut cb],
+            },
+            &mut Scratch::default(),
+            &mut SegmentSink {
+                ga: &mut pa,
+                gb: &mut pb,
+                gaux: &mut [],
+                weight: 0.7,
+            },
+        );
+        assert!(direct > 0.0);
+        assert_eq!(direct.to_bits(), passes.to_bits());
+        assert!(
+            pa.iter().chain(&pb).all(|g| *g == [0.0; 3]),
+            "the passes add nothing to the sink"
+        );
+        m.pose_gradient(topo, pat.as_ref(), &a, &ca, &mut pa);
+        m.pose_gradient(topo, pat.as_ref(), &b, &cb, &mut pb);
+        let largest = ga.iter().chain(&gb).flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(largest > 0.0);
+        for (x, y) in ga.iter().chain(&gb).flatten().zip(pa.iter().chain(&pb).flatten()) {
+            assert!((x - y).abs() <= 1e-13 * largest, "{x} against {y}");
+        }
+    }
+
+    /// A finite rigid step (a rotation by 0.79 rad and a translation) bends nothing: no
+    /// dihedral angle changes, at both of the segment's terms.
     #[test]
     fn rigid_motions_cost_nothing() {
         let s = crate::synth::icosphere(2);
         let topo = &s.topology;
         let omega = [0.3, -0.7, 0.2];
+        // Rodrigues: R p = p cos t + (u x p) sin t + u <u, p> (1 - cos t), u = omega / t.
+        let t = crate::mesh::geometry::norm(omega);
+        let u = scale(omega, 1.0 / t);
+        let rotate = |p: [f64; 3]| {
+            add(
+                add(scale(p, t.cos()), scale(cross(u, p), t.sin())),
+                scale(u, dot(u, p) * (1.0 - t.cos())),
+            )
+        };
         let b: Vec<[f64; 3]> = s
             .positions
             .iter()
-            .map(|p| add(add(*p, cross(omega, *p)), [0.5, 0.1, -0.2]))
+            .map(|p| add(rotate(*p), [0.5, 0.1, -0.2]))
             .collect();
         let m = RelativeBending;
         let frozen = m.frozen_weights(topo, &s.positions, &b).unwrap();
         let pat = m.pattern(topo);
         let mut r = vec![0.0; pat.n_residuals()];
-        // The rate at the start pose: X = omega x p + t is an infinitesimal rigid motion there.
         let seg = Segment {
             a: &s.positions,
             b: &b,
@@ -465,9 +713,11 @@ mod tests {
             aux: &[],
             frozen: Some(&frozen),
         };
-        m.residuals(topo, pat.as_ref(), &seg, &mut r, None);
-        let worst = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        assert!(worst < 1e-12, "a rigid motion bends by {worst:e}");
+        for at in [At::Start, At::End] {
+            m.residuals(topo, pat.as_ref(), &Segment { at, ..seg }, &mut r, None);
+            let worst = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(worst < 1e-12, "a rigid step bends by {worst:e} ({at:?})");
+        }
         assert!(!r.is_empty());
     }
 

@@ -1,9 +1,9 @@
 use super::{edge_shares, faces_from, frozen_faces, pose_faces, segment_faces};
-use crate::mesh::geometry::{dot, scale, sub};
+use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::{
-    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, SecondOrderSink,
-    Segment,
+    geometry_and_displacement, same_frozen, segment_gradient_per_term, split_segment, JacobianMut, Metric,
+    Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
 };
 
 /// The scale-invariant isometric metric (eq. 3 as a strain, docs/method.md "Scale-invariant
@@ -79,6 +79,57 @@ impl Metric for RelativeIsometric {
                 j.db[2 * ei + 1] = db;
             }
         }
+    }
+
+    /// Both terms of the segment in one pass over the edges (one displacement, one set of
+    /// area shares; never stores the Jacobian; per term if the terms' frozen values differ): `weight sum (r_start^2 + r_end^2)`, and
+    /// `2 weight r dr/da`, `2 weight r dr/db` into `sink`.
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        if !same_frozen(segs) {
+            return segment_gradient_per_term(self, topo, pattern, segs, scratch, sink);
+        }
+        let (a, b) = (segs[0].a, segs[0].b);
+        let faces = segment_faces(topo, segs[0]);
+        let shares = edge_shares(topo, &faces);
+        let w2 = 2.0 * sink.weight;
+        let mut value = 0.0;
+        for (ei, e) in topo.edges().iter().enumerate() {
+            let (p, q) = (e[0] as usize, e[1] as usize);
+            let dx = sub(sub(b[p], b[q]), sub(a[p], a[q]));
+            let s = shares[ei].max(0.0).sqrt();
+            // The start term (geometry a) and the end term (geometry b): r = s <e, d> / |e|^2,
+            // dr/de = s (d / l - 2 pr e / l^2), dr/dd = s e / l.
+            let mut ga = [0.0; 3];
+            let mut gb = [0.0; 3];
+            for (at_end, g) in [(false, a), (true, b)] {
+                let de = sub(g[p], g[q]);
+                let (l, pr) = (dot(de, de), dot(de, dx));
+                let r = s * pr / l;
+                value += r * r;
+                let c = w2 * r;
+                let dg = scale(sub(scale(dx, 1.0 / l), scale(de, 2.0 * pr / (l * l))), s * c);
+                let dd = scale(de, s * c / l);
+                let (da, db) = if at_end {
+                    (scale(dd, -1.0), add(dg, dd))
+                } else {
+                    (sub(dg, dd), dd)
+                };
+                ga = add(ga, da);
+                gb = add(gb, db);
+            }
+            sink.ga[p] = add(sink.ga[p], ga);
+            sink.gb[p] = add(sink.gb[p], gb);
+            sink.ga[q] = sub(sink.ga[q], ga);
+            sink.gb[q] = sub(sink.gb[q], gb);
+        }
+        sink.weight * value
     }
 
     /// `r = s <d, e> / |e|^2` (`e = g_p - g_q`, `d = X_p - X_q`): `d2r/dd dd = 0`,
