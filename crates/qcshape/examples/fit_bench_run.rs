@@ -8,7 +8,10 @@
 //!
 //! Environment: `PRIOR`, `ALIGN`, `STAGES`, `ITER`, `STIFF_START`, `STIFF_END`, `PLANE` (0/1),
 //! `S2P`, `ANGLE`, `SCALE` (the target multiplied by it), `ISO` (the affine prior's isometric
-//! weight).
+//! weight), `DIAG` (per fit: the error split normal / tangential to the truth's surface, the
+//! mean error vector, the axial error by height band, the surface distance, the shell energy
+//! of the truth and of the fit against the aligned template ([`qcshape::fit::shell`]) and the
+//! roughness of the local maps; docs/fit.md, 2026-12-07).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -26,6 +29,44 @@ fn median(mut v: Vec<f64>) -> f64 {
     } else {
         v[v.len() / 2]
     }
+}
+
+/// Per-vertex error split (`DIAG=1`): normal / tangential to the truth's surface, the
+/// mean error vector, and the axial (z) error by height band (lower, middle, upper third).
+fn diagnose(
+    name: &str,
+    m: &str,
+    topo: &Topology,
+    truth: &[[f64; 3]],
+    fitted: &[[f64; 3]],
+    s: f64,
+    lbar: f64,
+) {
+    let normals = qcshape::mesh::geometry::vertex_normals(topo, truth);
+    let nv = truth.len() as f64;
+    let (mut en, mut et, mut mean) = (0.0, 0.0, [0.0; 3]);
+    let (zmin, zmax) = truth
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p[2]), b.max(p[2])));
+    let mut bands = [(0.0, 0.0); 3];
+    for ((a, b), n) in fitted.iter().zip(truth).zip(&normals) {
+        let d = [0, 1, 2].map(|k| (a[k] / s - b[k]) / lbar);
+        let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        en += dn.abs() / nv;
+        et += (dd - dn * dn).max(0.0).sqrt() / nv;
+        for k in 0..3 {
+            mean[k] += d[k] / nv;
+        }
+        let band = (((b[2] - zmin) / (zmax - zmin) * 3.0) as usize).min(2);
+        bands[band].0 += d[2];
+        bands[band].1 += 1.0;
+    }
+    let bz = bands.map(|(sum, n)| sum / f64::max(n, 1.0));
+    println!(
+        "{name:24} {m:8} normal {en:.3} tangential {et:.3} mean ({:+.3} {:+.3} {:+.3}) z-err by height {:+.3} {:+.3} {:+.3}",
+        mean[0], mean[1], mean[2], bz[0], bz[1], bz[2]
+    );
 }
 
 fn main() {
@@ -131,6 +172,44 @@ fn main() {
                 if f.quality.poor && std::env::var_os("VERBOSE").is_some() {
                     eprintln!("{name} {m}: {}", f.quality.problems().join(", "));
                 }
+            }
+            if let (Ok(f), true) = (&f, std::env::var_os("DIAG").is_some()) {
+                diagnose(&name, m, &topo, &x.positions, &f.positions, s, lbar);
+                println!(
+                    "{name:24} {m:8} distance mean {:.4} p95 {:.4} hausdorff {:.4}",
+                    f.quality.mean, f.quality.p95, f.quality.hausdorff
+                );
+                // The shell energy against the aligned template: the truth's and the fit's.
+                let rest: Vec<[f64; 3]> = t.positions.iter().map(|p| f.motion.apply(*p)).collect();
+                let truth: Vec<[f64; 3]> = x.positions.iter().map(|p| p.map(|c| c * s)).collect();
+                let (et, ef) = (
+                    qcshape::fit::shell::energy(&topo, &rest, &truth),
+                    qcshape::fit::shell::energy(&topo, &rest, &f.positions),
+                );
+                let rough = |pose: &[[f64; 3]]| {
+                    let maps = qcshape::fit::quality::local_maps(&topo, &rest, pose);
+                    let mut sum = 0.0;
+                    for (i, map) in maps.iter().enumerate() {
+                        let nb = topo.neighbors(i);
+                        for (r, row) in map.iter().enumerate() {
+                            for (c, v) in row.iter().enumerate() {
+                                let mean = nb.iter().map(|&j| maps[j as usize][r][c]).sum::<f64>()
+                                    / nb.len().max(1) as f64;
+                                sum += (v - mean).powi(2);
+                            }
+                        }
+                    }
+                    sum / maps.len() as f64
+                };
+                println!(
+                    "{name:24} {m:8} shell truth {:.4} / {:.2} fit {:.4} / {:.2} rough truth {:.5} fit {:.5}",
+                    et.membrane,
+                    et.bending,
+                    ef.membrane,
+                    ef.bending,
+                    rough(&truth),
+                    rough(&f.positions)
+                );
             }
             let med = match f {
                 Ok(f) => median(

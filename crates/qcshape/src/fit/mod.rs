@@ -31,6 +31,7 @@ pub mod local;
 pub mod nonrigid;
 pub mod quality;
 pub mod rigid;
+pub mod shell;
 
 use std::collections::HashMap;
 
