@@ -7,17 +7,19 @@
 set -euo pipefail
 Q="${1:-target/release/qcshape}"
 export RAYON_NUM_THREADS=1
+# Seconds are the process's CPU time (user + system, one thread): on a shared machine the wall
+# time also counts the waits for the core.
 run() {
   local level=$1; shift
-  local t0 t1 out
-  t0=$(date +%s.%N)
-  out=$("$Q" geodesic --demo --demo-level "$level" --json -q "$@")
-  t1=$(date +%s.%N)
+  local out cpu
+  out=$( { /usr/bin/time -f "%U %S" "$Q" geodesic --demo --demo-level "$level" --json -q "$@" 2>/tmp/bending_speed.$$ ; } )
+  cpu=$(tail -1 /tmp/bending_speed.$$ | awk '{print $1 + $2}')
+  rm -f /tmp/bending_speed.$$
   python3 -c '
 import json, sys
 d = json.loads(sys.stdin.read())
 print("%d it, %.2f s%s" % (d["iterations"], float(sys.argv[1]), "" if d["converged"] else " (not converged)"))
-' "$(echo "$t1 - $t0" | bc)" <<<"$out"
+' "$cpu" <<<"$out"
 }
 echo "| vertices | metric | default (bending 1e-4) | --bending 0 | --scale calibrated --stretch 0 |"
 echo "|---|---|---|---|---|"
