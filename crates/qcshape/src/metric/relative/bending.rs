@@ -3,12 +3,13 @@
 //! that it is scale-invariant and converges as the mesh is refined (docs/method.md "Bending
 //! term").
 
-use super::{segment_faces, PER_FACE};
+use super::faces::{segment_faces, PER_FACE};
 use crate::mesh::geometry::{add, cross, dot, norm, scale, sub};
 use crate::mesh::Topology;
-use crate::metric::{
-    split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, Segment,
-};
+use crate::metric::gradient::{GradientSink, Scratch};
+use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
+use crate::metric::segment::{split_segment, Segment};
+use crate::metric::traits::Metric;
 
 /// [`Topology::edge_faces`]' mark of a boundary side.
 const NO_FACE: u32 = u32::MAX;
