@@ -479,7 +479,8 @@ pub fn run_pipeline(
         ),
         Sink::Memory => None,
     };
-    let r = detached_with(py, kw.threads, Some(&bar), |w| {
+    // Ctrl-C also stops the geodesic being solved (between two iterations).
+    let r = crate::space::solve(py, &space, kw.threads, Some(&bar), |s, w| {
         let events = |e: Event<'_>| bar.event(e);
         let run = Run {
             selection: Selection::All,
@@ -487,10 +488,7 @@ pub fn run_pipeline(
             cancel: Some(w.flag()),
             events: &events,
         };
-        // Ctrl-C also stops the geodesic being solved (between two iterations).
-        crate::space::watched(&space, w)?
-            .similarity_matrix(&defs, template, &run)
-            .map_err(errors::space)
+        s.similarity_matrix(&defs, template, &run)
     })?;
     Ok((r, opts))
 }

@@ -16,7 +16,7 @@ use crate::convert::{
 };
 use crate::errors;
 use crate::options::{transport, MetricKw, SolverKw};
-use crate::run::{detached, detached_with, Progress};
+use crate::run::{detached, detached_with, Progress, Watch};
 
 /// A discrete geodesic (eq. 12) between two shapes.
 ///
@@ -553,9 +553,7 @@ impl PyShapeSpace {
         let space = self.stepped(steps)?;
         crate::warn::sizes(py, &space, &pa, &pb)?;
         let bar = self.one_solve(py, &space, progress)?;
-        let g = detached_with(py, None, Some(&bar), |w| {
-            watched(&space, w)?.geodesic(&pa, &pb).map_err(errors::space)
-        })?;
+        let g = solve(py, &space, None, Some(&bar), |s, _| s.geodesic(&pa, &pb))?;
         crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
         Ok(PyGeodesic { g })
     }
@@ -599,9 +597,7 @@ impl PyShapeSpace {
     ) -> PyResult<(Bound<'py, PyAny>, f64)> {
         let (m, q) = (self.points(base, "base")?, self.points(p, "p")?);
         let space = self.stepped(steps)?;
-        let (log, d) = detached(py, None, |w| {
-            watched(&space, w)?.log(&m, &q).map_err(errors::space)
-        })?;
+        let (log, d) = solve(py, &space, None, None, |s, _| s.log(&m, &q))?;
         Ok((points_out(py, &log)?, d))
     }
 
@@ -621,11 +617,7 @@ impl PyShapeSpace {
         let x = self.points(v, "v")?;
         // Carrying a vector along a curve: parallel transport unless told otherwise.
         let m = transport(method, Transport::Parallel)?;
-        let out = detached(py, None, |w| {
-            watched(&self.space, w)?
-                .transport(&c, &x, m)
-                .map_err(errors::space)
-        })?;
+        let out = solve(py, &self.space, None, None, |s, _| s.transport(&c, &x, m))?;
         points_out(py, &out)
     }
 
@@ -656,10 +648,8 @@ impl PyShapeSpace {
             tolerance: tolerance.unwrap_or(d.tolerance),
             ..d
         };
-        let m = detached(py, None, |w| {
-            watched(&self.space, w)?
-                .karcher_mean(&p, i.as_deref(), &opts)
-                .map_err(errors::space)
+        let m = solve(py, &self.space, None, None, |s, _| {
+            s.karcher_mean(&p, i.as_deref(), &opts)
         })?;
         points_out(py, &m.mean)
     }
@@ -687,10 +677,8 @@ impl PyShapeSpace {
         }
         let insert = opt_setting(&settings::INSERT, insert)?.unwrap_or(d.insert);
         let bar = Progress::solving(py, progress, 0, p.len().saturating_sub(1))?;
-        let r = detached_with(py, None, Some(&bar), |w| {
-            watched(&self.space, w)?
-                .interpolate(&p, insert, levels, &|| bar.tick(Stage::Similarity))
-                .map_err(errors::space)
+        let r = solve(py, &self.space, None, Some(&bar), |s, _| {
+            s.interpolate(&p, insert, levels, &|| bar.tick(Stage::Similarity))
         })?;
         sequence_out(py, &r.poses)
     }
@@ -714,11 +702,7 @@ impl PyShapeSpace {
         let b = self.points(base, "base")?;
         let m = transport(method, qcshape::defaults::TRANSPORT)?;
         let bar = Progress::solving(py, progress, 0, 0)?;
-        let r = detached_with(py, None, Some(&bar), |w| {
-            watched(&self.space, w)?
-                .transfer(&p, &b, m)
-                .map_err(errors::space)
-        })?;
+        let r = solve(py, &self.space, None, Some(&bar), |s, _| s.transfer(&p, &b, m))?;
         sequence_out(py, &r.poses)
     }
 
@@ -776,15 +760,13 @@ impl PyShapeSpace {
         let bar = Progress::pairs(py, progress, n * n.saturating_sub(1) / 2)?;
         let threads = opt_count("threads", threads, 1, qcshape::limits::MAX_THREADS)?;
         let pairs = std::sync::Mutex::new(Vec::new());
-        let d = detached_with(py, threads, Some(&bar), |w| {
-            watched(&self.space, w)?
-                .similarity(defs, Some(w.flag()), &|p| {
-                    bar.tick(Stage::Similarity);
-                    if let Ok(mut v) = pairs.lock() {
-                        v.push(p.clone());
-                    }
-                })
-                .map_err(errors::space)
+        let d = solve(py, &self.space, threads, Some(&bar), |s, w| {
+            s.similarity(defs, Some(w.flag()), &|p| {
+                bar.tick(Stage::Similarity);
+                if let Ok(mut v) = pairs.lock() {
+                    v.push(p.clone());
+                }
+            })
         })?;
         let pairs = pairs.into_inner().unwrap_or_default();
         crate::warn::pairs(
@@ -805,6 +787,21 @@ pub fn watched(space: &ShapeSpace, watch: &crate::run::Watch) -> PyResult<ShapeS
         .clone()
         .with_geodesic(watch.geodesic(space.geodesic_options()))
         .map_err(errors::space)
+}
+
+/// `call(space, watch)` on `space` [`watched`], on `threads` worker threads (None: all cores),
+/// with the GIL released, `progress` shown and a library error raised as Python's: the body of
+/// every method that solves geodesics (`watch` gives the stop flag of the pair loops).
+pub fn solve<T: Send>(
+    py: Python<'_>,
+    space: &ShapeSpace,
+    threads: Option<usize>,
+    progress: Option<&Progress>,
+    call: impl FnOnce(&ShapeSpace, &Watch) -> Result<T, SpaceError> + Send,
+) -> PyResult<T> {
+    detached_with(py, threads, progress, |w| {
+        call(&watched(space, w)?, w).map_err(errors::space)
+    })
 }
 
 /// Faces from an array argument (for the other modules).

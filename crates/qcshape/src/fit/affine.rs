@@ -39,9 +39,11 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
+use super::error::FitError;
 use super::nonrigid::{matches, Sample, Solver};
+use super::options::FitOptions;
 use super::rigid::stride;
-use super::{FitError, FitOptions, Prepared};
+use super::target::Prepared;
 use crate::align::{horn_rotation, Motion};
 use crate::mesh::geometry::{dot, mean_edge_length, sub};
 use crate::mesh::Topology;

@@ -10,7 +10,10 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use super::{fit, fit_sequence, FitError, FitOptions, Fitted, Target};
+use super::error::FitError;
+use super::options::FitOptions;
+use super::run::{fit, fit_sequence, Fitted};
+use super::target::Target;
 use crate::dataset::{Dataset, Deformation, DeformationFiles};
 use crate::io::{self, IoError, MeshData};
 use crate::mesh::{MeshError, Shape};

@@ -17,7 +17,7 @@
 
 use rayon::prelude::*;
 
-use super::Prior;
+use super::options::Prior;
 use crate::align::{horn_rotation, Motion};
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;

@@ -62,9 +62,11 @@ use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::closest::SurfaceIndex;
+use super::error::FitError;
 use super::local::{self, Mat3};
+use super::options::FitOptions;
 use super::rigid::stride;
-use super::{FitError, FitOptions, Prepared};
+use super::target::Prepared;
 use crate::mesh::geometry::{add, dot, face_normals, mean_edge_length, scale, sub, vertex_normals};
 use crate::mesh::Topology;
 
@@ -520,7 +522,7 @@ pub(crate) fn fit(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{prepare, Target};
+    use crate::fit::target::{prepare, Target};
     use crate::synth::icosphere;
 
     #[test]

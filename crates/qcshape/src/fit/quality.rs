@@ -4,7 +4,7 @@
 use super::closest::SurfaceIndex;
 use super::nonrigid::median;
 use super::rigid::stride;
-use super::Prepared;
+use super::target::Prepared;
 use crate::mesh::geometry::{
     corner_angles, dot, edge_lengths, face_normals, mean_edge_length, sub, vertex_normals,
 };

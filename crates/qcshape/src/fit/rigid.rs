@@ -12,7 +12,9 @@
 //! fit equally well under a flip, and data that arrive posed should stay so.
 
 use super::closest::SurfaceIndex;
-use super::{FitError, FitOptions, Prepared};
+use super::error::FitError;
+use super::options::FitOptions;
+use super::target::Prepared;
 use crate::align::{best_motion, Alignment, Motion};
 use crate::mesh::geometry::{add, dot, scale, sub, vertex_areas};
 use crate::mesh::Shape;
@@ -222,7 +224,7 @@ fn score(moved: &[[f64; 3]], target: &Prepared, samples: &[[f64; 3]]) -> f64 {
 mod tests {
     use super::*;
     use crate::align::rotation_about;
-    use crate::fit::{prepare, Target};
+    use crate::fit::target::{prepare, Target};
     use crate::synth::icosphere;
 
     /// An asymmetric blob (no rotation maps it onto itself).

@@ -1,8 +1,11 @@
 //! Tests of the whole fit (closest points, alignment and the non-rigid solve together) on
 //! small meshes; the ground-truth comparison with the baseline is in `tests/fit.rs`.
 
+use super::target::prepare;
 use super::*;
-use crate::mesh::Topology;
+use crate::align::{Alignment, Motion};
+use crate::mesh::geometry::{add, norm, scale, sub};
+use crate::mesh::{Shape, Topology};
 use crate::synth::icosphere;
 
 /// A level-3 sphere (642 vertices) stretched into an ellipsoid and dented: a target on another

@@ -45,6 +45,7 @@ mod polygon;
 mod stl;
 #[cfg(test)]
 mod stress;
+mod syntax;
 pub mod table;
 #[cfg(test)]
 mod tests;
@@ -67,6 +68,7 @@ pub use color::heat_colors;
 pub use fields::{Field, FieldValues, PointArray};
 pub use ply::PlyEncoding;
 pub use stl::WELD_REL_TOL;
+pub use syntax::SyntaxError;
 
 /// Relative area tolerance used by [`load_shape`]: a face whose area is at most
 /// `1e-12 * lbar^2` (`lbar` the mean edge length) is rejected as degenerate.
@@ -182,12 +184,12 @@ pub enum ParseError {
     #[error("the file is empty")]
     Empty,
     /// A malformed line or token in a text file (or text header).
-    #[error("line {line}: {message}")]
+    #[error("line {line}: {problem}")]
     Syntax {
         /// 1-based line number.
         line: usize,
         /// What is wrong.
-        message: String,
+        problem: SyntaxError,
     },
     /// Binary data ends before a declared record does.
     #[error("the file is truncated: {what} needs {needed} bytes from byte offset {offset}, but the file has only {len} bytes")]
@@ -1105,16 +1107,17 @@ pub(crate) fn read_vertex<'a>(
 ) -> Result<([f64; 3], bool), ParseError> {
     let mut p = [0.0; 3];
     for (c, axis) in p.iter_mut().zip(["x", "y", "z"]) {
-        let tok = toks.next().ok_or_else(|| ParseError::Syntax {
+        let tok = toks.next().ok_or(ParseError::Syntax {
             line,
-            message: format!("vertex {vertex} has no {axis} coordinate"),
+            problem: SyntaxError::NoCoordinate { vertex, axis },
         })?;
         *c = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
             line,
-            message: format!(
-                "cannot read the {axis} coordinate of vertex {vertex} from {}",
-                text::show(tok)
-            ),
+            problem: SyntaxError::Coordinate {
+                vertex,
+                axis,
+                found: text::clip(tok),
+            },
         })?;
     }
     Ok((check_finite(vertex, p, Some(line))?, toks.next().is_some()))

@@ -10,6 +10,7 @@
 
 use std::io::Write;
 
+use super::syntax::SyntaxError;
 use super::text::{self, Float};
 use super::{read_vertex, FaceBuilder, MeshData, ParseError};
 
@@ -85,19 +86,17 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     let idx_tok = tok.split(|&b| b == b'/').next().unwrap_or(tok);
                     let written = text::parse_i64(idx_tok).ok_or_else(|| ParseError::Syntax {
                         line,
-                        message: format!(
-                            "cannot read a vertex index of face {face} from {}",
-                            text::show(tok)
-                        ),
+                        problem: SyntaxError::VertexIndex {
+                            face,
+                            found: text::clip(tok),
+                        },
                     })?;
                     let n = positions.len() as i64;
                     let zero_based = match written {
                         0 => {
                             return Err(ParseError::Syntax {
                                 line,
-                                message: format!(
-                                    "face {face} uses vertex index 0, but OBJ indices start at 1"
-                                ),
+                                problem: SyntaxError::IndexZero { face },
                             })
                         }
                         w if w > 0 => w - 1,
@@ -126,7 +125,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             k if KNOWN.contains(&k) || k.starts_with(b"#") => {}
             _ => {
                 n_unknown += 1;
-                first_unknown.get_or_insert((line, text::show(raw)));
+                first_unknown.get_or_insert((line, text::clip(raw)));
             }
         }
     }
@@ -134,9 +133,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         if faces.n_polygons() == 0 {
             return Err(ParseError::Syntax {
                 line: *line,
-                message: format!(
-                    "not an OBJ file: no face (`f`) lines, and {n_unknown} line(s) with a keyword OBJ does not know; the first is {shown}"
-                ),
+                problem: SyntaxError::NotObj {
+                    unknown: n_unknown,
+                    first: shown.clone(),
+                },
             });
         }
     }
@@ -145,14 +145,14 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             if let Some((unknown_line, shown)) = &first_unknown {
                 return Err(ParseError::Syntax {
                     line: p.line,
-                    message: format!(
-                        "face {} refers to vertex {}, but there are only {} vertices; {n_unknown} line(s) \
-                         with a keyword OBJ does not know were skipped, the first is line {unknown_line}: {shown} \
-                         (a mistyped `v` line?)",
-                        p.face,
-                        p.written,
-                        positions.len()
-                    ),
+                    problem: SyntaxError::SkippedVertex {
+                        face: p.face,
+                        index: p.written,
+                        n_vertices: positions.len(),
+                        unknown: n_unknown,
+                        unknown_line: *unknown_line,
+                        first: shown.clone(),
+                    },
                 });
             }
             return Err(ParseError::IndexOutOfRange {

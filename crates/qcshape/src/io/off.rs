@@ -11,6 +11,7 @@
 
 use std::io::Write;
 
+use super::syntax::SyntaxError;
 use super::text::{self, Float};
 use super::{check_index, read_vertex, FaceBuilder, MeshData, ParseError, UnsupportedFeature};
 
@@ -25,14 +26,17 @@ fn content_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
     })
 }
 
-fn count(tok: Option<&[u8]>, what: &str, line: usize) -> Result<u64, ParseError> {
-    let tok = tok.ok_or_else(|| ParseError::Syntax {
+fn count(tok: Option<&[u8]>, what: &'static str, line: usize) -> Result<u64, ParseError> {
+    let tok = tok.ok_or(ParseError::Syntax {
         line,
-        message: format!("the header has no {what} count"),
+        problem: SyntaxError::NoCount { what },
     })?;
     text::parse_count(tok).ok_or_else(|| ParseError::Syntax {
         line,
-        message: format!("cannot read the {what} count from {}", text::show(tok)),
+        problem: SyntaxError::Count {
+            what,
+            found: text::clip(tok),
+        },
     })
 }
 
@@ -68,7 +72,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     } else {
         return Err(ParseError::Syntax {
             line: first_line,
-            message: format!("expected the OFF keyword, found {}", text::show(keyword)),
+            problem: SyntaxError::Expected {
+                expected: "the OFF keyword",
+                found: text::clip(keyword),
+            },
         });
     };
     count_toks.truncate(3);
@@ -78,7 +85,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if nv > u32::MAX as u64 {
         return Err(ParseError::Syntax {
             line,
-            message: format!("declares {nv} vertices, more than 32-bit indices can address"),
+            problem: SyntaxError::TooManyVertices { count: nv },
         });
     }
 
@@ -107,10 +114,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         let k_tok = toks.next().unwrap_or_default();
         let k = text::parse_count(k_tok).ok_or_else(|| ParseError::Syntax {
             line,
-            message: format!(
-                "cannot read the vertex count of face {face} from {}",
-                text::show(k_tok)
-            ),
+            problem: SyntaxError::FaceSize {
+                face,
+                found: text::clip(k_tok),
+            },
         })?;
         if k < 3 {
             return Err(ParseError::BadFace {
@@ -121,16 +128,20 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
         }
         poly.clear();
         for j in 0..k {
-            let tok = toks.next().ok_or_else(|| ParseError::Syntax {
+            let tok = toks.next().ok_or(ParseError::Syntax {
                 line,
-                message: format!("face {face} declares {k} vertices but lists only {j}"),
+                problem: SyntaxError::ShortFace {
+                    face,
+                    declared: k,
+                    listed: j,
+                },
             })?;
             let index = text::parse_i64(tok).ok_or_else(|| ParseError::Syntax {
                 line,
-                message: format!(
-                    "cannot read a vertex index of face {face} from {}",
-                    text::show(tok)
-                ),
+                problem: SyntaxError::VertexIndex {
+                    face,
+                    found: text::clip(tok),
+                },
             })?;
             poly.push(check_index(face, index, positions.len(), Some(line))?);
         }
@@ -139,9 +150,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if let Some((line, _)) = lines.next() {
         return Err(ParseError::Syntax {
             line,
-            message: format!(
-                "data after the {nv} vertices and {nf} faces the header declares: the file holds more elements than declared"
-            ),
+            problem: SyntaxError::ExtraData {
+                vertices: nv as usize,
+                faces: nf as usize,
+            },
         });
     }
     let faces = faces.finish(&positions, &mut warnings)?;

@@ -15,6 +15,7 @@
 use std::io::Write;
 
 use super::number::{Names, Number as Scalar};
+use super::syntax::SyntaxError;
 use super::text::{self, Cursor, Float};
 use super::{check_finite, check_index, FaceBuilder, MeshData, ParseError, Payload, PointArray};
 
@@ -65,8 +66,8 @@ struct Header {
     warnings: Vec<String>,
 }
 
-fn syntax(line: usize, message: String) -> ParseError {
-    ParseError::Syntax { line, message }
+fn syntax(line: usize, problem: SyntaxError) -> ParseError {
+    ParseError::Syntax { line, problem }
 }
 
 fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
@@ -92,7 +93,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
         let keyword = toks.next().unwrap_or_default();
         if line == 1 {
             if keyword != b"ply" {
-                return Err(syntax(1, "not a PLY file: the first line must be \"ply\"".into()));
+                return Err(syntax(1, SyntaxError::NotPly));
             }
             continue;
         }
@@ -103,17 +104,28 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
                     b"ascii" => PlyEncoding::Ascii,
                     b"binary_little_endian" => PlyEncoding::BinaryLittleEndian,
                     b"binary_big_endian" => PlyEncoding::BinaryBigEndian,
-                    _ => return Err(syntax(line, format!("unknown PLY format {}", text::show(f)))),
+                    _ => {
+                        return Err(syntax(
+                            line,
+                            SyntaxError::Unknown {
+                                what: "PLY format",
+                                found: text::clip(f),
+                            },
+                        ))
+                    }
                 });
             }
             b"element" => {
                 let (Some(name), Some(count_tok)) = (toks.next(), toks.next()) else {
-                    return Err(syntax(line, "an element line needs a name and a count".into()));
+                    return Err(syntax(line, SyntaxError::ElementLine));
                 };
                 let count = text::parse_count(count_tok).ok_or_else(|| {
                     syntax(
                         line,
-                        format!("cannot read the element count from {}", text::show(count_tok)),
+                        SyntaxError::Count {
+                            what: "element",
+                            found: text::clip(count_tok),
+                        },
                     )
                 })?;
                 elements.push(Element {
@@ -124,20 +136,24 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
             }
             b"property" => {
                 let Some(el) = elements.last_mut() else {
-                    return Err(syntax(
-                        line,
-                        "a property line comes before any element line".into(),
-                    ));
+                    return Err(syntax(line, SyntaxError::PropertyBeforeElement));
                 };
                 let ty = toks.next().unwrap_or_default();
                 let scalar = |t: &[u8]| {
-                    Scalar::parse(Names::Ply, t)
-                        .ok_or_else(|| syntax(line, format!("unknown property type {}", text::show(t))))
+                    Scalar::parse(Names::Ply, t).ok_or_else(|| {
+                        syntax(
+                            line,
+                            SyntaxError::Unknown {
+                                what: "property type",
+                                found: text::clip(t),
+                            },
+                        )
+                    })
                 };
                 let prop = if ty == b"list" {
                     let c = scalar(toks.next().unwrap_or_default())?;
                     if c.is_float() {
-                        return Err(syntax(line, "a list count must have an integer type".into()));
+                        return Err(syntax(line, SyntaxError::ListCountType));
                     }
                     Property::List(c, scalar(toks.next().unwrap_or_default())?)
                 } else {
@@ -145,7 +161,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, ParseError> {
                 };
                 let name = toks
                     .next()
-                    .ok_or_else(|| syntax(line, "a property line needs a name".into()))?;
+                    .ok_or_else(|| syntax(line, SyntaxError::PropertyName))?;
                 el.props.push((name.to_vec(), prop));
             }
             b"end_header" => break,
@@ -185,7 +201,10 @@ impl Source<'_> {
                 text::parse_f64(tok).ok_or_else(|| {
                     syntax(
                         c.line(),
-                        format!("cannot read {} from {}", what(), text::show(tok)),
+                        SyntaxError::Value {
+                            what: what(),
+                            found: text::clip(tok),
+                        },
                     )
                 })
             }
@@ -262,11 +281,12 @@ impl Source<'_> {
         if c.line() != first {
             return Err(syntax(
                 first,
-                format!(
-                    "{name} {item} (of the {count} the header declares) has fewer values than its properties need: \
-                     it continues on line {}; the file may hold fewer {name} elements than declared, or a wrong list count",
-                    c.line()
-                ),
+                SyntaxError::ElementContinues {
+                    element: name.to_string(),
+                    item,
+                    count,
+                    next_line: c.line(),
+                },
             ));
         }
         let rest = c.rest_of_line();
@@ -274,11 +294,13 @@ impl Source<'_> {
         if extra > 0 {
             return Err(syntax(
                 first,
-                format!(
-                    "{name} {item} (of the {count} the header declares) has {} values, but its properties take {n_values}; \
-                     the file may hold fewer {name} elements than declared, or a wrong list count",
-                    n_values + extra
-                ),
+                SyntaxError::ElementValues {
+                    element: name.to_string(),
+                    item,
+                    count,
+                    values: n_values + extra,
+                    needed: n_values,
+                },
             ));
         }
         Ok(())
@@ -310,21 +332,16 @@ impl Source<'_> {
             .iter()
             .rev()
             .find(|e| e.count > 0)
-            .map(|e| {
-                format!(
-                    "; the file may hold more {} elements than the {} the header declares",
-                    String::from_utf8_lossy(&e.name),
-                    e.count
-                )
-            })
-            .unwrap_or_default();
+            .map(|e| (String::from_utf8_lossy(&e.name).into_owned(), e.count));
         Some(syntax(
             line,
-            format!(
-                "face {item} (of the {count} the header declares) starts with a vertex count of {n} (a face needs at least 3), \
-                 but its line holds {} values{previous}, or a wrong list count",
-                left + 1
-            ),
+            SyntaxError::FaceValues {
+                item,
+                count,
+                size: n,
+                values: left + 1,
+                previous,
+            },
         ))
     }
 

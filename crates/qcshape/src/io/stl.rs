@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::io::Write;
 
+use super::syntax::SyntaxError;
 use super::text::{self, Cursor};
 use super::{FaceBuilder, MeshData, ParseError};
 use crate::mesh::geometry;
@@ -250,10 +251,12 @@ fn parse_ascii(bytes: &[u8]) -> Result<MeshData, ParseError> {
                     })?;
                     *v = text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
                         line: c.line(),
-                        message: format!(
-                            "cannot read the {axis} coordinate of corner {k} of triangle {t} from {}",
-                            text::show(tok)
-                        ),
+                        problem: SyntaxError::CornerCoordinate {
+                            triangle: t,
+                            corner: k,
+                            axis,
+                            found: text::clip(tok),
+                        },
                     })?;
                 }
                 if p.iter().any(|v| !v.is_finite()) {

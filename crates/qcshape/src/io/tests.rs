@@ -467,6 +467,42 @@ fn bad_numbers() {
     }
 }
 
+/// A syntax error keeps what went wrong and the offending token as values, not only as text.
+#[test]
+fn syntax_errors_keep_their_values() {
+    let e = parse_mesh(b"v 0 0 0\nf 1 x 2\n", Format::Obj).unwrap_err();
+    let ParseError::Syntax { line, problem } = &e else {
+        panic!("{e:?}");
+    };
+    assert_eq!(*line, 2);
+    assert_eq!(
+        *problem,
+        SyntaxError::VertexIndex {
+            face: 0,
+            found: "x".into()
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "line 2: cannot read a vertex index of face 0 from \"x\""
+    );
+    let e = parse_mesh(b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", Format::Off).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ParseError::Syntax {
+                line: 6,
+                problem: SyntaxError::ShortFace {
+                    face: 0,
+                    declared: 4,
+                    listed: 3
+                }
+            }
+        ),
+        "{e:?}"
+    );
+}
+
 #[test]
 fn index_out_of_range() {
     let d = dir();

@@ -23,6 +23,7 @@ mod attributes;
 use attributes::{read_attributes, read_field};
 
 use super::number::{Names, Number as Num};
+use super::syntax::SyntaxError;
 use super::text::{self, Cursor, Float};
 use super::{
     check_finite, check_index, CellsError, FaceBuilder, FieldValues, MeshData, ParseError, Payload,
@@ -46,7 +47,10 @@ impl<'a> Reader<'a> {
         let tok = self.token(&|| what.to_string())?;
         text::parse_count(tok).ok_or_else(|| ParseError::Syntax {
             line: self.c.line(),
-            message: format!("cannot read {what} from {}", text::show(tok)),
+            problem: SyntaxError::Value {
+                what: what.to_string(),
+                found: text::clip(tok),
+            },
         })
     }
 
@@ -55,7 +59,10 @@ impl<'a> Reader<'a> {
         let line = self.c.line();
         Num::parse(Names::Vtk, tok).ok_or_else(|| ParseError::Syntax {
             line,
-            message: format!("unknown data type {} for {what}", text::show(tok)),
+            problem: SyntaxError::DataType {
+                what: what.to_string(),
+                found: text::clip(tok),
+            },
         })
     }
 
@@ -91,7 +98,11 @@ impl<'a> Reader<'a> {
                 let tok = self.token(&|| format!("{n} values of {what}, found {k}"))?;
                 out.push(text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
                     line: self.c.line(),
-                    message: format!("cannot read value {k} of {what} from {}", text::show(tok)),
+                    problem: SyntaxError::ArrayValue {
+                        index: k,
+                        what: what.to_string(),
+                        found: text::clip(tok),
+                    },
                 })?);
             }
             self.skip_metadata();
@@ -279,7 +290,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if !(first_l.starts_with(b"# vtk datafile") || first_l.starts_with(b"#vtk datafile")) {
         return Err(ParseError::Syntax {
             line: 1,
-            message: "not a legacy VTK file: the first line must be \"# vtk DataFile Version ...\"".into(),
+            problem: SyntaxError::NotVtk,
         });
     }
     let _title = c.rest_of_line();
@@ -296,7 +307,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     } else {
         return Err(ParseError::Syntax {
             line: r.c.line(),
-            message: format!("expected ASCII or BINARY, found {}", text::show(enc)),
+            problem: SyntaxError::Expected {
+                expected: "ASCII or BINARY",
+                found: text::clip(enc),
+            },
         });
     };
     let kw = r.token(&|| "DATASET POLYDATA".into())?;
@@ -304,7 +318,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
     if !kw.eq_ignore_ascii_case(b"DATASET") {
         return Err(ParseError::Syntax {
             line: r.c.line(),
-            message: format!("expected DATASET POLYDATA, found {}", text::show(kw)),
+            problem: SyntaxError::Expected {
+                expected: "DATASET POLYDATA",
+                found: text::clip(kw),
+            },
         });
     }
     let grid = ds.eq_ignore_ascii_case(b"UNSTRUCTURED_GRID");
@@ -330,14 +347,14 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 if positions.is_some() {
                     return Err(ParseError::Syntax {
                         line,
-                        message: "a second POINTS section".into(),
+                        problem: SyntaxError::Repeated { section: "POINTS" },
                     });
                 }
                 let n = r.count("the POINTS count")?;
                 if n > u32::MAX as u64 {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("{n} points are more than 32-bit indices can address"),
+                        problem: SyntaxError::TooManyPoints { count: n },
                     });
                 }
                 let ty = r.num_type("POINTS")?;
@@ -352,7 +369,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 if grid_cells.is_some() {
                     return Err(ParseError::Syntax {
                         line,
-                        message: "a second CELLS section".into(),
+                        problem: SyntaxError::Repeated { section: "CELLS" },
                     });
                 }
                 grid_cells = Some((read_cells(&mut r, "CELLS")?, line));
@@ -371,7 +388,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 let Some(pos) = &positions else {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("{keyword} comes before POINTS"),
+                        problem: SyntaxError::BeforePoints { keyword },
                     });
                 };
                 let n = pos.len();
@@ -396,7 +413,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
                 if n != n_points as u64 {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("POINT_DATA {n} for {n_points} points"),
+                        problem: SyntaxError::PointData {
+                            count: n,
+                            points: n_points,
+                        },
                     });
                 }
                 read_attributes(&mut r, n, Some(&mut point_data), &mut warnings)?;
@@ -425,7 +445,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<MeshData, ParseError> {
             _ => {
                 return Err(ParseError::Syntax {
                     line,
-                    message: format!("unexpected VTK keyword {}", text::show(tok)),
+                    problem: SyntaxError::Keyword {
+                        found: text::clip(tok),
+                    },
                 })
             }
         }

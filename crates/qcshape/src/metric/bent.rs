@@ -1,10 +1,12 @@
 //! A membrane metric plus the bending term ([`Bent`]).
 
+use super::gradient::{GradientSink, PoseShare, Scratch, SegmentSink};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
 use super::relative::{RelativeBending, PER_FACE};
-use super::{
-    join_frozen, split_pattern, GradientSink, JacobianMut, Metric, Pattern, PatternRef, PoseShare, Scratch,
-    SecondOrderSink, Segment, SegmentSink, SplitPattern,
-};
+use super::second_order::SecondOrderSink;
+use super::segment::Segment;
+use super::sum::{join_frozen, split_pattern, SplitPattern};
+use super::traits::Metric;
 use crate::mesh::Topology;
 
 /// `G + beta * B`: a membrane metric `G` (the invariant isometric, conformal or quasi-conformal

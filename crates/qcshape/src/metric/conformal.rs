@@ -1,10 +1,12 @@
 //! The conformal metric (eqs. 7-9) and the per-triangle kernel `T_p, T_q, T_r` it shares with
 //! the quasi-conformal metric (eq. 10).
 
-use super::{
-    geometry_and_displacement, segment_gradient_per_term, split_segment, squared_norm_from_residuals,
-    GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
-};
+use super::fused::face_weights;
+use super::gradient::{GradientSink, Scratch, SegmentSink};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::second_order::SecondOrderSink;
+use super::segment::{geometry_and_displacement, split_segment, Segment};
+use super::traits::{segment_gradient_per_term, squared_norm_from_residuals, Metric};
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
 
@@ -371,15 +373,6 @@ pub(crate) fn face_kernel(
     }
 }
 
-/// The weights of a face's corners (all 1 without weights).
-#[inline(always)]
-pub(crate) fn face_weights(weights: Option<&[f64]>, v: &[usize; 3]) -> [f64; 3] {
-    match weights {
-        Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
-        None => [1.0; 3],
-    }
-}
-
 /// The conformal metric (eqs. 7-9): for every triangle `(p, q, r)` of `M`,
 /// `T_p(X) = <p-q, X_p-X_q> |p-r|^2 - <p-r, X_p-X_r> |p-q|^2` (eq. 7) and `T_q`, `T_r` by the
 /// cyclic permutation `p -> q -> r -> p`; the triangle contributes
@@ -478,7 +471,7 @@ impl Metric for Conformal {
 
 /// Segment `a -> b = a + X` at `at`, for tests.
 #[cfg(test)]
-pub(crate) fn test_segment<'a>(a: &'a [[f64; 3]], b: &'a [[f64; 3]], at: super::At) -> Segment<'a> {
+pub(crate) fn test_segment<'a>(a: &'a [[f64; 3]], b: &'a [[f64; 3]], at: super::segment::At) -> Segment<'a> {
     Segment {
         a,
         b,

@@ -2,7 +2,8 @@
 //! every other default by [`crate::defaults`] (the index the command line's `--help` and the
 //! docs take them from).
 
-use super::{MetricKind, MetricScale, QcNormalize};
+use super::kind::{MetricKind, MetricScale};
+use super::quasi_conformal::QcNormalize;
 
 /// The metric: isometric (edge strain on the invariant scale). Chosen again after the
 /// scale-invariant forms (docs/log/scale-invariant.md, 162 vertices): it classifies the clean

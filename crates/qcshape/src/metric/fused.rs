@@ -10,10 +10,18 @@
 //! kernel computes them once per edge (each interior edge serves two faces), the faces turn
 //! them into per-edge derivatives, and each edge writes its gradient on its two vertices.
 
-use super::conformal::face_weights;
-use super::SegmentSink;
+use super::gradient::SegmentSink;
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
+
+/// The weights of a face's corners (all 1 without weights).
+#[inline(always)]
+pub(crate) fn face_weights(weights: Option<&[f64]>, v: &[usize; 3]) -> [f64; 3] {
+    match weights {
+        Some(w) => [w[v[0]], w[v[1]], w[v[2]]],
+        None => [1.0; 3],
+    }
+}
 
 /// The edge vectors `(e^a, e^b) = (a_i - a_j, b_i - b_j)` of every edge `(i, j)` of
 /// [`Topology::edges`] on the segment `a -> b`.

@@ -1,8 +1,10 @@
-//! The gradient of one segment term, `weight * 2 J^T r`, accumulated without storing the
-//! Jacobian ([`Metric::gradient`]); the generic form goes through [`Metric::residuals`].
+//! The accumulators of the gradient of one segment term, `weight * 2 J^T r`, which the metrics'
+//! fused kernels fill without storing the Jacobian ([`Metric::gradient`](super::Metric::gradient)),
+//! and the residual and Jacobian storage of the generic form ([`Scratch`],
+//! [`gradient_from_jacobian`](super::gradient_from_jacobian)).
 
-use super::{Jacobian, JacobianMut, Metric, Pattern, PatternRef, Segment};
-use crate::mesh::Topology;
+use super::pattern::{Jacobian, Pattern};
+use super::segment::Segment;
 
 /// Accumulators of `weight * 2 J^T r` for one segment term.
 pub struct GradientSink<'a> {
@@ -10,7 +12,7 @@ pub struct GradientSink<'a> {
     pub ga: &'a mut [[f64; 3]],
     /// Derivative with respect to the second pose `b` (#V x 3).
     pub gb: &'a mut [[f64; 3]],
-    /// Derivative with respect to the term's auxiliary unknowns ([`Metric::n_aux`]).
+    /// Derivative with respect to the term's auxiliary unknowns ([`Metric::n_aux`](super::Metric::n_aux)).
     pub gaux: &'a mut [f64],
     /// Factor applied to the value and the gradient.
     pub weight: f64,
@@ -30,46 +32,25 @@ impl GradientSink<'_> {
 }
 
 /// Accumulators of `weight * 2 J^T r` for both terms of one segment
-/// ([`Metric::segment_gradient`]): the two terms share the poses `a`, `b`.
+/// ([`Metric::segment_gradient`](super::Metric::segment_gradient)): the two terms share the poses `a`, `b`.
 pub struct SegmentSink<'a> {
     /// Derivative with respect to the first pose `a` (#V x 3).
     pub ga: &'a mut [[f64; 3]],
     /// Derivative with respect to the second pose `b` (#V x 3).
     pub gb: &'a mut [[f64; 3]],
-    /// Derivative with respect to both terms' auxiliary unknowns (2 [`Metric::n_aux`]: the
-    /// `At::Start` term's first).
+    /// Derivative with respect to both terms' auxiliary unknowns (2
+    /// [`Metric::n_aux`](super::Metric::n_aux): the `At::Start` term's first).
     pub gaux: &'a mut [f64],
     /// Factor applied to the value and the gradient.
     pub weight: f64,
 }
 
-/// [`Metric::segment_gradient`] as two calls to [`Metric::gradient`], one per term.
-pub fn segment_gradient_per_term<M: Metric + ?Sized>(
-    metric: &M,
-    topo: &Topology,
-    pattern: PatternRef,
-    segs: [&Segment; 2],
-    scratch: &mut Scratch,
-    sink: &mut SegmentSink,
-) -> f64 {
-    let n_aux = metric.n_aux();
-    let mut value = 0.0;
-    for (k, seg) in segs.into_iter().enumerate() {
-        let mut term = GradientSink {
-            ga: &mut *sink.ga,
-            gb: &mut *sink.gb,
-            gaux: &mut sink.gaux[k * n_aux..(k + 1) * n_aux],
-            weight: sink.weight,
-        };
-        value += metric.gradient(topo, pattern, seg, scratch, &mut term);
-    }
-    value
-}
-
 /// What the path energy shares between a segment and its two poses
-/// ([`Metric::segment_gradient_with`]): the [`Metric::pose_values`] of the segment's first and
-/// last pose, and the segment's coefficients for each (each as long as its pose's values), from
-/// which [`Metric::pose_gradient`] gives the rest of the gradient at each pose.
+/// ([`Metric::segment_gradient_with`](super::Metric::segment_gradient_with)): the
+/// [`Metric::pose_values`](super::Metric::pose_values) of the segment's first and last pose,
+/// and the segment's coefficients for each (each as long as its pose's values), from which
+/// [`Metric::pose_gradient`](super::Metric::pose_gradient) gives the rest of the gradient at
+/// each pose.
 pub struct PoseShare<'a> {
     /// The pose values of `a` and `b` (empty: none).
     pub values: [&'a [f64]; 2],
@@ -78,7 +59,8 @@ pub struct PoseShare<'a> {
 }
 
 impl PoseShare<'_> {
-    /// Nothing shared: [`Metric::segment_gradient_with`] is [`Metric::segment_gradient`].
+    /// Nothing shared: [`Metric::segment_gradient_with`](super::Metric::segment_gradient_with)
+    /// is [`Metric::segment_gradient`](super::Metric::segment_gradient).
     pub fn none() -> PoseShare<'static> {
         PoseShare {
             values: [&[], &[]],
@@ -132,57 +114,12 @@ impl Scratch {
     }
 }
 
-/// [`Metric::gradient`] through the stored Jacobian: residuals and Jacobian into `scratch`
-/// (grown to `pattern`'s residuals and entries on first use), then `weight * 2 J^T r` into
-/// `sink`. Returns `weight |r|^2`.
-pub fn gradient_from_jacobian<M: Metric + ?Sized>(
-    metric: &M,
-    topo: &Topology,
-    pattern: PatternRef,
-    seg: &Segment,
-    scratch: &mut Scratch,
-    sink: &mut GradientSink,
-) -> f64 {
-    let n_res = pattern.n_residuals();
-    let n_ent = pattern.offsets.last().map_or(0, |&o| o as usize);
-    let n_aux = metric.n_aux();
-    scratch.reserve(n_res, n_ent, n_aux);
-    let r = &mut scratch.r[..n_res];
-    let jac = JacobianMut {
-        da: &mut scratch.jac.da[..n_ent],
-        db: &mut scratch.jac.db[..n_ent],
-        daux: &mut scratch.jac.daux[..n_res * n_aux],
-    };
-    metric.residuals(topo, pattern, seg, r, Some(jac));
-    let (da, db, daux) = (&scratch.jac.da, &scratch.jac.db, &scratch.jac.daux);
-    let mut value = 0.0;
-    for (i, (w, &ri)) in pattern.offsets.windows(2).zip(r.iter()).enumerate() {
-        value += ri * ri;
-        if ri == 0.0 {
-            continue;
-        }
-        let range = w[0] as usize..w[1] as usize;
-        for ((&v, a), b) in pattern.vertices[range.clone()]
-            .iter()
-            .zip(&da[range.clone()])
-            .zip(&db[range])
-        {
-            sink.add(v as usize, ri, *a, *b);
-        }
-        let s = 2.0 * sink.weight * ri;
-        for (g, d) in sink.gaux.iter_mut().zip(&daux[i * n_aux..(i + 1) * n_aux]) {
-            *g += s * d;
-        }
-    }
-    sink.weight * value
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::metric::{
-        At, Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, QcWeights, QuasiConformal,
-        Regularized, Rigid, L2,
+        gradient_from_jacobian, At, Conformal, ConformalForm, FrozenL2, FrozenRigid, Isometric, Metric,
+        QcWeights, QuasiConformal, Regularized, Rigid, Segment, L2,
     };
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -1,7 +1,8 @@
-use super::{
-    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, SecondOrderSink, Segment, SegmentSink,
-};
+use super::gradient::{GradientSink, Scratch, SegmentSink};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::second_order::SecondOrderSink;
+use super::segment::{geometry_and_displacement, split_segment, Segment};
+use super::traits::Metric;
 use crate::mesh::geometry::{dot, sub};
 use crate::mesh::Topology;
 

@@ -1,10 +1,11 @@
 // Index loops mirror the formulas (vertex, coordinate, residual indices) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::{
-    geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, SecondOrderSink, Segment,
-};
+use super::gradient::{GradientSink, Scratch};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::second_order::SecondOrderSink;
+use super::segment::{geometry_and_displacement, split_segment, Segment};
+use super::traits::Metric;
 use crate::mesh::geometry::{scale, sqrt_third_area_gradient};
 use crate::mesh::Topology;
 

@@ -1,17 +1,18 @@
 //! The quasi-conformal metric (eq. 10): the conformal corner terms weighted by the change of
 //! angle-defect curvature, in the two readings of docs/method.md "Metrics" (`segment` and `endpoints`).
 
+use super::conformal::ConformalForm;
 use super::conformal::{
     eval_constant_weights, face_gradients, face_kernel, face_pattern, face_second_order, face_values, sign0,
     FaceOut,
 };
 use super::curvature::{angle_defect_with_gradient, closed_ring, ring_offsets};
 use super::fused::{quadratic_segment_gradient, quadratic_segment_values};
-use super::{
-    geometry_and_displacement, gradient_from_jacobian, segment_gradient_per_term, split_segment,
-    squared_norm_from_residuals, ConformalForm, GradientSink, JacobianMut, Metric, Pattern, PatternRef,
-    Scratch, SecondOrderSink, Segment, SegmentSink,
-};
+use super::gradient::{GradientSink, Scratch, SegmentSink};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::second_order::SecondOrderSink;
+use super::segment::{geometry_and_displacement, split_segment, Segment};
+use super::traits::{gradient_from_jacobian, segment_gradient_per_term, squared_norm_from_residuals, Metric};
 use crate::mesh::geometry::{add, angle_defect, scale, vertex_areas};
 use crate::mesh::Topology;
 

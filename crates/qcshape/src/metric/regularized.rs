@@ -1,7 +1,11 @@
-use super::{
-    join_frozen, split_pattern, FrozenL2, GradientSink, JacobianMut, Metric, Pattern, PatternRef, PoseShare,
-    RelativeL2, Scratch, SecondOrderSink, Segment, SegmentSink, SplitPattern, L2,
-};
+use super::gradient::{GradientSink, PoseShare, Scratch, SegmentSink};
+use super::l2::{FrozenL2, L2};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::relative::RelativeL2;
+use super::second_order::SecondOrderSink;
+use super::segment::Segment;
+use super::sum::{join_frozen, split_pattern, SplitPattern};
+use super::traits::Metric;
 use crate::mesh::Topology;
 
 /// `G + lambda * L2` (eq. 11): the inner metric's residuals followed by `sqrt(lambda)` times

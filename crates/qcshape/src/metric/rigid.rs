@@ -1,8 +1,8 @@
 //! The as-rigid-as-possible metric (eq. 1): L2 modulo infinitesimal rigid motions.
 
-use super::{
-    geometry_and_displacement, split_segment, At, JacobianMut, Metric, Pattern, PatternRef, Segment,
-};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::segment::{geometry_and_displacement, split_segment, At, Segment};
+use super::traits::Metric;
 use crate::mesh::geometry::{add, cross, dot, scale, sqrt_third_area_gradient, sub};
 use crate::mesh::Topology;
 

@@ -1,10 +1,11 @@
 //! The rigid metric with area weights frozen along the path (the default reading of `rigid`).
 
+use super::gradient::{GradientSink, Scratch};
+use super::l2::FrozenL2;
+use super::pattern::{JacobianMut, Pattern, PatternRef};
 use super::rigid::fit_motion_weighted;
-use super::{
-    geometry, geometry_and_displacement, split_segment, GradientSink, JacobianMut, Metric, Pattern,
-    PatternRef, Scratch, Segment,
-};
+use super::segment::{geometry, geometry_and_displacement, split_segment, Segment};
+use super::traits::Metric;
 use crate::mesh::geometry::{cross, dot, scale, sub};
 use crate::mesh::Topology;
 
@@ -35,7 +36,7 @@ impl FrozenRigid {
         match seg.frozen {
             Some(w) if w.len() == topo.n_vertices() => w,
             _ => {
-                *own = super::FrozenL2::weights(topo, seg.a, seg.b);
+                *own = FrozenL2::weights(topo, seg.a, seg.b);
                 own
             }
         }
@@ -60,7 +61,7 @@ impl Metric for FrozenRigid {
     }
 
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        Some(super::FrozenL2::weights(topo, start, end))
+        Some(FrozenL2::weights(topo, start, end))
     }
 
     fn best_aux(&self, topo: &Topology, seg: &Segment) -> Vec<f64> {

@@ -6,7 +6,7 @@
 //! velocities, never small) that model converges linearly. Newton's method adds the second
 //! term, which metrics provide through this sink.
 
-use super::At;
+use super::segment::At;
 
 /// Accumulates `sum_i c_i d2 r_i / d(a, b)^2` for one segment term into vertex-pair blocks.
 ///

@@ -1,9 +1,11 @@
 //! A metric multiplied by a constant: `c G` (the calibrated geometric term of
 //! [`super::MetricSpec::build`], docs/method.md "Scale-invariant forms").
 
-use super::{
-    GradientSink, JacobianMut, Metric, Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
-};
+use super::gradient::{GradientSink, Scratch, SegmentSink};
+use super::pattern::{JacobianMut, Pattern, PatternRef};
+use super::second_order::SecondOrderSink;
+use super::segment::Segment;
+use super::traits::Metric;
 use crate::mesh::Topology;
 
 /// `weight * G` for an inner metric `G`: residuals `sqrt(weight) r`, so every derivative,

@@ -4,6 +4,7 @@
 //! arrays.
 
 use super::{Names, Num, Reader, SECTIONS};
+use crate::io::syntax::SyntaxError;
 use crate::io::text;
 use crate::io::{ParseError, PointArray};
 
@@ -34,7 +35,11 @@ pub(super) fn read_attributes(
         let values = |r: &mut Reader, comps: u64, ty: Num, what: &str| {
             let count = n.checked_mul(comps).ok_or_else(|| ParseError::Syntax {
                 line,
-                message: format!("{what}: {n} x {comps} values are too many"),
+                problem: SyntaxError::TooManyValues {
+                    what: what.to_string(),
+                    count: n,
+                    components: comps,
+                },
             })?;
             r.numbers(count, ty, what)
         };
@@ -61,7 +66,10 @@ pub(super) fn read_attributes(
                 if !(1..=4).contains(&comps) {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("SCALARS {name} has {comps} components (1 to 4 allowed)"),
+                        problem: SyntaxError::ScalarComponents {
+                            name,
+                            components: comps,
+                        },
                     });
                 }
                 let mut peek = r.c.clone();
@@ -89,7 +97,7 @@ pub(super) fn read_attributes(
                 if !(1..=3).contains(&dim) {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("TEXTURE_COORDINATES {name} of dimension {dim}"),
+                        problem: SyntaxError::TextureDimension { name, dimension: dim },
                     });
                 }
                 let ty = r.num_type(&format!("TEXTURE_COORDINATES {name}"))?;
@@ -102,7 +110,10 @@ pub(super) fn read_attributes(
                 if !(1..=4).contains(&comps) {
                     return Err(ParseError::Syntax {
                         line,
-                        message: format!("COLOR_SCALARS {name} has {comps} components"),
+                        problem: SyntaxError::ColorComponents {
+                            name,
+                            components: comps,
+                        },
                     });
                 }
                 // ASCII colours are floats in 0..1; binary ones unsigned chars.
@@ -160,21 +171,29 @@ pub(super) fn read_field(r: &mut Reader, tuples: Option<u64>) -> Result<Vec<Poin
         if comps == 0 || comps > 1 << 20 {
             return Err(ParseError::Syntax {
                 line: at,
-                message: format!("FIELD array {name} has {comps} components"),
+                problem: SyntaxError::FieldComponents {
+                    name,
+                    components: comps,
+                },
             });
         }
         if tuples.is_some_and(|t| t != n) {
             return Err(ParseError::Syntax {
                 line: at,
-                message: format!(
-                    "FIELD array {name} has {n} tuples for {} points",
-                    tuples.unwrap_or_default()
-                ),
+                problem: SyntaxError::FieldTuples {
+                    name,
+                    tuples: n,
+                    points: tuples.unwrap_or_default(),
+                },
             });
         }
         let count = n.checked_mul(comps).ok_or_else(|| ParseError::Syntax {
             line: at,
-            message: format!("FIELD array {name}: {n} x {comps} values are too many"),
+            problem: SyntaxError::TooManyValues {
+                what: format!("FIELD array {name}"),
+                count: n,
+                components: comps,
+            },
         })?;
         let Some(ty) = Num::parse(Names::Vtk, ty_tok) else {
             // String arrays (ASCII: one token per value) are skipped; anything else is an error.
@@ -187,7 +206,10 @@ pub(super) fn read_field(r: &mut Reader, tuples: Option<u64>) -> Result<Vec<Poin
             }
             return Err(ParseError::Syntax {
                 line: at,
-                message: format!("unknown data type {} for FIELD array {name}", text::show(ty_tok)),
+                problem: SyntaxError::DataType {
+                    what: format!("FIELD array {name}"),
+                    found: text::clip(ty_tok),
+                },
             });
         };
         let values = r.numbers(count, ty, &name)?;

@@ -7,6 +7,7 @@ use std::io::Read;
 
 use super::scan::line_of;
 pub(super) use crate::io::number::Number as Ty;
+use crate::io::syntax::SyntaxError;
 use crate::io::{DataArrayError, ParseError};
 
 /// File-level settings from the `VTKFile` element.
@@ -305,10 +306,10 @@ pub(super) fn read_values(
                 for tok in crate::io::text::tokens(l) {
                     let v = crate::io::text::parse_f64(tok).ok_or_else(|| ParseError::Syntax {
                         line,
-                        message: format!(
-                            "cannot read a number of {what} from {}",
-                            crate::io::text::show(tok)
-                        ),
+                        problem: SyntaxError::Number {
+                            what: what.to_string(),
+                            found: crate::io::text::clip(tok),
+                        },
                     })?;
                     out.push(v);
                 }
@@ -316,7 +317,11 @@ pub(super) fn read_values(
             if out.len() as u64 != count {
                 return Err(ParseError::Syntax {
                     line: a.line,
-                    message: format!("{what} has {} values, expected {count}", out.len()),
+                    problem: SyntaxError::ValueCount {
+                        what: what.to_string(),
+                        found: out.len(),
+                        expected: count,
+                    },
                 });
             }
             return Ok(out);

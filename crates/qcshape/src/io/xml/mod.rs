@@ -13,6 +13,8 @@ mod scan;
 use data::{read_values, Settings, Source, Ty};
 use scan::{line_of, syntax, Event, Scanner, Tag};
 
+use super::syntax::SyntaxError;
+
 #[cfg(test)]
 pub(super) use data::b64_encode;
 pub(super) use data::{b64_array, Array};
@@ -118,14 +120,17 @@ impl<'a> Document<'a> {
                                 return Err(syntax(
                                     bytes,
                                     tag.pos,
-                                    format!("unknown AppendedData encoding {:?}", String::from_utf8_lossy(o)),
+                                    SyntaxError::Unknown {
+                                        what: "AppendedData encoding",
+                                        found: String::from_utf8_lossy(o).into_owned(),
+                                    },
                                 ))
                             }
                         };
                         let us = bytes[sc.pos..]
                             .iter()
                             .position(|&c| c == b'_')
-                            .ok_or_else(|| syntax(bytes, tag.pos, "AppendedData has no '_' marker".into()))?;
+                            .ok_or_else(|| syntax(bytes, tag.pos, SyntaxError::NoMarker))?;
                         appended = Some((sc.pos + us + 1, base64));
                         break;
                     }
@@ -174,7 +179,10 @@ impl<'a> Document<'a> {
                 syntax(
                     self.bytes,
                     self.piece.pos,
-                    format!("{key}={:?} is not a count", String::from_utf8_lossy(v)),
+                    SyntaxError::NotACount {
+                        key: key.to_string(),
+                        value: String::from_utf8_lossy(v).into_owned(),
+                    },
                 )
             }),
         }
@@ -207,7 +215,9 @@ impl<'a> Document<'a> {
         if points.components != 3 {
             return Err(ParseError::Syntax {
                 line: points.line,
-                message: format!("Points have {} components, not 3", points.components),
+                problem: SyntaxError::PointComponents {
+                    components: points.components,
+                },
             });
         }
         let raw = self.values(points, n * 3)?;
@@ -260,7 +270,10 @@ impl<'a> Document<'a> {
         let last = offsets.last().copied().unwrap_or(0.0);
         let total = as_count(last).ok_or_else(|| ParseError::Syntax {
             line: offs.line,
-            message: format!("the last {what} offset {last} is not a count"),
+            problem: SyntaxError::LastOffset {
+                what: what.to_string(),
+                last,
+            },
         })?;
         let connectivity = self.values(conn, total)?;
         let mut prev = 0usize;
@@ -270,10 +283,12 @@ impl<'a> Document<'a> {
                 .filter(|&o| o >= prev as u64 && o <= connectivity.len() as u64)
                 .ok_or_else(|| ParseError::Syntax {
                     line: offs.line,
-                    message: format!(
-                        "{what} offset {i} ({o}) is not a count between the one before and the {} connectivity values",
-                        connectivity.len()
-                    ),
+                    problem: SyntaxError::Offset {
+                        what: what.to_string(),
+                        index: i,
+                        offset: o,
+                        len: connectivity.len(),
+                    },
                 })? as usize;
             idx.clear();
             for &v in &connectivity[prev..o] {
@@ -308,7 +323,10 @@ fn file_settings(bytes: &[u8], tag: &Tag, kind: &'static str) -> Result<Settings
             return Err(syntax(
                 bytes,
                 tag.pos,
-                format!("unknown header_type {:?}", String::from_utf8_lossy(o)),
+                SyntaxError::Unknown {
+                    what: "header_type",
+                    found: String::from_utf8_lossy(o).into_owned(),
+                },
             ))
         }
     };
@@ -343,40 +361,44 @@ fn finish_array<'a>(
         return Ok(());
     };
     let line = line_of(bytes, tag.pos);
-    let bad = |message: String| ParseError::Syntax { line, message };
+    let bad = |problem: SyntaxError| ParseError::Syntax { line, problem };
     let ty_s = tag.attr("type").unwrap_or_default();
     let ty = Ty::parse(crate::io::number::Names::VtkXml, ty_s).ok_or_else(|| {
-        bad(format!(
-            "unknown DataArray type {:?}",
-            String::from_utf8_lossy(ty_s)
-        ))
+        bad(SyntaxError::Unknown {
+            what: "DataArray type",
+            found: String::from_utf8_lossy(ty_s).into_owned(),
+        })
     })?;
     let name = tag.attr_str("Name").unwrap_or_default();
     let components = match tag.attr("NumberOfComponents") {
         None => 1,
         Some(v) => super::text::parse_count(v)
             .filter(|&c| (1..=1 << 16).contains(&c))
-            .ok_or_else(|| bad(format!("NumberOfComponents={:?}", String::from_utf8_lossy(v))))?
-            as usize,
+            .ok_or_else(|| {
+                bad(SyntaxError::Attribute {
+                    key: "NumberOfComponents",
+                    value: String::from_utf8_lossy(v).into_owned(),
+                })
+            })? as usize,
     };
     let (a, b) = text.unwrap_or((tag.pos, tag.pos));
     let source = match tag.attr("format").unwrap_or(b"ascii") {
         b"ascii" => Source::Ascii(a, b),
         b"binary" => Source::Binary(a, b),
         b"appended" => {
-            let off = tag
-                .attr("offset")
-                .ok_or_else(|| bad("an appended DataArray has no offset".into()))?;
-            Source::Appended(
-                super::text::parse_count(off.trim_ascii())
-                    .ok_or_else(|| bad(format!("offset={:?}", String::from_utf8_lossy(off))))?,
-            )
+            let off = tag.attr("offset").ok_or_else(|| bad(SyntaxError::NoOffset))?;
+            Source::Appended(super::text::parse_count(off.trim_ascii()).ok_or_else(|| {
+                bad(SyntaxError::Attribute {
+                    key: "offset",
+                    value: String::from_utf8_lossy(off).into_owned(),
+                })
+            })?)
         }
         o => {
-            return Err(bad(format!(
-                "unknown DataArray format {:?}",
-                String::from_utf8_lossy(o)
-            )))
+            return Err(bad(SyntaxError::Unknown {
+                what: "DataArray format",
+                found: String::from_utf8_lossy(o).into_owned(),
+            }))
         }
     };
     arrays.push((

@@ -1,5 +1,6 @@
 //! A minimal XML scanner for VTK XML files: start and end tags with attributes, text runs.
 
+use crate::io::syntax::SyntaxError;
 use crate::io::ParseError;
 
 /// Line (1-based) of byte `pos`.
@@ -10,10 +11,10 @@ pub(super) fn line_of(bytes: &[u8], pos: usize) -> usize {
         .count()
 }
 
-pub(super) fn syntax(bytes: &[u8], pos: usize, message: String) -> ParseError {
+pub(super) fn syntax(bytes: &[u8], pos: usize, problem: SyntaxError) -> ParseError {
     ParseError::Syntax {
         line: line_of(bytes, pos),
-        message,
+        problem,
     }
 }
 
@@ -92,17 +93,19 @@ impl<'a> Scanner<'a> {
                 .map(|k| from + k)
         };
         if b[start..].starts_with(b"<!--") {
-            let end =
-                find(start + 4, b"-->").ok_or_else(|| syntax(b, start, "a comment is not closed".into()))?;
+            let end = find(start + 4, b"-->")
+                .ok_or_else(|| syntax(b, start, SyntaxError::Unclosed { what: "a comment" }))?;
             self.pos = end + 3;
             return Ok(Step::Skip);
         }
         if b[start..].starts_with(b"<?") || b[start..].starts_with(b"<!") {
-            let end = find(start + 2, b">").ok_or_else(|| syntax(b, start, "a tag is not closed".into()))?;
+            let end = find(start + 2, b">")
+                .ok_or_else(|| syntax(b, start, SyntaxError::Unclosed { what: "a tag" }))?;
             self.pos = end + 1;
             return Ok(Step::Skip);
         }
-        let end = find(start + 1, b">").ok_or_else(|| syntax(b, start, "a tag is not closed".into()))?;
+        let end =
+            find(start + 1, b">").ok_or_else(|| syntax(b, start, SyntaxError::Unclosed { what: "a tag" }))?;
         self.pos = end + 1;
         let inner = &b[start + 1..end];
         if let Some(name) = inner.strip_prefix(b"/") {
@@ -118,7 +121,7 @@ impl<'a> Scanner<'a> {
             .unwrap_or(inner.len());
         let name = &inner[..name_end];
         if name.is_empty() {
-            return Err(syntax(b, start, "a tag without a name".into()));
+            return Err(syntax(b, start, SyntaxError::NoName));
         }
         let mut attrs = Vec::new();
         let mut i = name_end;
@@ -141,7 +144,9 @@ impl<'a> Scanner<'a> {
                 return Err(syntax(
                     b,
                     start,
-                    format!("attribute {} has no value", String::from_utf8_lossy(key)),
+                    SyntaxError::NoValue {
+                        attribute: String::from_utf8_lossy(key).into_owned(),
+                    },
                 ));
             }
             i += 1;
@@ -153,7 +158,9 @@ impl<'a> Scanner<'a> {
                 return Err(syntax(
                     b,
                     start,
-                    format!("attribute {} is not quoted", String::from_utf8_lossy(key)),
+                    SyntaxError::Unquoted {
+                        attribute: String::from_utf8_lossy(key).into_owned(),
+                    },
                 ));
             }
             let v0 = i + 1;
@@ -161,7 +168,15 @@ impl<'a> Scanner<'a> {
                 .iter()
                 .position(|&c| c == q)
                 .map(|k| v0 + k)
-                .ok_or_else(|| syntax(b, start, "an attribute value is not closed".into()))?;
+                .ok_or_else(|| {
+                    syntax(
+                        b,
+                        start,
+                        SyntaxError::Unclosed {
+                            what: "an attribute value",
+                        },
+                    )
+                })?;
             attrs.push((key, &inner[v0..v1]));
             i = v1 + 1;
         }

@@ -3,13 +3,13 @@
 //! that it is scale-invariant and converges as the mesh is refined (docs/method.md "Bending
 //! term").
 
-use super::{segment_faces, PER_FACE};
+use super::faces::{segment_faces, PER_FACE};
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
-use crate::metric::{
-    same_frozen, segment_gradient_per_term, squared_norm_from_residuals, GradientSink, JacobianMut, Metric,
-    Pattern, PatternRef, PoseShare, Scratch, Segment, SegmentSink,
-};
+use crate::metric::gradient::{same_frozen, GradientSink, PoseShare, Scratch, SegmentSink};
+use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
+use crate::metric::segment::Segment;
+use crate::metric::traits::{segment_gradient_per_term, squared_norm_from_residuals, Metric};
 
 /// [`Topology::edge_faces`]' mark of a boundary side.
 const NO_FACE: u32 = u32::MAX;
@@ -258,12 +258,12 @@ impl Metric for RelativeBending {
 
     /// The mean face shares of the two ends (2 #F), as the other relative forms.
     fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        super::frozen_faces(topo, start, end)
+        super::faces::frozen_faces(topo, start, end)
     }
 
     /// The pose's face shares (2 #F).
     fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        super::pose_faces(topo, pose)
+        super::faces::pose_faces(topo, pose)
     }
 
     fn frozen_weights_from(
@@ -273,7 +273,7 @@ impl Metric for RelativeBending {
         end: &[[f64; 3]],
         summaries: [&[f64]; 2],
     ) -> Option<Vec<f64>> {
-        super::faces_from(topo, start, end, summaries)
+        super::faces::faces_from(topo, start, end, summaries)
     }
 
     fn residuals(

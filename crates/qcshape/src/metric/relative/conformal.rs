@@ -1,14 +1,14 @@
 // Index loops mirror the formulas (corner, face slot) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FACE};
+use super::faces::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FACE};
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::conformal::face_pattern;
-use crate::metric::{
-    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, QuasiConformal,
-    Segment,
-};
+use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
+use crate::metric::quasi_conformal::QuasiConformal;
+use crate::metric::segment::{geometry_and_displacement, split_segment, Segment};
+use crate::metric::traits::Metric;
 
 /// The scale-invariant conformal and quasi-conformal metrics (eq. 6, eq. 10;
 /// docs/method.md "Scale-invariant forms").

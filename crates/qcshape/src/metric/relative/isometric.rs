@@ -1,10 +1,11 @@
-use super::{edge_shares, faces_from, frozen_faces, pose_faces, segment_faces};
+use super::faces::{edge_shares, faces_from, frozen_faces, pose_faces, segment_faces};
 use crate::mesh::geometry::{add, dot, scale, sub};
 use crate::mesh::Topology;
-use crate::metric::{
-    geometry_and_displacement, same_frozen, segment_gradient_per_term, split_segment, JacobianMut, Metric,
-    Pattern, PatternRef, Scratch, SecondOrderSink, Segment, SegmentSink,
-};
+use crate::metric::gradient::{same_frozen, Scratch, SegmentSink};
+use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
+use crate::metric::second_order::SecondOrderSink;
+use crate::metric::segment::{geometry_and_displacement, split_segment, Segment};
+use crate::metric::traits::{segment_gradient_per_term, Metric};
 
 /// The scale-invariant isometric metric (eq. 3 as a strain, docs/method.md "Scale-invariant
 /// forms"): `G_M(X) = sum over edges (p, q) of w_e (<X_p - X_q, p - q> / |p - q|^2)^2`, the

@@ -1,12 +1,12 @@
 // Index loops mirror the formulas (face slot, coordinate) in this kernel.
 #![allow(clippy::needless_range_loop)]
 
-use super::{faces_from, frozen_faces, pose_faces, segment_faces};
+use super::faces::{faces_from, frozen_faces, pose_faces, segment_faces};
 use crate::mesh::geometry::{dot, scale, sub};
 use crate::mesh::Topology;
-use crate::metric::{
-    geometry_and_displacement, split_segment, JacobianMut, Metric, Pattern, PatternRef, Segment,
-};
+use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
+use crate::metric::segment::{geometry_and_displacement, split_segment, Segment};
+use crate::metric::traits::Metric;
 
 /// The scale-invariant L2 metric (eq. 11, docs/method.md "Scale-invariant forms"): the mean
 /// squared displacement per unit area, measured against the local size of the pose,

@@ -18,6 +18,7 @@
 
 mod bending;
 mod conformal;
+mod faces;
 mod isometric;
 mod l2;
 
@@ -26,100 +27,8 @@ pub use conformal::RelativeConformal;
 pub use isometric::RelativeIsometric;
 pub use l2::RelativeL2;
 
-use std::borrow::Cow;
-
-use super::Segment;
-use crate::mesh::geometry::{cross, dot, norm, sub};
-use crate::mesh::Topology;
-
-/// Frozen values per face of every relative form: the area share `c_f = A_f / A` and the size
-/// share `q_f = L_f / A` (`L_f` the sum of the face's squared edge lengths).
-pub(crate) const PER_FACE: usize = 2;
-
-/// The face summary of one pose (2 #F values, dimensionless): `[c_f for every face, q_f for
-/// every face]` (see [`PER_FACE`]). Zeros for a pose of zero area.
-pub(crate) fn face_summary(topo: &Topology, pose: &[[f64; 3]]) -> Vec<f64> {
-    let nf = topo.n_faces();
-    let mut out = vec![0.0; PER_FACE * nf];
-    let mut total = 0.0;
-    for (fi, f) in topo.faces().iter().enumerate() {
-        let [p, q, r] = f.map(|i| pose[i as usize]);
-        let (e0, e1, e2) = (sub(q, p), sub(r, q), sub(p, r));
-        let area = 0.5 * norm(cross(e0, sub(r, p)));
-        out[fi] = area;
-        out[nf + fi] = dot(e0, e0) + dot(e1, e1) + dot(e2, e2);
-        total += area;
-    }
-    let inv = if total > 0.0 && total.is_finite() {
-        1.0 / total
-    } else {
-        0.0
-    };
-    for v in &mut out {
-        *v *= inv;
-    }
-    out
-}
-
-/// The mean of two face summaries (the frozen values of a path between the two poses).
-pub(crate) fn mean_summary(a: &[f64], b: &[f64]) -> Vec<f64> {
-    a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect()
-}
-
-/// The frozen face values of a path from `start` to `end` (2 #F).
-pub(crate) fn path_faces(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Vec<f64> {
-    mean_summary(&face_summary(topo, start), &face_summary(topo, end))
-}
-
-/// [`path_faces`] as a metric's [`super::Metric::frozen_weights`]: `None` unless both ends have
-/// #V vertices.
-pub(crate) fn frozen_faces(topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-    let nv = topo.n_vertices();
-    (start.len() == nv && end.len() == nv).then(|| path_faces(topo, start, end))
-}
-
-/// [`face_summary`] as a metric's [`super::Metric::pose_summary`]: `None` unless the pose has
-/// #V vertices.
-pub(crate) fn pose_faces(topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-    (pose.len() == topo.n_vertices()).then(|| face_summary(topo, pose))
-}
-
-/// [`frozen_faces`] from the two ends' [`pose_faces`] summaries (recomputed from the poses
-/// when a summary is not 2 #F values).
-pub(crate) fn faces_from(
-    topo: &Topology,
-    start: &[[f64; 3]],
-    end: &[[f64; 3]],
-    [a, b]: [&[f64]; 2],
-) -> Option<Vec<f64>> {
-    let n = PER_FACE * topo.n_faces();
-    if a.len() != n || b.len() != n {
-        return frozen_faces(topo, start, end);
-    }
-    Some(mean_summary(a, b))
-}
-
-/// The face values a segment term uses: the first 2 #F values of `seg.frozen`, or, without
-/// them, those of a path between the segment's own ends.
-pub(crate) fn segment_faces<'a>(topo: &Topology, seg: &Segment<'a>) -> Cow<'a, [f64]> {
-    let n = PER_FACE * topo.n_faces();
-    match seg.frozen {
-        Some(f) if f.len() >= n => Cow::Borrowed(&f[..n]),
-        _ => Cow::Owned(path_faces(topo, seg.a, seg.b)),
-    }
-}
-
-/// The area share of each edge (#E): a third of each adjacent face's share `c_f`, so that the
-/// shares sum to one.
-pub(crate) fn edge_shares(topo: &Topology, faces: &[f64]) -> Vec<f64> {
-    let mut w = vec![0.0; topo.n_edges()];
-    for (fi, fe) in topo.face_edges().iter().enumerate() {
-        for &e in fe {
-            w[e as usize] += faces[fi] / 3.0;
-        }
-    }
-    w
-}
+/// For `bent.rs` and `regularized.rs`.
+pub(crate) use faces::PER_FACE;
 
 #[cfg(test)]
 mod tests;
