@@ -135,7 +135,7 @@ pub trait Metric: Send + Sync + Debug {
     }
 
     /// Values of one pose that the terms of both segments at that pose share (the bending
-    /// term's dihedral angles and sliver factors, [`RelativeBending`]), written to `out`: the
+    /// term's dihedral angles and sliver factors, [`RelativeBending`](super::RelativeBending)), written to `out`: the
     /// path energy computes them once per pose and evaluation and passes them to
     /// [`Metric::segment_gradient_with`]. Left empty (the default) by metrics without any.
     /// `pattern` is this metric's, `pose` #V x 3.

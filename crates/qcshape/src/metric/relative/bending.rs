@@ -22,7 +22,7 @@ const NO_FACE: u32 = u32::MAX;
 /// face `f`'s squared edge lengths, `A_f` its area; for equilateral faces
 /// `3 |e|^2 / (A_1 + A_2)`, the discrete shells' weight) from the frozen face values of the path's
 /// ends, like every relative form (docs/method.md "Scale-invariant forms"), and `Phi` each
-/// pose's sliver factor ([`SLIVER`], 0.99 on regular faces). Both of the segment's terms (eq.
+/// pose's sliver factor (`eta` = 0.05, 0.99 on regular faces). Both of the segment's terms (eq.
 /// 12's `G_{P_i}(X_i)` and `G_{P_{i+1}}(X_i)`) are this one value.
 ///
 /// To second order in the step it is the rate form `w_e (dtheta_e / dt)^2` at the segment's
@@ -329,7 +329,7 @@ impl Metric for RelativeBending {
         gradient_pass(topo, pattern, segs[0], &mut both)
     }
 
-    /// Every hinge's angle and sliver factor at `pose` ([`PER_HINGE`] values per hinge).
+    /// Every hinge's angle and sliver factor at `pose` (3 values per hinge: `sin theta`, `cos theta`, `Phi`).
     fn pose_values(&self, _topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
         let n = pattern.n_residuals();
         out.clear();
