@@ -68,7 +68,7 @@ geodesic_methods! {
     /// of zero energy).
     regularizer_share: f64 = |g| g.regularizer_share();
     /// The part of ``geometric_energy`` carried by the bending term (``bending`` times the
-    /// rate of change of the dihedral angles; 0 without one).
+    /// change of the dihedral angles along the path; 0 without one).
     bending_energy: f64 = |g| g.bending_energy;
     /// bending_energy / energy, in [0, 1] (0 without a bending term).
     bending_share: f64 = |g| g.bending_share();

@@ -314,8 +314,8 @@ pub const BENDING: Setting = Setting {
     python_alias: None,
     group: Group::Metric,
     about: "Weight of the bending term of the isometric, conformal and quasi-conformal metrics on the \
-            invariant scale: the rate of change of the dihedral angles, which charges the vertex-scale \
-            normal wrinkles that the membrane terms leave almost free; 0 disables it",
+            invariant scale: the change of the dihedral angles along the path (the discrete shells' bending \
+            energy), which charges the vertex-scale normal wrinkles that the membrane terms leave almost free; 0 disables it",
     value: real(MAX_LAMBDA),
     default: || Some(metric().bending.to_string()),
 };
