@@ -67,12 +67,15 @@ pub(crate) fn hinges(topo: &Topology) -> Vec<([u32; 4], [u32; 2])> {
         .collect()
 }
 
-/// `eta` of the sliver factor `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)` of each wing (`|N| / |E|` its
-/// height over the edge): the residual carries `Phi = phi_1 phi_2` of each of its two poses, so
-/// that a face collapsing on a path, where the dihedral angle jumps and its gradient blows up
-/// like `1 / h`, contributes nothing instead (without it the default solver stalled on the bent
-/// tube with a face at 4e-6 of the mean area). On regular faces (`|N|^2 = 0.75 |E|^4`) `phi` is
-/// 0.997; rigid motions keep it; dimensionless, so the term stays scale-invariant.
+/// `eta` of the sliver factor of each wing: with `t = |N|^2 / (eta^2 |E|^4) = (h / (eta |E|))^2`
+/// (`h = |N| / |E|` the wing's height over the edge), `phi = 1` for `t >= 1` and the smoothstep
+/// `phi = t^2 (3 - 2 t)` below (value and slope continuous at `t = 1`). The residual carries
+/// `Phi = phi_1 phi_2` of each of its two poses, so that a face collapsing on a path, where the
+/// dihedral angle jumps and its gradient blows up like `1 / h`, contributes nothing instead
+/// (without it the default solver stalled on the bent tube with a face at 4e-6 of the mean
+/// area). Faces higher than `eta |E|` over every edge (all but slivers; an equilateral face has
+/// `t = 300`) have `phi = 1` and no factor gradient to compute; rigid motions keep `phi`;
+/// dimensionless, so the term stays scale-invariant.
 const SLIVER: f64 = 0.05;
 
 /// One hinge at one pose: its signed dihedral angle `theta` as `(sin theta, cos theta)` (as
@@ -124,11 +127,12 @@ fn wings(p: &[[f64; 3]; 4]) -> Option<Wings> {
     })
 }
 
-/// The sliver factors `phi = |N|^2 / (|N|^2 + eta^2 |E|^4)` of both wings.
+/// The sliver factors `phi(t)` of both wings and their `t = |N|^2 / (eta^2 |E|^4)` ([`SLIVER`]).
 #[inline(always)]
-fn wing_factors(w: &Wings) -> [f64; 2] {
+fn wing_factors(w: &Wings) -> ([f64; 2], [f64; 2]) {
     let delta = SLIVER * SLIVER * w.ee * w.ee;
-    w.nn.map(|r| r / (r + delta))
+    let t = w.nn.map(|r| r / delta);
+    (t.map(|t| if t >= 1.0 { 1.0 } else { t * t * (3.0 - 2.0 * t) }), t)
 }
 
 /// The hinge's signed dihedral angle `theta` (as [`dihedral_angles`]) as
@@ -139,7 +143,7 @@ fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
     let Some(w) = wings(p) else {
         return ([0.0, 1.0], 0.0);
     };
-    let [phi1, phi2] = wing_factors(&w);
+    let ([phi1, phi2], _) = wing_factors(&w);
     let [n1, n2] = w.n;
     // |N_1| |N_2| (sin theta, cos theta).
     let (y, x) = (dot(cross(n2, n1), w.e) / w.le, dot(n1, n2));
@@ -155,17 +159,17 @@ fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
 ///
 /// The angle's gradient, per wing (tail `t`, head `h`, apex `a`): `c = |E| N / |N|^2` at the
 /// apex, `(alpha - 1) c` at the tail, `-alpha c` at the head, `alpha = <E_w, K> / |E|^2` with
-/// the wing's own edge `E_w` (`E`, then `-E`). The factor's, per wing: with `D = |N|^2 + delta`,
-/// `delta = eta^2 |E|^4`, `|N|^2 = |E|^2 |K|^2 - <E, K>^2`:
-/// `dphi/dE_w = 2 delta (|K|^2 E_w - <E_w, K> K) / D^2 - 4 eta^2 |E|^2 |N|^2 E_w / D^2`,
-/// `dphi/dK = 2 delta (|E|^2 K - <E_w, K> E_w) / D^2`; the head gets `dphi/dE_w`, the apex
-/// `dphi/dK`, the tail minus their sum.
+/// the wing's own edge `E_w` (`E`, then `-E`). The factor's, per wing below `t = 1` (0 above):
+/// `dphi = 6 t (1 - t) dt`, `t = |N|^2 / delta`, `delta = eta^2 |E|^4`,
+/// `|N|^2 = |E|^2 |K|^2 - <E, K>^2`: `dt/dE_w = (2 (|K|^2 E_w - <E_w, K> K) - 4 t eta^2 |E|^2 E_w)
+/// / delta`, `dt/dK = 2 (|E|^2 K - <E_w, K> E_w) / delta`; the head gets the `E_w` part, the
+/// apex the `K` part, the tail minus their sum.
 #[inline(always)]
 fn hinge_gradient(p: &[[f64; 3]; 4], ct: f64, cp: f64) -> [[f64; 3]; 4] {
     let Some(w) = wings(p) else {
         return [[0.0; 3]; 4];
     };
-    let phi = wing_factors(&w);
+    let (phi, t) = wing_factors(&w);
     let delta = SLIVER * SLIVER * w.ee * w.ee;
     // Per wing: the head's, apex's and tail's parts.
     let part = |m: usize| -> [[f64; 3]; 3] {
@@ -174,17 +178,20 @@ fn hinge_gradient(p: &[[f64; 3]; 4], ct: f64, cp: f64) -> [[f64; 3]; 4] {
         let ek = dot(ew, k);
         let alpha = ek / w.ee;
         let c = scale(n, ct * w.le / nn);
-        // The factor Phi = phi_1 phi_2: this wing's phi times the other's.
-        let den = nn + delta;
-        let q = cp * phi[1 - m] / (den * den);
-        let kk = dot(k, k);
-        let dphi_de = sub(
-            scale(sub(scale(ew, kk), scale(k, ek)), 2.0 * delta * q),
-            scale(ew, 4.0 * SLIVER * SLIVER * w.ee * nn * q),
-        );
-        let dphi_dk = scale(sub(scale(k, w.ee), scale(ew, ek)), 2.0 * delta * q);
-        let head = sub(dphi_de, scale(c, alpha));
-        let apex = add(dphi_dk, c);
+        let mut head = scale(c, -alpha);
+        let mut apex = c;
+        if t[m] < 1.0 && cp != 0.0 {
+            // The factor Phi = phi_1 phi_2: this wing's dphi times the other's phi.
+            let q = cp * phi[1 - m] * 6.0 * t[m] * (1.0 - t[m]) / delta;
+            let kk = dot(k, k);
+            let dt_de = sub(
+                scale(sub(scale(ew, kk), scale(k, ek)), 2.0),
+                scale(ew, 4.0 * t[m] * SLIVER * SLIVER * w.ee),
+            );
+            let dt_dk = scale(sub(scale(k, w.ee), scale(ew, ek)), 2.0);
+            head = add(head, scale(dt_de, q));
+            apex = add(apex, scale(dt_dk, q));
+        }
         let tail = scale(add(head, apex), -1.0);
         [head, apex, tail]
     };
@@ -567,7 +574,7 @@ mod tests {
 
     /// The residual is the chord `2 sin(dtheta / 2)` of the change of the dihedral angle from `a`
     /// to `b` (times
-    /// `sqrt(w_e) Phi_a Phi_b`, the factors 0.98-1 on these faces), and to second order the
+    /// `sqrt(w_e) Phi_a Phi_b`, `Phi` = 1 on these faces), and to second order the
     /// rate of change at the midpoint (a central difference of [`dihedral_angles`]).
     #[test]
     fn residual_is_the_change_of_the_dihedral_angle() {
@@ -719,6 +726,66 @@ mod tests {
             assert!(worst < 1e-12, "a rigid step bends by {worst:e} ({at:?})");
         }
         assert!(!r.is_empty());
+    }
+
+    /// The angle's and the factor's gradients against central differences on a hinge with a
+    /// sliver wing (height 0.02 and 0.04 of the edge: `t` = 0.16 and 0.64, the smoothstep
+    /// branch) and a regular one.
+    #[test]
+    fn sliver_gradients_match_finite_differences() {
+        for height in [0.02, 0.04, 0.5] {
+            let p = [
+                [0.0, 0.0, 0.0],
+                [1.0, 0.1, 0.0],
+                [0.4, height, 0.01],
+                [0.6, -0.8, 0.3],
+            ];
+            let w = wings(&p).unwrap();
+            let (_, t) = wing_factors(&w);
+            assert!(height > 0.1 || t[0] < 1.0, "t = {t:?}");
+            let value = |q: &[[f64; 3]; 4]| {
+                let ([sin, cos], phi) = hinge_value(q);
+                (sin.atan2(cos), phi)
+            };
+            let (gt, gp) = (hinge_gradient(&p, 1.0, 0.0), hinge_gradient(&p, 0.0, 1.0));
+            for (k, dir) in [[0.3, -0.2, 0.5], [-0.7, 0.1, 0.2], [0.1, 0.9, -0.4]]
+                .iter()
+                .enumerate()
+            {
+                // Move one vertex at a time and all together.
+                for m in 0..5 {
+                    let step = |h: f64| {
+                        let mut q = p;
+                        for (v, x) in q.iter_mut().enumerate() {
+                            if m == 4 || m == v {
+                                *x = add(*x, scale(*dir, h * (1.0 + v as f64 * 0.3)));
+                            }
+                        }
+                        value(&q)
+                    };
+                    let h = 1e-6;
+                    let ((tp, pp), (tm, pm)) = (step(h), step(-h));
+                    let (fd_t, fd_p) = ((tp - tm) / (2.0 * h), (pp - pm) / (2.0 * h));
+                    let (mut an_t, mut an_p) = (0.0, 0.0);
+                    for v in 0..4 {
+                        if m == 4 || m == v {
+                            let d = scale(*dir, 1.0 + v as f64 * 0.3);
+                            an_t += dot(gt[v], d);
+                            an_p += dot(gp[v], d);
+                        }
+                    }
+                    let tol = |x: f64| 1e-6 * (1.0 + x.abs());
+                    assert!(
+                        (fd_t - an_t).abs() < tol(fd_t),
+                        "height {height}, dir {k}, vertex {m}: theta {fd_t} vs {an_t}"
+                    );
+                    assert!(
+                        (fd_p - an_p).abs() < tol(fd_p),
+                        "height {height}, dir {k}, vertex {m}: Phi {fd_p} vs {an_p}"
+                    );
+                }
+            }
+        }
     }
 
     /// Open meshes: boundary edges have no residual, interior ones do.
