@@ -15,7 +15,7 @@ use crate::mesh::Topology;
 /// A pattern made of two metrics' patterns one after the other ([`TermSum`]): the first
 /// metric's rows (a prefix, rows and entries) and the second's with their offsets rebased to
 /// their first entry.
-pub(crate) struct SplitPattern<'p> {
+struct SplitPattern<'p> {
     /// The first metric's rows.
     pub first: PatternRef<'p>,
     second_offsets: Vec<u32>,
@@ -33,7 +33,7 @@ impl SplitPattern<'_> {
 }
 
 /// `pattern` split after its first `n_first` residuals ([`SplitPattern`]).
-pub(crate) fn split_pattern(pattern: PatternRef<'_>, n_first: usize) -> SplitPattern<'_> {
+fn split_pattern(pattern: PatternRef<'_>, n_first: usize) -> SplitPattern<'_> {
     let first = first_rows(pattern, n_first);
     let e_first = first.vertices.len();
     SplitPattern {
@@ -57,7 +57,7 @@ fn first_rows(pattern: PatternRef<'_>, n_first: usize) -> PatternRef<'_> {
 
 /// Two metrics' frozen values (or pose summaries) one after the other, as a sum of two metrics
 /// stores them; `None` when neither has any.
-pub(crate) fn join_frozen(first: Option<Vec<f64>>, second: Option<Vec<f64>>) -> Option<Vec<f64>> {
+fn join_frozen(first: Option<Vec<f64>>, second: Option<Vec<f64>>) -> Option<Vec<f64>> {
     match (first, second) {
         (Some(mut a), Some(b)) => {
             a.extend_from_slice(&b);
