@@ -9,7 +9,8 @@
 //! on) is built once per topology and reused for every evaluation.
 //!
 //! Metrics: [`L2`] (eq. 11), [`Isometric`] (eq. 3), [`Rigid`] (eq. 1), [`Conformal`] (eqs. 7-9),
-//! [`QuasiConformal`] (eq. 10), and [`Regularized`] (`G + lambda * L2`, eq. 11).
+//! [`QuasiConformal`] (eq. 10), and the sums of a metric and a weighted term ([`TermSum`]):
+//! [`Regularized`] (`G + lambda * L2`, eq. 11) and [`Bent`] (`G + beta * B`, the bending term).
 //!
 //! The modules stand on floors (`crates/qcshape/floors.txt`): at the bottom the segment
 //! ([`At`], [`Segment`]), the sparsity ([`Pattern`], [`Jacobian`]) and the names a setting
@@ -57,6 +58,7 @@ pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;
 pub use segment::{At, Segment};
 pub use spec::{Calibration, CalibrationError, MetricSpec};
+pub use sum::{EnergyPart, Term, TermSum};
 pub use traits::{
     gradient_from_jacobian, residuals_at_best_aux, segment_gradient_per_term, squared_norm_from_residuals,
     Metric,

@@ -3,7 +3,7 @@
 //! that it is scale-invariant and converges as the mesh is refined (docs/method.md "Bending
 //! term").
 
-use super::faces::{segment_faces, PER_FACE};
+use super::faces::{face_share_frozen_values, segment_faces, PER_FACE};
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::gradient::{same_frozen, GradientSink, PoseShare, Scratch, SegmentSink};
@@ -263,25 +263,7 @@ impl Metric for RelativeBending {
             .count()
     }
 
-    /// The mean face shares of the two ends (2 #F), as the other relative forms.
-    fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        super::faces::frozen_faces(topo, start, end)
-    }
-
-    /// The pose's face shares (2 #F).
-    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        super::faces::pose_faces(topo, pose)
-    }
-
-    fn frozen_weights_from(
-        &self,
-        topo: &Topology,
-        start: &[[f64; 3]],
-        end: &[[f64; 3]],
-        summaries: [&[f64]; 2],
-    ) -> Option<Vec<f64>> {
-        super::faces::faces_from(topo, start, end, summaries)
-    }
+    face_share_frozen_values!();
 
     fn residuals(
         &self,

@@ -75,6 +75,41 @@ pub(crate) fn faces_from(
     Some(mean_summary(a, b))
 }
 
+/// The three [`Metric`](crate::metric::Metric) methods of a relative form whose frozen values
+/// are the path's face shares and nothing else (2 #F): `frozen_weights` ([`frozen_faces`]),
+/// `pose_summary` ([`pose_faces`]) and `frozen_weights_from` ([`faces_from`]), written inside
+/// the form's `impl Metric` block.
+macro_rules! face_share_frozen_values {
+    () => {
+        /// The mean face shares of the two ends (2 #F).
+        fn frozen_weights(
+            &self,
+            topo: &$crate::mesh::Topology,
+            start: &[[f64; 3]],
+            end: &[[f64; 3]],
+        ) -> Option<Vec<f64>> {
+            $crate::metric::relative::faces::frozen_faces(topo, start, end)
+        }
+
+        /// The pose's face shares (2 #F).
+        fn pose_summary(&self, topo: &$crate::mesh::Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
+            $crate::metric::relative::faces::pose_faces(topo, pose)
+        }
+
+        /// The mean of the two ends' face shares.
+        fn frozen_weights_from(
+            &self,
+            topo: &$crate::mesh::Topology,
+            start: &[[f64; 3]],
+            end: &[[f64; 3]],
+            summaries: [&[f64]; 2],
+        ) -> Option<Vec<f64>> {
+            $crate::metric::relative::faces::faces_from(topo, start, end, summaries)
+        }
+    };
+}
+pub(crate) use face_share_frozen_values;
+
 /// The face values a segment term uses: the first 2 #F values of `seg.frozen`, or, without
 /// them, those of a path between the segment's own ends.
 pub(crate) fn segment_faces<'a>(topo: &Topology, seg: &Segment<'a>) -> Cow<'a, [f64]> {

@@ -1,7 +1,7 @@
 // Index loops mirror the formulas (face slot, coordinate) in this kernel.
 #![allow(clippy::needless_range_loop)]
 
-use super::faces::{faces_from, frozen_faces, pose_faces, segment_faces};
+use super::faces::{face_share_frozen_values, segment_faces};
 use crate::mesh::geometry::{dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
@@ -52,25 +52,7 @@ impl Metric for RelativeL2 {
         9 * topo.n_faces()
     }
 
-    /// The mean face shares of the two ends (2 #F).
-    fn frozen_weights(&self, topo: &Topology, start: &[[f64; 3]], end: &[[f64; 3]]) -> Option<Vec<f64>> {
-        frozen_faces(topo, start, end)
-    }
-
-    /// The pose's face shares (2 #F).
-    fn pose_summary(&self, topo: &Topology, pose: &[[f64; 3]]) -> Option<Vec<f64>> {
-        pose_faces(topo, pose)
-    }
-
-    fn frozen_weights_from(
-        &self,
-        topo: &Topology,
-        start: &[[f64; 3]],
-        end: &[[f64; 3]],
-        summaries: [&[f64]; 2],
-    ) -> Option<Vec<f64>> {
-        faces_from(topo, start, end, summaries)
-    }
+    face_share_frozen_values!();
 
     fn residuals(
         &self,

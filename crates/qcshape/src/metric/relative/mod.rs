@@ -27,7 +27,7 @@ pub use conformal::RelativeConformal;
 pub use isometric::RelativeIsometric;
 pub use l2::RelativeL2;
 
-/// For `bent.rs` and `regularized.rs`.
+/// For `bent.rs` and `regularized.rs` (the frozen lengths of their terms).
 pub(crate) use faces::PER_FACE;
 
 #[cfg(test)]
