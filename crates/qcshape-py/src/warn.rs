@@ -80,6 +80,20 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver)
                 g.iterations
             ),
         )?;
+    } else if !g.stop.is_converged() {
+        // No progress (the line search or the damping found no lower energy) or another
+        // reason: unconverged, and said so.
+        warn(
+            py,
+            &format!(
+                "the solver stopped without converging after {} iterations: {}",
+                g.iterations,
+                match &g.stop {
+                    StopReason::NoProgress => "no step lowered the energy further".to_string(),
+                    other => format!("{other:?}"),
+                }
+            ),
+        )?;
     }
     Ok(())
 }

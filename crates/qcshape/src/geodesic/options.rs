@@ -317,7 +317,8 @@ pub enum StopReason {
     TargetEnergy,
     /// The iteration limit was reached.
     MaxIterations,
-    /// No step could lower the energy further (the damping grew without bound).
+    /// No step could lower the energy further (the damping grew without bound, or the line
+    /// search found no decrease).
     NoProgress,
     /// The solver stopped for another reason (message).
     Other(String),

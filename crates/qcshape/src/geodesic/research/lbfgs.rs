@@ -108,6 +108,11 @@ pub(crate) fn minimize(
         }
         TerminationStatus::Terminated(TerminationReason::TargetCostReached) => StopReason::TargetEnergy,
         TerminationStatus::Terminated(TerminationReason::MaxItersReached) => StopReason::MaxIterations,
+        // The line search found no lower energy along the direction (at rounding, or a direction
+        // that is not one of descent there): no step could lower the energy.
+        TerminationStatus::Terminated(TerminationReason::SolverExit(msg)) if msg.contains("Line search") => {
+            StopReason::NoProgress
+        }
         other => StopReason::Other(format!("{other:?}")),
     };
     let x = state
