@@ -4,7 +4,7 @@ use crate::mesh::Topology;
 use crate::metric::gradient::{same_frozen, Scratch, SegmentSink};
 use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
 use crate::metric::second_order::SecondOrderSink;
-use crate::metric::segment::{geometry_and_displacement, split_segment, Segment};
+use crate::metric::segment::{geometry_and_displacement, split_segment, At, Segment};
 use crate::metric::traits::{segment_gradient_per_term, Metric};
 
 /// The scale-invariant isometric metric (eq. 3 as a strain, docs/method.md "Scale-invariant
@@ -91,7 +91,7 @@ impl Metric for RelativeIsometric {
             // dr/de = s (d / l - 2 pr e / l^2), dr/dd = s e / l.
             let mut ga = [0.0; 3];
             let mut gb = [0.0; 3];
-            for (at_end, g) in [(false, a), (true, b)] {
+            for (at, g) in [(At::Start, a), (At::End, b)] {
                 let de = sub(g[p], g[q]);
                 let (l, pr) = (dot(de, de), dot(de, dx));
                 let r = s * pr / l;
@@ -99,11 +99,7 @@ impl Metric for RelativeIsometric {
                 let c = w2 * r;
                 let dg = scale(sub(scale(dx, 1.0 / l), scale(de, 2.0 * pr / (l * l))), s * c);
                 let dd = scale(de, s * c / l);
-                let (da, db) = if at_end {
-                    (scale(dd, -1.0), add(dg, dd))
-                } else {
-                    (sub(dg, dd), dd)
-                };
+                let (da, db) = split_segment(at, dg, dd);
                 ga = add(ga, da);
                 gb = add(gb, db);
             }
