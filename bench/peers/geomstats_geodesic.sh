@@ -30,7 +30,7 @@ fi
 # The pair, written by qcshape's demo geodesic (its end poses), and qcshape's own timing.
 RAYON_NUM_THREADS=1 ./target/release/qcshape geodesic --demo --demo-level "$level" \
     --metric "$metric" --steps $((nodes - 1)) --out "$work/path" --json > "$work/qcshape.json"
-last=$(printf 'pose_%03d.ply' $((nodes - 1)))
+last=$(printf 'pose%03d.ply' $((nodes - 1)))
 cat > "$work/peer.py" <<PY
 import json, os, time
 os.environ["GEOMSTATS_BACKEND"] = "pytorch"
