@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValue, StringValueParser, TypedValueParser};
 use qcshape::align::Alignment;
 use qcshape::dataset::Dataset;
-use qcshape::geodesic::{GeodesicOptions, Solver};
+use qcshape::geodesic::{Gauge, GeodesicOptions, Solver};
 use qcshape::metric::{
     ConformalForm, L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling, QcWeights,
 };
@@ -131,6 +131,8 @@ pub struct SolverArgs {
     pub steps: usize,
     #[arg(long, help = S::SOLVER.help(), default_value = S::SOLVER.default_text(), value_parser = choice::<Solver>())]
     pub solver: Solver,
+    #[arg(long, help = S::GAUGE.help(), default_value = S::GAUGE.default_text(), value_parser = choice::<Gauge>())]
+    pub gauge: Gauge,
     #[arg(long, help = S::TOLERANCE.help(), default_value = S::TOLERANCE.default_text(), value_parser = real(&S::TOLERANCE), allow_negative_numbers = true)]
     pub tolerance: f64,
     #[arg(long, help = S::ENERGY_TOLERANCE.help(), default_value = S::ENERGY_TOLERANCE.default_text(), value_parser = real(&S::ENERGY_TOLERANCE), allow_negative_numbers = true)]
@@ -145,6 +147,7 @@ impl SolverArgs {
         let g = GeodesicOptions {
             steps: self.steps,
             solver: self.solver,
+            gauge: self.gauge,
             gradient_tolerance: self.tolerance,
             energy_tolerance: self.energy_tolerance,
             length_tolerance: self.length_tolerance,

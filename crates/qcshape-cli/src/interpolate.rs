@@ -56,6 +56,8 @@ pub struct Args {
     template: crate::template::TemplateArgs,
     #[arg(long, help = qcshape::settings::SOLVER.help(), default_value = qcshape::settings::SOLVER.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Solver>())]
     solver: Solver,
+    #[arg(long, help = qcshape::settings::GAUGE.help(), default_value = qcshape::settings::GAUGE.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Gauge>())]
+    gauge: qcshape::geodesic::Gauge,
     #[arg(long, help = qcshape::settings::TOLERANCE.help(), default_value = qcshape::settings::TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::TOLERANCE), allow_negative_numbers = true)]
     tolerance: f64,
     #[arg(long, help = qcshape::settings::ENERGY_TOLERANCE.help(), default_value = qcshape::settings::ENERGY_TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::ENERGY_TOLERANCE), allow_negative_numbers = true)]
@@ -107,6 +109,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
     let metric = spec.build_scaled(&first.topology, &first.poses[0], factor)?;
     let geodesic = GeodesicOptions {
         solver: args.solver,
+        gauge: args.gauge,
         gradient_tolerance: args.tolerance,
         energy_tolerance: args.energy_tolerance,
         max_iterations: args.max_iterations,

@@ -531,7 +531,7 @@ pub fn run_pipeline(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, return_details=None, journal=None, resume=false, **options))]
 #[pyo3(
-    text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
+    text_signature = "(dataset, *, return_details=False, journal=None, resume=False, metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', gauge='linear', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn similarity_matrix<'py>(
@@ -633,7 +633,7 @@ fn pair_details<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, a, b, **options))]
 #[pyo3(
-    text_signature = "(dataset, a, b, *, metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
+    text_signature = "(dataset, a, b, *, metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', gauge='linear', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
 )]
 pub fn pair_contributions<'py>(
     py: Python<'py>,
@@ -694,7 +694,7 @@ pub fn pair_contributions<'py>(
 #[pyfunction]
 #[pyo3(signature = (dataset, *, measure="normal", scale="absolute", **options))]
 #[pyo3(
-    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
+    text_signature = "(dataset, *, measure='normal', scale='absolute', metric='isometric', form='quadratic', weights='endpoints', lam=0.01, metric_scale='invariant', stretch=0.1, bending=0.0001, qc_weights='rms', qc_floor=0.5, qc_smooth=0, l2_areas='frozen', steps=8, solver='preconditioned', gauge='linear', tolerance=1e-6, energy_tolerance=1e-12, length_tolerance=1e-8, insert=0, levels=1, transport='euclidean', align='rigid', smooth=None, smooth_length=0.18, base=None, approx='exact', threads=None, progress=None)"
 )]
 pub fn motion_maps<'py>(
     py: Python<'py>,

@@ -5,7 +5,7 @@
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use qcshape::geodesic::{GeodesicOptions, Solver};
+use qcshape::geodesic::{Gauge, GeodesicOptions, Solver};
 use qcshape::metric::{L2Areas, MetricKind, MetricScale, MetricSpec, QcNormalize, QcScaling};
 use qcshape::settings::{Id, Setting, Value};
 use qcshape::similarity::{PipelineOptions, Smoothing};
@@ -106,12 +106,13 @@ pub fn keyword_error(e: qcshape::limits::LimitError) -> PyErr {
     )
 }
 
-/// The solver keywords (the CLI's `--steps --solver --tolerance --energy-tolerance
+/// The solver keywords (the CLI's `--steps --solver --gauge --tolerance --energy-tolerance
 /// --length-tolerance`).
 #[derive(Debug, Clone, Default)]
 pub struct SolverKw {
     pub steps: Option<usize>,
     pub solver: Option<String>,
+    pub gauge: Option<String>,
     pub tolerance: Option<f64>,
     pub energy_tolerance: Option<f64>,
     pub length_tolerance: Option<f64>,
@@ -128,6 +129,11 @@ impl SolverKw {
             g.solver = s
                 .parse::<Solver>()
                 .map_err(|e| PyValueError::new_err(format!("solver: {e}")))?;
+        }
+        if let Some(s) = &self.gauge {
+            g.gauge = s
+                .parse::<Gauge>()
+                .map_err(|e| PyValueError::new_err(format!("gauge: {e}")))?;
         }
         if let Some(t) = self.tolerance {
             g.gradient_tolerance = t;
@@ -259,6 +265,7 @@ impl PipelineKw {
             Id::L2Areas => self.metric.l2_areas = Some(text()?),
             Id::Steps => self.solver.steps = Some(count()?),
             Id::Solver => self.solver.solver = Some(text()?),
+            Id::Gauge => self.solver.gauge = Some(text()?),
             Id::Tolerance => self.solver.tolerance = Some(real()?),
             Id::EnergyTolerance => self.solver.energy_tolerance = Some(real()?),
             Id::LengthTolerance => self.solver.length_tolerance = Some(real()?),

@@ -189,7 +189,9 @@ geodesic_methods! {
 /// each face's area; 0.1, 0 = none); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5),
 /// ``qc_smooth`` (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
 /// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
-/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker; ``tolerance`` (1e-6) and
+/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker;
+/// ``gauge`` linear (the interior poses keep the linear interpolation's rigid placement; the
+/// default) | free; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
 /// ``pairwise_distances`` and ``similarity``, stop once the length has settled; 0 = off);
 /// ``n_vertices`` (default: a mesh object's vertex count, else the reference's, else the
@@ -341,8 +343,8 @@ impl PyShapeSpace {
     #[new]
     #[pyo3(signature = (faces, metric=None, *, form=None, weights=None, lam=None, l2_areas=None,
         metric_scale=None, stretch=None, bending=None, qc_weights=None, qc_floor=None, qc_smooth=None,
-        steps=None, solver=None, tolerance=None, energy_tolerance=None, length_tolerance=None,
-        reference=None, scale=None, n_vertices=None))]
+        steps=None, solver=None, gauge=None, tolerance=None, energy_tolerance=None,
+        length_tolerance=None, reference=None, scale=None, n_vertices=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         faces: &Bound<'_, PyAny>,
@@ -359,6 +361,7 @@ impl PyShapeSpace {
         qc_smooth: Option<AnyInt>,
         steps: Option<AnyInt>,
         solver: Option<String>,
+        gauge: Option<String>,
         tolerance: Option<f64>,
         energy_tolerance: Option<f64>,
         length_tolerance: Option<f64>,
@@ -395,6 +398,7 @@ impl PyShapeSpace {
             qc_smooth,
             steps,
             solver,
+            gauge,
             tolerance,
             energy_tolerance,
             length_tolerance
@@ -428,6 +432,7 @@ impl PyShapeSpace {
         let geo = SolverKw {
             steps,
             solver,
+            gauge,
             tolerance,
             energy_tolerance,
             length_tolerance,

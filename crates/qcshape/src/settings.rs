@@ -18,7 +18,7 @@
 use std::sync::OnceLock;
 
 use crate::align::Alignment;
-use crate::geodesic::{GeodesicOptions, Solver};
+use crate::geodesic::{Gauge, GeodesicOptions, Solver};
 use crate::limits::{
     MAX_INSERT, MAX_LAMBDA, MAX_LEVELS, MAX_SMOOTH_LENGTH, MAX_STEPS, MAX_SWEEPS, MAX_TOLERANCE,
 };
@@ -78,6 +78,8 @@ pub enum Id {
     Steps,
     /// `--solver`.
     Solver,
+    /// `--gauge`.
+    Gauge,
     /// `--tolerance`.
     Tolerance,
     /// `--energy-tolerance`.
@@ -168,6 +170,7 @@ named!(MetricKind: MetricKind::L2, MetricKind::Rigid, MetricKind::Isometric, Met
 named!(ConformalForm: ConformalForm::Quadratic, ConformalForm::Paper);
 named!(QcWeights: QcWeights::Endpoints, QcWeights::Segment);
 named!(MetricScale: MetricScale::Invariant, MetricScale::Calibrated, MetricScale::Raw);
+named!(Gauge: Gauge::Linear, Gauge::Free);
 named!(Solver: Solver::Preconditioned, Solver::HessianKronecker, Solver::PoseKronecker, Solver::Newton,
     Solver::GaussNewton, Solver::LevenbergMarquardt, Solver::Lbfgs, Solver::PlainLbfgs);
 named!(Transport: Transport::Translate, Transport::Parallel, Transport::Schild);
@@ -413,6 +416,21 @@ pub const SOLVER: Setting = Setting {
     default: || Some(solver().solver.label().to_string()),
 };
 
+/// `--gauge`.
+pub const GAUGE: Setting = Setting {
+    id: Id::Gauge,
+    key: "gauge",
+    python: "gauge",
+    python_alias: None,
+    group: Group::Solver,
+    about: "Rigid placement of the geodesic's interior poses, which the path energy barely charges: \
+            linear (each keeps the rigid placement of the linear interpolation of the ends, to first \
+            order: no solver-dependent turn of the middle poses; applied by the preconditioned L-BFGS \
+            solvers) or free (wherever the solver stops, the releases before 2026-12-07)",
+    value: Value::Choice(names::<Gauge>),
+    default: || Some(solver().gauge.label().to_string()),
+};
+
 /// `--tolerance`.
 pub const TOLERANCE: Setting = Setting {
     id: Id::Tolerance,
@@ -587,6 +605,7 @@ pub const SETTINGS: &[Setting] = &[
     L2_AREAS,
     STEPS,
     SOLVER,
+    GAUGE,
     TOLERANCE,
     ENERGY_TOLERANCE,
     LENGTH_TOLERANCE,

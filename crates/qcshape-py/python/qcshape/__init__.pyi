@@ -44,6 +44,7 @@ class _PipelineOptions(TypedDict, total=False):
     l2_areas: Optional[str]  # frozen | pose; default frozen
     steps: Optional[int]  # default 8
     solver: Optional[str]  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+    gauge: Optional[str]  # linear | free; default linear
     tolerance: Optional[float]  # default 0.000001
     energy_tolerance: Optional[float]  # default 0.000000000001
     length_tolerance: Optional[float]  # default 0.00000001
@@ -175,6 +176,7 @@ class ShapeSpace:
         l2_areas: Optional[str] = None,  # frozen | pose; default frozen
         steps: Optional[int] = None,  # default 8
         solver: Optional[str] = None,  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+        gauge: Optional[str] = None,  # linear | free; default linear
         tolerance: Optional[float] = None,  # default 0.000001
         energy_tolerance: Optional[float] = None,  # default 0.000000000001
         length_tolerance: Optional[float] = None,  # default 0.00000001

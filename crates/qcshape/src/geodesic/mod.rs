@@ -40,6 +40,7 @@
 mod compact;
 pub mod defaults;
 mod energy;
+mod gauge;
 mod hessian;
 mod interpolate;
 mod kronecker;
@@ -67,7 +68,7 @@ pub use interpolate::{
     insertion_schedule, interpolate_middle, interpolate_sequence, Interpolated, InterpolationError,
     InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation, PairStats,
 };
-pub use options::{GeodesicOptions, Monitor, MonitorFn, Solver, StopReason};
+pub use options::{Gauge, GeodesicOptions, Monitor, MonitorFn, Solver, StopReason};
 
 use crate::mesh::{geometry, MeshError, Shape, Topology};
 use crate::metric::{At, CalibrationError, Metric, MetricSpec, Segment};
@@ -101,7 +102,9 @@ pub struct Geodesic {
     pub converged: bool,
     /// Why it stopped.
     pub stop: StopReason,
-    /// Norm of the energy gradient at the solution.
+    /// Norm of the energy gradient at the solution; with the rigid gauge
+    /// ([`Gauge::Linear`], the preconditioned L-BFGS solvers) the gradient projected onto the
+    /// gauge's subspace (the constraints' own force, the rigid part, left out).
     pub gradient_norm: f64,
     /// The factor all coordinates were multiplied by before solving (1 if not normalized).
     pub scale: f64,

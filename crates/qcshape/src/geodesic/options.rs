@@ -157,6 +157,51 @@ impl Solver {
 }
 
 /// Iterations per `sqrt(#V)` of the preconditioned L-BFGS solvers' default limit
+/// Where the interior poses' rigid placement comes from (docs/method.md "Rigid gauge").
+///
+/// The path energy charges a rigid motion of an interior pose only through the L2 regularizer
+/// and second-order parts of the membrane terms (the bending term not at all), so it barely
+/// decides how the middle poses are placed: on the paper's Fig. 4 deformations (162 vertices)
+/// the solver left them turned by 3-16 degrees against the truth, and on the real left
+/// ventricle by 1.3 degrees, enough to double the interpolation error (docs/log/bending.md
+/// "Rigid gauge").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Gauge {
+    /// Every interior pose `P_i` keeps the rigid placement of the linear interpolation
+    /// `L_i = (1 - i/N) P_0 + (i/N) P_N` to first order: the translation and infinitesimal
+    /// rotation that best map `P_i - L_i` to zero vanish (`sum_v (P_i - L_i)_v = 0`,
+    /// `sum_v (L_i - c_i) x (P_i - L_i)_v = 0`). Linear constraints fixed by the ends: every
+    /// start path ends at the same geodesic. The preconditioned L-BFGS solvers (the default,
+    /// `hessian-kronecker`, `pose-kronecker`, `plain-lbfgs`) apply it; the others solve free.
+    /// The default.
+    #[default]
+    Linear,
+    /// No constraint: the interior poses' rigid placement is whatever the solver reaches (the
+    /// releases before 2026-12-07).
+    Free,
+}
+
+impl Gauge {
+    /// The command-line value.
+    pub fn label(self) -> &'static str {
+        match self {
+            Gauge::Linear => "linear",
+            Gauge::Free => "free",
+        }
+    }
+}
+
+impl std::str::FromStr for Gauge {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "linear" => Ok(Gauge::Linear),
+            "free" => Ok(Gauge::Free),
+            _ => Err(format!("unknown gauge '{s}' (expected linear or free)")),
+        }
+    }
+}
+
 /// ([`Solver::iteration_limit_for`]): 1.5 x the most measured (the conformal geodesic of the
 /// twisted sphere at 10,242 vertices: 4,058 iterations, 40 per `sqrt(#V)`).
 pub const ITERATIONS_PER_SQRT_VERTEX: f64 = 60.0;
@@ -168,6 +213,8 @@ pub struct GeodesicOptions {
     pub steps: usize,
     /// The optimizer. Default [`Solver::Preconditioned`].
     pub solver: Solver,
+    /// How the interior poses' rigid placement is fixed. Default [`Gauge::Linear`].
+    pub gauge: Gauge,
     /// Iteration limit of the solver; `None` (the default): the solver's own limit on the mesh,
     /// [`Solver::iteration_limit_for`] (100 outer steps for the Gauss-Newton family; for the
     /// preconditioned L-BFGS 1,000, or 60 `sqrt(#V)` on meshes above 278 vertices; 5,000 for the
@@ -286,6 +333,7 @@ impl Default for GeodesicOptions {
         GeodesicOptions {
             steps: super::defaults::STEPS,
             solver: super::defaults::SOLVER,
+            gauge: Gauge::Linear,
             max_iterations: None,
             gradient_tolerance: super::defaults::TOLERANCE,
             energy_tolerance: super::defaults::ENERGY_TOLERANCE,

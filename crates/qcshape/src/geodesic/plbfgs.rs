@@ -18,6 +18,11 @@
 //! `J^T J` per interior pose and vertex, refitted with the model
 //! ([`GeodesicOptions::vertex_block_weight`]).
 //!
+//! With [`super::Gauge::Linear`] (the default) the start is moved onto the rigid gauge's
+//! affine subspace and every gradient and preconditioned vector is projected onto it
+//! ([`super::gauge`]): the iteration is L-BFGS on that subspace, with the preconditioner
+//! `Pi H0 Pi` (`Pi` the orthogonal projector), positive definite there.
+//!
 //! [`super::Solver::PoseKronecker`] runs the same iteration with the pose-wise model
 //! ([`super::pose_kronecker`]) in place of `T_c (x) A`: each interior pose's own spatial block.
 
@@ -206,7 +211,21 @@ pub(crate) fn minimize<'l>(
     let mut x = x0[..np].to_vec();
     let mut g = vec![0.0; np];
     let (mut seg, mut seg_new) = (vec![0.0; pe.steps()], vec![0.0; pe.steps()]);
+    // The rigid gauge (docs/method.md "Rigid gauge"): the start moved onto its subspace, and
+    // every gradient and preconditioned direction projected onto it, so that the iterates, the
+    // steps and the secant pairs stay there.
+    let gauge = (opts.gauge == super::Gauge::Linear && np > 0)
+        .then(|| super::gauge::RigidGauge::new(ends, pe.steps()));
+    let project = |v: &mut [f64]| {
+        if let Some(gauge) = &gauge {
+            gauge.project(v);
+        }
+    };
+    if let Some(gauge) = &gauge {
+        gauge.constrain(&mut x);
+    }
     let mut e = eval(pe, ends, &x, &mut ev, &mut g, &mut seg);
+    project(&mut g);
     if !e.is_finite() {
         return Err(GeodesicError::NonFinite {
             what: "initial energy",
@@ -243,6 +262,7 @@ pub(crate) fn minimize<'l>(
         z.clear();
         z.extend_from_slice(v);
         pre.apply(z);
+        project(z);
     };
     let mut mg = Vec::with_capacity(np);
     precondition(&mut pre, &g, &mut mg);
@@ -295,7 +315,10 @@ pub(crate) fn minimize<'l>(
             let old = std::mem::replace(&mut pre, fresh);
             pre.take_scratch(old);
             precondition(&mut pre, &g, &mut mg);
-            hist.reset_preconditioner(&g, |z| pre.apply(z));
+            hist.reset_preconditioner(&g, |z| {
+                pre.apply(z);
+                project(z);
+            });
         }
         hist.direction(&mg, gamma, &mut d);
         let mut slope = dot(&g, &d);
@@ -314,6 +337,7 @@ pub(crate) fn minimize<'l>(
                 *xi = a + t * b;
             }
             let en = eval(pe, ends, &xn, &mut ev, &mut gn, &mut seg_new);
+            project(&mut gn);
             if en.is_finite() && en <= e + 1e-4 * t * slope {
                 break Some(en);
             }
