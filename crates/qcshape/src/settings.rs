@@ -140,7 +140,8 @@ pub struct Setting {
     /// The options struct that holds it.
     pub group: Group,
     /// Its help text (`--help`, the `.pyi`, docs/defaults.md), without the range, which
-    /// [`Setting::help`] appends.
+    /// [`Setting::help`] appends (and, for `--metric`, without the metrics' names, which it
+    /// appends from [`crate::metric::METRICS`]).
     pub about: &'static str,
     /// The kind and range of its value.
     pub value: Value,
@@ -165,8 +166,6 @@ macro_rules! named {
         }
     };
 }
-named!(MetricKind: MetricKind::L2, MetricKind::Rigid, MetricKind::Isometric, MetricKind::Conformal,
-    MetricKind::QuasiConformal);
 named!(ConformalForm: ConformalForm::Quadratic, ConformalForm::Paper);
 named!(QcWeights: QcWeights::Endpoints, QcWeights::Segment);
 named!(MetricScale: MetricScale::Invariant, MetricScale::Calibrated, MetricScale::Raw);
@@ -236,7 +235,8 @@ pub const METRIC: Setting = Setting {
     python: "metric",
     python_alias: None,
     group: Group::Metric,
-    about: "Metric: l2, rigid, isometric, conformal, quasi-conformal",
+    // `Setting::help` appends the names, from the registry (`crate::metric::METRICS`).
+    about: "Metric",
     value: Value::Choice(names::<MetricKind>),
     default: || Some(metric().kind.label().to_string()),
 };
@@ -672,6 +672,10 @@ impl Setting {
             Value::Real { max } if max >= 1e4 => format!("{}. At most {max:e}", self.about),
             Value::Real { max } => format!("{}. At most {max}", self.about),
             Value::Count { max, .. } => format!("{}. At most {}", self.about, grouped(max)),
+            // The metrics' names come from their registry, not from a list in the text.
+            Value::Choice(_) if self.id == Id::Metric => {
+                format!("{}: {}", self.about, self.choices().join(", "))
+            }
             Value::Choice(_) | Value::Name => self.about.to_string(),
         }
     }
@@ -809,6 +813,24 @@ mod tests {
             Some("0.18")
         );
         PipelineOptions::default().validate(1).unwrap();
+    }
+
+    /// The metric registry names settings by their keys: each is a metric setting of the table.
+    #[test]
+    fn the_metric_registry_names_settings_of_the_table() {
+        use crate::metric::{Weight, METRICS};
+        for m in METRICS {
+            for key in m.settings {
+                let s = by_key(key).unwrap_or_else(|| panic!("{}: {key}", m.name));
+                assert_eq!(s.group, Group::Metric, "{}: {key}", m.name);
+            }
+            for t in m.terms {
+                if let Weight::Setting(key) = t.weight {
+                    assert!(by_key(key).is_some(), "{}: {key}", m.name);
+                }
+            }
+        }
+        assert_eq!(METRIC.choices(), MetricKind::ALL.map(|k| k.label()));
     }
 
     #[test]

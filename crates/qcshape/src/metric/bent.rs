@@ -1,9 +1,10 @@
 //! A membrane metric plus the bending term ([`Bent`]).
 
+use super::kind::EnergyPart;
 use super::pattern::PatternRef;
 use super::relative::{RelativeBending, PER_FACE};
 use super::segment::Segment;
-use super::sum::{EnergyPart, Term, TermSum};
+use super::sum::{Term, TermSum};
 use super::traits::Metric;
 use crate::mesh::Topology;
 

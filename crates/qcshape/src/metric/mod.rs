@@ -47,7 +47,10 @@ pub use bent::Bent;
 pub use conformal::{Conformal, ConformalForm};
 pub use gradient::{GradientSink, PoseShare, Scratch, SegmentSink};
 pub use isometric::Isometric;
-pub use kind::{L2Areas, MetricKind, MetricScale, QcScaling};
+pub use kind::{
+    EnergyPart, L2Areas, MetricInfo, MetricKind, MetricScale, MetricTerm, QcScaling, TermInfo, TermKind,
+    UnknownName, Weight, METRICS, TERMS,
+};
 pub use l2::{FrozenL2, L2};
 pub use pattern::{Jacobian, JacobianMut, Pattern, PatternRef};
 pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
@@ -58,7 +61,7 @@ pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;
 pub use segment::{At, Segment};
 pub use spec::{Calibration, CalibrationError, MetricSpec};
-pub use sum::{EnergyPart, Term, TermSum};
+pub use sum::{Term, TermSum};
 pub use traits::{
     gradient_from_jacobian, residuals_at_best_aux, segment_gradient_per_term, squared_norm_from_residuals,
     Metric,

@@ -1,9 +1,10 @@
 //! A metric plus the L2 regularizer of eq. 11 ([`Regularized`]).
 
+use super::kind::EnergyPart;
 use super::l2::{FrozenL2, L2};
 use super::relative::{RelativeL2, PER_FACE};
 use super::segment::Segment;
-use super::sum::{EnergyPart, Term, TermSum};
+use super::sum::{Term, TermSum};
 use super::traits::Metric;
 use crate::mesh::Topology;
 

@@ -5,7 +5,7 @@ use thiserror::Error;
 use super::bent::Bent;
 use super::conformal::{Conformal, ConformalForm};
 use super::isometric::Isometric;
-use super::kind::{L2Areas, MetricKind, MetricScale, QcScaling};
+use super::kind::{L2Areas, MetricKind, MetricScale, QcScaling, TermKind};
 use super::l2::{FrozenL2, L2};
 use super::quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
 use super::regularized::Regularized;
@@ -119,7 +119,7 @@ impl MetricSpec {
         non_negative("lambda", self.lambda, MAX_LAMBDA)?;
         non_negative("stretch", self.stretch, MAX_LAMBDA)?;
         non_negative("bending", self.bending, MAX_LAMBDA)?;
-        if self.relative() && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal) {
+        if self.relative() && self.kind.takes("form") {
             let unsupported = |what: &str, value: &str| crate::limits::LimitError::Unsupported {
                 what: what.into(),
                 value: value.into(),
@@ -128,7 +128,7 @@ impl MetricSpec {
             if self.form != ConformalForm::Quadratic {
                 return Err(unsupported("form", self.form.label()));
             }
-            if self.kind == MetricKind::QuasiConformal && self.weights != QcWeights::Endpoints {
+            if self.kind.takes("weights") && self.weights != QcWeights::Endpoints {
                 return Err(unsupported("weights", self.weights.label()));
             }
         }
@@ -145,16 +145,14 @@ impl MetricSpec {
     /// term charges them), where geodesics are not unique (docs/method.md "Metrics", the
     /// regularization item).
     pub fn warning(&self) -> Option<String> {
-        (self.lambda == 0.0 && matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal)).then(
-            || {
-                format!(
-                    "lambda = 0 leaves the {} metric's null space free (rigid motions, conformal \
+        (self.lambda == 0.0 && self.kind.info().needs_regularizer).then(|| {
+            format!(
+                "lambda = 0 leaves the {} metric's null space free (rigid motions, conformal \
                  fields, and scalings unless --stretch charges them): geodesics are not unique \
                  (docs/method.md \"Metrics\")",
-                    self.kind.label()
-                )
-            },
-        )
+                self.kind.label()
+            )
+        })
     }
 
     /// Defaults: quadratic form, endpoint weights normalized as [`super::defaults::QC_NORMALIZE`],
@@ -201,44 +199,53 @@ impl MetricSpec {
     }
 
     /// The one readable description of the metric, printed by the command line, the reports
-    /// and Python's `ShapeSpace.metric`: its name and every setting that applies to it by its
+    /// and Python's `ShapeSpace.metric`: its name and every setting that applies to it (its
+    /// registry entry's [`super::MetricInfo::settings`], those that matter on its scale) by its
     /// option name ([`crate::settings::SETTINGS`]), numbers in one plain format
     /// ([`crate::numfmt::plain`]), e.g. `"quasi-conformal (stretch 0.1, bending 0.0001, qc-weights rms, qc-floor 0.5,
     /// qc-smooth 0, lambda 0.01, l2-areas frozen, scale invariant)"`. Not the built metric's
     /// [`Metric::name`], whose factors depend on the data (`1.6e-10*l2(frozen)`).
     pub fn label(&self) -> String {
         let mut parts: Vec<String> = Vec::new();
-        let conformal = matches!(self.kind, MetricKind::Conformal | MetricKind::QuasiConformal);
-        if conformal && !self.relative() {
-            parts.push(format!("form {}", self.form.label()));
-        }
-        if conformal && self.relative() {
-            parts.push(format!("stretch {}", crate::numfmt::plain(self.stretch)));
-        }
-        if self.relative() {
-            parts.push(format!("bending {}", crate::numfmt::plain(self.bending)));
-        }
-        if self.kind == MetricKind::QuasiConformal {
-            if !self.relative() {
-                parts.push(format!("weights {}", self.weights.label()));
-            }
-            match self.qc_normalize {
-                Some(q) => {
-                    parts.push("qc-weights rms".into());
-                    parts.push(format!("qc-floor {}", crate::numfmt::plain(q.floor)));
-                    parts.push(format!("qc-smooth {}", q.smooth));
+        let relative = self.relative();
+        // The settings that apply to the metric (its registry entry), those that matter on this
+        // scale.
+        for &key in self.kind.info().settings {
+            match key {
+                "form" if !relative => parts.push(format!("form {}", self.form.label())),
+                "stretch" if relative => {
+                    parts.push(format!("stretch {}", crate::numfmt::plain(self.stretch)))
                 }
-                None => parts.push("qc-weights raw".into()),
+                "bending" if relative => {
+                    parts.push(format!("bending {}", crate::numfmt::plain(self.bending)))
+                }
+                "weights" if !relative => parts.push(format!("weights {}", self.weights.label())),
+                "qc-weights" => parts.push(
+                    match self.qc_normalize {
+                        Some(_) => "qc-weights rms",
+                        None => "qc-weights raw",
+                    }
+                    .into(),
+                ),
+                "qc-floor" => {
+                    if let Some(q) = self.qc_normalize {
+                        parts.push(format!("qc-floor {}", crate::numfmt::plain(q.floor)));
+                    }
+                }
+                "qc-smooth" => {
+                    if let Some(q) = self.qc_normalize {
+                        parts.push(format!("qc-smooth {}", q.smooth));
+                    }
+                }
+                "lambda" => parts.push(format!("lambda {}", crate::numfmt::plain(self.lambda))),
+                "l2-areas" if self.lambda > 0.0 && self.kind.takes("lambda") => {
+                    let areas = if self.frozen_areas { "frozen" } else { "pose" };
+                    parts.push(format!("l2-areas {areas}"));
+                }
+                "scale" => parts.push(format!("scale {}", self.scale.label())),
+                _ => {}
             }
         }
-        if self.kind != MetricKind::L2 {
-            parts.push(format!("lambda {}", crate::numfmt::plain(self.lambda)));
-            if self.lambda > 0.0 {
-                let areas = if self.frozen_areas { "frozen" } else { "pose" };
-                parts.push(format!("l2-areas {areas}"));
-            }
-        }
-        parts.push(format!("scale {}", self.scale.label()));
         format!("{} ({})", self.kind.label(), parts.join(", "))
     }
 
@@ -316,11 +323,17 @@ impl MetricSpec {
     /// metrics keep their calibrated forms there: they are the flat baselines (L2 geodesics
     /// are straight lines), and measure displacement, not its rate relative to the shape.
     fn relative(&self) -> bool {
-        self.scale == MetricScale::Invariant
-            && matches!(
-                self.kind,
-                MetricKind::Isometric | MetricKind::Conformal | MetricKind::QuasiConformal
-            )
+        self.scale == MetricScale::Invariant && self.kind.info().invariant_form
+    }
+
+    /// Whether the metric has `term` on its scale ([`MetricKind::has_term`], without the terms
+    /// only the invariant scale has on the others).
+    fn has(&self, term: TermKind) -> bool {
+        self.kind
+            .info()
+            .terms
+            .iter()
+            .any(|t| t.term == term && (!t.invariant_only || self.relative()))
     }
 
     /// The metric without regularizer or factors.
@@ -388,10 +401,10 @@ impl MetricSpec {
             }
         };
         let mut inner = scaled(self.inner(), cal.geometric);
-        if self.relative() && self.bending > 0.0 {
+        if self.has(TermKind::Bending) && self.bending > 0.0 {
             inner = Box::new(Bent::new(inner, self.bending));
         }
-        if self.kind == MetricKind::L2 {
+        if !self.kind.takes("lambda") {
             return inner;
         }
         if self.lambda > 0.0 {
@@ -592,11 +605,7 @@ mod tests {
             let pat = m.pattern(topo);
             m.segment_energy_parts(topo, pat.as_ref(), [&seg(At::Start), &seg(At::End)])
         };
-        for kind in [
-            MetricKind::Isometric,
-            MetricKind::Conformal,
-            MetricKind::QuasiConformal,
-        ] {
+        for kind in MetricKind::ALL.into_iter().filter(|k| k.info().invariant_form) {
             let spec = MetricSpec::new(kind);
             assert_eq!(spec.scale, MetricScale::Invariant);
             let relative = MetricSpec {

@@ -6,6 +6,7 @@
 use std::fmt::Debug;
 
 use super::gradient::{GradientSink, PoseShare, Scratch, SegmentSink};
+use super::kind::EnergyPart;
 use super::pattern::{JacobianMut, Pattern, PatternRef};
 use super::second_order::SecondOrderSink;
 use super::segment::Segment;
@@ -65,17 +66,6 @@ fn join_frozen(first: Option<Vec<f64>>, second: Option<Vec<f64>>) -> Option<Vec<
         }
         (a, b) => a.or(b),
     }
-}
-
-/// The part of the path energy a [`TermSum`]'s added term is reported in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EnergyPart {
-    /// The regularizer (eq. 11's L2 term): the second value of
-    /// [`Metric::segment_energy_parts`], so the path's regularizer energy.
-    Regularizer,
-    /// The bending term: geometric in [`Metric::segment_energy_parts`], and the value of
-    /// [`Metric::segment_bending_energy`].
-    Bending,
 }
 
 /// The term a [`TermSum`] adds to its inner metric: a metric without auxiliary unknowns, whose
@@ -497,7 +487,7 @@ impl<T: Term> Metric for TermSum<T> {
             .inner
             .segment_bending_energy(topo, self.inner_rows(topo, pattern), [&s0, &s1]);
         match self.term.part() {
-            EnergyPart::Regularizer => inner,
+            EnergyPart::Geometric | EnergyPart::Regularizer => inner,
             EnergyPart::Bending => inner + self.term_energy(topo, pattern, segs),
         }
     }
@@ -513,7 +503,7 @@ impl<T: Term> Metric for TermSum<T> {
         let norms = [v_in[0] + v_t[0], v_in[1] + v_t[1]];
         let parts = match self.term.part() {
             EnergyPart::Regularizer => [v_in[0] + v_in[1], v_t[0] + v_t[1]],
-            EnergyPart::Bending => [norms[0] + norms[1], 0.0],
+            EnergyPart::Geometric | EnergyPart::Bending => [norms[0] + norms[1], 0.0],
         };
         (norms, parts)
     }
