@@ -41,7 +41,11 @@ pub(crate) fn choice<T>() -> Choice<T> {
     Choice(std::marker::PhantomData)
 }
 
-impl<T: Named + std::str::FromStr<Err = String> + Clone + Send + Sync> TypedValueParser for Choice<T> {
+impl<T> TypedValueParser for Choice<T>
+where
+    T: Named + std::str::FromStr + Clone + Send + Sync,
+    T::Err: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
+{
     type Value = T;
     fn parse_ref(
         &self,
@@ -56,6 +60,13 @@ impl<T: Named + std::str::FromStr<Err = String> + Clone + Send + Sync> TypedValu
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
         Some(Box::new(T::ALL.iter().map(|v| PossibleValue::new(v.name()))))
     }
+}
+
+/// The names of `kinds`, comma-separated, as the default value of a list of metrics
+/// (`--metrics`): clap takes a `&'static str`, so the text is kept for the program's life (one
+/// per list, built once with the command line).
+pub(crate) fn metric_list(kinds: &[MetricKind]) -> &'static str {
+    Box::leak(MetricKind::list(kinds).into_boxed_str())
 }
 
 /// The metric (docs/method.md "Metrics") and its variants.

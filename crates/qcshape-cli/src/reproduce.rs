@@ -59,16 +59,18 @@ pub struct Args {
     /// Skip Table 3.
     #[arg(long)]
     skip_noise: bool,
-    /// Metrics of Table 1 (l2, a baseline the paper does not report, last).
+    /// Metrics of Table 1 (default: every metric; l2, a baseline the paper does not report,
+    /// last).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "rigid,isometric,conformal,quasi-conformal,l2"
+        default_value = crate::args::metric_list(&qcshape_studies::experiment::reproduce::table1_metrics()),
+        value_parser = crate::args::choice::<MetricKind>()
     )]
     metrics: Vec<MetricKind>,
     /// Metrics of Table 3 (comma-separated), each one of --metrics (default: every metric of
     /// --metrics; each costs a Table 1 run per noise level and kind).
-    #[arg(long, alias = "noise-metric", value_delimiter = ',')]
+    #[arg(long, alias = "noise-metric", value_delimiter = ',', value_parser = crate::args::choice::<MetricKind>())]
     noise_metrics: Vec<MetricKind>,
     #[arg(long, help = S::LAMBDA.help(), default_value = S::LAMBDA.default_text(), value_parser = real(&S::LAMBDA), allow_negative_numbers = true)]
     lambda: f64,

@@ -23,11 +23,12 @@ use crate::args::{in_pool, SolverArgs, VariantArgs};
     long_about
 )]
 pub struct Args {
-    /// Metrics (comma-separated).
+    /// Metrics (comma-separated; default: every metric).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "l2,rigid,isometric,conformal,quasi-conformal"
+        default_value = crate::args::metric_list(&MetricKind::ALL),
+        value_parser = crate::args::choice::<MetricKind>()
     )]
     metrics: Vec<MetricKind>,
     /// Values of --lambda, each run with every metric (comma-separated; default: --lambda).

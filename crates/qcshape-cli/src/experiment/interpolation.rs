@@ -51,11 +51,12 @@ pub struct Args {
     /// Relative amplitude jitter of the built-in benchmark.
     #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     jitter: f64,
-    /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
+    /// Metrics compared (comma-separated; default: Fig. 4's).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "quasi-conformal,conformal,isometric,l2"
+        default_value = crate::args::metric_list(&qcshape_studies::experiment::interpolation::FIG4_METRICS),
+        value_parser = crate::args::choice::<MetricKind>()
     )]
     metrics: Vec<MetricKind>,
     #[command(flatten)]

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use qcshape::align::Alignment;
-use qcshape::metric::{MetricKind, MetricSpec};
+use qcshape::metric::{MetricKind, MetricSpec, TermKind};
 use qcshape::similarity::{PipelineOptions, Smoothing};
 use qcshape::synth::InitialShape;
 use qcshape_studies::experiment::robustness::{run, Baseline, Method, RobustnessOptions, Scenario};
@@ -42,11 +42,12 @@ pub struct Args {
     /// At most 8.
     #[arg(long, value_delimiter = ',', default_value = "2", value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: Vec<u32>,
-    /// Metrics compared (comma-separated): l2, rigid, isometric, conformal, quasi-conformal.
+    /// Metrics compared (comma-separated; default: every metric).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "l2,rigid,isometric,conformal,quasi-conformal"
+        default_value = crate::args::metric_list(&MetricKind::ALL),
+        value_parser = crate::args::choice::<MetricKind>()
     )]
     metrics: Vec<MetricKind>,
     /// Taubin smoothing iterations of the pipeline's poses (comma-separated: every metric is run
@@ -151,7 +152,8 @@ pub fn run_command(args: &Args) -> Result<()> {
         pipeline_with(spec(kind, bendings[0]), align, smoothing)
     };
     let mut methods: Vec<Method> = Baseline::all().into_iter().map(Method::Baseline).collect();
-    let bends = |kind: MetricKind| matches!(kind, MetricKind::L2 | MetricKind::Rigid);
+    // Metrics without a bending term (registry: L2 and rigid) run once, at the first value.
+    let bends = |kind: MetricKind| !kind.has_term(TermKind::Bending);
     for kind in &args.metrics {
         for &s in &smooth {
             let name = if smooth.len() > 1 {

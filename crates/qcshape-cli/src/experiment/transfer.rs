@@ -26,11 +26,12 @@ pub struct Args {
     /// At most 8.
     #[arg(long, default_value_t = 2, value_parser = crate::bounds::count::<u32>(0, qcshape::limits::MAX_ICOSPHERE_LEVEL as u64), allow_negative_numbers = true)]
     level: u32,
-    /// Metrics, comma-separated: l2, rigid, isometric, conformal, quasi-conformal.
+    /// Metrics, comma-separated (default: Fig. 5's).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "quasi-conformal,isometric,conformal"
+        default_value = crate::args::metric_list(&qcshape_studies::experiment::transfer::FIG5_METRICS),
+        value_parser = crate::args::choice::<MetricKind>()
     )]
     metrics: Vec<MetricKind>,
     /// Transports, comma-separated: parallel, schild, euclidean.

@@ -59,18 +59,20 @@ pub struct InterpolationExperiment {
     pub showcase: Option<String>,
 }
 
+/// The metrics of Fig. 4, in its order (the default of [`InterpolationExperiment::metrics`] and
+/// of `qcshape experiment interpolation --metrics`): a selection of the registry
+/// ([`qcshape::metric::METRICS`]), the rigid metric left out as in the paper.
+pub const FIG4_METRICS: [MetricKind; 4] = [
+    MetricKind::QuasiConformal,
+    MetricKind::Conformal,
+    MetricKind::Isometric,
+    MetricKind::L2,
+];
+
 impl Default for InterpolationExperiment {
     fn default() -> Self {
         InterpolationExperiment {
-            metrics: [
-                MetricKind::QuasiConformal,
-                MetricKind::Conformal,
-                MetricKind::Isometric,
-                MetricKind::L2,
-            ]
-            .into_iter()
-            .map(MetricSpec::new)
-            .collect(),
+            metrics: FIG4_METRICS.into_iter().map(MetricSpec::new).collect(),
             insert: 1,
             levels: 1,
             geodesic: GeodesicOptions::default(),
@@ -191,17 +193,6 @@ pub struct LeaveOneOutReport {
     pub scale: f64,
 }
 
-/// The short name of a metric kind (`quasi-conformal`, `conformal`, ...).
-pub fn kind_name(kind: MetricKind) -> &'static str {
-    match kind {
-        MetricKind::L2 => "l2",
-        MetricKind::Rigid => "rigid",
-        MetricKind::Isometric => "isometric",
-        MetricKind::Conformal => "conformal",
-        MetricKind::QuasiConformal => "quasi-conformal",
-    }
-}
-
 /// One prediction task: predict `pose` of deformation `def` from poses `from` and `to`.
 struct Task<'a> {
     def: &'a Deformation,
@@ -228,7 +219,7 @@ impl InterpolationExperiment {
                 if dup {
                     m.label()
                 } else {
-                    kind_name(m.kind).to_string()
+                    m.kind.label().to_string()
                 }
             })
             .collect();

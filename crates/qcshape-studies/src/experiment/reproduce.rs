@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::classification::{classify_set, score, ClassificationError, Classified, Scores};
-use super::interpolation::InterpolationExperiment;
+use super::interpolation::{InterpolationExperiment, FIG4_METRICS};
 use super::provenance::Provenance;
 use super::transfer::TransferExperiment;
 use crate::plot::PlotError;
@@ -130,8 +130,8 @@ pub struct Reproduction {
 impl Reproduction {
     /// The full settings: level 2 (162 vertices), [`defaults::PAPER_INSERT`] (3) inserted
     /// poses, N = [`crate::study_defaults::PAPER_STEPS`] (4), [`defaults::RESTARTS`] (20) restarts, noise
-    /// levels 1, 2.5, 5, 10, 20 %, the metrics rigid, isometric, conformal, quasi-conformal and
-    /// l2, and the common defaults for the rest: [`defaults::LAMBDA`], [`defaults::TRANSPORT`]
+    /// levels 1, 2.5, 5, 10, 20 %, every metric ([`table1_metrics`]: the paper's rows, then
+    /// l2), and the common defaults for the rest: [`defaults::LAMBDA`], [`defaults::TRANSPORT`]
     /// (Euclidean), [`defaults::ALIGN`] (rigid), the length filter of [`defaults::SMOOTH_LENGTH`],
     /// [`defaults::SEED`].
     pub fn full() -> Reproduction {
@@ -141,13 +141,7 @@ impl Reproduction {
             steps: crate::study_defaults::PAPER_STEPS,
             restarts: defaults::RESTARTS,
             noise_levels: vec![1.0, 2.5, 5.0, 10.0, 20.0],
-            metrics: vec![
-                MetricKind::Rigid,
-                MetricKind::Isometric,
-                MetricKind::Conformal,
-                MetricKind::QuasiConformal,
-                MetricKind::L2,
-            ],
+            metrics: table1_metrics(),
             noise_metrics: Vec::new(),
             lambda: defaults::LAMBDA,
             scale: defaults::SCALE,
@@ -265,15 +259,7 @@ impl Reproduction {
     /// with the quasi-conformal, conformal, isometric and L2 metrics at [`Reproduction::lambda`].
     pub fn fig4(&self) -> InterpolationExperiment {
         InterpolationExperiment {
-            metrics: [
-                MetricKind::QuasiConformal,
-                MetricKind::Conformal,
-                MetricKind::Isometric,
-                MetricKind::L2,
-            ]
-            .into_iter()
-            .map(|k| self.metric(k))
-            .collect(),
+            metrics: FIG4_METRICS.into_iter().map(|k| self.metric(k)).collect(),
             ..Default::default()
         }
     }
@@ -455,6 +441,17 @@ impl MetricRun {
         }
         Ok(vec![csv, mds_svg, mds_png, heat_svg, heat_png])
     }
+}
+
+/// Every metric of the registry ([`qcshape::metric::METRICS`]) in the order of Table 1: the
+/// paper's rows ([`paper_table1`]) first, then the metrics it does not report (L2), each group
+/// in the registry's order. The default of [`Reproduction::metrics`] and of `qcshape reproduce
+/// --metrics`.
+pub fn table1_metrics() -> Vec<MetricKind> {
+    let (paper, ours): (Vec<MetricKind>, Vec<MetricKind>) = MetricKind::ALL
+        .into_iter()
+        .partition(|k| paper_table1(*k).is_some());
+    paper.into_iter().chain(ours).collect()
 }
 
 /// The paper's Table 1 (specificity, sensitivity in %).
@@ -1175,6 +1172,12 @@ mod validate_tests {
             ..ok.clone()
         };
         assert!(msg(other).contains("--noise-metrics isometric is not among --metrics"));
+        // The default: every metric, the paper's rows first.
+        use MetricKind::*;
+        assert_eq!(
+            table1_metrics(),
+            [Rigid, Isometric, Conformal, QuasiConformal, L2]
+        );
         // Empty: every metric of Table 1, in its order.
         let all = Reproduction {
             metrics: vec![MetricKind::L2, MetricKind::Isometric],

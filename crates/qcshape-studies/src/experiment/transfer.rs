@@ -72,14 +72,19 @@ pub struct TransferExperiment {
     pub schild: SchildOptions,
 }
 
+/// The metrics of Fig. 5, in its order (the default of [`TransferExperiment::metrics`] and of
+/// `qcshape experiment transfer --metrics`): a selection of the registry
+/// ([`qcshape::metric::METRICS`]).
+pub const FIG5_METRICS: [MetricKind; 3] = [
+    MetricKind::QuasiConformal,
+    MetricKind::Isometric,
+    MetricKind::Conformal,
+];
+
 impl Default for TransferExperiment {
     fn default() -> Self {
         TransferExperiment {
-            metrics: vec![
-                MetricSpec::new(MetricKind::QuasiConformal),
-                MetricSpec::new(MetricKind::Isometric),
-                MetricSpec::new(MetricKind::Conformal),
-            ],
+            metrics: FIG5_METRICS.into_iter().map(MetricSpec::new).collect(),
             transports: vec![Transport::Parallel, Transport::Schild, Transport::Translate],
             kinds: DeformationKind::all().to_vec(),
             source: InitialShape::Sphere,
@@ -168,23 +173,13 @@ pub struct FigureCase {
     pub transferred: Vec<FigurePose>,
 }
 
-fn kind_name(kind: MetricKind) -> &'static str {
-    match kind {
-        MetricKind::L2 => "l2",
-        MetricKind::Rigid => "rigid",
-        MetricKind::Isometric => "isometric",
-        MetricKind::Conformal => "conformal",
-        MetricKind::QuasiConformal => "quasi-conformal",
-    }
-}
-
 /// Labels of the metrics: the kind's name, with `lambda` appended when two specs share a kind,
 /// and an index when they still collide.
 fn metric_labels(specs: &[MetricSpec]) -> Vec<String> {
     let mut labels: Vec<String> = specs
         .iter()
         .map(|s| {
-            let name = kind_name(s.kind);
+            let name = s.kind.label();
             if specs.iter().filter(|o| o.kind == s.kind).count() > 1 {
                 format!("{name}-lambda{}", s.lambda)
             } else {
@@ -672,14 +667,8 @@ mod tests {
             }
         }
         let md = r.to_markdown();
-        for name in [
-            "quasi-conformal",
-            "isometric",
-            "conformal",
-            "parallel",
-            "schild",
-            "euclidean",
-        ] {
+        let metrics = FIG5_METRICS.map(|k| k.label());
+        for name in metrics.into_iter().chain(["parallel", "schild", "euclidean"]) {
             assert!(md.contains(name), "{name} missing from\n{md}");
         }
     }

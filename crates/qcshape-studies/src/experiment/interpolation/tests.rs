@@ -94,7 +94,11 @@ fn summary_is_mean_and_sd_of_cases_and_markdown_names_every_method() {
     // Showcase: the first "bend" deformation.
     assert!(r.maps.iter().all(|m| m.deformation == "sphere-bend"));
     let md = r.to_markdown();
-    for m in ["quasi-conformal", "conformal", "isometric", "l2", BASELINE] {
+    for m in super::FIG4_METRICS
+        .map(|k| k.label())
+        .into_iter()
+        .chain([BASELINE])
+    {
         assert!(md.contains(&format!(" {m} |")), "{m} missing from\n{md}");
     }
     assert!(
