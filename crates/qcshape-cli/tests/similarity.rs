@@ -139,7 +139,7 @@ fn an_interrupted_run_resumes_to_the_same_matrix() {
 fn results_are_bit_identical_for_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let manifest = dataset(dir.path(), 1, 6);
-    for metric in ["l2", "rigid", "isometric", "conformal", "quasi-conformal"] {
+    for metric in qcshape::metric::MetricKind::ALL.map(|k| k.label()) {
         let mut first: Option<(Vec<u8>, Vec<u8>)> = None;
         for threads in ["1", "2", "3", "2"] {
             let out = dir.path().join(format!("D-{metric}-{threads}.csv"));
@@ -219,7 +219,7 @@ fn every_solver_gives_the_default_solvers_matrix() {
     };
     let mut report = Vec::new();
     let mut bad = Vec::new();
-    for metric in ["l2", "rigid", "isometric", "conformal", "quasi-conformal"] {
+    for metric in qcshape::metric::MetricKind::ALL.map(|k| k.label()) {
         let reference = matrix(&["--metric", metric]);
         assert!(reference.iter().all(|v| v.is_finite()), "{metric}: {reference:?}");
         // The solvers outside the preconditioned L-BFGS family solve without the rigid gauge:

@@ -22,6 +22,9 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("QcshapeWarning", m.py().get_type::<warn::QcshapeWarning>())?;
+    // The registries of metrics and terms (qcshape::metric::METRICS, TERMS): their names.
+    m.add("METRICS", qcshape::metric::METRICS.map(|i| i.name))?;
+    m.add("TERMS", qcshape::metric::TERMS.map(|i| i.name))?;
     m.add_class::<space::PyShapeSpace>()?;
     m.add_class::<space::PyGeodesic>()?;
     m.add_class::<data::PyDataset>()?;

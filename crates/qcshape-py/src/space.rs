@@ -177,8 +177,8 @@ geodesic_methods! {
 ///
 /// ``ShapeSpace(F, metric="isometric", lam=0.01)``: F is the (nF, 3) integer face array
 /// shared by every shape; shapes are (nV, 3) float64 arrays, tangent vectors (nV, 3)
-/// displacements. Keywords (None keeps the library default, the CLI's): ``metric`` l2 | rigid
-/// | isometric (default) | conformal | quasi-conformal; ``form`` quadratic | paper; ``weights``
+/// displacements. Keywords (None keeps the library default, the CLI's): ``metric`` one of
+/// ``qcshape.METRICS`` (default isometric); ``form`` quadratic | paper; ``weights``
 /// endpoints | segment; ``lam`` L2 weight lambda (eq. 11, default 0.01); ``metric_scale``
 /// invariant (default: every term a relative rate weighted by its face's area share,
 /// scale-invariant, G_{sM}(sX) = G_M(X), so geodesics do not shrink the shape;

@@ -33,12 +33,12 @@ pub fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
 /// invariant scale it does not (issue 50, synth --level 2 sphere-twist: lambda 0.1 / 0.01 /
 /// 0.001 gave a share of 73 / 84 / 91 %), so the advice there is not to lower it.
 fn advice(kind: MetricKind) -> &'static str {
-    match kind {
-        MetricKind::Conformal | MetricKind::QuasiConformal => {
-            "for this metric a lower lam raises the share instead of lowering it: the conformal \
-             metrics leave the deformation's scaling and their null space to the regularizer"
-        }
-        _ => "a lower lam lowers the share",
+    // The registry's metrics that need the regularizer (the conformal ones).
+    if kind.info().needs_regularizer {
+        "for this metric a lower lam raises the share instead of lowering it: the conformal \
+         metrics leave the deformation's scaling and their null space to the regularizer"
+    } else {
+        "a lower lam lowers the share"
     }
 }
 

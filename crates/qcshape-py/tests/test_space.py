@@ -12,10 +12,21 @@ import qcshape as qs
 
 def test_dist_of_a_shape_to_itself_is_zero(pair):
     V, B, F = pair
-    for metric in ["l2", "rigid", "isometric", "conformal", "quasi-conformal"]:
+    for metric in qs.METRICS:
         space = qs.ShapeSpace(F, metric=metric, steps=2)
         assert space.dist(B, B) == 0.0
         assert space.dist(V, B) > 0.0
+
+
+def test_metrics_is_the_registry(pair):
+    # qs.METRICS is the library's registry: the names metric= accepts, as the errors list them;
+    # the default is one of them; the terms have distinct names.
+    F = pair[2]
+    assert qs.METRICS == ("l2", "rigid", "isometric", "conformal", "quasi-conformal")
+    assert qs.settings()["metric"]["default"] in qs.METRICS
+    assert len(set(qs.TERMS)) == len(qs.TERMS) and "bending" in qs.TERMS
+    with pytest.raises(ValueError, match="expected " + ", ".join(qs.METRICS)):
+        qs.ShapeSpace(F, metric="bogus")
 
 
 def test_geodesic_is_symmetric(pair):

@@ -27,6 +27,8 @@ the argument; unreadable files OSError, invalid files ValueError with the file n
 """
 
 from ._qcshape import (
+    METRICS,
+    TERMS,
     Dataset,
     Geodesic,
     QcshapeWarning,
@@ -46,6 +48,8 @@ from ._meshes import as_arrays, to_meshio, to_pyvista, to_trimesh
 from .cluster import KMeans, KMedoids
 
 __all__ = [
+    "METRICS",
+    "TERMS",
     "Dataset",
     "Geodesic",
     "KMeans",

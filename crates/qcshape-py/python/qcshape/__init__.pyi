@@ -26,6 +26,12 @@ _Progress = Union[None, bool, Callable[[str, int, int], object]]
 
 __version__: str
 
+# The names of the metrics (`metric=`), in the order of the library's registry
+# (qcshape::metric::METRICS, which every list of metrics reads).
+METRICS: Tuple[str, ...]
+# The names of the terms the metrics weight (qcshape::metric::TERMS).
+TERMS: Tuple[str, ...]
+
 class _PipelineOptions(TypedDict, total=False):
     """The keyword options of the data-set functions (`similarity_matrix`, `motion_maps`,
     `pair_contributions`; the command line's flags of the same names, `lam` for `--lambda`)."""
