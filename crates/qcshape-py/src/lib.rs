@@ -17,14 +17,19 @@ mod space;
 mod warn;
 
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 /// Deformation similarity in quasi-conformal shape space (Rust core).
 #[pymodule]
 fn _qcshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("QcshapeWarning", m.py().get_type::<warn::QcshapeWarning>())?;
     // The registries of metrics and terms (qcshape::metric::METRICS, TERMS): their names.
-    m.add("METRICS", qcshape::metric::METRICS.map(|i| i.name))?;
-    m.add("TERMS", qcshape::metric::TERMS.map(|i| i.name))?;
+    let py = m.py();
+    m.add(
+        "METRICS",
+        PyTuple::new(py, qcshape::metric::METRICS.map(|i| i.name))?,
+    )?;
+    m.add("TERMS", PyTuple::new(py, qcshape::metric::TERMS.map(|i| i.name))?)?;
     m.add_class::<space::PyShapeSpace>()?;
     m.add_class::<space::PyGeodesic>()?;
     m.add_class::<data::PyDataset>()?;
