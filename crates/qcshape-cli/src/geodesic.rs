@@ -48,9 +48,8 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Iteration limit of the solve (default: the solver's own: for the preconditioned L-BFGS
-    /// 1,000, or 60 sqrt(#V) on finer meshes; 100 for the Gauss-Newton family; 5,000 for plain
-    /// L-BFGS).
+    /// Iteration limit of the solve (default: 1,000, or 60 sqrt(#V) on meshes above 278
+    /// vertices).
     /// At most 1,000,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: Option<usize>,
@@ -191,14 +190,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
         ));
     }
     if g.stop == StopReason::MaxIterations {
-        let hint = opts
-            .solver
-            .stall_hint()
-            .map(|h| format!(" ({h}: --max-iterations)"));
         warnings.push(format!(
-            "the solver stopped at its iteration limit after {} iterations{}: the distance is not converged",
+            "the solver stopped at its iteration limit after {} iterations ({}: --max-iterations): the distance is not converged",
             g.iterations,
-            hint.unwrap_or_default()
+            opts.solver.stall_hint()
         ));
     }
     for w in &warnings[before_solve..] {
@@ -217,11 +212,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "metric": spec.label(),
             "vertices": a.n_vertices(),
             "steps": opts.steps,
-            // The name before `Solver::LevenbergMarquardt` was renamed, kept for compatibility.
-            "solver": match opts.solver {
-                qcshape::geodesic::Solver::LevenbergMarquardt => "GaussNewtonDirect".to_string(),
-                s => format!("{s:?}"),
-            },
+            "solver": format!("{:?}", opts.solver),
             "distance": g.length,
             "energy": g.energy,
             "geometric_energy": g.geometric_energy,

@@ -205,12 +205,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.output.display(),
         t0.elapsed().as_secs_f64(),
     );
-    let hint = opts
-        .geodesic
-        .solver
-        .stall_hint()
-        .map(|h| format!(" ({h})"))
-        .unwrap_or_default();
+    let hint = format!(" ({})", opts.geodesic.solver.stall_hint());
     if let Some(u) = unconverged {
         eprintln!("warning: {u}{hint}");
     }

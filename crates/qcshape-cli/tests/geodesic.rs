@@ -83,6 +83,31 @@ fn mismatched_meshes_and_missing_files_are_clear_errors() {
     assert!(err.contains("nope.ply") && !err.contains("panicked"), "{err}");
 }
 
+/// A retired solver (docs/log/solvers.md) or an unknown one is refused with the accepted
+/// names, before any work.
+#[test]
+fn retired_and_unknown_solvers_are_clear_errors() {
+    for (name, what) in [
+        ("newton", "retired"),
+        ("lbfgs", "retired"),
+        ("gauss-newton-direct", "retired"),
+        ("fast", "unknown"),
+    ] {
+        let out = qcshape()
+            .args(["geodesic", "--demo", "--demo-level", "1", "--solver", name])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(what)
+                && err.contains("preconditioned, hessian-kronecker or pose-kronecker")
+                && !err.contains("panicked"),
+            "{name}: {err}"
+        );
+    }
+}
+
 /// `--energy-tolerance` reaches the solver: a loose one stops on the energy test with a larger
 /// gradient, 0 leaves the decision to the gradient test; a negative one is an error.
 #[test]

@@ -188,10 +188,9 @@ geodesic_methods! {
 /// quasi-conformal metrics' stretch term on the invariant scale (the relative rate of change of
 /// each face's area; 0.1, 0 = none); ``qc_weights`` rms (default) | raw, ``qc_floor`` (0.5),
 /// ``qc_smooth`` (0): the quasi-conformal weights; ``l2_areas`` frozen | pose;
-/// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | newton |
-/// gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs | hessian-kronecker | pose-kronecker;
-/// ``gauge`` linear (the interior poses keep the linear interpolation's rigid placement; the
-/// default) | free; ``tolerance`` (1e-6) and
+/// ``steps`` N segments of every geodesic (8); ``solver`` preconditioned | hessian-kronecker |
+/// pose-kronecker; ``gauge`` linear (the interior poses keep the linear interpolation's rigid
+/// placement; the default) | free; ``tolerance`` (1e-6) and
 /// ``energy_tolerance`` (1e-12); ``length_tolerance`` (1e-8: distances, i.e.
 /// ``pairwise_distances`` and ``similarity``, stop once the length has settled; 0 = off);
 /// ``n_vertices`` (default: a mesh object's vertex count, else the reference's, else the

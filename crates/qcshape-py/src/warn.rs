@@ -72,7 +72,7 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver)
         )?;
     }
     if g.stop == StopReason::MaxIterations {
-        let hint = solver.stall_hint().map(|h| format!(" ({h})")).unwrap_or_default();
+        let hint = format!(" ({})", solver.stall_hint());
         warn(
             py,
             &format!(
@@ -123,7 +123,7 @@ pub fn pairs(
     }
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
     if unconverged > 0 || !converged {
-        let hint = solver.stall_hint().map(|h| format!(" ({h})")).unwrap_or_default();
+        let hint = format!(" ({})", solver.stall_hint());
         let what = if unconverged > 0 {
             format!("{unconverged} pair(s) with a geodesic that did not converge")
         } else {

@@ -172,6 +172,9 @@ def test_bad_arguments_raise_value_errors_naming_them(pair):
         qs.ShapeSpace(F, steps=0)
     with pytest.raises(ValueError, match="^solver"):
         qs.ShapeSpace(F, solver="newtonish")
+    # A retired solver (docs/log/solvers.md) names the accepted ones.
+    with pytest.raises(ValueError, match="^solver.*retired.*preconditioned, hessian-kronecker or pose-kronecker"):
+        qs.ShapeSpace(F, solver="lbfgs")
     with pytest.raises(ValueError, match="^form"):
         qs.ShapeSpace(F, form="cubic")
     with pytest.raises(ValueError, match="^faces"):

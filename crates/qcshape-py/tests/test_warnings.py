@@ -5,6 +5,7 @@ the solver's iteration limit, the metric's own warning (lam = 0 with a conformal
 
 import warnings
 
+import numpy as np
 import pytest
 
 import qcshape as qs
@@ -80,17 +81,30 @@ def test_lambda_zero_conformal_warns_at_construction(sphere):
     assert "lam=0" in msgs[0] and "stretch=" in msgs[0] and "--stretch" not in msgs[0]
 
 
-def test_an_unconverged_stop_warns(pair):
-    # With both tolerances 0, L-BFGS runs until its iteration limit (5000) or until its line
-    # search finds no decrease at rounding (NoProgress), whichever comes first on this platform's
-    # arithmetic; either way the geodesic is unconverged, and the warning says which.
-    VA, VB, F = pair
-    for bending in (0.0, 1e-4):
-        space = qs.ShapeSpace(F, solver="lbfgs", tolerance=0.0, energy_tolerance=0.0, bending=bending)
-        g, msgs = caught(lambda: space.geodesic(VA, VB, steps=3))
-        assert not g.converged
-        if g.stop == "MaxIterations":
-            assert any("iteration limit after 5000 iterations" in m for m in msgs), msgs
-        else:
-            assert g.stop == "NoProgress", g.stop
-            assert any("stopped without converging" in m and "no step lowered" in m for m in msgs), msgs
+def test_an_unconverged_stop_warns(sphere):
+    # A crumpled target (seeded vertex noise as large as the sphere) with both tolerances 0: the
+    # default solver stops unconverged on some of these, at its iteration limit (1000 on this
+    # small mesh) or because its line search finds no decrease at rounding (NoProgress), which
+    # one on this platform's arithmetic (measured: conformal, noise 0.6 without the bending term
+    # at the limit; noise 1.0 with it, NoProgress). Every unconverged stop warns and says which;
+    # a converged one does not warn. (It was argmin's L-BFGS on the smooth pair, retired:
+    # docs/log/solvers.md.)
+    V, F = sphere
+    rng = np.random.default_rng(0)
+    unconverged = 0
+    for noise in (0.6, 1.0):
+        B = V + noise * rng.standard_normal(V.shape)
+        for bending in (0.0, 1e-4):
+            space = qs.ShapeSpace(F, metric="conformal", tolerance=0.0, energy_tolerance=0.0, bending=bending)
+            g, msgs = caught(lambda: space.geodesic(V, B, steps=3))
+            stop_msgs = [m for m in msgs if "solver stopped" in m]
+            if g.converged:
+                assert not stop_msgs, msgs
+                continue
+            unconverged += 1
+            if g.stop == "MaxIterations":
+                assert any("iteration limit after 1000 iterations" in m for m in stop_msgs), msgs
+            else:
+                assert g.stop == "NoProgress", g.stop
+                assert any("stopped without converging" in m and "no step lowered" in m for m in stop_msgs), msgs
+    assert unconverged > 0

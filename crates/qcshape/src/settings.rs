@@ -170,8 +170,7 @@ named!(ConformalForm: ConformalForm::Quadratic, ConformalForm::Paper);
 named!(QcWeights: QcWeights::Endpoints, QcWeights::Segment);
 named!(MetricScale: MetricScale::Invariant, MetricScale::Calibrated, MetricScale::Raw);
 named!(Gauge: Gauge::Linear, Gauge::Free);
-named!(Solver: Solver::Preconditioned, Solver::HessianKronecker, Solver::PoseKronecker, Solver::Newton,
-    Solver::GaussNewton, Solver::LevenbergMarquardt, Solver::Lbfgs, Solver::PlainLbfgs);
+named!(Solver: Solver::Preconditioned, Solver::HessianKronecker, Solver::PoseKronecker);
 named!(Transport: Transport::Translate, Transport::Parallel, Transport::Schild);
 named!(Alignment: Alignment::Rigid, Alignment::Similarity, Alignment::None);
 
@@ -405,13 +404,12 @@ pub const SOLVER: Setting = Setting {
     python: "solver",
     python_alias: None,
     group: Group::Solver,
-    about: "Optimizer: preconditioned (L-BFGS with the path's Kronecker and vertex-block \
-            preconditioner), hessian-kronecker (the same model fitted to the exact Hessian: fewer \
-            iterations for the isometric metric on fine meshes), pose-kronecker (each pose's own spatial block: fewer iterations for the conformal metrics at \
-            small --lambda, each about twice as costly), newton (truncated: conjugate gradients on the \
-            exact Hessian), gauss-newton (truncated, on the Gauss-Newton system), gauss-newton-direct \
-            (full sparse Cholesky, small meshes only), lbfgs (the paper's, through argmin), plain-lbfgs \
-            (the preconditioned solver without its preconditioner)",
+    about: "Optimizer, L-BFGS preconditioned by a model of the Hessian: preconditioned (the \
+            path's Kronecker and vertex-block model of J^T J), hessian-kronecker (the same model \
+            fitted to the exact Hessian: fewer iterations without the bending term on fine \
+            meshes), pose-kronecker (each pose's own spatial block: converges where the default \
+            stalls on the calibrated scale at small --lambda, each iteration about twice as \
+            costly)",
     value: Value::Choice(names::<Solver>),
     default: || Some(solver().solver.label().to_string()),
 };
@@ -425,8 +423,7 @@ pub const GAUGE: Setting = Setting {
     group: Group::Solver,
     about: "Rigid placement of the geodesic's interior poses, which the path energy barely charges: \
             linear (each keeps the rigid placement of the linear interpolation of the ends, to first \
-            order: no solver-dependent turn of the middle poses; applied by the preconditioned L-BFGS \
-            solvers) or free (wherever the solver stops, the releases before 2026-12-07)",
+            order: no solver-dependent turn of the middle poses; applied by every solver) or free (wherever the solver stops, the releases before 2026-12-07)",
     value: Value::Choice(names::<Gauge>),
     default: || Some(solver().gauge.label().to_string()),
 };

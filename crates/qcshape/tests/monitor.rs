@@ -10,15 +10,10 @@ use qcshape::mesh::Shape;
 use qcshape::metric::{Isometric, Regularized};
 use qcshape::synth::{icosphere, twist_along_z};
 
-const SOLVERS: [Solver; 8] = [
+const SOLVERS: [Solver; 3] = [
     Solver::Preconditioned,
     Solver::HessianKronecker,
     Solver::PoseKronecker,
-    Solver::PlainLbfgs,
-    Solver::GaussNewton,
-    Solver::Newton,
-    Solver::LevenbergMarquardt,
-    Solver::Lbfgs,
 ];
 
 fn pair() -> (Shape, Shape) {
@@ -48,16 +43,17 @@ fn every_solver_calls_the_monitor_each_iteration_and_stops_when_told() {
         let g = s.solve(&a.positions, &b.positions).unwrap();
         let seen = seen.lock().unwrap().clone();
         assert!(g.iterations >= 2, "{solver:?}: {} iterations", g.iterations);
-        // One call per iteration, numbered 1, 2, ... (argmin's observer may see the last
-        // iteration once more at its end: at most one extra call).
+        // One call per iteration, numbered 1, 2, ...
         assert!(
-            seen.len() == g.iterations || seen.len() == g.iterations + 1,
+            seen.len() == g.iterations,
             "{solver:?}: {} calls for {} iterations",
             seen.len(),
             g.iterations
         );
-        assert_eq!(seen[0].0, 1, "{solver:?}");
-        assert!(seen.windows(2).all(|w| w[1].0 >= w[0].0), "{solver:?}: {seen:?}");
+        assert!(
+            seen.iter().enumerate().all(|(i, (it, _))| *it == i + 1),
+            "{solver:?}: {seen:?}"
+        );
         assert!(
             seen.iter().all(|(_, e)| e.is_finite() && *e >= 0.0),
             "{solver:?}: {seen:?}"

@@ -49,7 +49,7 @@ class _PipelineOptions(TypedDict, total=False):
     qc_smooth: Optional[int]  # default 0
     l2_areas: Optional[str]  # frozen | pose; default frozen
     steps: Optional[int]  # default 8
-    solver: Optional[str]  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+    solver: Optional[str]  # preconditioned | hessian-kronecker | pose-kronecker; default preconditioned
     gauge: Optional[str]  # linear | free; default linear
     tolerance: Optional[float]  # default 0.000001
     energy_tolerance: Optional[float]  # default 0.000000000001
@@ -181,7 +181,7 @@ class ShapeSpace:
         qc_smooth: Optional[int] = None,  # default 0
         l2_areas: Optional[str] = None,  # frozen | pose; default frozen
         steps: Optional[int] = None,  # default 8
-        solver: Optional[str] = None,  # preconditioned | hessian-kronecker | pose-kronecker | newton | gauss-newton | gauss-newton-direct | lbfgs | plain-lbfgs; default preconditioned
+        solver: Optional[str] = None,  # preconditioned | hessian-kronecker | pose-kronecker; default preconditioned
         gauge: Optional[str] = None,  # linear | free; default linear
         tolerance: Optional[float] = None,  # default 0.000001
         energy_tolerance: Optional[float] = None,  # default 0.000000000001

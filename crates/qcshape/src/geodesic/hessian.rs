@@ -1,6 +1,8 @@
-//! Gauss-Newton normal equations `J^T J` of the path energy, assembled from 3 x 3 vertex blocks
-//! into a sparse matrix whose structure (and symbolic Cholesky factorization) is built once
-//! per (topology, metric, number of segments) and reused for every iteration and every pair.
+//! Gauss-Newton normal equations `J^T J` of the path energy as 3 x 3 vertex blocks per segment
+//! ([`Structure`], [`SegmentBlocks`]), with the metric's second-order part on request: what the
+//! Kronecker models (`kronecker.rs`, `pose_kronecker.rs`) are fitted to. The tests also
+//! assemble them into the full sparse matrix ([`HessianLayout`], test-only since
+//! Levenberg-Marquardt, its one solver, was retired).
 //!
 //! Unknowns are pose-major (`P_1 .. P_{N-1}`, each `3 #V`), then the auxiliary unknowns of the
 //! `2N` terms. `J^T J` is block-tridiagonal in the poses; within a pose block, vertex `u` couples
@@ -9,26 +11,19 @@
 // Index loops mirror the formulas (vertex, coordinate, residual indices) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::perm::PermRef;
-use faer::sparse::linalg::amd;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::energy::{Ends, PathEnergy};
 use super::pairs::VertexPairs;
 use crate::metric::{At, SecondOrderSink};
 
-/// Structure of `J^T J` for one path problem, built once, with its symbolic factorization.
+/// Sparse structure of the upper triangle of `J^T J` for one path problem (the tests' full
+/// matrix).
+#[cfg(test)]
 pub(crate) struct HessianLayout {
     st: Structure,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    diag_idx: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
 }
 
 /// Vertex-pair structure and per-residual slots (no factorization): enough to assemble the
@@ -102,65 +97,55 @@ impl SegmentBlocks {
     }
 }
 
+#[cfg(test)]
 impl HessianLayout {
-    /// Builds the structure and the symbolic factorization (AMD ordering).
-    pub fn new(pe: &PathEnergy) -> Result<Self, faer::sparse::FaerError> {
+    /// Builds the structure.
+    pub fn new(pe: &PathEnergy) -> Self {
         let st = Structure::new(pe);
         let n = pe.n_vars();
         let mut col_ptr = vec![0usize];
         let mut row_idx = Vec::new();
-        let mut diag_idx = Vec::with_capacity(n);
         st.walk(|col, row, _| {
             while col_ptr.len() <= col {
                 col_ptr.push(row_idx.len());
-            }
-            if row == col {
-                diag_idx.push(row_idx.len());
             }
             row_idx.push(row);
         });
         while col_ptr.len() <= n {
             col_ptr.push(row_idx.len());
         }
-        debug_assert_eq!(diag_idx.len(), n);
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let (fwd, inv) = st.ordering()?;
-        let perm = PermRef::new_checked(&fwd, &inv, n);
-        let symbolic = factorize_symbolic_cholesky(
-            sym,
-            Side::Upper,
-            SymmetricOrdering::Custom(perm),
-            Default::default(),
-        )?;
-        Ok(HessianLayout {
-            st,
-            col_ptr,
-            row_idx,
-            diag_idx,
-            symbolic,
-        })
+        HessianLayout { st, col_ptr, row_idx }
     }
 
     /// The vertex-pair structure.
-    #[cfg(test)]
     pub fn structure(&self) -> &Structure {
         &self.st
     }
 
     /// Column pointers and row indices of the stored upper triangle.
-    #[cfg(test)]
     pub fn pattern(&self) -> (&[usize], &[usize]) {
         (&self.col_ptr, &self.row_idx)
     }
 
-    /// Number of stored entries of the upper triangle.
-    pub fn nnz(&self) -> usize {
-        self.row_idx.len()
+    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
+    pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
+        self.st.assemble(pe, x, ends)
     }
 
-    /// Number of stored values of the Cholesky factor.
-    pub fn factor_len(&self) -> usize {
-        self.symbolic.len_val()
+    /// Values of the upper triangle of `J^T J` in the layout's order.
+    pub fn values(&self, blocks: &[SegmentBlocks]) -> Vec<f64> {
+        let mut vals = Vec::with_capacity(self.row_idx.len());
+        self.st.walk(|_, _, src| {
+            vals.push(match src {
+                Source::Off { seg, slot, k } => blocks[seg].ab[slot][k],
+                // Interior pose j is the second pose of segment j - 1 and the first of segment j.
+                Source::Diag { pose, slot, k } => blocks[pose - 1].bb[slot][k] + blocks[pose].aa[slot][k],
+                Source::AuxA { seg, term, k } => blocks[seg].aux_a[term][k],
+                Source::AuxB { seg, term, k } => blocks[seg].aux_b[term][k],
+                Source::AuxAux { seg, term, k } => blocks[seg].aux_aux[term][k],
+            })
+        });
+        vals
     }
 }
 
@@ -177,41 +162,8 @@ impl Structure {
         }
     }
 
-    /// Fill-reducing ordering: AMD on the vertex graph `S`, then every vertex's unknowns (all
-    /// interior poses, 3 coordinates) kept together, auxiliary unknowns last. Ordering the
-    /// scalar graph directly treats the path dimension like a third space dimension and gives a
-    /// far denser factor.
-    fn ordering(&self) -> Result<(Vec<usize>, Vec<usize>), faer::sparse::FaerError> {
-        let nv = self.nv;
-        let sym = SymbolicSparseColMatRef::new_checked(nv, nv, &self.pairs.off, None, &self.pairs.rows);
-        let mut vf = vec![0usize; nv];
-        let mut vi = vec![0usize; nv];
-        let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(
-            nv,
-            self.pairs.n_slots(),
-        ))
-        .map_err(|_| faer::sparse::FaerError::OutOfMemory)?;
-        amd::order_maybe_unsorted(&mut vf, &mut vi, sym, Default::default(), MemStack::new(&mut mem))?;
-        let nv3 = 3 * nv;
-        let np = nv3 * (self.steps - 1);
-        let n = np + 2 * self.steps * self.n_aux;
-        let mut fwd = Vec::with_capacity(n);
-        for &v in &vf {
-            for j in 1..self.steps {
-                for c in 0..3 {
-                    fwd.push((j - 1) * nv3 + 3 * v + c);
-                }
-            }
-        }
-        fwd.extend(np..n);
-        let mut inv = vec![0usize; n];
-        for (i, &f) in fwd.iter().enumerate() {
-            inv[f] = i;
-        }
-        Ok((fwd, inv))
-    }
-
     /// Visits the upper triangle column by column, rows ascending: `f(col, row, source)`.
+    #[cfg(test)]
     fn walk(&self, mut f: impl FnMut(usize, usize, Source)) {
         let (nv, n_aux) = (self.nv, self.n_aux);
         let nv3 = 3 * nv;
@@ -427,67 +379,10 @@ impl Structure {
     }
 }
 
-impl HessianLayout {
-    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
-    pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
-        self.st.assemble(pe, x, ends)
-    }
-    /// Values of the upper triangle of `J^T J` in the layout's order.
-    pub fn values(&self, blocks: &[SegmentBlocks]) -> Vec<f64> {
-        let mut vals = Vec::with_capacity(self.nnz());
-        self.st.walk(|_, _, src| {
-            vals.push(match src {
-                Source::Off { seg, slot, k } => blocks[seg].ab[slot][k],
-                // Interior pose j is the second pose of segment j - 1 and the first of segment j.
-                Source::Diag { pose, slot, k } => blocks[pose - 1].bb[slot][k] + blocks[pose].aa[slot][k],
-                Source::AuxA { seg, term, k } => blocks[seg].aux_a[term][k],
-                Source::AuxB { seg, term, k } => blocks[seg].aux_b[term][k],
-                Source::AuxAux { seg, term, k } => blocks[seg].aux_aux[term][k],
-            })
-        });
-        vals
-    }
-
-    /// Positions of the diagonal entries in [`Self::values`].
-    pub fn diag_idx(&self) -> &[usize] {
-        &self.diag_idx
-    }
-
-    /// Factorizes the matrix with upper-triangle `values` and solves `H x = rhs` in place.
-    /// Errors when the matrix is not numerically positive definite.
-    pub fn solve(
-        &self,
-        values: &[f64],
-        rhs: &mut [f64],
-        par: Par,
-    ) -> Result<(), faer::linalg::cholesky::llt::factor::LltError> {
-        let n = rhs.len();
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
-        let a = SparseColMatRef::new(sym, values);
-        let mut l_values = vec![0.0f64; self.symbolic.len_val()];
-        let req = self
-            .symbolic
-            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
-            .or(self.symbolic.solve_in_place_scratch::<f64>(1, par));
-        let mut mem = MemBuffer::new(req);
-        let stack = MemStack::new(&mut mem);
-        let llt = self.symbolic.factorize_numeric_llt(
-            &mut l_values,
-            a,
-            Side::Upper,
-            LltRegularization::default(),
-            par,
-            stack,
-            Default::default(),
-        )?;
-        let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
-        llt.solve_in_place_with_conj(Conj::No, rhs_mat, par, stack);
-        Ok(())
-    }
-}
-
 impl Structure {
-    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r`.
+    /// All segments' blocks (in parallel), the energy, and the half gradient `J^T r` (the
+    /// tests; the solvers use [`Structure::assemble_with`]).
+    #[cfg(test)]
     pub fn assemble(&self, pe: &PathEnergy, x: &[f64], ends: &Ends) -> (Vec<SegmentBlocks>, f64, Vec<f64>) {
         self.assemble_with(pe, x, ends, false)
     }
@@ -532,6 +427,7 @@ impl Structure {
     }
 }
 
+#[cfg(test)]
 #[derive(Clone, Copy)]
 enum Source {
     Off { seg: usize, slot: usize, k: usize },
@@ -640,7 +536,7 @@ pub(super) mod tests {
     #[test]
     fn assembled_normal_equations_match_dense_products() {
         for_each_problem(3, |m, pe, ends, x| {
-            let layout = HessianLayout::new(pe).unwrap();
+            let layout = HessianLayout::new(pe);
             let (blocks, _, g) = layout.assemble(pe, x, ends);
             let vals = layout.values(&blocks);
             let (hd, gd) = dense(pe, x, ends);

@@ -1,5 +1,5 @@
 //! The Kronecker model `T_c (x) A` of the Gauss-Newton matrix `J^T J` of the path energy,
-//! shared by the preconditioned L-BFGS and the truncated Gauss-Newton solvers.
+//! the preconditioner of the default L-BFGS solver.
 //!
 //! `J^T J` is block-tridiagonal in the interior poses: pose `j`'s diagonal block is the sum of
 //! the blocks of segments `j - 1` and `j`, the off-diagonal block that of segment `j`. Near a
@@ -518,6 +518,8 @@ impl KroneckerModel {
     /// `q <- factor (T_c (x) A)^{-1} q` on the pose part (length 3 #V (N - 1), pose-major), or
     /// on several such vectors stored one after the other (one multi-column spatial solve).
     /// The spatial solves run in single precision, the time mixing accumulates in double.
+    /// (The solvers use [`Self::apply_with`]; the tests use this.)
+    #[cfg(test)]
     pub fn apply(&self, layout: &SpatialLayout, q: &mut [f64], factor: f64) {
         self.apply_with(layout, q, factor, &mut ApplyScratch::default());
     }
@@ -663,7 +665,7 @@ mod tests {
     }
 
     /// The direct assembly of the pose-block sum (preconditioned solver) equals the sum of
-    /// the assembled segment blocks (Gauss-Newton solvers).
+    /// the assembled segment blocks (the Hessian model's assembly).
     #[test]
     fn direct_pose_sum_matches_the_segment_blocks() {
         for m in metrics() {

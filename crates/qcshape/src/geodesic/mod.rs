@@ -2,34 +2,22 @@
 //! "Path energy, geodesics, distance").
 //!
 //! A discrete geodesic from `A` to `B` minimizes the path energy over the interior poses of a
-//! path with `N` segments, started from the linear interpolation. Eight solvers, the default
+//! path with `N` segments, started from the linear interpolation. Three solvers, one iteration
+//! (`plbfgs.rs`: L-BFGS whose initial inverse Hessian is a model of the Hessian), the default
 //! first:
-//! - [`Solver::Preconditioned`] (default, `plbfgs.rs`): L-BFGS whose initial inverse Hessian is
-//!   a Kronecker model `T_c (x) A` of the Gauss-Newton Hessian (`kronecker.rs`; one sparse
-//!   Cholesky of size 3 #V whose symbolic factorization is built once per (topology, metric)
-//!   and reused for every refit and every pair solved by one [`GeodesicSolver`]) plus the
-//!   block-Jacobi inverse of its 3 x 3 vertex blocks per pose (`vertex_blocks.rs`), refitted
-//!   periodically;
-//! - [`Solver::LevenbergMarquardt`] (`levenberg_marquardt.rs`): Levenberg-Marquardt with a
-//!   sparse Cholesky factorization of the full block-tridiagonal normal equations
-//!   `J^T J + mu D` (exact steps; the factor grows with `N` times the spatial fill, practical
-//!   up to a few hundred vertices);
-//! - [`Solver::PoseKronecker`] (`plbfgs.rs` with `pose_kronecker.rs`): the default solver with
-//!   each interior pose's own spatial block in the model (conformal metrics at small lambda);
-//! - [`Solver::HessianKronecker`]: the default solver with the Kronecker model fitted to the
-//!   exact Hessian (where positive definite) and refitted more often: iterations nearly flat in
-//!   the resolution for the isometric metric;
-//! - [`Solver::PlainLbfgs`]: the default solver without its preconditioner.
+//! - [`Solver::Preconditioned`] (default): the model is a Kronecker product `T_c (x) A` of the
+//!   Gauss-Newton Hessian (`kronecker.rs`; one sparse Cholesky of size 3 #V whose symbolic
+//!   factorization is built once per (topology, metric) and reused for every refit and every
+//!   pair solved by one [`GeodesicSolver`]) plus the block-Jacobi inverse of its 3 x 3 vertex
+//!   blocks per pose (`vertex_blocks.rs`), refitted periodically;
+//! - [`Solver::PoseKronecker`] (with `pose_kronecker.rs`): each interior pose's own spatial
+//!   block in the model (the calibrated scale at small lambda, noisy poses without the gauge);
+//! - [`Solver::HessianKronecker`]: the Kronecker model fitted to the exact Hessian (where
+//!   positive definite) and refitted more often: fewer iterations on fine meshes without the
+//!   bending term.
 //!
-//! Kept for the benchmark and the `--solver` choices (module `research`):
-//! - [`Solver::GaussNewton`]: truncated Gauss-Newton on the stacked residuals; the normal
-//!   equations `J^T J p = -J^T r` (block-tridiagonal in the poses) are solved by conjugate
-//!   gradients on the assembled 3 x 3 vertex blocks, preconditioned by the Kronecker model
-//!   refitted at every iteration;
-//! - [`Solver::Newton`]: the truncated iteration on the exact Hessian (the metrics'
-//!   second-order parts added to `J^T J`);
-//! - [`Solver::Lbfgs`]: the paper's quasi-Newton method (argmin's L-BFGS with a More-Thuente
-//!   line search) on the exact gradient.
+//! The research solvers (truncated Gauss-Newton and Newton, Levenberg-Marquardt, argmin's
+//! L-BFGS, L-BFGS without preconditioner) were retired on 2026-12-07 (docs/log/solvers.md).
 //!
 //! The length of a path is `L = sum_i sqrt((G_{P_i}(X_i) + G_{P_{i+1}}(X_i)) / 2)`, and the
 //! distance `dis(A, B)` is the length of the discrete geodesic.
@@ -44,14 +32,12 @@ mod gauge;
 mod hessian;
 mod interpolate;
 mod kronecker;
-mod levenberg_marquardt;
 #[cfg(test)]
 mod near_tests;
 mod options;
 mod pairs;
 mod plbfgs;
 mod pose_kronecker;
-mod research;
 #[cfg(test)]
 mod second_order_tests;
 #[cfg(test)]
@@ -103,7 +89,7 @@ pub struct Geodesic {
     /// Why it stopped.
     pub stop: StopReason,
     /// Norm of the energy gradient at the solution; with the rigid gauge
-    /// ([`Gauge::Linear`], the preconditioned L-BFGS solvers) the gradient projected onto the
+    /// ([`Gauge::Linear`], the default) the gradient projected onto the
     /// gauge's subspace (the constraints' own force, the rigid part, left out).
     pub gradient_norm: f64,
     /// The factor all coordinates were multiplied by before solving (1 if not normalized).
@@ -201,13 +187,6 @@ pub enum GeodesicError {
         /// The failure.
         source: LinearAlgebraError,
     },
-    /// The paper's L-BFGS (the `argmin` crate, [`Solver::Lbfgs`]) failed; the source error is
-    /// kept.
-    #[error("optimizer failure: {source}")]
-    Optimizer {
-        /// argmin's error.
-        source: Box<dyn std::error::Error + Send + Sync>,
-    },
     /// The metric could not be calibrated on its reference pose(s).
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
@@ -245,18 +224,17 @@ pub enum LinearAlgebraError {
 }
 
 /// A reusable geodesic solver for one (metric, topology, N): the metric's Jacobian pattern and
-/// the Gauss-Newton structure with its symbolic Cholesky factorization are built once and used
-/// for every pair.
+/// the Kronecker model's spatial structure with its symbolic Cholesky factorization are built
+/// once and used for every pair.
 pub struct GeodesicSolver<'m> {
     energy: PathEnergy<'m>,
     options: GeodesicOptions,
-    layout: Option<hessian::HessianLayout>,
-    /// The spatial structure of the Kronecker model (preconditioned and truncated solvers).
+    /// The spatial structure of the Kronecker model (`None` without unknowns).
     spatial: Option<kronecker::SpatialLayout>,
 }
 
 impl<'m> GeodesicSolver<'m> {
-    /// Prepares a solver. Builds the Gauss-Newton structure now if that solver is chosen.
+    /// Prepares a solver. Builds the Kronecker model's spatial structure now.
     pub fn new(
         metric: &'m dyn Metric,
         topo: Arc<Topology>,
@@ -264,25 +242,7 @@ impl<'m> GeodesicSolver<'m> {
     ) -> Result<Self, GeodesicError> {
         options.check()?;
         let energy = PathEnergy::new(metric, topo, options.steps);
-        let layout = if options.solver == Solver::LevenbergMarquardt && energy.n_vars() > 0 {
-            Some(
-                hessian::HessianLayout::new(&energy).map_err(|e| GeodesicError::LinearAlgebra {
-                    what: "the Gauss-Newton structure",
-                    source: e.into(),
-                })?,
-            )
-        } else {
-            None
-        };
-        let spatial = if matches!(
-            options.solver,
-            Solver::Preconditioned
-                | Solver::PoseKronecker
-                | Solver::HessianKronecker
-                | Solver::GaussNewton
-                | Solver::Newton
-        ) && energy.n_vars() > 0
-        {
+        let spatial = if energy.n_vars() > 0 {
             Some(
                 kronecker::SpatialLayout::new(&energy).map_err(|e| GeodesicError::LinearAlgebra {
                     what: "the spatial preconditioner's structure",
@@ -295,7 +255,6 @@ impl<'m> GeodesicSolver<'m> {
         Ok(GeodesicSolver {
             energy,
             options,
-            layout,
             spatial,
         })
     }
@@ -303,14 +262,6 @@ impl<'m> GeodesicSolver<'m> {
     /// The path energy being minimized.
     pub fn path_energy(&self) -> &PathEnergy<'m> {
         &self.energy
-    }
-
-    /// Sizes of the Gauss-Newton system: (unknowns, stored entries of the upper triangle of
-    /// `J^T J`, stored values of its Cholesky factor); `None` for L-BFGS.
-    pub fn system_size(&self) -> Option<(usize, usize, usize)> {
-        self.layout
-            .as_ref()
-            .map(|l| (self.energy.n_vars(), l.nnz(), l.factor_len()))
     }
 
     /// The options.
@@ -564,10 +515,9 @@ impl<'m> GeodesicSolver<'m> {
     ) -> Result<Geodesic, GeodesicError> {
         let t0 = Instant::now();
         let pe = &self.energy;
-        // The default solver evaluates the start itself (its first energy and gradient);
-        // the others, and a path without unknowns, are evaluated here.
-        let own_start = pe.n_vars() > 0 && self.options.solver.is_preconditioned_lbfgs();
-        let checked_start = if own_start {
+        // The solver evaluates the start itself (its first energy and gradient); a path
+        // without unknowns is evaluated here.
+        let checked_start = if pe.n_vars() > 0 {
             None
         } else {
             let e0 = pe.energy(&x0, ends);
@@ -587,54 +537,34 @@ impl<'m> GeodesicSolver<'m> {
                 last: None,
             }
         } else {
-            match self.options.solver {
-                Solver::GaussNewton | Solver::Newton => {
-                    let layout = self.spatial.as_ref().expect("layout is built for Gauss-Newton");
-                    let newton = self.options.solver == Solver::Newton;
-                    research::truncated::minimize(pe, layout, ends, x0, &self.options, newton)?
-                }
-                Solver::LevenbergMarquardt => {
-                    let layout = self
-                        .layout
-                        .as_ref()
-                        .expect("layout is built for Levenberg-Marquardt");
-                    levenberg_marquardt::minimize(pe, layout, ends, x0, &self.options)?
-                }
-                Solver::Lbfgs => research::lbfgs::minimize(pe, ends, x0, &self.options)?,
-                Solver::Preconditioned | Solver::PoseKronecker | Solver::HessianKronecker => {
-                    let layout = self
-                        .spatial
-                        .as_ref()
-                        .expect("layout is built for the preconditioned solver");
-                    let fitted = ctx.as_ref().is_some_and(|c| c.pre.is_none());
-                    let shared = ctx.as_mut().map(|c| &mut c.pre);
-                    let length_tolerance = match goal {
-                        Goal::Path => 0.0,
-                        Goal::Length => self.options.length_tolerance,
-                    };
-                    let out = plbfgs::minimize(
-                        pe,
-                        Some((
-                            layout,
-                            match self.options.solver {
-                                Solver::PoseKronecker => plbfgs::Model::PoseWise,
-                                Solver::HessianKronecker => plbfgs::Model::Hessian,
-                                _ => plbfgs::Model::Kronecker,
-                            },
-                        )),
-                        ends,
-                        x0,
-                        &self.options,
-                        length_tolerance,
-                        shared,
-                    )?;
-                    if let Some(c) = ctx {
-                        c.record(fitted, out.iterations, self.options.preconditioner_reuse);
-                    }
-                    out
-                }
-                Solver::PlainLbfgs => plbfgs::minimize(pe, None, ends, x0, &self.options, 0.0, None)?,
+            let layout = self
+                .spatial
+                .as_ref()
+                .expect("the spatial layout is built when there are unknowns");
+            let fitted = ctx.as_ref().is_some_and(|c| c.pre.is_none());
+            let shared = ctx.as_mut().map(|c| &mut c.pre);
+            let length_tolerance = match goal {
+                Goal::Path => 0.0,
+                Goal::Length => self.options.length_tolerance,
+            };
+            let model = match self.options.solver {
+                Solver::Preconditioned => plbfgs::Model::Kronecker,
+                Solver::PoseKronecker => plbfgs::Model::PoseWise,
+                Solver::HessianKronecker => plbfgs::Model::Hessian,
+            };
+            let out = plbfgs::minimize(
+                pe,
+                (layout, model),
+                ends,
+                x0,
+                &self.options,
+                length_tolerance,
+                shared,
+            )?;
+            if let Some(c) = ctx {
+                c.record(fitted, out.iterations, self.options.preconditioner_reuse);
             }
+            out
         };
         let (energy, initial_energy, gradient_norm, segment_energies) = match out.last {
             Some(last) => (

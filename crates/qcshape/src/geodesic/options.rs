@@ -6,157 +6,109 @@ use super::GeodesicSolver;
 #[cfg(doc)]
 use crate::metric::Metric;
 
-/// Which optimizer minimizes the path energy.
+/// Which optimizer minimizes the path energy: the preconditioned L-BFGS iteration with one of
+/// three models of the Hessian. The research solvers (truncated Gauss-Newton and Newton,
+/// Levenberg-Marquardt, argmin's L-BFGS, L-BFGS without preconditioner) were retired on
+/// 2026-12-07: slower than the default in every measured case (docs/log/solvers.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Solver {
     /// L-BFGS preconditioned by the Kronecker model `2 T_c (x) A` of the Gauss-Newton Hessian
     /// (one sparse Cholesky of size 3 #V per refit, every
     /// [`GeodesicOptions::preconditioner_refresh`] iterations) plus a vertex-block term
     /// ([`GeodesicOptions::vertex_block_weight`]), scaled by the newest curvature pair. The
-    /// default: the fastest in the benchmark.
+    /// default: the fastest in the benchmark (docs/log/solvers.md).
     #[default]
     Preconditioned,
-    /// Truncated Gauss-Newton: the Gauss-Newton step by preconditioned conjugate gradients
-    /// (Kronecker preconditioner `T_c (x) A`, one sparse Cholesky of size 3 #V per
-    /// iteration), line search on the energy.
-    GaussNewton,
-    /// Truncated Newton: [`Solver::GaussNewton`] with the metric's second-order part
-    /// `sum r_i d2 r_i` added to `J^T J` (the exact Hessian, [`Metric::add_second_order`]);
-    /// conjugate gradients stop at negative curvature. Converges superlinearly near the
-    /// geodesic, where Gauss-Newton converges linearly (a geodesic is a large-residual
-    /// problem). Metrics without second derivatives (rigid, paper forms, segment weights,
-    /// per-pose L2) run as Gauss-Newton.
-    Newton,
-    /// Levenberg-Marquardt: damped Gauss-Newton steps from a sparse Cholesky factorization of
-    /// the full block-tridiagonal normal equations `J^T J + mu D` at every iteration (small
-    /// meshes). Command-line values `gauss-newton-direct`, `gn-direct`, `lm` or
-    /// `levenberg-marquardt`. Formerly `Solver::GaussNewtonDirect`.
-    LevenbergMarquardt,
-    /// L-BFGS (the paper's quasi-Newton method) through argmin (More-Thuente line search).
-    Lbfgs,
     /// [`Solver::Preconditioned`] with the pose-wise Kronecker model: each interior pose keeps
     /// its own spatial block of `J^T J` (one sparse Cholesky of size 3 #V per pose and refit)
-    /// and the poses are coupled by the normalized second difference. Fewer iterations for the
-    /// conformal metrics at small lambda, where the metric's cheap directions change along the
-    /// path (twisted sphere, invariant scale, conformal, lambda 1e-5: 144 against the default's
-    /// 397 at 162 vertices, 311 against 413 at 642, where each iteration costs about twice the
-    /// default's, so the default is faster; docs/log/scale-invariant.md). On eq. 7's calibrated
-    /// scale at lambda 1e-5 it converges where the default stalls (docs/log/speed.md).
-    /// Command-line value `pose-kronecker`.
+    /// and the poses are coupled by the normalized second difference. Fewer iterations where
+    /// the metric's cheap directions change along the path: on eq. 7's calibrated scale at
+    /// lambda 1e-5 it converges where the default stops without progress (quasi-conformal,
+    /// 162 vertices: 170 iterations to an energy 15 % below the default's stop), and without
+    /// the rigid gauge on noisy poses (642 vertices: 0.44-0.82x the default's instructions;
+    /// docs/log/solvers.md). Otherwise slower (1.03-1.5x the default's instructions on the
+    /// twisted sphere with the gauge). Command-line value `pose-kronecker`.
     PoseKronecker,
     /// [`Solver::Preconditioned`] with the Kronecker model fitted to the exact Hessian (`J^T J`
     /// plus the metric's second-order part, where the model is positive definite; `J^T J`
     /// elsewhere and for metrics without second derivatives) and refitted every 15 iterations.
     /// The Gauss-Newton matrix leaves out a stress-like part of the Hessian that grows with the
-    /// resolution, so the default's iterations double with every subdivision of the mesh; with
-    /// the Hessian's model they nearly do not (twisted sphere, isometric, 162 to 10,242
-    /// vertices: 23 / 29 / 39 / 44 iterations against 25 / 41 / 80 / 171; docs/log/speed.md).
-    /// On the invariant scale (the default) it still helps the isometric metric on fine meshes
-    /// (375 against 640 iterations at 2,562 vertices, 1,340 against 3,772 at 10,242) but
-    /// not at 642 (203 against 138), and not the conformal metrics (quasi-conformal at 10,242
-    /// vertices: 1,579 against 1,516; docs/log/scale-invariant.md). Command-line value
-    /// `hessian-kronecker`.
+    /// resolution, so without the bending term (`bending = 0`) the default's iterations grow
+    /// with every subdivision of the mesh and this model's less (isometric, 2,562 vertices: 384
+    /// against 578; 10,242: 1,340 against 3,772; docs/log/solvers.md,
+    /// docs/log/scale-invariant.md). The bending term has no second-order part, so with it (the
+    /// default metric) this is the default's model refitted more often (4-10 % more
+    /// instructions). Command-line value `hessian-kronecker`.
     HessianKronecker,
-    /// [`Solver::Preconditioned`] without its preconditioner (`H0 = gamma I`, same compact
-    /// L-BFGS and backtracking line search): the reference for what the Kronecker model buys,
-    /// and a lean L-BFGS (one energy-and-gradient evaluation per accepted step, where argmin's
-    /// [`Solver::Lbfgs`] evaluates the gradient about twice per iteration).
-    PlainLbfgs,
 }
+
+/// Every solver's command-line name, in the order of the `--solver` help.
+const SOLVER_NAMES: &str = "preconditioned, hessian-kronecker or pose-kronecker";
 
 impl std::str::FromStr for Solver {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
-            "gauss-newton" | "gn" => Ok(Solver::GaussNewton),
-            "newton" => Ok(Solver::Newton),
-            "gauss-newton-direct" | "gn-direct" | "lm" | "levenberg-marquardt" => Ok(Solver::LevenbergMarquardt),
-            "lbfgs" | "l-bfgs" => Ok(Solver::Lbfgs),
             "preconditioned" | "plbfgs" => Ok(Solver::Preconditioned),
-            "plain-lbfgs" => Ok(Solver::PlainLbfgs),
             "pose-kronecker" => Ok(Solver::PoseKronecker),
             "hessian-kronecker" => Ok(Solver::HessianKronecker),
-            _ => Err(format!(
-                "unknown solver '{s}' (expected preconditioned, hessian-kronecker, pose-kronecker, newton, gauss-newton, gauss-newton-direct, lbfgs or plain-lbfgs)"
+            "gauss-newton"
+            | "gn"
+            | "newton"
+            | "gauss-newton-direct"
+            | "gn-direct"
+            | "lm"
+            | "levenberg-marquardt"
+            | "lbfgs"
+            | "l-bfgs"
+            | "plain-lbfgs" => Err(format!(
+                "solver '{s}' was retired (slower than the default in every measured case, \
+                 docs/log/solvers.md); expected {SOLVER_NAMES}"
             )),
+            _ => Err(format!("unknown solver '{s}' (expected {SOLVER_NAMES})")),
         }
     }
 }
 
 impl Solver {
-    /// The command-line name (`preconditioned`, `gauss-newton`, `newton`,
-    /// `gauss-newton-direct`, `lbfgs`, `plain-lbfgs`); [`str::parse`] reads it back.
+    /// The command-line name (`preconditioned`, `hessian-kronecker`, `pose-kronecker`);
+    /// [`str::parse`] reads it back.
     pub fn label(self) -> &'static str {
         match self {
             Solver::Preconditioned => "preconditioned",
-            Solver::GaussNewton => "gauss-newton",
-            Solver::Newton => "newton",
-            Solver::LevenbergMarquardt => "gauss-newton-direct",
-            Solver::Lbfgs => "lbfgs",
-            Solver::PlainLbfgs => "plain-lbfgs",
             Solver::PoseKronecker => "pose-kronecker",
             Solver::HessianKronecker => "hessian-kronecker",
         }
     }
 
-    /// Whether this is the preconditioned L-BFGS family (preconditioned, hessian-kronecker,
-    /// pose-kronecker: one iteration, three models of the Hessian).
-    pub fn is_preconditioned_lbfgs(self) -> bool {
-        matches!(
-            self,
-            Solver::Preconditioned | Solver::HessianKronecker | Solver::PoseKronecker
-        )
-    }
-
-    /// What to try when a solve with this solver stopped at its iteration limit. For the
-    /// preconditioned L-BFGS solvers: a higher limit. Their iterations grow with the resolution
-    /// (twisted sphere, invariant scale, quasi-conformal: 271, 690 and 1,516 iterations at 642,
-    /// 2,562 and 10,242 vertices; conformal 4,058 at 10,242; docs/log/scale-invariant.md), and
-    /// the other solvers do not converge in fewer at 10,242 vertices. `None` for the others.
-    pub fn stall_hint(self) -> Option<&'static str> {
-        match self {
-            Solver::Preconditioned | Solver::PoseKronecker | Solver::HessianKronecker => Some(
-                "the path was still moving; the default limit, 60 sqrt(#V), covers the \
-                 slowest measured (conformal, 10,242 vertices: 4,058 iterations), so a higher \
-                 limit or a coarser mesh lets it converge; for the isometric metric on fine \
-                 meshes the hessian-kronecker solver needs fewer (1,340 against 3,772 at \
-                 10,242 vertices)",
-            ),
-            _ => None,
-        }
+    /// What to try when a solve stopped at its iteration limit: a higher limit. The
+    /// iterations grow with the resolution (twisted sphere, invariant scale, quasi-conformal,
+    /// without the bending term: 271, 690 and 1,516 iterations at 642, 2,562 and 10,242
+    /// vertices; conformal 4,058 at 10,242; docs/log/scale-invariant.md).
+    pub fn stall_hint(self) -> &'static str {
+        "the path was still moving; the default limit, 60 sqrt(#V), covers the slowest \
+         measured (conformal, 10,242 vertices: 4,058 iterations), so a higher limit or a \
+         coarser mesh lets it converge; for the isometric metric on fine meshes the \
+         hessian-kronecker solver needs fewer (1,340 against 3,772 at 10,242 vertices)"
     }
 
     /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`, on the coarsest
-    /// meshes: 100 outer steps for Gauss-Newton, Newton and Levenberg-Marquardt (each solves a
-    /// linear system), 1,000 for the preconditioned L-BFGS, 5,000 for the unpreconditioned
-    /// L-BFGS solvers (`plain-lbfgs`, `lbfgs`), whose steps are cheaper and more numerous. The
-    /// preconditioned L-BFGS limit grows with the mesh: [`Solver::iteration_limit_for`].
+    /// meshes: 1,000. The limit grows with the mesh: [`Solver::iteration_limit_for`].
     pub fn default_max_iterations(self) -> usize {
-        match self {
-            Solver::GaussNewton | Solver::Newton | Solver::LevenbergMarquardt => 100,
-            Solver::Preconditioned | Solver::PoseKronecker | Solver::HessianKronecker => 1000,
-            Solver::PlainLbfgs | Solver::Lbfgs => 5000,
-        }
+        1000
     }
 
-    /// The default iteration limit on a mesh of `n_vertices` (#V): for the preconditioned
-    /// L-BFGS solvers the larger of [`Solver::default_max_iterations`] and
-    /// `ITERATIONS_PER_SQRT_VERTEX` (60) `x sqrt(#V)` (6,073 at 10,242 vertices), since their
-    /// iterations grow about like `sqrt(#V)` (the twisted sphere's conformal geodesic: 4,058
-    /// iterations at 10,242 vertices, about twice per subdivision; docs/log/scale-invariant.md);
-    /// [`Solver::default_max_iterations`] for the others.
+    /// The default iteration limit on a mesh of `n_vertices` (#V): the larger of
+    /// [`Solver::default_max_iterations`] and `ITERATIONS_PER_SQRT_VERTEX` (60) `x sqrt(#V)`
+    /// (6,073 at 10,242 vertices), since the iterations grow about like `sqrt(#V)` (the twisted
+    /// sphere's conformal geodesic without the bending term: 4,058 iterations at 10,242
+    /// vertices, about twice per subdivision; docs/log/scale-invariant.md).
     pub fn iteration_limit_for(self, n_vertices: usize) -> usize {
-        let base = self.default_max_iterations();
-        if self.is_preconditioned_lbfgs() {
-            let grown = (ITERATIONS_PER_SQRT_VERTEX * (n_vertices as f64).sqrt()).ceil() as usize;
-            base.max(grown)
-        } else {
-            base
-        }
+        let grown = (ITERATIONS_PER_SQRT_VERTEX * (n_vertices as f64).sqrt()).ceil() as usize;
+        self.default_max_iterations().max(grown)
     }
 }
 
-/// Iterations per `sqrt(#V)` of the preconditioned L-BFGS solvers' default limit
 /// Where the interior poses' rigid placement comes from (docs/method.md "Rigid gauge").
 ///
 /// The path energy charges a rigid motion of an interior pose only through the L2 regularizer
@@ -171,9 +123,7 @@ pub enum Gauge {
     /// `L_i = (1 - i/N) P_0 + (i/N) P_N` to first order: the translation and infinitesimal
     /// rotation that best map `P_i - L_i` to zero vanish (`sum_v (P_i - L_i)_v = 0`,
     /// `sum_v (L_i - c_i) x (P_i - L_i)_v = 0`). Linear constraints fixed by the ends: every
-    /// start path ends at the same geodesic. The preconditioned L-BFGS solvers (the default,
-    /// `hessian-kronecker`, `pose-kronecker`, `plain-lbfgs`) apply it; the others solve free.
-    /// The default.
+    /// start path ends at the same geodesic. Every solver applies it. The default.
     #[default]
     Linear,
     /// No constraint: the interior poses' rigid placement is whatever the solver reaches (the
@@ -202,6 +152,7 @@ impl std::str::FromStr for Gauge {
     }
 }
 
+/// Iterations per `sqrt(#V)` of the solvers' default limit
 /// ([`Solver::iteration_limit_for`]): 1.5 x the most measured (the conformal geodesic of the
 /// twisted sphere at 10,242 vertices: 4,058 iterations, 40 per `sqrt(#V)`).
 pub const ITERATIONS_PER_SQRT_VERTEX: f64 = 60.0;
@@ -215,10 +166,9 @@ pub struct GeodesicOptions {
     pub solver: Solver,
     /// How the interior poses' rigid placement is fixed. Default [`Gauge::Linear`].
     pub gauge: Gauge,
-    /// Iteration limit of the solver; `None` (the default): the solver's own limit on the mesh,
-    /// [`Solver::iteration_limit_for`] (100 outer steps for the Gauss-Newton family; for the
-    /// preconditioned L-BFGS 1,000, or 60 `sqrt(#V)` on meshes above 278 vertices; 5,000 for the
-    /// unpreconditioned L-BFGS solvers). A `Some` value is the limit itself, for every solver.
+    /// Iteration limit of the solver; `None` (the default): the limit on the mesh,
+    /// [`Solver::iteration_limit_for`] (1,000, or 60 `sqrt(#V)` on meshes above 278 vertices).
+    /// A `Some` value is the limit itself.
     pub max_iterations: Option<usize>,
     /// Converged when the gradient norm falls below this fraction of its value at the start.
     /// Default 1e-6.
@@ -365,8 +315,7 @@ pub enum StopReason {
     TargetEnergy,
     /// The iteration limit was reached.
     MaxIterations,
-    /// No step could lower the energy further (the damping grew without bound, or the line
-    /// search found no decrease).
+    /// No step could lower the energy further (the line search found no decrease).
     NoProgress,
     /// The solver stopped for another reason (message).
     Other(String),

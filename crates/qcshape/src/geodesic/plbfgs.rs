@@ -10,8 +10,7 @@
 //! the metric and the large-residual curvature terms that Gauss-Newton leaves out). Auxiliary
 //! unknowns (rigid motions) are eliminated: they are set to their optimum at every evaluation,
 //! and by the envelope theorem the pose part of the gradient is then the exact gradient.
-//! The history is kept in compact form ([`super::compact`]). Without a spatial layout the same
-//! iteration runs with `H0 = gamma I` ([`super::Solver::PlainLbfgs`]).
+//! The history is kept in compact form ([`super::compact`]).
 //!
 //! The Kronecker part is completed by a vertex-block term ([`super::vertex_blocks`]):
 //! `H0 = gamma ((2 T_c (x) A)^{-1} + omega (2 D)^{-1})`, `D` the 3 x 3 diagonal blocks of
@@ -61,12 +60,12 @@ enum Fitted {
 
 /// The factorized preconditioner `(2 T_c (x) A)^{-1} + omega (2 D)^{-1}` (the energy's
 /// Gauss-Newton Hessian is `2 J^T J ~ 2 T_c (x) A`; the pose-wise model in place of
-/// `T_c (x) A` for [`Model::PoseWise`]), fitted at one path; or none (the identity: plain
-/// L-BFGS).
+/// `T_c (x) A` for [`Model::PoseWise`]), fitted at one path.
 pub(crate) struct Preconditioner<'l> {
-    model: Option<(&'l SpatialLayout, Fitted)>,
+    layout: &'l SpatialLayout,
+    model: Fitted,
     /// The vertex-block term `omega (2 D)^{-1}` added to the model's part (none when
-    /// `omega = 0` or without a layout).
+    /// `omega = 0`).
     local: Option<VertexBlocks>,
     /// Work space of the applications, reused (no allocation per iteration once warm).
     scratch: ApplyScratch,
@@ -80,25 +79,15 @@ pub(crate) struct Preconditioner<'l> {
 impl<'l> Preconditioner<'l> {
     /// Fits `layout`'s [`Model`] at `x` ([`KroneckerModel::fit`], [`KroneckerModel::fit_hessian`]
     /// or [`PoseKronecker::fit`]) and, for `vertex_block_weight > 0`, the vertex-block term from
-    /// the same assembly; the identity without a layout.
+    /// the same assembly.
     fn new(
-        layout: Option<(&'l SpatialLayout, Model)>,
+        (layout, model): (&'l SpatialLayout, Model),
         pe: &PathEnergy,
         x: &[f64],
         ends: &Ends,
         vertex_block_weight: f64,
     ) -> Result<Self, GeodesicError> {
-        let mut pre = Preconditioner {
-            model: None,
-            local: None,
-            scratch: ApplyScratch::default(),
-            pose_scratch: PoseScratch::default(),
-            copy: Vec::new(),
-            no_second_order: false,
-        };
-        let Some((layout, model)) = layout else {
-            return Ok(pre);
-        };
+        let mut no_second_order = false;
         let (fitted, diagonal) = match model {
             Model::PoseWise => {
                 let pb = PoseBlocks::assemble(layout, pe, x, ends);
@@ -106,7 +95,7 @@ impl<'l> Preconditioner<'l> {
             }
             Model::Hessian => {
                 let (kron, diagonal, second_order) = KroneckerModel::fit_hessian(layout, pe, x, ends)?;
-                pre.no_second_order = !second_order;
+                no_second_order = !second_order;
                 (Fitted::Kronecker(kron), diagonal)
             }
             Model::Kronecker => {
@@ -115,24 +104,27 @@ impl<'l> Preconditioner<'l> {
                 (Fitted::Kronecker(KroneckerModel::fit(layout, ps)?), diagonal)
             }
         };
-        pre.local = (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight));
-        pre.model = Some((layout, fitted));
-        Ok(pre)
+        Ok(Preconditioner {
+            layout,
+            model: fitted,
+            local: (vertex_block_weight > 0.0).then(|| VertexBlocks::new(&diagonal, vertex_block_weight)),
+            scratch: ApplyScratch::default(),
+            pose_scratch: PoseScratch::default(),
+            copy: Vec::new(),
+            no_second_order,
+        })
     }
 
     /// `q <- ((2 T_c (x) A)^{-1} + omega (2 D)^{-1}) q` on the pose part (length 3 #V (N - 1),
-    /// or several such vectors one after the other); nothing for the identity.
+    /// or several such vectors one after the other).
     fn apply(&mut self, q: &mut [f64]) {
         if self.local.is_some() {
             self.copy.clear();
             self.copy.extend_from_slice(q);
         }
         match &self.model {
-            Some((layout, Fitted::Kronecker(model))) => model.apply_with(layout, q, 0.5, &mut self.scratch),
-            Some((layout, Fitted::PoseWise(model))) => {
-                model.apply_with(layout, q, 0.5, &mut self.pose_scratch)
-            }
-            None => {}
+            Fitted::Kronecker(model) => model.apply_with(self.layout, q, 0.5, &mut self.scratch),
+            Fitted::PoseWise(model) => model.apply_with(self.layout, q, 0.5, &mut self.pose_scratch),
         }
         if let Some(local) = &self.local {
             local.add_apply(&self.copy, q);
@@ -182,9 +174,8 @@ fn path_length(segments: &[f64]) -> f64 {
     segments.iter().map(|&e| super::segment_length(e)).sum()
 }
 
-/// Minimizes the path energy from `x0` (see the module docs); without `layout`, plain L-BFGS
-/// (`H0 = gamma I`, the first step of unit length). `layout`'s [`Model`] chooses what the
-/// preconditioner is fitted to.
+/// Minimizes the path energy from `x0` (see the module docs); `layout`'s [`Model`] chooses what
+/// the preconditioner is fitted to.
 ///
 /// `length_tolerance > 0` adds a stop once two consecutive accepted steps each change the
 /// path's length by at most that fraction of it ([`StopReason::LengthTolerance`]; distance
@@ -195,7 +186,7 @@ fn path_length(segments: &[f64]) -> f64 {
 /// geodesics of one pair of deformations (consecutive poses) share one fit.
 pub(crate) fn minimize<'l>(
     pe: &PathEnergy,
-    layout: Option<(&'l SpatialLayout, Model)>,
+    layout: (&'l SpatialLayout, Model),
     ends: &Ends,
     x0: Vec<f64>,
     opts: &GeodesicOptions,
@@ -240,22 +231,17 @@ pub(crate) fn minimize<'l>(
     };
     // A metric without second derivatives gets the Gauss-Newton model at its own interval.
     let layout = match layout {
-        Some((l, Model::Hessian)) if pre.no_second_order => Some((l, Model::Kronecker)),
+        (l, Model::Hessian) if pre.no_second_order => (l, Model::Kronecker),
         other => other,
     };
     let refresh = match layout {
-        Some((_, Model::Hessian)) if opts.preconditioner_refresh > 0 => {
+        (_, Model::Hessian) if opts.preconditioner_refresh > 0 => {
             opts.preconditioner_refresh.min(HESSIAN_REFRESH)
         }
         _ => opts.preconditioner_refresh,
     };
-    // With the Kronecker model the first step is its Gauss-Newton step; with the identity a
-    // step of unit length (normalized coordinates: about one edge).
-    let mut gamma = if layout.is_some() {
-        1.0f64
-    } else {
-        1.0 / g0.max(f64::MIN_POSITIVE)
-    };
+    // The first step is the model's Gauss-Newton step.
+    let mut gamma = 1.0f64;
     // M^{-1} g for the current gradient; the history in compact form keeps M^{-1} y per pair,
     // so one preconditioner application per iteration suffices.
     let precondition = |pre: &mut Preconditioner, v: &[f64], z: &mut Vec<f64>| {
@@ -273,11 +259,7 @@ pub(crate) fn minimize<'l>(
     let mut hist = CompactHistory::new(opts.lbfgs_memory);
     hist.reset_gradient(&g);
     let mut iterations = 0;
-    let max_iterations = opts.max_iterations.unwrap_or(if layout.is_some() {
-        super::Solver::Preconditioned.iteration_limit_for(pe.n_vertices())
-    } else {
-        super::Solver::PlainLbfgs.default_max_iterations()
-    });
+    let max_iterations = opts.iteration_limit(pe.n_vertices());
     let mut stop = StopReason::MaxIterations;
     // The length test: the path's length after the last accepted step, and how many
     // consecutive steps changed it by at most `length_tolerance` of it.
@@ -308,7 +290,7 @@ pub(crate) fn minimize<'l>(
         opts.monitor(iterations, e)?;
         // Refit `T_c (x) A` at the current path (the history stays: its pairs are still
         // valid secant information; their `M^{-1} y` are recomputed).
-        if layout.is_some() && refresh > 0 && iterations % refresh == 0 {
+        if refresh > 0 && iterations % refresh == 0 {
             ev.full[..np].copy_from_slice(&x);
             pe.reset_aux(&mut ev.full, ends);
             let fresh = Preconditioner::new(layout, pe, &ev.full, ends, opts.vertex_block_weight)?;

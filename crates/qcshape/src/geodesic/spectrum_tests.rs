@@ -33,7 +33,7 @@ fn hessians(pe: &PathEnergy, ends: &Ends, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
             exact[i * n + j] = (gp[i] - gm[i]) / (2.0 * h);
         }
     }
-    let layout = HessianLayout::new(pe).expect("layout");
+    let layout = HessianLayout::new(pe);
     let (blocks, _, _) = layout.assemble(pe, x, ends);
     let vals = layout.values(&blocks);
     let (col_ptr, row_idx) = layout.pattern();
