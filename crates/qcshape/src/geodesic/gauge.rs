@@ -12,6 +12,7 @@
 //! orthogonal projector onto it keeps a quasi-Newton history consistent.
 
 use super::energy::Ends;
+use super::{dot, norm};
 
 /// The orthogonal projector onto the complement of each interior pose's infinitesimal rigid
 /// motions (3 translations, 3 rotations about the centroid) at the linear interpolation of
@@ -72,7 +73,7 @@ impl RigidGauge {
 /// `v -= sum_b <v, b> b` over an orthonormal `basis`.
 fn remove(v: &mut [f64], basis: &[Vec<f64>]) {
     for b in basis {
-        let c: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+        let c = dot(v, b);
         for (x, y) in v.iter_mut().zip(b) {
             *x -= c * y;
         }
@@ -115,9 +116,9 @@ fn rigid_basis(p: &[f64]) -> Vec<Vec<f64>> {
 /// Appends `r` to an orthonormal `basis` after removing its part in it, unless what is left
 /// is below 1e-9 of its length (or zero).
 fn normalize_into(basis: &mut Vec<Vec<f64>>, mut r: Vec<f64>) {
-    let n0 = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let n0 = norm(&r);
     remove(&mut r, basis);
-    let n = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let n = norm(&r);
     if n > 1e-9 * n0 && n > 0.0 {
         r.iter_mut().for_each(|x| *x /= n);
         basis.push(r);
