@@ -39,6 +39,8 @@ mod pairs;
 mod plbfgs;
 mod pose_kronecker;
 #[cfg(test)]
+mod preconditioned_spectrum_tests;
+#[cfg(test)]
 mod second_order_tests;
 #[cfg(test)]
 mod spectrum_tests;

@@ -80,7 +80,7 @@ impl<'l> Preconditioner<'l> {
     /// Fits `layout`'s [`Model`] at `x` ([`KroneckerModel::fit`], [`KroneckerModel::fit_hessian`]
     /// or [`PoseKronecker::fit`]) and, for `vertex_block_weight > 0`, the vertex-block term from
     /// the same assembly.
-    fn new(
+    pub(super) fn new(
         (layout, model): (&'l SpatialLayout, Model),
         pe: &PathEnergy,
         x: &[f64],
@@ -117,7 +117,7 @@ impl<'l> Preconditioner<'l> {
 
     /// `q <- ((2 T_c (x) A)^{-1} + omega (2 D)^{-1}) q` on the pose part (length 3 #V (N - 1),
     /// or several such vectors one after the other).
-    fn apply(&mut self, q: &mut [f64]) {
+    pub(super) fn apply(&mut self, q: &mut [f64]) {
         if self.local.is_some() {
             self.copy.clear();
             self.copy.extend_from_slice(q);
