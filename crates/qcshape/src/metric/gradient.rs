@@ -155,6 +155,21 @@ mod tests {
                 0.3,
             )),
             Box::new(crate::metric::RelativeIsometric),
+            Box::new(crate::metric::RelativeConformal {
+                qc: None,
+                stretch: 0.0,
+            }),
+            Box::new(crate::metric::RelativeConformal {
+                qc: Some(
+                    QuasiConformal::new(ConformalForm::Quadratic, QcWeights::Endpoints).normalized(
+                        crate::metric::QcNormalize {
+                            floor: 0.5,
+                            smooth: 0,
+                        },
+                    ),
+                ),
+                stretch: 0.3,
+            }),
             Box::new(crate::metric::RelativeBending),
             Box::new(Regularized::relative(
                 Box::new(crate::metric::Bent::new(

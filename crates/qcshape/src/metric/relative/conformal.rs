@@ -5,10 +5,11 @@ use super::faces::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FA
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::conformal::face_pattern;
+use crate::metric::gradient::{same_frozen, Scratch, SegmentSink};
 use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
 use crate::metric::quasi_conformal::QuasiConformal;
-use crate::metric::segment::{geometry_and_displacement, split_segment, Segment};
-use crate::metric::traits::Metric;
+use crate::metric::segment::{geometry_and_displacement, split_segment, At, Segment};
+use crate::metric::traits::{segment_gradient_per_term, Metric};
 
 /// The scale-invariant conformal and quasi-conformal metrics (eq. 6, eq. 10;
 /// docs/method.md "Scale-invariant forms").
@@ -201,6 +202,91 @@ impl Metric for RelativeConformal {
             frozen[nf..].fill(1.0);
         }
         frozen
+    }
+
+    /// Both terms of the segment in one pass over the faces (one displacement, one set of face
+    /// shares and weights; never stores the Jacobian; per term if the terms' frozen values
+    /// differ): `weight sum (r_start^2 + r_end^2)`, and `2 weight r dr/da`, `2 weight r dr/db`
+    /// into `sink`. The residuals and their derivatives are [`Metric::residuals`]'.
+    fn segment_gradient(
+        &self,
+        topo: &Topology,
+        pattern: PatternRef,
+        segs: [&Segment; 2],
+        scratch: &mut Scratch,
+        sink: &mut SegmentSink,
+    ) -> f64 {
+        if !same_frozen(segs) {
+            return segment_gradient_per_term(self, topo, pattern, segs, scratch, sink);
+        }
+        let (a, b) = (segs[0].a, segs[0].b);
+        let faces = segment_faces(topo, segs[0]);
+        let weights = self.weights(topo, segs[0]);
+        let stretch = self.stretch.max(0.0);
+        let w2 = 2.0 * sink.weight;
+        let mut value = 0.0;
+        for (fi, f) in topo.faces().iter().enumerate() {
+            let vs = f.map(|i| i as usize);
+            let xf = vs.map(|v| sub(b[v], a[v]));
+            let share = faces[fi].max(0.0);
+            let base = (share / 3.0).sqrt();
+            let cw = vs.map(|v| base * weights.as_ref().map_or(1.0, |w| w[v]));
+            let mut ga = [[0.0; 3]; 3];
+            let mut gb = [[0.0; 3]; 3];
+            for (at, g) in [(At::Start, a), (At::End, b)] {
+                let gf = vs.map(|v| g[v]);
+                // Corner k's term is q(k, k+1) - q(k, k+2) with the edge ratios
+                // q(i, j) = <g_i - g_j, X_i - X_j> / |g_i - g_j|^2 (the same both ways), so
+                // each of the face's three edges is computed once: edge m joins m and m+1.
+                let edge = |m: usize| {
+                    let (i, j) = (m, (m + 1) % 3);
+                    let e = sub(gf[i], gf[j]);
+                    let d = sub(xf[i], xf[j]);
+                    let (l, p) = (dot(e, e), dot(e, d));
+                    (e, d, l, p, p / l)
+                };
+                let eds = [edge(0), edge(1), edge(2)];
+                // T_k = q(k, k+1) - q(k-1, k): corner 0 uses edges 0 and 2.
+                let t: [f64; 3] = std::array::from_fn(|k| eds[k].4 - eds[(k + 2) % 3].4);
+                let mut sk = [0.0; 3];
+                for k in 0..3 {
+                    let r = cw[k] * t[k];
+                    value += r * r;
+                    sk[k] = w2 * r * cw[k];
+                }
+                for m in 0..3 {
+                    // Edge m is the first edge of corner m and the second of corner m + 1.
+                    let gq = sk[m] - sk[(m + 1) % 3];
+                    let (e, d, l, p, _) = eds[m];
+                    // dq/de = d / l - 2 p e / l^2, dq/dd = e / l.
+                    let dg = scale(sub(scale(d, 1.0 / l), scale(e, 2.0 * p / (l * l))), gq);
+                    let dx = scale(e, gq / l);
+                    let (da, db) = split_segment(at, dg, dx);
+                    let (i, j) = (m, (m + 1) % 3);
+                    ga[i] = add(ga[i], da);
+                    gb[i] = add(gb[i], db);
+                    ga[j] = sub(ga[j], da);
+                    gb[j] = sub(gb[j], db);
+                }
+                if stretch > 0.0 {
+                    let s = (stretch * share).sqrt();
+                    let (sigma, dg, dx) = self::stretch(gf, xf);
+                    let r = s * sigma;
+                    value += r * r;
+                    let c = w2 * r * s;
+                    for m in 0..3 {
+                        let (da, db) = split_segment(at, scale(dg[m], c), scale(dx[m], c));
+                        ga[m] = add(ga[m], da);
+                        gb[m] = add(gb[m], db);
+                    }
+                }
+            }
+            for m in 0..3 {
+                sink.ga[vs[m]] = add(sink.ga[vs[m]], ga[m]);
+                sink.gb[vs[m]] = add(sink.gb[vs[m]], gb[m]);
+            }
+        }
+        sink.weight * value
     }
 
     fn residuals(
