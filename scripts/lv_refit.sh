@@ -32,20 +32,20 @@ FIT=(${PRIOR:+--prior "$PRIOR"})
 mkdir -p "$out"
 cd "$out"
 t() { local s=$SECONDS; "$@"; echo "  ($((SECONDS - s)) s: ${*:1:3})" >&2; }
-# an input step is kept when PRIOR is set and its output (the file named first) exists
-input() { if [ -n "$PRIOR" ] && [ -e "$1" ]; then echo "  (kept: $1)" >&2; else shift; t "$@"; fi; }
+# with PRIOR set, an input step whose output exists is kept (its log too)
+kept() { [ -n "$PRIOR" ] && [ -e "$1" ] && echo "  (kept: $1)" >&2; }
 RUN=(--region whole --no-sweep)
-input P/labels.csv "$Q" lv phantom --out P "$@" >/dev/null
-input R0/similarity.csv "$Q" lv run P --out R0 "${RUN[@]}" 2>R0.log
-input M/manifest.csv "$Q" lv mesh P --out M --region whole --per-frame >M.log
+kept P/labels.csv || t "$Q" lv phantom --out P "$@" >/dev/null
+kept R0/similarity.csv || t "$Q" lv run P --out R0 "${RUN[@]}" 2>R0.log
+kept M/manifest.csv || t "$Q" lv mesh P --out M --region whole --per-frame >M.log
 t "$Q" fit --template R0/meshes/subject01/pose000.ply --out F$sfx M/manifest.csv --sequence "${FIT[@]}" 2>F$sfx.log
 t "$Q" lv run F$sfx/manifest.csv --out RF$sfx "${RUN[@]}" 2>RF$sfx.log
-input T/subject01/pose000.ply "$Q" lv mesh P --out T --region whole --vertices 600 --landmark-frame >T.log
-input ML/manifest.csv "$Q" lv mesh P --out ML --region whole --per-frame --landmark-frame >ML.log
+kept T/subject01/pose000.ply || t "$Q" lv mesh P --out T --region whole --vertices 600 --landmark-frame >T.log
+kept ML/manifest.csv || t "$Q" lv mesh P --out ML --region whole --per-frame --landmark-frame >ML.log
 t "$Q" fit --template T/subject01/pose000.ply --out FL$sfx ML/manifest.csv --sequence "${FIT[@]}" 2>FL$sfx.log
 t "$Q" lv run FL$sfx/manifest.csv --out RFL$sfx "${RUN[@]}" 2>RFL$sfx.log
 for f in F$sfx FL$sfx; do
-  echo "== $f: $(tail -1 $f.log)"
+  echo "== $f: $(tail -2 $f.log | tr -s " \n" " ")"
   awk -F, 'NR > 1 { n++; m += $4; if ($5 > p) p = $5; fl += $9; poor += ($14 == "true"); if ($17 > sl) sl = $17 }
     END { printf "quality: %d poses, mean distance %.4f, largest p95 %.4f, flipped %d, poor %d, largest slide %.3f\n", n, m / n, p, fl, poor, sl }' $f/quality.csv
   python3 "$here/scripts/matrix_agreement.py" R0/similarity.csv R$f/similarity.csv P/labels.csv
