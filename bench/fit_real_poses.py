@@ -48,7 +48,8 @@ Seeds are fixed (jitter: a hash of subject, pose and meshing); every method sees
         --horse /tmp/hc-data/horse --cactus /tmp/hc-data/cactus [--json out.json]
 
 `--horse` or `--cactus` alone runs one subject; `--meshings`, `--methods`, `--horse-frames`,
-`--cactus-poses` narrow or widen the run.
+`--cactus-poses` narrow or widen the run; `--report OUT.json` prints the tables of an earlier
+`--json OUT.json` run again.
 """
 
 import argparse
@@ -177,8 +178,13 @@ def main():
     ap.add_argument("--meshings", default="decimate,remesh")
     ap.add_argument("--methods", default="none,qs,qs-affine,nricp")
     ap.add_argument("--no-ref", action="store_true", help="skip the reference-onto-itself check")
-    ap.add_argument("--json", type=Path)
+    ap.add_argument("--json", type=Path, help="write every fit's numbers")
+    ap.add_argument("--report", type=Path, help="print the tables of a --json file, no fit")
     a = ap.parse_args()
+    if a.report is not None:
+        rows = json.loads(a.report.read_text())
+        report(rows, list(dict.fromkeys(r["method"] for r in rows)))
+        return
     if a.horse is None and a.cactus is None:
         ap.error("give --horse DIR and/or --cactus DIR")
     for var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS"):
@@ -225,6 +231,21 @@ def main():
 
 
 def report(rows, methods):
+    cases = []
+    for r in rows:
+        key = (r["subject"], r["pose"], r["meshing"], r["target_vertices"])
+        if key not in cases:
+            cases.append(key)
+    print("median (95th percentile) error in the reference's mean edge lengths; seconds per fit")
+    print("| subject | pose | meshing (target vertices) | " + " | ".join(methods) + " | "
+          + " | ".join(f"s {m}" for m in methods if m != "none") + " |")
+    print("|---|---|---|" + "---:|" * (2 * len(methods) - ("none" in methods)))
+    for key in cases:
+        by = {r["method"]: r for r in rows if (r["subject"], r["pose"], r["meshing"], r["target_vertices"]) == key}
+        print(f"| {key[0]} | {key[1]} | {key[2]} ({key[3]}) | "
+              + " | ".join(f"{by[m]['med']:.2f} ({by[m]['p95']:.1f})" if m in by else "-" for m in methods) + " | "
+              + " | ".join(f"{by[m]['s']:.1f}" if m in by else "-" for m in methods if m != "none") + " |")
+    print()
     horse = any(r["subject"] == "horse" for r in rows)
     head = "| subject | pose | meshing (target vertices) | method | med | p95 | nrm | tan | surf | s | poor | slide |"
     if horse:
@@ -239,13 +260,13 @@ def report(rows, methods):
             line += "".join(f" {r[k]:.2f} |" if k in r else " - |" for k in ("legs", "head", "body"))
         print(line)
     print("\nmean over the poses (not ref) of the per-fit median error, and of the time:")
-    print("| subject | meshing | " + " | ".join(methods) + " | " + " | ".join(f"s {m}" for m in methods) + " |")
-    print("|---|---|" + "---:|" * (2 * len(methods)))
-    keys = sorted({(r["subject"], r["meshing"]) for r in rows}, key=lambda k: [r["subject"] for r in rows].index(k[0]))
-    for subject, meshing in keys:
+    timed = [m for m in methods if m != "none"]
+    print("| subject | meshing | " + " | ".join(methods) + " | " + " | ".join(f"s {m}" for m in timed) + " |")
+    print("|---|---|" + "---:|" * (len(methods) + len(timed)))
+    for subject, meshing in dict.fromkeys((r["subject"], r["meshing"]) for r in rows):
         sel = [r for r in rows if r["subject"] == subject and r["meshing"] == meshing and r["pose"] != "ref"]
         med = [np.mean([r["med"] for r in sel if r["method"] == m]) for m in methods]
-        sec = [np.mean([r["s"] for r in sel if r["method"] == m]) for m in methods]
+        sec = [np.mean([r["s"] for r in sel if r["method"] == m]) for m in timed]
         print(f"| {subject} | {meshing} | " + " | ".join(f"{x:.3f}" for x in med) + " | "
               + " | ".join(f"{x:.1f}" for x in sec) + " |")
 
