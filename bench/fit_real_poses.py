@@ -35,8 +35,8 @@ vertices to the re-meshed target surface (the fit lands on the surface when this
 where `med` is large: a slide); `s` = seconds for the fit alone, one thread; `poor`, `slide` =
 qs.fit's quality (docs/fit.md, "Quality"; not computed for nricp or none). Horse only:
 `legs`, `head`, `body` = median error over the reference vertices in three regions of the
-reference pose (legs: height y < 0.75; head and neck: y >= 0.75 and z > 0.3; body: the rest,
-torso and tail), to see where the error sits.
+reference pose (legs and the lowest part of the belly: height y < 0.75; head and upper neck:
+y >= 0.75 and z > 0.3; body: the rest, torso, lower neck and tail), to see where the error sits.
 The summary closes with each method's mean over the poses (not `ref`) of the medians, per
 subject and meshing.
 
