@@ -45,7 +45,7 @@ kept ML/manifest.csv || t "$Q" lv mesh P --out ML --region whole --per-frame --l
 t "$Q" fit --template T/subject01/pose000.ply --out FL$sfx ML/manifest.csv --sequence "${FIT[@]}" 2>FL$sfx.log
 t "$Q" lv run FL$sfx/manifest.csv --out RFL$sfx "${RUN[@]}" 2>RFL$sfx.log
 for f in F$sfx FL$sfx; do
-  echo "== $f: $(tail -2 $f.log | tr -s " \n" " ")"
+  echo "== $f: $(tail -1 $f.log)"
   awk -F, 'NR > 1 { n++; m += $4; if ($5 > p) p = $5; fl += $9; poor += ($14 == "true"); if ($17 > sl) sl = $17 }
     END { printf "quality: %d poses, mean distance %.4f, largest p95 %.4f, flipped %d, poor %d, largest slide %.3f\n", n, m / n, p, fl, poor, sl }' $f/quality.csv
   python3 "$here/scripts/matrix_agreement.py" R0/similarity.csv R$f/similarity.csv P/labels.csv
