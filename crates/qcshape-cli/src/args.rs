@@ -135,11 +135,11 @@ impl VariantArgs {
     }
 }
 
-/// The discrete geodesic solver.
+/// The solver settings of every command that solves geodesics (`--solver`, `--gauge`,
+/// `--tolerance`, `--energy-tolerance`): flattened into [`SolverArgs`] and into `interpolate`'s
+/// arguments.
 #[derive(Debug, Clone, clap::Args)]
-pub struct SolverArgs {
-    #[arg(long, help = S::STEPS.help(), default_value = S::STEPS.default_text(), value_parser = count(&S::STEPS), allow_negative_numbers = true)]
-    pub steps: usize,
+pub struct SolveArgs {
     #[arg(long, help = S::SOLVER.help(), default_value = S::SOLVER.default_text(), value_parser = choice::<Solver>())]
     pub solver: Solver,
     #[arg(long, help = S::GAUGE.help(), default_value = S::GAUGE.default_text(), value_parser = choice::<Gauge>())]
@@ -148,6 +148,30 @@ pub struct SolverArgs {
     pub tolerance: f64,
     #[arg(long, help = S::ENERGY_TOLERANCE.help(), default_value = S::ENERGY_TOLERANCE.default_text(), value_parser = real(&S::ENERGY_TOLERANCE), allow_negative_numbers = true)]
     pub energy_tolerance: f64,
+}
+
+impl SolveArgs {
+    /// `base` with these settings, and the progress lines' iteration monitor.
+    pub fn apply(&self, base: GeodesicOptions) -> GeodesicOptions {
+        GeodesicOptions {
+            solver: self.solver,
+            gauge: self.gauge,
+            gradient_tolerance: self.tolerance,
+            energy_tolerance: self.energy_tolerance,
+            // Counts solver iterations for the progress lines.
+            monitor: Some(crate::progress::monitor()),
+            ..base
+        }
+    }
+}
+
+/// The discrete geodesic solver.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SolverArgs {
+    #[arg(long, help = S::STEPS.help(), default_value = S::STEPS.default_text(), value_parser = count(&S::STEPS), allow_negative_numbers = true)]
+    pub steps: usize,
+    #[command(flatten)]
+    pub solve: SolveArgs,
     #[arg(long, help = S::LENGTH_TOLERANCE.help(), default_value = S::LENGTH_TOLERANCE.default_text(), value_parser = real(&S::LENGTH_TOLERANCE), allow_negative_numbers = true)]
     pub length_tolerance: f64,
 }
@@ -155,17 +179,11 @@ pub struct SolverArgs {
 impl SolverArgs {
     /// The geodesic options, after checking the values.
     pub fn options(&self) -> Result<GeodesicOptions> {
-        let g = GeodesicOptions {
+        let g = self.solve.apply(GeodesicOptions {
             steps: self.steps,
-            solver: self.solver,
-            gauge: self.gauge,
-            gradient_tolerance: self.tolerance,
-            energy_tolerance: self.energy_tolerance,
             length_tolerance: self.length_tolerance,
-            // Counts solver iterations for the progress lines.
-            monitor: Some(crate::progress::monitor()),
             ..Default::default()
-        };
+        });
         g.validate().map_err(flag_error)?;
         Ok(g)
     }

@@ -8,7 +8,6 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::{Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
-    Solver,
 };
 use qcshape::io;
 use qcshape::mesh::Topology;
@@ -54,16 +53,10 @@ pub struct Args {
     metric: MetricArgs,
     #[command(flatten)]
     template: crate::template::TemplateArgs,
-    #[arg(long, help = qcshape::settings::SOLVER.help(), default_value = qcshape::settings::SOLVER.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Solver>())]
-    solver: Solver,
-    #[arg(long, help = qcshape::settings::GAUGE.help(), default_value = qcshape::settings::GAUGE.default_text(), value_parser = crate::args::choice::<qcshape::geodesic::Gauge>())]
-    gauge: qcshape::geodesic::Gauge,
-    #[arg(long, help = qcshape::settings::TOLERANCE.help(), default_value = qcshape::settings::TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::TOLERANCE), allow_negative_numbers = true)]
-    tolerance: f64,
-    #[arg(long, help = qcshape::settings::ENERGY_TOLERANCE.help(), default_value = qcshape::settings::ENERGY_TOLERANCE.default_text(), value_parser = crate::args::real(&qcshape::settings::ENERGY_TOLERANCE), allow_negative_numbers = true)]
-    energy_tolerance: f64,
-    /// Iteration limit of each geodesic solve (default: the solver's own: 1,000 for the
-    /// preconditioned L-BFGS, 100 for the Gauss-Newton family, 5,000 for plain L-BFGS).
+    #[command(flatten)]
+    solve: crate::args::SolveArgs,
+    /// Iteration limit of each geodesic solve (default: 1,000, or 60 sqrt(#V) on meshes above
+    /// 278 vertices).
     /// At most 1,000,000.
     #[arg(long, value_parser = crate::bounds::count::<usize>(0, qcshape::limits::MAX_ITERATIONS as u64), allow_negative_numbers = true)]
     max_iterations: Option<usize>,
@@ -107,15 +100,10 @@ fn run_in_pool(args: &Args) -> Result<()> {
     // One scale and one calibrated metric for the whole data set.
     let factor = normalization_factor(Normalization::MeanEdgeOfFirst, &first.topology, &first.poses[0]);
     let metric = spec.build_scaled(&first.topology, &first.poses[0], factor)?;
-    let geodesic = GeodesicOptions {
-        solver: args.solver,
-        gauge: args.gauge,
-        gradient_tolerance: args.tolerance,
-        energy_tolerance: args.energy_tolerance,
+    let geodesic = args.solve.apply(GeodesicOptions {
         max_iterations: args.max_iterations,
-        monitor: Some(crate::progress::monitor()),
         ..Default::default()
-    };
+    });
     geodesic.validate().map_err(flag_error)?;
     let options = InterpolationOptions {
         insert: args.insert,
