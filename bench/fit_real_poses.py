@@ -64,51 +64,10 @@ from pathlib import Path
 import numpy as np
 
 
-def read(path):
-    import trimesh
-
-    m = trimesh.load(path, process=False)
-    return np.asarray(m.vertices, float), np.asarray(m.faces, np.int64)
-
-
-def edges_of(F):
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    return np.unique(np.sort(e, axis=1), axis=0)
-
-
-def mean_edge(V, F):
-    e = edges_of(F)
-    return float(np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1).mean())
-
-
-def jitter(V, F, rng, most=0.35):
-    e = edges_of(F)
-    nbrs = [[] for _ in range(len(V))]
-    for a, b in e:
-        nbrs[a].append(b)
-        nbrs[b].append(a)
-    W = V.copy()
-    for i in range(len(V)):
-        j = nbrs[i][rng.integers(len(nbrs[i]))]
-        W[i] = V[i] + rng.uniform(0, most) * (V[j] - V[i])
-    return W
-
-
-def mesh_target(meshing, V, F, seed):
-    if meshing == "jitter":
-        return jitter(V, F, np.random.default_rng(seed)), F
-    if meshing == "decimate":
-        import fast_simplification
-
-        W, G = fast_simplification.simplify(V.astype(np.float64), F.astype(np.int64), target_reduction=0.5)
-        return np.asarray(W, float), np.asarray(G, np.int64)
-    if meshing == "remesh":
-        import gpytoolbox
-
-        h = 1.25 * mean_edge(V, F)
-        W, G = gpytoolbox.remesh_botsch(V.astype(np.float64), F.astype(np.int32), i=10, h=h, project=True)
-        return np.asarray(W, float), np.asarray(G, np.int64)
-    raise ValueError(meshing)
+# The meshes' reading, mean edge length and re-meshing (jitter, decimate, remesh) are the
+# synthetic benchmark's (bench/fit_bench.py, beside this script).
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fit_bench import mean_edge, mesh_target, read  # noqa: E402
 
 
 def run_method(method, V, F, W, G):
