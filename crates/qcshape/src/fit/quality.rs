@@ -129,6 +129,14 @@ impl FitQuality {
     }
 }
 
+/// Each face's smallest angle (degrees).
+fn face_min_angles(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
+    corner_angles(topo, pos)
+        .iter()
+        .map(|a| a.iter().fold(f64::INFINITY, |m, x| m.min(*x)).to_degrees())
+        .collect()
+}
+
 /// Per face, the angle (degrees) between its normal and the sum of its edge neighbours'
 /// normals: above 90 the face is folded over against its neighbours; 0 without neighbours.
 fn fold_angles(topo: &Topology, pos: &[[f64; 3]]) -> Vec<f64> {
@@ -309,13 +317,7 @@ pub(crate) fn measure(
         .copied()
         .unwrap_or(0.0);
     let hausdorff = all.last().copied().unwrap_or(0.0);
-    let face_min = |pos: &[[f64; 3]]| -> Vec<f64> {
-        corner_angles(topo, pos)
-            .iter()
-            .map(|a| a.iter().fold(f64::INFINITY, |m, x| m.min(*x)).to_degrees())
-            .collect()
-    };
-    let (fit_angles, rest_angles) = (face_min(fitted), face_min(rest));
+    let (fit_angles, rest_angles) = (face_min_angles(topo, fitted), face_min_angles(topo, rest));
     let min_angle = fit_angles.iter().fold(f64::INFINITY, |m, a| m.min(*a));
     let template_min_angle = rest_angles.iter().fold(f64::INFINITY, |m, a| m.min(*a));
     let new_slivers = fit_angles
@@ -378,22 +380,6 @@ mod tests {
         ]
     }
 
-    fn min_angles(topo: &Topology, p: &[[f64; 3]]) -> Vec<f64> {
-        topo.faces()
-            .iter()
-            .map(|f| {
-                (0..3)
-                    .map(|k| {
-                        let a = p[f[k] as usize];
-                        let u = sub(p[f[(k + 1) % 3] as usize], a);
-                        let v = sub(p[f[(k + 2) % 3] as usize], a);
-                        (dot(u, v) / (dot(u, u) * dot(v, v)).sqrt()).acos().to_degrees()
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .collect()
-    }
-
     #[test]
     fn a_fold_counts_where_the_template_is_smooth_not_at_its_own_creases() {
         let topo = Topology::new(4, vec![[0, 1, 2], [1, 0, 3]]).unwrap();
@@ -409,7 +395,7 @@ mod tests {
             (&crease, hinge(95.0), 0),
             (&crease, hinge(150.0), 0),
         ] {
-            let got = count_flipped(&topo, rest, &fitted, &min_angles(&topo, rest));
+            let got = count_flipped(&topo, rest, &fitted, &face_min_angles(&topo, rest));
             assert_eq!(got, want, "{rest:?} -> {fitted:?}");
         }
     }
