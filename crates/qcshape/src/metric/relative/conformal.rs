@@ -2,6 +2,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::faces::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FACE};
+use super::strain_rate_gradient;
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::conformal::face_pattern;
@@ -73,10 +74,8 @@ fn corner(g: [[f64; 3]; 3], x: [[f64; 3]; 3]) -> (f64, [[f64; 3]; 3], [[f64; 3];
     let (p1, p2) = (dot(e1, d1), dot(e2, d2));
     let t = p1 / l1 - p2 / l2;
     // d(p / l)/de = d / l - 2 p e / l^2, d(p / l)/dd = e / l.
-    let ge1 = sub(scale(d1, 1.0 / l1), scale(e1, 2.0 * p1 / (l1 * l1)));
-    let ge2 = scale(sub(scale(d2, 1.0 / l2), scale(e2, 2.0 * p2 / (l2 * l2))), -1.0);
-    let gd1 = scale(e1, 1.0 / l1);
-    let gd2 = scale(e2, -1.0 / l2);
+    let (ge1, gd1) = strain_rate_gradient(e1, d1, l1, p1, 1.0);
+    let (ge2, gd2) = strain_rate_gradient(e2, d2, l2, p2, -1.0);
     (
         t,
         [add(ge1, ge2), scale(ge1, -1.0), scale(ge2, -1.0)],
@@ -258,9 +257,7 @@ impl Metric for RelativeConformal {
                     // Edge m is the first edge of corner m and the second of corner m + 1.
                     let gq = sk[m] - sk[(m + 1) % 3];
                     let (e, d, l, p, _) = eds[m];
-                    // dq/de = d / l - 2 p e / l^2, dq/dd = e / l.
-                    let dg = scale(sub(scale(d, 1.0 / l), scale(e, 2.0 * p / (l * l))), gq);
-                    let dx = scale(e, gq / l);
+                    let (dg, dx) = strain_rate_gradient(e, d, l, p, gq);
                     let (da, db) = split_segment(at, dg, dx);
                     let (i, j) = (m, (m + 1) % 3);
                     ga[i] = add(ga[i], da);

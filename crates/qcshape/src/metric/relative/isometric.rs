@@ -1,5 +1,6 @@
 use super::faces::{edge_shares, face_share_frozen_values, segment_faces};
-use crate::mesh::geometry::{add, dot, scale, sub};
+use super::strain_rate_gradient;
+use crate::mesh::geometry::{add, dot, sub};
 use crate::mesh::Topology;
 use crate::metric::gradient::{same_frozen, Scratch, SegmentSink};
 use crate::metric::pattern::{JacobianMut, Pattern, PatternRef};
@@ -51,9 +52,7 @@ impl Metric for RelativeIsometric {
             let s = shares[ei].max(0.0).sqrt();
             r[ei] = s * pr / l;
             if let Some(j) = jac.as_mut() {
-                // d(pr / l)/de = dx / l - 2 pr e / l^2, d(pr / l)/dX = e / l.
-                let dg = scale(sub(scale(dx, 1.0 / l), scale(de, 2.0 * pr / (l * l))), s);
-                let dd = scale(de, s / l);
+                let (dg, dd) = strain_rate_gradient(de, dx, l, pr, s);
                 let (da, db) = split_segment(seg.at, dg, dd);
                 j.da[2 * ei] = da;
                 j.db[2 * ei] = db;
@@ -97,8 +96,7 @@ impl Metric for RelativeIsometric {
                 let r = s * pr / l;
                 value += r * r;
                 let c = w2 * r;
-                let dg = scale(sub(scale(dx, 1.0 / l), scale(de, 2.0 * pr / (l * l))), s * c);
-                let dd = scale(de, s * c / l);
+                let (dg, dd) = strain_rate_gradient(de, dx, l, pr, s * c);
                 let (da, db) = split_segment(at, dg, dd);
                 ga = add(ga, da);
                 gb = add(gb, db);
