@@ -107,10 +107,7 @@ pub(crate) fn initial_alignment(
     let tw = vertex_areas(&template.topology, &template.positions);
     let (cs, rs, es) = moments(&template.positions, &tw);
     let (ct, rt, et) = moments(target.positions, &target.weights);
-    // The scale of a surface target: the square root of the area ratio, held through the ICP
-    // rounds (closest points on a posed target, a limb moved away, pull a fitted scale down:
-    // 0.85-0.87 on the horse gallop, docs/fit.md "Real poses"); a point cloud's: the ratio of
-    // rms radii, refined by the ICP.
+    // The scale (module docs): a surface's from the area ratio, held; a cloud's fitted.
     let area = |w: &[f64]| w.iter().filter(|a| a.is_finite() && **a > 0.0).sum::<f64>();
     let (at, as_) = (area(&target.weights), area(&tw));
     let area_scale = (with_scale && target.is_surface() && at > 0.0 && as_ > 0.0).then(|| (at / as_).sqrt());
@@ -122,10 +119,9 @@ pub(crate) fn initial_alignment(
         1.0
     };
     let fit_scale = with_scale && area_scale.is_none();
-    let from: Vec<[f64; 3]> = if area_scale.is_some() {
-        template.positions.iter().map(|p| scale(*p, s0)).collect()
-    } else {
-        template.positions.clone()
+    let from: std::borrow::Cow<[[f64; 3]]> = match area_scale {
+        Some(s) => template.positions.iter().map(|p| scale(*p, s)).collect(),
+        None => (&template.positions[..]).into(),
     };
     let mut candidates = vec![Motion::IDENTITY.rotation];
     // The eight sign choices of the axes; the four that give a proper rotation are kept.
