@@ -121,13 +121,22 @@ fn pcg_ritz(
     (tridiagonal_eigenvalues(&d, &e), reached)
 }
 
+/// The comma-separated values of the environment variable `name`, or `default`.
+fn env_list<T: std::str::FromStr>(name: &str, default: Vec<T>) -> Vec<T>
+where
+    T::Err: std::fmt::Debug,
+{
+    std::env::var(name)
+        .ok()
+        .map(|s| s.split(',').map(|v| v.parse().unwrap()).collect())
+        .unwrap_or(default)
+}
+
 #[test]
 #[ignore = "a study (a few minutes in release): prints the preconditioned spectra"]
 fn preconditioned_spectrum_of_the_path_hessian() {
-    let levels: Vec<u32> = std::env::var("SPECTRUM_LEVELS")
-        .ok()
-        .map(|s| s.split(',').map(|v| v.parse().unwrap()).collect())
-        .unwrap_or(vec![3, 4]);
+    let levels: Vec<u32> = env_list("SPECTRUM_LEVELS", vec![3, 4]);
+    let bendings: Vec<f64> = env_list("SPECTRUM_BENDINGS", vec![1e-4, 0.0]);
     let steps_k: usize = std::env::var("SPECTRUM_STEPS")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -138,11 +147,7 @@ fn preconditioned_spectrum_of_the_path_hessian() {
     );
     for level in levels {
         let (a, b) = crate::synth::twisted_sphere(level);
-        let bendings: Vec<f64> = std::env::var("SPECTRUM_BENDINGS")
-            .ok()
-            .map(|s| s.split(',').map(|v| v.parse().unwrap()).collect())
-            .unwrap_or(vec![1e-4, 0.0]);
-        for bending in bendings {
+        for &bending in &bendings {
             let spec = MetricSpec {
                 bending,
                 ..MetricSpec::new(MetricKind::Isometric)
