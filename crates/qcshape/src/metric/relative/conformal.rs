@@ -1,8 +1,8 @@
 // Index loops mirror the formulas (corner, face slot) in these kernels.
 #![allow(clippy::needless_range_loop)]
 
+use super::faces::strain_rate_gradient;
 use super::faces::{frozen_faces, mean_summary, pose_faces, segment_faces, PER_FACE};
-use super::strain_rate_gradient;
 use crate::mesh::geometry::{add, cross, dot, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::conformal::face_pattern;

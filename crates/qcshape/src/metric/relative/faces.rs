@@ -4,7 +4,7 @@
 
 use std::borrow::Cow;
 
-use crate::mesh::geometry::{cross, dot, norm, sub};
+use crate::mesh::geometry::{cross, dot, norm, scale, sub};
 use crate::mesh::Topology;
 use crate::metric::segment::Segment;
 
@@ -130,4 +130,15 @@ pub(crate) fn edge_shares(topo: &Topology, faces: &[f64]) -> Vec<f64> {
         }
     }
     w
+}
+
+/// `k` times the gradient of an edge's strain rate `q = p / l` (`p = <e, d>`, `l = |e|^2`, `e`
+/// the edge vector, `d` its displacement) with respect to `e` and to `d`:
+/// `k (d / l - 2 p e / l^2)` and `k e / l` (eq. 3's and eq. 6's rates).
+#[inline(always)]
+pub(super) fn strain_rate_gradient(e: [f64; 3], d: [f64; 3], l: f64, p: f64, k: f64) -> ([f64; 3], [f64; 3]) {
+    (
+        scale(sub(scale(d, 1.0 / l), scale(e, 2.0 * p / (l * l))), k),
+        scale(e, k / l),
+    )
 }

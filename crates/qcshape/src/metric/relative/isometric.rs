@@ -1,5 +1,5 @@
+use super::faces::strain_rate_gradient;
 use super::faces::{edge_shares, face_share_frozen_values, segment_faces};
-use super::strain_rate_gradient;
 use crate::mesh::geometry::{add, dot, sub};
 use crate::mesh::Topology;
 use crate::metric::gradient::{same_frozen, Scratch, SegmentSink};
