@@ -141,16 +141,18 @@ def test_bar_in_jupyter():
 SINGLE = """
 import numpy as np
 import qcshape as qs
-V, F = qs.icosphere(3)
+V, F = qs.icosphere({level})
 B = V * np.array([1.0, 1.3, 0.8]) + 0.2 * V[:, [1, 2, 0]] ** 2
 qs.ShapeSpace(F, metric="conformal").geodesic(V, B{kw})
 """
 
 
 def test_a_single_geodesic_logs_iteration_lines():
-    # The lines' interval made 0 (it is 10 s): every count the poller sees becomes a line.
+    # The lines' interval made 0 (it is 10 s): every count the poller sees becomes a line. The
+    # poller looks every 50 ms, so the solve must last a few of those: 2,562 vertices (at 642
+    # the conformal geodesic takes about 50 ms since its fused kernel).
     err = subprocess.run(
-        [sys.executable, "-c", "import qcshape._progress as p; p.LINE_EVERY = 0.0\n" + SINGLE.format(kw="")],
+        [sys.executable, "-c", "import qcshape._progress as p; p.LINE_EVERY = 0.0\n" + SINGLE.format(level=4, kw="")],
         capture_output=True, text=True, check=True,
     ).stderr
     lines = [line for line in err.splitlines() if line.startswith("qcshape: iterations")]
@@ -162,7 +164,7 @@ def test_a_single_geodesic_logs_iteration_lines():
 
 
 def test_a_short_single_geodesic_is_silent_in_a_log():
-    err = subprocess.run([sys.executable, "-c", SINGLE.format(kw="")], capture_output=True, text=True, check=True).stderr
+    err = subprocess.run([sys.executable, "-c", SINGLE.format(level=3, kw="")], capture_output=True, text=True, check=True).stderr
     assert "qcshape:" not in err
 
 
