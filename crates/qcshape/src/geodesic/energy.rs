@@ -32,6 +32,9 @@ pub(crate) struct SegmentWork {
     poses: Vec<Vec<f64>>,
     /// Per interior pose: its two segments' coefficients summed, and its pose gradient.
     pose_grads: Vec<(Vec<f64>, Vec<[f64; 3]>)>,
+    /// The end poses (first, last) whose values `poses[0]` and `poses[N]` hold: a solve's ends
+    /// do not move, so their values are recomputed only when the positions differ.
+    ends_seen: [Vec<[f64; 3]>; 2],
 }
 
 /// Fixed data of one path problem: the two end poses and the frozen metric weights.
@@ -278,14 +281,22 @@ impl<'m> PathEnergy<'m> {
         let n_aux = self.metric.n_aux();
         work.parts.resize_with(self.steps, SegmentGradient::default);
         // Pass 1: each pose's shared values once (a pose belongs to two segments); none if
-        // the metric has none.
+        // the metric has none. The ends' only when they are not those of the last call.
         let pattern = self.pattern.as_ref();
-        work.poses.resize_with(self.steps + 1, Vec::new);
-        self.metric
-            .pose_values(&self.topo, pattern, self.pose(x, ends, 0), &mut work.poses[0]);
+        let n = self.steps;
+        work.poses.resize_with(n + 1, Vec::new);
+        for (seen, i) in work.ends_seen.iter_mut().zip([0, n]) {
+            let pose = self.pose(x, ends, i);
+            if seen.as_slice() != pose {
+                self.metric
+                    .pose_values(&self.topo, pattern, pose, &mut work.poses[i]);
+                seen.clear();
+                seen.extend_from_slice(pose);
+            }
+        }
         let shared = !work.poses[0].is_empty();
         if shared {
-            work.poses[1..].par_iter_mut().enumerate().for_each(|(i, out)| {
+            work.poses[1..n].par_iter_mut().enumerate().for_each(|(i, out)| {
                 self.metric
                     .pose_values(&self.topo, pattern, self.pose(x, ends, i + 1), out)
             });
@@ -318,8 +329,6 @@ impl<'m> PathEnergy<'m> {
                 } else {
                     [&[], &[]]
                 };
-                part.ca.resize(values[0].len(), 0.0);
-                part.cb.resize(values[1].len(), 0.0);
                 part.energy = self.metric.segment_gradient_with(
                     &self.topo,
                     pattern,
@@ -346,7 +355,7 @@ impl<'m> PathEnergy<'m> {
                     g.clear();
                     g.resize(nv, [0.0; 3]);
                     self.metric
-                        .pose_gradient(&self.topo, pattern, self.pose(x, ends, i), c, g);
+                        .pose_gradient(&self.topo, pattern, self.pose(x, ends, i), &poses[i], c, g);
                 });
         }
         grad.fill(0.0);

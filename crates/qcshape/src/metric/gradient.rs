@@ -48,23 +48,24 @@ pub struct SegmentSink<'a> {
 /// What the path energy shares between a segment and its two poses
 /// ([`Metric::segment_gradient_with`](super::Metric::segment_gradient_with)): the
 /// [`Metric::pose_values`](super::Metric::pose_values) of the segment's first and last pose,
-/// and the segment's coefficients for each (each as long as its pose's values), from which
+/// and the segment's coefficients for each (sized and written by the metric), from which
 /// [`Metric::pose_gradient`](super::Metric::pose_gradient) gives the rest of the gradient at
 /// each pose.
 pub struct PoseShare<'a> {
     /// The pose values of `a` and `b` (empty: none).
     pub values: [&'a [f64]; 2],
-    /// The segment's coefficients for `a` and `b`, written by the metric.
-    pub coeffs: [&'a mut [f64]; 2],
+    /// The segment's coefficients for `a` and `b`, resized and written by the metric.
+    pub coeffs: [&'a mut Vec<f64>; 2],
 }
 
-impl PoseShare<'_> {
-    /// Nothing shared: [`Metric::segment_gradient_with`](super::Metric::segment_gradient_with)
-    /// is [`Metric::segment_gradient`](super::Metric::segment_gradient).
-    pub fn none() -> PoseShare<'static> {
+impl<'a> PoseShare<'a> {
+    /// Nothing shared (no values; `unused` stays empty):
+    /// [`Metric::segment_gradient_with`](super::Metric::segment_gradient_with) is
+    /// [`Metric::segment_gradient`](super::Metric::segment_gradient).
+    pub fn none(unused: [&'a mut Vec<f64>; 2]) -> Self {
         PoseShare {
             values: [&[], &[]],
-            coeffs: [&mut [], &mut []],
+            coeffs: unused,
         }
     }
 }

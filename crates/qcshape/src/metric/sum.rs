@@ -386,7 +386,9 @@ impl<T: Term> Metric for TermSum<T> {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
-        self.segment_gradient_with(topo, pattern, segs, PoseShare::none(), scratch, sink)
+        let (mut ua, mut ub) = (Vec::new(), Vec::new());
+        let share = PoseShare::none([&mut ua, &mut ub]);
+        self.segment_gradient_with(topo, pattern, segs, share, scratch, sink)
     }
 
     /// The term's when it has pose values ([`Term::has_pose_values`]), else the inner
@@ -408,6 +410,7 @@ impl<T: Term> Metric for TermSum<T> {
         topo: &Topology,
         pattern: PatternRef,
         pose: &[[f64; 3]],
+        values: &[f64],
         coeffs: &[f64],
         g: &mut [[f64; 3]],
     ) {
@@ -415,10 +418,10 @@ impl<T: Term> Metric for TermSum<T> {
             let parts = self.parts(topo, pattern);
             self.term
                 .metric()
-                .pose_gradient(topo, parts.second(), pose, coeffs, g);
+                .pose_gradient(topo, parts.second(), pose, values, coeffs, g);
         } else {
             self.inner
-                .pose_gradient(topo, self.inner_rows(topo, pattern), pose, coeffs, g);
+                .pose_gradient(topo, self.inner_rows(topo, pattern), pose, values, coeffs, g);
         }
     }
 

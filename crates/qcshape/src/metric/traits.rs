@@ -163,13 +163,14 @@ pub trait Metric: Send + Sync + Debug {
     }
 
     /// Adds to `g` (#V x 3) the gradient at `pose` of the parts with pose values, from the
-    /// summed coefficients `coeffs` of [`Metric::segment_gradient_with`]. Nothing (the default)
-    /// for metrics without pose values.
+    /// pose's own [`Metric::pose_values`] `values` and the summed coefficients `coeffs` of
+    /// [`Metric::segment_gradient_with`]. Nothing (the default) for metrics without pose values.
     fn pose_gradient(
         &self,
         _topo: &Topology,
         _pattern: PatternRef,
         _pose: &[[f64; 3]],
+        _values: &[f64],
         _coeffs: &[f64],
         _g: &mut [[f64; 3]],
     ) {

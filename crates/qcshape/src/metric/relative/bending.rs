@@ -90,10 +90,18 @@ struct HingeState {
     dphi: [[f64; 3]; 4],
 }
 
-/// Values per hinge in a pose's [`RelativeBending::pose_values`] (`sin theta`, `cos theta`,
-/// `Phi`) and in a segment's coefficients for [`RelativeBending::pose_gradient`] (of
-/// `grad theta`, of `grad Phi`, and an unused 0).
-const PER_HINGE: usize = 3;
+/// Values per hinge in a pose's [`RelativeBending::pose_values`]: `sin theta`, `cos theta`,
+/// `Phi`, 1 if a wing is below the sliver threshold (`grad Phi` not zero) else 0, and
+/// `grad theta` with respect to `[x_i, x_j, x_k, x_l]` (12): the pose gradient is then a
+/// scatter, with no second pass over the positions (but at slivers, for `grad Phi`).
+const PER_HINGE: usize = 16;
+
+/// Offset of `grad theta` in a hinge's [`PER_HINGE`] values.
+const DTHETA: usize = 4;
+
+/// Coefficients per hinge in a segment's share for [`RelativeBending::pose_gradient`]: of
+/// `grad theta` and of `grad Phi`.
+const COEFFS_PER_HINGE: usize = 2;
 
 /// The two wings of a hinge at positions `p = [x_i, x_j, x_k, x_l]`: the edge `E = x_j - x_i`,
 /// `|E|^2`, `|E|`, each wing's `K` (from its tail to its apex: `x_k - x_i` for the first wing
@@ -140,18 +148,26 @@ fn wing_factors(w: &Wings) -> ([f64; 2], [f64; 2]) {
 /// `([0, 1], 0)` for a degenerate hinge.
 #[inline(always)]
 fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
-    let Some(w) = wings(p) else {
-        return ([0.0, 1.0], 0.0);
-    };
-    let ([phi1, phi2], _) = wing_factors(&w);
+    match wings(p) {
+        Some(w) => wings_value(&w),
+        None => ([0.0, 1.0], 0.0),
+    }
+}
+
+/// [`hinge_value`] from the hinge's [`Wings`].
+#[inline(always)]
+fn wings_value(w: &Wings) -> ([f64; 2], f64) {
+    let ([phi1, phi2], _) = wing_factors(w);
     let [n1, n2] = w.n;
-    // |N_1| |N_2| (sin theta, cos theta).
-    let (y, x) = (dot(cross(n2, n1), w.e) / w.le, dot(n1, n2));
+    // |N_1| |N_2| (sin theta, cos theta): <N_2 x N_1, E> / |E| with
+    // N_2 x N_1 = (K_2 x E) x (E x K_1) = <K_2, N_1> E.
+    let (y, x) = (dot(w.k[1], n1) * w.le, dot(n1, n2));
     let rho = (y * y + x * x).sqrt();
     if !(rho > 0.0 && rho.is_finite()) {
         return ([0.0, 1.0], 0.0);
     }
-    ([y / rho, x / rho], phi1 * phi2)
+    let inv = 1.0 / rho;
+    ([y * inv, x * inv], phi1 * phi2)
 }
 
 /// `ct grad theta + cp grad Phi` of the hinge at positions `p`, per vertex `[i, j, k, l]`;
@@ -166,53 +182,71 @@ fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
 /// apex the `K` part, the tail minus their sum.
 #[inline(always)]
 fn hinge_gradient(p: &[[f64; 3]; 4], ct: f64, cp: f64) -> [[f64; 3]; 4] {
-    let Some(w) = wings(p) else {
-        return [[0.0; 3]; 4];
-    };
-    let (phi, t) = wing_factors(&w);
-    let delta = SLIVER * SLIVER * w.ee * w.ee;
-    // Per wing: the head's, apex's and tail's parts.
-    let part = |m: usize| -> [[f64; 3]; 3] {
-        let ew = if m == 0 { w.e } else { scale(w.e, -1.0) };
-        let (k, n, nn) = (w.k[m], w.n[m], w.nn[m]);
-        let ek = dot(ew, k);
-        let alpha = ek / w.ee;
-        let c = scale(n, ct * w.le / nn);
-        let mut head = scale(c, -alpha);
-        let mut apex = c;
-        if t[m] < 1.0 && cp != 0.0 {
-            // The factor Phi = phi_1 phi_2: this wing's dphi times the other's phi.
-            let q = cp * phi[1 - m] * 6.0 * t[m] * (1.0 - t[m]) / delta;
-            let kk = dot(k, k);
-            let dt_de = sub(
-                scale(sub(scale(ew, kk), scale(k, ek)), 2.0),
-                scale(ew, 4.0 * t[m] * SLIVER * SLIVER * w.ee),
-            );
-            let dt_dk = scale(sub(scale(k, w.ee), scale(ew, ek)), 2.0);
-            head = add(head, scale(dt_de, q));
-            apex = add(apex, scale(dt_dk, q));
-        }
-        let tail = scale(add(head, apex), -1.0);
-        [head, apex, tail]
-    };
-    let [h1, a1, t1] = part(0);
-    let [h2, a2, t2] = part(1);
+    match wings(p) {
+        Some(w) => wings_gradient(&w, ct, cp),
+        None => [[0.0; 3]; 4],
+    }
+}
+
+/// [`hinge_gradient`] from the hinge's [`Wings`].
+#[inline(always)]
+fn wings_gradient(w: &Wings, ct: f64, cp: f64) -> [[f64; 3]; 4] {
+    let (phi, t) = wing_factors(w);
+    let [h1, a1, t1] = wing_part(w, 0, ct, cp, phi, t);
+    let [h2, a2, t2] = wing_part(w, 1, ct, cp, phi, t);
     // Wing 1: tail i, head j, apex k; wing 2: tail j, head i, apex l.
     [add(t1, h2), add(h1, t2), a1, a2]
+}
+
+/// Wing `m`'s part of [`wings_gradient`]: its head's, apex's and tail's, given both wings'
+/// sliver factors `phi` and their `t` ([`wing_factors`]). Inlined: called through memory, the
+/// returned arrays stalled the pose pass on store forwarding.
+#[inline(always)]
+fn wing_part(w: &Wings, m: usize, ct: f64, cp: f64, phi: [f64; 2], t: [f64; 2]) -> [[f64; 3]; 3] {
+    let ew = if m == 0 { w.e } else { scale(w.e, -1.0) };
+    let (k, n, nn) = (w.k[m], w.n[m], w.nn[m]);
+    let ek = dot(ew, k);
+    let alpha = ek / w.ee;
+    let c = scale(n, ct * w.le / nn);
+    let mut head = scale(c, -alpha);
+    let mut apex = c;
+    if t[m] < 1.0 && cp != 0.0 {
+        // The factor Phi = phi_1 phi_2: this wing's dphi times the other's phi.
+        let delta = SLIVER * SLIVER * w.ee * w.ee;
+        let q = cp * phi[1 - m] * 6.0 * t[m] * (1.0 - t[m]) / delta;
+        let kk = dot(k, k);
+        let dt_de = sub(
+            scale(sub(scale(ew, kk), scale(k, ek)), 2.0),
+            scale(ew, 4.0 * t[m] * SLIVER * SLIVER * w.ee),
+        );
+        let dt_dk = scale(sub(scale(k, w.ee), scale(ew, ek)), 2.0);
+        head = add(head, scale(dt_de, q));
+        apex = add(apex, scale(dt_dk, q));
+    }
+    let tail = scale(add(head, apex), -1.0);
+    [head, apex, tail]
 }
 
 /// [`HingeState`] of the hinge at positions `p = [x_i, x_j, x_k, x_l]`; the gradients only if
 /// `want`. A degenerate edge or face gives the zero state (`Phi = 0`: no residual).
 fn hinge_state(p: [[f64; 3]; 4], want: bool) -> HingeState {
-    let (angle, phi) = hinge_value(&p);
+    let Some(w) = wings(&p) else {
+        return HingeState {
+            angle: [0.0, 1.0],
+            ..HingeState::default()
+        };
+    };
+    let (angle, phi) = wings_value(&w);
     let mut st = HingeState {
         angle,
         phi,
         ..HingeState::default()
     };
     if want {
-        st.dtheta = hinge_gradient(&p, 1.0, 0.0);
-        st.dphi = hinge_gradient(&p, 0.0, 1.0);
+        st.dtheta = wings_gradient(&w, 1.0, 0.0);
+        if wing_factors(&w).1.iter().any(|&t| t < 1.0) {
+            st.dphi = wings_gradient(&w, 0.0, 1.0);
+        }
     }
     st
 }
@@ -318,19 +352,29 @@ impl Metric for RelativeBending {
         gradient_pass(topo, pattern, segs[0], &mut both)
     }
 
-    /// Every hinge's angle and sliver factor at `pose` (3 values per hinge: `sin theta`, `cos theta`, `Phi`).
+    /// Every hinge's angle, sliver factor and angle gradient at `pose` ([`PER_HINGE`] values
+    /// per hinge: `sin theta`, `cos theta`, `Phi`, the sliver flag, `grad theta`).
     fn pose_values(&self, _topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
         let n = pattern.n_residuals();
-        out.clear();
-        out.reserve(PER_HINGE * n);
-        for hi in 0..n {
-            let ([sin, cos], phi) = hinge_value(&hinge_positions(pattern, hi, pose));
-            out.extend_from_slice(&[sin, cos, phi]);
+        // Every value of every hinge is written below: no clearing.
+        out.resize(PER_HINGE * n, 0.0);
+        for (hi, v) in out.chunks_exact_mut(PER_HINGE).enumerate() {
+            let Some(w) = wings(&hinge_positions(pattern, hi, pose)) else {
+                // Degenerate: no angle, Phi = 0, no gradient.
+                v.fill(0.0);
+                v[1] = 1.0;
+                continue;
+            };
+            let ([sin, cos], phi) = wings_value(&w);
+            let sliver = wing_factors(&w).1.iter().any(|&t| t < 1.0);
+            v[..DTHETA].copy_from_slice(&[sin, cos, phi, if sliver { 1.0 } else { 0.0 }]);
+            v[DTHETA..].copy_from_slice(wings_gradient(&w, 1.0, 0.0).as_flattened());
         }
     }
 
     /// The segment's value from its poses' angles and factors, and per hinge and pose the
-    /// coefficients of `grad theta` and `grad Phi` in `2 weight r dr/dP` (both terms counted).
+    /// coefficients of `grad theta` and `grad Phi` in `2 weight r dr/dP` (both terms counted;
+    /// [`COEFFS_PER_HINGE`] per hinge).
     fn segment_gradient_with(
         &self,
         topo: &Topology,
@@ -340,15 +384,18 @@ impl Metric for RelativeBending {
         scratch: &mut Scratch,
         sink: &mut SegmentSink,
     ) -> f64 {
-        let n = PER_HINGE * pattern.n_residuals();
+        let nh = pattern.n_residuals();
         let PoseShare {
             values: poses,
             coeffs,
         } = share;
-        if poses.iter().any(|p| p.len() != n) || coeffs.iter().any(|c| c.len() != n) || !same_frozen(segs) {
+        if poses.iter().any(|p| p.len() != PER_HINGE * nh) || !same_frozen(segs) {
             return self.segment_gradient(topo, pattern, segs, scratch, sink);
         }
         let [ca, cb] = coeffs;
+        // Every hinge's coefficients are written below: no clearing.
+        ca.resize(COEFFS_PER_HINGE * nh, 0.0);
+        cb.resize(COEFFS_PER_HINGE * nh, 0.0);
         let weight = 2.0 * sink.weight;
         let mut value = 0.0;
         for_each_weight(topo, segs[0], |hi, sw| {
@@ -362,34 +409,47 @@ impl Metric for RelativeBending {
             // dr/db = sw Phi_a Phi_b slope grad theta_b + sw Phi_a chord grad Phi_b; dr/da with
             // -slope and Phi_b.
             let s = 2.0 * weight * r;
-            ca[at] = -s * both * slope;
-            ca[at + 1] = s * sw * pb * chord;
-            cb[at] = s * both * slope;
-            cb[at + 1] = s * sw * pa * chord;
+            let c = COEFFS_PER_HINGE * hi;
+            ca[c] = -s * both * slope;
+            ca[c + 1] = s * sw * pb * chord;
+            cb[c] = s * both * slope;
+            cb[c + 1] = s * sw * pa * chord;
         });
         weight * value
     }
 
-    /// `g += c_theta grad theta + c_Phi grad Phi` over the hinges at `pose`.
+    /// `g += c_theta grad theta + c_Phi grad Phi` over the hinges at `pose`: `grad theta` from
+    /// the pose's values, `grad Phi` (slivers only) from the positions.
     fn pose_gradient(
         &self,
         _topo: &Topology,
         pattern: PatternRef,
         pose: &[[f64; 3]],
+        values: &[f64],
         coeffs: &[f64],
         g: &mut [[f64; 3]],
     ) {
-        for (hi, c) in coeffs.chunks_exact(PER_HINGE).enumerate() {
-            debug_assert!(c[2] == 0.0);
+        let hinges = values
+            .chunks_exact(PER_HINGE)
+            .zip(coeffs.chunks_exact(COEFFS_PER_HINGE));
+        for (hi, (v, c)) in hinges.enumerate() {
             let (ct, cp) = (c[0], c[1]);
             if ct == 0.0 && cp == 0.0 {
                 continue;
             }
             let first = pattern.offsets[hi] as usize;
-            let d = hinge_gradient(&hinge_positions(pattern, hi, pose), ct, cp);
-            for (m, dm) in d.iter().enumerate() {
-                let v = pattern.vertices[first + m] as usize;
-                g[v] = add(g[v], *dm);
+            let vs = &pattern.vertices[first..first + 4];
+            for (m, d) in v[DTHETA..].chunks_exact(3).enumerate() {
+                for (gk, dk) in g[vs[m] as usize].iter_mut().zip(d) {
+                    *gk += ct * dk;
+                }
+            }
+            if cp != 0.0 && v[3] != 0.0 {
+                let d = hinge_gradient(&hinge_positions(pattern, hi, pose), 0.0, cp);
+                for (m, dm) in d.iter().enumerate() {
+                    let v = vs[m] as usize;
+                    g[v] = add(g[v], *dm);
+                }
             }
         }
     }
@@ -602,17 +662,29 @@ mod tests {
     }
 
     /// The path energy's passes (pose values, segment coefficients, pose gradients) give the
-    /// segment's value bit for bit and its gradient to rounding.
+    /// segment's value bit for bit and its gradient to rounding, on regular faces and with a
+    /// sliver at the first pose (the factor's gradient, taken from the positions).
     #[test]
     fn pose_passes_match_the_segment_gradient() {
         let (s, a, b) = pose_and_step(0.02);
-        let topo = &s.topology;
+        pose_passes_match(&s.topology, &a, &b);
+        // Face 0's third vertex moved to 3 % of its height over the opposite edge: t < 1.
+        let [i, j, k] = s.topology.faces()[0].map(|v| v as usize);
+        let mut thin = a.clone();
+        let mid = scale(add(a[i], a[j]), 0.5);
+        thin[k] = add(mid, scale(sub(a[k], mid), 0.03));
+        let w = wings(&[a[i], a[j], thin[k], thin[k]]).unwrap();
+        assert!(wing_factors(&w).1[0] < 1.0);
+        pose_passes_match(&s.topology, &thin, &b);
+    }
+
+    fn pose_passes_match(topo: &Topology, a: &[[f64; 3]], b: &[[f64; 3]]) {
         let m = RelativeBending;
-        let frozen = m.frozen_weights(topo, &a, &b).unwrap();
+        let frozen = m.frozen_weights(topo, a, b).unwrap();
         let pat = m.pattern(topo);
         let seg = |at| Segment {
-            a: &a,
-            b: &b,
+            a,
+            b,
             at,
             aux: &[],
             frozen: Some(&frozen),
@@ -635,9 +707,9 @@ mod tests {
         );
         // The three passes.
         let (mut va, mut vb) = (Vec::new(), Vec::new());
-        m.pose_values(topo, pat.as_ref(), &a, &mut va);
-        m.pose_values(topo, pat.as_ref(), &b, &mut vb);
-        let (mut ca, mut cb) = (vec![0.0; va.len()], vec![0.0; vb.len()]);
+        m.pose_values(topo, pat.as_ref(), a, &mut va);
+        m.pose_values(topo, pat.as_ref(), b, &mut vb);
+        let (mut ca, mut cb) = (Vec::new(), Vec::new());
         let (mut pa, mut pb) = (vec![[0.0; 3]; nv], vec![[0.0; 3]; nv]);
         let passes = m.segment_gradient_with(
             topo,
@@ -661,8 +733,8 @@ mod tests {
             pa.iter().chain(&pb).all(|g| *g == [0.0; 3]),
             "the passes add nothing to the sink"
         );
-        m.pose_gradient(topo, pat.as_ref(), &a, &ca, &mut pa);
-        m.pose_gradient(topo, pat.as_ref(), &b, &cb, &mut pb);
+        m.pose_gradient(topo, pat.as_ref(), a, &va, &ca, &mut pa);
+        m.pose_gradient(topo, pat.as_ref(), b, &vb, &cb, &mut pb);
         let largest = ga.iter().chain(&gb).flatten().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(largest > 0.0);
         for (x, y) in ga.iter().chain(&gb).flatten().zip(pa.iter().chain(&pb).flatten()) {
