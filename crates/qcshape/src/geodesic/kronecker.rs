@@ -29,7 +29,7 @@ use super::energy::{Ends, PathEnergy};
 use super::hessian::{outer_add, SegmentBlocks, Structure};
 use super::pairs::VertexPairs;
 use super::{GeodesicError, LinearAlgebraError};
-use crate::mesh::geometry::dot;
+use crate::mesh::geometry::{dot, scale};
 use crate::metric::{At, Pattern};
 
 /// One chunk's part of a [`PoseSum`]: slot sums, `(segment, (trace, parts))`, diagonal blocks.
@@ -334,6 +334,7 @@ impl PoseSum {
         let steps = st.steps;
         let pat = &pe.pattern;
         let nv = layout.nv;
+        let shared = pe.metric().rows_shared_by_both_terms(pe.topology());
         // Accumulates segment s into the slot sums `acc` and the pose-vertex diagonal blocks `dg`.
         // A fixed end (segment 0's start, the last segment's end) has no block: its zeroed
         // Jacobian is skipped rather than multiplied out.
@@ -346,11 +347,11 @@ impl PoseSum {
                 pe.eval_term(x, ends, s, at, &mut te, true);
                 if need_a {
                     let dg = &mut dg[(s - 1) * nv..s * nv];
-                    trace += accumulate_pose_block(pat, &st.pairs, &te.jac.da, acc, dg);
+                    trace += accumulate_term_block(pat, &st.pairs, &te.jac.da, &shared, at, acc, dg);
                 }
                 if need_b {
                     let dg = &mut dg[s * nv..(s + 1) * nv];
-                    trace += accumulate_pose_block(pat, &st.pairs, &te.jac.db, acc, dg);
+                    trace += accumulate_term_block(pat, &st.pairs, &te.jac.db, &shared, at, acc, dg);
                 }
             }
             (trace, usize::from(need_a) + usize::from(need_b))
@@ -412,24 +413,59 @@ pub(crate) fn accumulate_pose_block(
     acc: &mut [[f64; 9]],
     dg: &mut [[f64; 9]],
 ) -> f64 {
+    accumulate_pose_rows(pat, pairs, d, 0..pat.n_residuals(), 1.0, acc, dg)
+}
+
+/// [`accumulate_pose_block`] of the residual rows `rows` only, each counted `factor` times.
+fn accumulate_pose_rows(
+    pat: &Pattern,
+    pairs: &VertexPairs,
+    d: &[[f64; 3]],
+    rows: std::ops::Range<usize>,
+    factor: f64,
+    acc: &mut [[f64; 9]],
+    dg: &mut [[f64; 9]],
+) -> f64 {
     let mut trace = 0.0;
-    for i in 0..pat.n_residuals() {
+    for i in rows {
         let range = pat.row(i);
         let (l, first) = (range.len(), range.start);
         let ps = pairs.slots(i);
         for k in 0..l {
             let dk = d[first + k];
-            trace += dot(dk, dk);
+            let fk = if factor == 1.0 { dk } else { scale(dk, factor) };
+            trace += dot(fk, dk);
             let v = pat.vertices[first + k] as usize;
-            outer_add(&mut dg[v], dk, dk);
+            outer_add(&mut dg[v], fk, dk);
             for (ll, &slot) in ps[k * l..(k + 1) * l].iter().enumerate() {
                 if (pat.vertices[first + ll] as usize) >= v {
-                    outer_add(&mut acc[slot as usize], dk, d[first + ll]);
+                    outer_add(&mut acc[slot as usize], fk, d[first + ll]);
                 }
             }
         }
     }
     trace
+}
+
+/// [`accumulate_pose_block`] of one term (`at`) of a segment, the rows the two terms share
+/// ([`crate::metric::Metric::rows_shared_by_both_terms`]) counted twice at `At::Start` and
+/// not at `At::End`: the sum over both terms is that of counting every row once per term.
+#[allow(clippy::too_many_arguments)]
+fn accumulate_term_block(
+    pat: &Pattern,
+    pairs: &VertexPairs,
+    d: &[[f64; 3]],
+    shared: &std::ops::Range<usize>,
+    at: At,
+    acc: &mut [[f64; 9]],
+    dg: &mut [[f64; 9]],
+) -> f64 {
+    let n = pat.n_residuals();
+    let mut trace = accumulate_pose_rows(pat, pairs, d, 0..shared.start, 1.0, acc, dg);
+    if at == At::Start {
+        trace += accumulate_pose_rows(pat, pairs, d, shared.clone(), 2.0, acc, dg);
+    }
+    trace + accumulate_pose_rows(pat, pairs, d, shared.end..n, 1.0, acc, dg)
 }
 
 impl KroneckerModel {
@@ -612,6 +648,10 @@ mod tests {
                 0.1,
             )),
             Box::new(Regularized::new(Box::new(Rigid), 0.1)),
+            // The default: invariant isometric form, regularizer and bending term (rows the
+            // segment's two terms share, counted once and doubled by the direct assembly).
+            crate::metric::MetricSpec::new(crate::metric::MetricKind::Isometric)
+                .build(&crate::metric::Calibration::RAW),
         ]
     }
 

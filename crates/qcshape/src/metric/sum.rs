@@ -227,6 +227,17 @@ impl<T: Term> Metric for TermSum<T> {
         self.inner.n_residuals(topo) + self.term.metric().n_residuals(topo)
     }
 
+    /// The term's shared rows (after the inner metric's) if it has any, else the inner
+    /// metric's.
+    fn rows_shared_by_both_terms(&self, topo: &Topology) -> std::ops::Range<usize> {
+        let term = self.term.metric().rows_shared_by_both_terms(topo);
+        if term.is_empty() {
+            return self.inner.rows_shared_by_both_terms(topo);
+        }
+        let n_in = self.inner.n_residuals(topo);
+        n_in + term.start..n_in + term.end
+    }
+
     fn support(&self, topo: &Topology) -> Pattern {
         let mut p = self.inner.support(topo);
         p.append(&self.term.metric().support(topo));

@@ -23,6 +23,16 @@ pub trait Metric: Send + Sync + Debug {
     /// Number of residuals on `topo` (cheap; equals `pattern(topo).n_residuals()`).
     fn n_residuals(&self, topo: &Topology) -> usize;
 
+    /// The residual rows whose values and derivatives are the same in both terms of a segment
+    /// (eq. 12's `G_{P_i}(X_i)` at `At::Start` and `G_{P_{i+1}}(X_i)` at `At::End`) when both
+    /// carry the same frozen values, as the path energy's do: the bending term's, a change of
+    /// the angles from `a` to `b` whichever pose measures it. The Gauss-Newton assembly
+    /// counts these rows' `J^T J` once, doubled, instead of once per term. Empty (the default)
+    /// where the terms differ.
+    fn rows_shared_by_both_terms(&self, _topo: &Topology) -> std::ops::Range<usize> {
+        0..0
+    }
+
     /// The mesh element each residual belongs to, as a pattern with one row per residual: the
     /// vertices of its face (triangle terms), edge (edge terms) or vertex (per-vertex terms).
     /// `qcshape_studies::contribution` splits each squared residual equally among its row's vertices.

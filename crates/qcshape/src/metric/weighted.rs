@@ -41,6 +41,10 @@ impl Metric for Weighted {
         self.inner.n_residuals(topo)
     }
 
+    fn rows_shared_by_both_terms(&self, topo: &Topology) -> std::ops::Range<usize> {
+        self.inner.rows_shared_by_both_terms(topo)
+    }
+
     fn support(&self, topo: &Topology) -> Pattern {
         self.inner.support(topo)
     }

@@ -297,6 +297,11 @@ impl Metric for RelativeBending {
             .count()
     }
 
+    /// Every row: a segment's two terms are the same change of the angles.
+    fn rows_shared_by_both_terms(&self, topo: &Topology) -> std::ops::Range<usize> {
+        0..self.n_residuals(topo)
+    }
+
     face_share_frozen_values!();
 
     fn residuals(
