@@ -357,7 +357,7 @@ impl Metric for RelativeBending {
         gradient_pass(topo, pattern, segs[0], &mut both)
     }
 
-    /// Every hinge's angle, sliver factor and angle gradient at `pose` ([`PER_HINGE`] values
+    /// Every hinge's angle, sliver factor and angle gradient at `pose` (`PER_HINGE` = 16 values
     /// per hinge: `sin theta`, `cos theta`, `Phi`, the sliver flag, `grad theta`).
     fn pose_values(&self, _topo: &Topology, pattern: PatternRef, pose: &[[f64; 3]], out: &mut Vec<f64>) {
         let n = pattern.n_residuals();
@@ -379,7 +379,7 @@ impl Metric for RelativeBending {
 
     /// The segment's value from its poses' angles and factors, and per hinge and pose the
     /// coefficients of `grad theta` and `grad Phi` in `2 weight r dr/dP` (both terms counted;
-    /// [`COEFFS_PER_HINGE`] per hinge).
+    /// `COEFFS_PER_HINGE` = 2 per hinge).
     fn segment_gradient_with(
         &self,
         topo: &Topology,
