@@ -33,6 +33,8 @@ mod hessian;
 mod interpolate;
 mod kronecker;
 #[cfg(test)]
+mod multires_start_tests;
+#[cfg(test)]
 mod near_tests;
 mod options;
 mod pairs;

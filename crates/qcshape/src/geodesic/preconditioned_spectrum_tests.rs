@@ -122,7 +122,7 @@ fn pcg_ritz(
 }
 
 /// The comma-separated values of the environment variable `name`, or `default`.
-fn env_list<T: std::str::FromStr>(name: &str, default: Vec<T>) -> Vec<T>
+pub(super) fn env_list<T: std::str::FromStr>(name: &str, default: Vec<T>) -> Vec<T>
 where
     T::Err: std::fmt::Debug,
 {
