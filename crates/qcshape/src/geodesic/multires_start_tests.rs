@@ -1,6 +1,6 @@
 //! A coarse-to-fine start for the default geodesic (a study, run on demand:
 //! `MULTIRES_LEVELS=3,4,5 cargo test --release -p qcshape --lib multires_start -- --ignored
-//! --nocapture`; docs/log/bending.md "A coarse-to-fine start").
+//! --nocapture`; docs/log/bending.md "The bending kernel's cost", its coarse-to-fine table).
 //!
 //! The default takes 19 / 28 / 54 iterations on the twisted sphere at 642 / 2,562 / 10,242
 //! vertices, and the preconditioned spectrum says why: the Kronecker model fitted at the linear
