@@ -450,7 +450,6 @@ fn accumulate_pose_rows(
 /// [`accumulate_pose_block`] of one term (`at`) of a segment, the rows the two terms share
 /// ([`crate::metric::Metric::rows_shared_by_both_terms`]) counted twice at `At::Start` and
 /// not at `At::End`: the sum over both terms is that of counting every row once per term.
-#[allow(clippy::too_many_arguments)]
 fn accumulate_term_block(
     pat: &Pattern,
     pairs: &VertexPairs,

@@ -154,6 +154,13 @@ fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
     }
 }
 
+/// Whether a wing of the hinge is below the sliver threshold (`t < 1`, [`SLIVER`]), where
+/// `grad Phi` is not zero.
+#[inline(always)]
+fn has_sliver_wing(w: &Wings) -> bool {
+    wing_factors(w).1.iter().any(|&t| t < 1.0)
+}
+
 /// [`hinge_value`] from the hinge's [`Wings`].
 #[inline(always)]
 fn wings_value(w: &Wings) -> ([f64; 2], f64) {
@@ -244,7 +251,7 @@ fn hinge_state(p: [[f64; 3]; 4], want: bool) -> HingeState {
     };
     if want {
         st.dtheta = wings_gradient(&w, 1.0, 0.0);
-        if wing_factors(&w).1.iter().any(|&t| t < 1.0) {
+        if has_sliver_wing(&w) {
             st.dphi = wings_gradient(&w, 0.0, 1.0);
         }
     }
@@ -371,8 +378,8 @@ impl Metric for RelativeBending {
                 continue;
             };
             let ([sin, cos], phi) = wings_value(&w);
-            let sliver = wing_factors(&w).1.iter().any(|&t| t < 1.0);
-            v[..DTHETA].copy_from_slice(&[sin, cos, phi, if sliver { 1.0 } else { 0.0 }]);
+            let sliver = if has_sliver_wing(&w) { 1.0 } else { 0.0 };
+            v[..DTHETA].copy_from_slice(&[sin, cos, phi, sliver]);
             v[DTHETA..].copy_from_slice(wings_gradient(&w, 1.0, 0.0).as_flattened());
         }
     }
@@ -442,19 +449,17 @@ impl Metric for RelativeBending {
             if ct == 0.0 && cp == 0.0 {
                 continue;
             }
-            let first = pattern.offsets[hi] as usize;
-            let vs = &pattern.vertices[first..first + 4];
-            for (m, d) in v[DTHETA..].chunks_exact(3).enumerate() {
-                for (gk, dk) in g[vs[m] as usize].iter_mut().zip(d) {
-                    *gk += ct * dk;
-                }
-            }
+            let dtheta = &v[DTHETA..];
+            let mut d: [[f64; 3]; 4] =
+                std::array::from_fn(|m| std::array::from_fn(|k| ct * dtheta[3 * m + k]));
             if cp != 0.0 && v[3] != 0.0 {
-                let d = hinge_gradient(&hinge_positions(pattern, hi, pose), 0.0, cp);
-                for (m, dm) in d.iter().enumerate() {
-                    let v = vs[m] as usize;
-                    g[v] = add(g[v], *dm);
-                }
+                let dphi = hinge_gradient(&hinge_positions(pattern, hi, pose), 0.0, cp);
+                d = std::array::from_fn(|m| add(d[m], dphi[m]));
+            }
+            let first = pattern.offsets[hi] as usize;
+            for (m, dm) in d.iter().enumerate() {
+                let u = pattern.vertices[first + m] as usize;
+                g[u] = add(g[u], *dm);
             }
         }
     }
