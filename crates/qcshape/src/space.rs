@@ -30,6 +30,7 @@ use crate::geodesic::{
     InterpolationError, InterpolationOptions, Interpolator, Normalization, SolveContext,
 };
 use crate::limits::LimitError;
+use crate::mesh::geometry::scaled;
 use crate::mesh::{MeshError, Shape, Topology};
 use crate::metric::{At, Calibration, Metric, MetricSpec, Segment};
 use crate::similarity::{
@@ -634,11 +635,6 @@ pub fn size_mismatch(topology: &Topology, a: &[[f64; 3]], b: &[[f64; 3]]) -> Opt
     let lb = crate::mesh::geometry::mean_edge_length(topology, b);
     let (lo, hi) = if la < lb { (la, lb) } else { (lb, la) };
     (lo > 0.0 && hi / lo > SIZE_RATIO_WARNING).then_some((la, lb))
-}
-
-/// `p` with every coordinate multiplied by `f`.
-fn scaled(p: &[[f64; 3]], f: f64) -> Pose {
-    p.iter().map(|v| v.map(|c| c * f)).collect()
 }
 
 #[cfg(test)]

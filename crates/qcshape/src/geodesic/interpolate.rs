@@ -312,8 +312,7 @@ impl<'m> Interpolator<'m> {
                 }
             }
         };
-        let scale_by =
-            |p: &[[f64; 3]], f: f64| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
+        let scale_by = crate::mesh::geometry::scaled;
         let (ra, rb) = (level.restrict(&sa), level.restrict(&sb));
         let mut s_coarse = level_scale(top, &ra);
         let (mut ca, mut cb) = (scale_by(&ra, s_coarse), scale_by(&rb, s_coarse));

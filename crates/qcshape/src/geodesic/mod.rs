@@ -780,9 +780,11 @@ pub fn geodesic(
     if !(f.is_finite() && f > 0.0) {
         return Err(GeodesicError::Normalization { factor: f });
     }
-    let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
     let solver = GeodesicSolver::new(metric, a.topology.clone(), options.clone())?;
-    let mut g = solver.solve(&scale(&a.positions), &scale(&b.positions))?;
+    let mut g = solver.solve(
+        &geometry::scaled(&a.positions, f),
+        &geometry::scaled(&b.positions, f),
+    )?;
     for p in &mut g.poses {
         for v in p.iter_mut() {
             *v = v.map(|c| c / f);
@@ -818,8 +820,10 @@ pub fn geodesic_between(
 pub fn pair_metric(spec: &MetricSpec, a: &Shape, b: &Shape) -> Result<(Box<dyn Metric>, f64), GeodesicError> {
     a.check_same_topology(b)?;
     let f = pair_factor(&a.positions, &b.positions, &a.topology)?;
-    let scale = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|v| v.map(|c| c * f)).collect() };
-    let (sa, sb) = (scale(&a.positions), scale(&b.positions));
+    let (sa, sb) = (
+        geometry::scaled(&a.positions, f),
+        geometry::scaled(&b.positions, f),
+    );
     Ok((spec.build_for(&a.topology, &[&sa, &sb])?, f))
 }
 

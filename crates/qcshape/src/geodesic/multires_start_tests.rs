@@ -12,13 +12,9 @@
 
 use super::preconditioned_spectrum_tests::env_list;
 use super::*;
+use crate::mesh::geometry::scaled;
 use crate::metric::{MetricKind, MetricSpec};
 use crate::multires::Hierarchy;
-
-/// Scales positions by `f`.
-fn scaled(p: &[[f64; 3]], f: f64) -> Vec<[f64; 3]> {
-    p.iter().map(|v| v.map(|c| c * f)).collect()
-}
 
 #[test]
 #[ignore = "a study: prints a table; minutes at 10,242 vertices"]

@@ -19,6 +19,11 @@ pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 pub fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
 }
+/// The points `p` (#V x 3) with every coordinate multiplied by `f` (a shape scaled about the
+/// origin, e.g. by a normalization factor).
+pub fn scaled(p: &[[f64; 3]], f: f64) -> Vec<[f64; 3]> {
+    p.iter().map(|v| scale(*v, f)).collect()
+}
 /// Dot product.
 #[inline]
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -220,11 +220,7 @@ impl Prepared {
         let f = self.factor;
         self.transferred
             .iter()
-            .map(|d| {
-                d.iter()
-                    .map(|p| p.iter().map(|v| v.map(|c| c * f)).collect())
-                    .collect()
-            })
+            .map(|d| d.iter().map(|p| crate::mesh::geometry::scaled(p, f)).collect())
             .collect()
     }
 }

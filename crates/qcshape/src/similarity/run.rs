@@ -212,11 +212,7 @@ pub fn compute(
     let scaled: Vec<Vec<Pose>> = input
         .poses
         .iter()
-        .map(|d| {
-            d.iter()
-                .map(|p| p.iter().map(|v| v.map(|c| c * f)).collect())
-                .collect()
-        })
+        .map(|d| d.iter().map(|p| crate::mesh::geometry::scaled(p, f)).collect())
         .collect();
     let solver = GeodesicSolver::new(input.metric, input.topology.clone(), opts.geodesic.clone())?;
     let fresh = compute_listed_pairs(

@@ -398,7 +398,7 @@ pub fn transfer(
     options: &TransferOptions,
 ) -> Result<Transferred, TransportError> {
     let f = normalization_factor(options.normalization, &base.topology, &base.positions);
-    let scaled: Vec<[f64; 3]> = base.positions.iter().map(|p| p.map(|c| c * f)).collect();
+    let scaled = crate::mesh::geometry::scaled(&base.positions, f);
     let calibration = spec
         .calibrate(&base.topology, &[&scaled])
         .map_err(crate::geodesic::GeodesicError::from)?;
