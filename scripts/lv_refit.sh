@@ -12,6 +12,8 @@
 # OUT/RFL-$PRIOR, and the inputs already in OUT (P, R0, M, T, ML, from a run with the same
 # phantom options) are kept, so that a second prior costs only its fits:
 #   scripts/lv_refit.sh OUT --overlap && PRIOR=affine scripts/lv_refit.sh OUT --overlap
+# FIT_ARGS adds arguments to every `qcshape fit` and TAG names the outputs (default: PRIOR),
+# e.g. FIT_ARGS="--global-degree 2" TAG=deg2.
 # Writes OUT/P (cohort), OUT/R0
 # (lv run on the cohort: original meshes in R0/meshes, R0/similarity.csv), OUT/M (per-frame
 # surfaces), OUT/F + OUT/RF (world frame, default similarity alignment), OUT/T, OUT/ML, OUT/FL +
@@ -27,13 +29,15 @@ Q=${QCSHAPE:-$here/target/release/qcshape}
 motion=${REFIT_MOTION:-${CARGO_TARGET_DIR:-$here/target}/release/examples/refit_motion}
 [ -x "$motion" ] || (cd "$here" && cargo build --release -p qcshape --example refit_motion)
 PRIOR=${PRIOR:-}
-sfx=${PRIOR:+-$PRIOR}
-FIT=(${PRIOR:+--prior "$PRIOR"})
+FIT_ARGS=${FIT_ARGS:-}
+TAG=${TAG:-$PRIOR}
+sfx=${TAG:+-$TAG}
+FIT=(${PRIOR:+--prior "$PRIOR"} $FIT_ARGS)
 mkdir -p "$out"
 cd "$out"
 t() { local s=$SECONDS; "$@"; echo "  ($((SECONDS - s)) s: ${*:1:3})" >&2; }
-# with PRIOR set, an input step whose output exists is kept (its log too)
-kept() { [ -n "$PRIOR" ] && [ -e "$1" ] && echo "  (kept: $1)" >&2; }
+# with TAG (or PRIOR) set, an input step whose output exists is kept (its log too)
+kept() { [ -n "$TAG" ] && [ -e "$1" ] && echo "  (kept: $1)" >&2; }
 RUN=(--region whole --no-sweep)
 kept P/labels.csv || t "$Q" lv phantom --out P "$@" >/dev/null
 kept R0/similarity.csv || t "$Q" lv run P --out R0 "${RUN[@]}" 2>R0.log

@@ -67,6 +67,12 @@ pub struct Args {
     /// Stiffness stages (annealed from stiff to soft). At most 1,000.
     #[arg(long, default_value_t = FitOptions::default().stages, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     pub stages: usize,
+    /// Degree of a polynomial warp of space fitted before the non-rigid stages (0 = none, at
+    /// most 5): follows global motions (taper, bend, stretch) without sliding the template
+    /// along the surface, but spreads a local one (dent, bulge) over the whole shape
+    /// (docs/fit.md "Global polynomial warp").
+    #[arg(long, default_value_t = FitOptions::default().global_degree, value_parser = crate::bounds::count::<usize>(0, qcshape::fit::MAX_GLOBAL_DEGREE as u64), allow_negative_numbers = true)]
+    pub global_degree: usize,
     /// Mesh file format of the fitted poses.
     #[arg(long, value_enum, default_value_t = MeshFormat::Ply)]
     pub format: MeshFormat,
@@ -123,6 +129,7 @@ pub fn run(args: &Args) -> Result<()> {
         alignment: args.alignment,
         prior: args.prior,
         stages: args.stages,
+        global_degree: args.global_degree,
         ..FitOptions::default()
     };
     opts.check()?;

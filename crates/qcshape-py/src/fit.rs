@@ -12,7 +12,7 @@ use qcshape::mesh::Shape;
 use crate::convert::{count, faces, points, points_out, AnyInt};
 
 /// fit(template_vertices, template_faces, target_vertices, target_faces=None, *,
-/// alignment="similarity", prior="smooth", stages=6, max_samples=1000) -> (V, residual, quality)
+/// alignment="similarity", prior="smooth", stages=6, max_samples=1000, global_degree=0) -> (V, residual, quality)
 ///
 /// Fits the template (vertices (nV, 3), faces (nF, 3); a trimesh / pyvista / meshio mesh may
 /// stand for either) to the target surface (vertices (nP, 3) and faces (nT, 3) of any
@@ -27,11 +27,13 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// default), "affine" (one affine map per vertex, stiffness annealed from one map for the
 /// whole template to edge-scale detail), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
 /// stages; max_samples: target points pulling the template surface at most (at least twice
-/// the template's vertex count are used). ValueError for bad input (empty target, NaN, a
+/// the template's vertex count are used); global_degree: degree (0 to 5; 0 = none) of a
+/// polynomial warp of space fitted first, for global motions (taper, bend, stretch; it spreads
+/// a local dent or bulge over the shape). ValueError for bad input (empty target, NaN, a
 /// non-manifold template, no overlap). A poor fit (quality["poor"]) issues a QcshapeWarning
 /// naming what makes it poor, as ``qcshape fit`` does.
 #[pyfunction]
-#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="smooth", stages=AnyInt::new(6), max_samples=AnyInt::new(1000)))]
+#[pyo3(signature = (template_vertices, template_faces, target_vertices, target_faces=None, *, alignment="similarity", prior="smooth", stages=AnyInt::new(6), max_samples=AnyInt::new(1000), global_degree=AnyInt::new(0)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -43,6 +45,7 @@ pub fn fit<'py>(
     prior: &str,
     stages: AnyInt,
     max_samples: AnyInt,
+    global_degree: AnyInt,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let alignment: Alignment = alignment
         .parse()
@@ -55,6 +58,7 @@ pub fn fit<'py>(
         prior,
         stages: count("stages", stages, 1, qcshape::limits::MAX_SWEEPS)?,
         max_samples: count("max_samples", max_samples, 1, qcshape::limits::MAX_VERTICES)?,
+        global_degree: count("global_degree", global_degree, 0, qcshape::fit::MAX_GLOBAL_DEGREE)?,
         ..FitOptions::default()
     };
     let tv = points(template_vertices, "template_vertices", None)?;

@@ -110,6 +110,9 @@ fn main() {
     if let Some(v) = env("OUT") {
         opts.outlier_distance = v;
     }
+    if let Some(v) = env("DEGREE") {
+        opts.global_degree = v as usize;
+    }
     if let Some(v) = env("ISO") {
         opts.isometric = v;
     }
@@ -155,6 +158,9 @@ fn main() {
             }
             let g = read_mesh(&p).expect("target");
             let w: Vec<[f64; 3]> = g.positions.iter().map(|q| q.map(|c| c * s)).collect();
+            if std::env::var_os("POLY_DIAG").is_some() {
+                eprintln!("CASE {name} {m}");
+            }
             let t0 = Instant::now();
             let f = fit(
                 &template,

@@ -112,6 +112,7 @@ def fit(
     prior: Literal["smooth", "affine", "arap", "asap"] = "smooth",
     stages: int = 6,
     max_samples: int = 1000,
+    global_degree: int = 0,
 ) -> Tuple[_F64, _F64, Dict[str, Union[float, int, bool]]]:
     """The template (nV, 3) + (nF, 3) fitted to a target of any triangulation (or a point cloud:
     target_faces None and plain target vertices): (V (nV, 3) on the template's faces in the

@@ -35,6 +35,7 @@ mod error;
 pub mod local;
 pub mod nonrigid;
 mod options;
+pub mod polynomial;
 pub mod quality;
 pub mod rigid;
 mod run;
@@ -42,7 +43,7 @@ pub mod shell;
 mod target;
 
 pub use error::{FitError, TemplateProblem};
-pub use options::{FitOptions, Prior, AFFINE_STIFFNESS};
+pub use options::{FitOptions, Prior, AFFINE_STIFFNESS, MAX_GLOBAL_DEGREE};
 pub use quality::FitQuality;
 pub use run::{fit, fit_sequence, fit_with_landmarks, initial_alignment, Fitted};
 pub use target::Target;

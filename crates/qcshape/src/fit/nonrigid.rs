@@ -201,6 +201,8 @@ pub(crate) struct Sample {
     pub weight: f64,
     /// The target point.
     pub s: [f64; 3],
+    /// The target's unit normal at the target point (zero for a point cloud).
+    pub n: [f64; 3],
 }
 
 /// The correspondences of one iteration at the current fit `x` (#V x 3).
@@ -209,6 +211,9 @@ pub(crate) struct Matches {
     pub c: Vec<f64>,
     /// The closest target point per template vertex (`x_i` itself when rejected) (#V x 3).
     pub y: Vec<[f64; 3]>,
+    /// The target's unit normal at each closest point (zero when rejected or for a point
+    /// cloud) (#V x 3).
+    pub n: Vec<[f64; 3]>,
     /// The accepted surface-to-point pulls, weights summing to `surface_to_point * #V`.
     pub samples: Vec<Sample>,
     /// Template vertices with an accepted match within [`OVERLAP`] outlier distances.
@@ -374,6 +379,7 @@ pub(crate) fn matches(
         (3.0 * median(hits.iter().flatten().map(|h| dist(h.distance_sq)))).max(opts.outlier_distance * lbar);
     let mut c = vec![0.0; nv];
     let mut y = x.to_vec();
+    let mut nrm = vec![[0.0; 3]; nv];
     let mut matched = 0;
     for i in 0..nv {
         let Some(h) = hits[i] else { continue };
@@ -387,6 +393,9 @@ pub(crate) fn matches(
             }
         }
         c[i] = 1.0;
+        if target.is_surface() {
+            nrm[i] = target.face_normals[h.primitive as usize];
+        }
         y[i] = if opts.point_to_plane && target.is_surface() {
             // Only the normal part of the pull: the target point moved to the foot of x_i on
             // the target's tangent plane at the closest point, so the data do not drag the
@@ -434,6 +443,11 @@ pub(crate) fn matches(
                 bary: h.bary,
                 weight: 1.0,
                 s,
+                n: if target.is_surface() {
+                    target.vertex_normals[k]
+                } else {
+                    [0.0; 3]
+                },
             });
         }
         let w = opts.surface_to_point * nv as f64 / pulls.len().max(1) as f64;
@@ -444,6 +458,7 @@ pub(crate) fn matches(
     Matches {
         c,
         y,
+        n: nrm,
         samples: pulls,
         matched,
     }

@@ -120,7 +120,16 @@ pub struct FitOptions {
     /// iteration) relative to one vertex's data term (0 turns it off): rigid local motion is
     /// free, local stretch and shear cost it.
     pub isometric: f64,
+    /// Degree of a polynomial warp of space fitted before the non-rigid stages (module
+    /// `fit::polynomial`; 0 = none, the default; at most [`MAX_GLOBAL_DEGREE`]). Degree 2
+    /// follows global motions (taper, bend, swing, stretch) far better than the stages alone,
+    /// and spreads a local one (dent, bulge, ripple) over the whole shape (docs/fit.md "Global
+    /// polynomial warp").
+    pub global_degree: usize,
 }
+
+/// Largest [`FitOptions::global_degree`] accepted (56 monomials per coordinate).
+pub const MAX_GLOBAL_DEGREE: usize = 5;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -138,6 +147,7 @@ impl Default for FitOptions {
             normal_angle: 70.0,
             point_to_plane: false,
             isometric: 0.0,
+            global_degree: 0,
         }
     }
 }
@@ -169,6 +179,9 @@ impl FitOptions {
             if !(v.is_finite() && v > 0.0 && v <= 1e6) {
                 return bad(name, v, "positive, at most 1e6");
             }
+        }
+        if self.global_degree > MAX_GLOBAL_DEGREE {
+            return bad("global_degree", self.global_degree as f64, "0 to 5");
         }
         if !(self.landmark_weight.is_finite() && (0.0..=1e6).contains(&self.landmark_weight)) {
             return bad("landmark_weight", self.landmark_weight, "0 to 1e6");

@@ -5,7 +5,7 @@ use super::error::FitError;
 use super::options::{FitOptions, Prior};
 use super::quality::FitQuality;
 use super::target::{check_template, prepare, Prepared, Target};
-use super::{affine, nonrigid, quality, rigid};
+use super::{affine, nonrigid, polynomial, quality, rigid};
 use crate::align::Motion;
 use crate::limits::MAX_SWEEPS;
 use crate::mesh::{Shape, MAX_COORDINATE};
@@ -101,10 +101,12 @@ impl Solvers {
         opts: &FitOptions,
         landmarks: &[affine::Landmark],
     ) -> Result<(Vec<[f64; 3]>, usize), FitError> {
-        match &self.affine {
-            Some(a) => affine::fit(&self.edge, a, start, target, opts, landmarks),
-            None => nonrigid::fit(&self.edge, rest, start, target, opts),
-        }
+        let (start, warps) = polynomial::warp(&self.edge, start, target, opts, opts.global_degree)?;
+        let (x, solves) = match &self.affine {
+            Some(a) => affine::fit(&self.edge, a, start, target, opts, landmarks)?,
+            None => nonrigid::fit(&self.edge, rest, start, target, opts)?,
+        };
+        Ok((x, solves + warps))
     }
 }
 

@@ -422,3 +422,56 @@ fn landmarks_pull_their_vertices() {
     );
     assert!(matches!(bad, Err(FitError::Landmark { vertex: 10_000, .. })));
 }
+
+/// The exact correspondence error (template mean edge lengths) of fits of an ellipsoid onto
+/// its taper (a quadratic map of space, `(x, y) (1 + 0.4 z)`) on a finer mesh, with the global
+/// polynomial warp of degree `0` (none) and 2 first.
+#[test]
+fn a_quadratic_warp_follows_a_taper_without_sliding() {
+    let template = ellipsoid(2, 0.0);
+    let taper = |p: [f64; 3]| [p[0] * (1.0 + 0.4 * p[2]), p[1] * (1.0 + 0.4 * p[2]), p[2]];
+    let fine = ellipsoid(4, 0.3);
+    let target: Vec<[f64; 3]> = fine.positions.iter().map(|p| taper(*p)).collect();
+    let truth: Vec<[f64; 3]> = template.positions.iter().map(|p| taper(*p)).collect();
+    let lbar = crate::mesh::geometry::mean_edge_length(&template.topology, &template.positions);
+    let error = |degree: usize| {
+        let opts = FitOptions {
+            prior: Prior::Affine,
+            alignment: Alignment::None,
+            global_degree: degree,
+            ..FitOptions::default()
+        };
+        let f = fit(
+            &template,
+            &Target {
+                positions: &target,
+                faces: fine.topology.faces(),
+            },
+            &opts,
+        )
+        .unwrap();
+        assert!(f.quality.mean < 0.1, "degree {degree}: {:?}", f.quality);
+        let mut e: Vec<f64> = f
+            .positions
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| norm(sub(*a, *b)) / lbar)
+            .collect();
+        e.sort_by(f64::total_cmp);
+        e[e.len() / 2]
+    };
+    let (none, quadratic) = (error(0), error(2));
+    assert!(
+        quadratic < 0.1,
+        "median error with the warp {quadratic}, without {none}"
+    );
+    assert!(
+        quadratic < 0.5 * none,
+        "with the warp {quadratic}, without {none}"
+    );
+    let bad = FitOptions {
+        global_degree: 6,
+        ..FitOptions::default()
+    };
+    assert!(bad.check().is_err());
+}
