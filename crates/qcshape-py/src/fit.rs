@@ -28,8 +28,9 @@ use crate::convert::{count, faces, points, points_out, AnyInt};
 /// whole template to edge-scale detail), "arap" (as-rigid-as-possible) or "asap" (local scaling free); stages: stiffness
 /// stages; max_samples: target points pulling the template surface at most (at least twice
 /// the template's vertex count are used); global_degree: degree (0 to 5; 0 = none) of a
-/// polynomial warp of space fitted first, for global motions (taper, bend, stretch; it spreads
-/// a local dent or bulge over the shape). ValueError for bad input (empty target, NaN, a
+/// polynomial warp of space fitted first, for global motions of closed surfaces (taper, bend,
+/// stretch; it spreads a local dent or bulge over the shape and made the tracked LV phantom
+/// cohort worse). ValueError for bad input (empty target, NaN, a
 /// non-manifold template, no overlap). A poor fit (quality["poor"]) issues a QcshapeWarning
 /// naming what makes it poor, as ``qcshape fit`` does.
 #[pyfunction]

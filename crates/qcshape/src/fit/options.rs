@@ -122,9 +122,9 @@ pub struct FitOptions {
     pub isometric: f64,
     /// Degree of a polynomial warp of space fitted before the non-rigid stages (module
     /// `fit::polynomial`; 0 = none, the default; at most [`MAX_GLOBAL_DEGREE`]). Degree 2
-    /// follows global motions (taper, bend, swing, stretch) far better than the stages alone,
-    /// and spreads a local one (dent, bulge, ripple) over the whole shape (docs/fit.md "Global
-    /// polynomial warp").
+    /// follows global motions of closed surfaces (taper, bend, swing, stretch) far better than
+    /// the stages alone, spreads a local one (dent, bulge, ripple) over the whole shape, and
+    /// made the tracked LV phantom cohort worse (docs/fit.md "Global polynomial warp").
     pub global_degree: usize,
 }
 
