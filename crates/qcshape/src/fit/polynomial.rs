@@ -2,18 +2,22 @@
 //! ([`super::FitOptions::global_degree`]): the template `p` (#V x 3) moved by
 //! `x_i = p_i + D(p_i)`, `D` a polynomial displacement field of ambient space of degree at most
 //! `d` (in coordinates where the template has centroid 0 and rms radius 1; `(d + 1)(d + 2)(d +
-//! 3) / 6` monomials per coordinate), fitted to the closest points both ways
-//! ([`super::nonrigid::matches`]) by least squares with a small pull of the coefficients to 0,
-//! degree by degree (1, then 2, ... up to `d`), each degree iterated until no vertex moves more
-//! than `1e-3` mean edge lengths.
+//! 3) / 6` monomials per coordinate), fitted to the non-rigid fit's pairs (closest points both
+//! ways, same robust weights) degree by degree (1, then 2, ... up to `d`). Each degree is a
+//! damped Gauss-Newton (Levenberg-Marquardt) iteration on: each pair's residual along the
+//! target's normal (weight 1) and along the axes (weight [`POINT`]), `STAY sum_i |D(p_i)|^2`
+//! (the least motion among warps that fit alike) and a tiny pull of the coefficients to 0; a
+//! step is kept only if it lowers that objective with the pairs found again at the new
+//! positions. A degree ends when no vertex moved more than `1e-3` mean edge lengths, the
+//! objective stalls, or after [`ITERATIONS`] steps.
 //!
 //! *Why*: the data pin each vertex only along the normal, so a fit whose coarse stage cannot
 //! represent the motion compromises along the surface, and the later, softer stages keep that
 //! slide (docs/fit.md "Why the fit slides, measured"): one affine map fitted to a tapered
 //! ellipsoid (an egg) is shifted towards the wide end. A smooth map of space of low degree
-//! represents a taper, a shear, a stretch and a gentle bend exactly or nearly, and, having few
-//! degrees of freedom, cannot slide vertices along the surface where the surface does not
-//! constrain it.
+//! represents a taper, a shear, a stretch and a gentle bend exactly or nearly. *Limit*: it also
+//! fits a dented or rippled surface closely by sliding the whole template, so local motions get
+//! worse (docs/fit.md "Global polynomial warp").
 
 use super::error::FitError;
 use super::nonrigid::{matches, Matches, Solver};
@@ -24,8 +28,8 @@ use crate::mesh::geometry::{dot, mean_edge_length, sub};
 
 use super::options::MAX_GLOBAL_DEGREE as MAX_DEGREE;
 
-/// Fits per degree at most.
-const ITERATIONS: usize = 50;
+/// Steps per degree at most.
+pub const ITERATIONS: usize = 50;
 
 /// A degree ends when no vertex moved more than this many mean edge lengths.
 const CONVERGED: f64 = 1e-3;
@@ -34,7 +38,7 @@ const CONVERGED: f64 = 1e-3;
 /// mostly point-to-plane, so the warp is not dragged along the surface by the closest points
 /// (measured on the benchmark of docs/fit.md "Global polynomial warp": 0.1 leaves a taper 0.45
 /// edge lengths off, 0.01 0.04).
-const POINT: f64 = 0.01;
+pub const POINT: f64 = 0.01;
 
 /// Weight of the displacement `sum_i |D(q_i)|^2` against one pair's: among warps that fit the
 /// data alike, the least motion (a drift along a near-symmetry of the surface costs).
