@@ -68,10 +68,10 @@ pub struct Args {
     #[arg(long, default_value_t = FitOptions::default().stages, value_parser = crate::bounds::count::<usize>(1, qcshape::limits::MAX_SWEEPS as u64), allow_negative_numbers = true)]
     pub stages: usize,
     /// Degree of a polynomial warp of space fitted before the non-rigid stages (0 = none, the
-    /// default; at most 5). Degree 2 follows global motions of closed surfaces (taper, bend,
-    /// stretch) without sliding the template along the surface, but spreads a local motion
-    /// (dent, bulge, ripple) over the whole shape, and it made the tracked LV phantom cohort
-    /// worse (docs/fit.md "Global polynomial warp").
+    /// default). Degree 2 follows global motions of closed surfaces (taper, bend, stretch)
+    /// without sliding the template along the surface, but spreads a local motion (dent,
+    /// bulge, ripple) over the whole shape, and it made the tracked LV phantom cohort worse
+    /// (docs/fit.md "Global polynomial warp"). At most 5.
     #[arg(long, default_value_t = FitOptions::default().global_degree, value_parser = crate::bounds::count::<usize>(0, qcshape::fit::MAX_GLOBAL_DEGREE as u64), allow_negative_numbers = true)]
     pub global_degree: usize,
     /// Mesh file format of the fitted poses.
