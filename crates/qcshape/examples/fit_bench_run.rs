@@ -8,7 +8,8 @@
 //!
 //! Environment: `PRIOR`, `ALIGN`, `STAGES`, `ITER`, `STIFF_START`, `STIFF_END`, `PLANE` (0/1),
 //! `S2P`, `ANGLE`, `SCALE` (the target multiplied by it), `ISO` (the affine prior's isometric
-//! weight), `DIAG` (per fit: the error split normal / tangential to the truth's surface, the
+//! weight), `DEGREE` (the global polynomial warp's), `CASES` (one `ERR case meshing error` line
+//! per fit on stderr), `DIAG` (per fit: the error split normal / tangential to the truth's surface, the
 //! mean error vector, the axial error by height band, the surface distance, the shell energy
 //! of the truth and of the fit against the aligned template ([`qcshape::fit::shell`]) and the
 //! roughness of the local maps; docs/fit.md, 2026-12-07).
@@ -158,9 +159,6 @@ fn main() {
             }
             let g = read_mesh(&p).expect("target");
             let w: Vec<[f64; 3]> = g.positions.iter().map(|q| q.map(|c| c * s)).collect();
-            if std::env::var_os("POLY_DIAG").is_some() {
-                eprintln!("CASE {name} {m}");
-            }
             let t0 = Instant::now();
             let f = fit(
                 &template,
@@ -233,6 +231,10 @@ fn main() {
                     f64::NAN
                 }
             };
+            if std::env::var_os("CASES").is_some() {
+                // One line per fit: `ERR case meshing median-error`.
+                eprintln!("ERR {name} {m} {med:.4}");
+            }
             table.entry((kind.clone(), m.clone())).or_default().push(med);
         }
     }
