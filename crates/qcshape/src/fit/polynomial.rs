@@ -37,7 +37,7 @@ const CONVERGED: f64 = 1e-3;
 /// Weight of a pair's residual along the axes against its part along the target's normal:
 /// mostly point-to-plane, so the warp is not dragged along the surface by the closest points.
 /// Chosen on the benchmark and the LV refit of docs/fit.md "Global polynomial warp": 0.01 fits
-/// a taper best (0.09 edge lengths against 0.13) but spreads dents and ripples further and
+/// a taper best (0.09 edge lengths against 0.11) but spreads dents and ripples further and
 /// lost the LV cohort's agreement (Spearman 0.59 / 0.47 against 0.73 / 0.63 at 0.1); 1 loses the
 /// taper (0.85).
 pub const POINT: f64 = 0.1;
