@@ -45,7 +45,7 @@ use super::options::FitOptions;
 use super::rigid::stride;
 use super::target::Prepared;
 use crate::align::{horn_rotation, Motion};
-use crate::mesh::geometry::{dot, mean_edge_length, sub};
+use crate::mesh::geometry::{centroid_and_rms_radius, dot, largest_move, mean_edge_length, sub};
 use crate::mesh::Topology;
 
 /// Weight of the translation column against the linear part in the stiffness (`gamma`).
@@ -386,19 +386,7 @@ pub(crate) fn fit(
     let nv = topo.n_vertices();
     let lbar = mean_edge_length(topo, &start);
     // Normalized coordinates: centroid 0, rms radius 1.
-    let mut center = [0.0; 3];
-    for p in &start {
-        for k in 0..3 {
-            center[k] += p[k] / nv as f64;
-        }
-    }
-    let radius = (start
-        .iter()
-        .map(|p| dot(sub(*p, center), sub(*p, center)))
-        .sum::<f64>()
-        / nv as f64)
-        .sqrt()
-        .max(f64::MIN_POSITIVE);
+    let (center, radius) = centroid_and_rms_radius(&start);
     let to = |p: [f64; 3]| sub(p, center).map(|v| v / radius);
     let from = |p: [f64; 3]| [0, 1, 2].map(|k| center[k] + radius * p[k]);
     let d: Vec<[f64; 4]> = start
@@ -457,12 +445,7 @@ pub(crate) fn fit(
             };
             maps = system.minimize(affine)?;
             let next: Vec<[f64; 3]> = positions(&d, &maps).into_iter().map(from).collect();
-            let moved = next
-                .iter()
-                .zip(&x)
-                .map(|(a, b)| dot(sub(*a, *b), sub(*a, *b)))
-                .fold(0.0, f64::max)
-                .sqrt();
+            let moved = largest_move(&next, &x);
             x = next;
             solves += 1;
             if moved < CONVERGED * lbar {

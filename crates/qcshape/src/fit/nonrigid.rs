@@ -67,7 +67,9 @@ use super::local::{self, Mat3};
 use super::options::FitOptions;
 use super::rigid::stride;
 use super::target::Prepared;
-use crate::mesh::geometry::{add, dot, face_normals, mean_edge_length, scale, sub, vertex_normals};
+use crate::mesh::geometry::{
+    add, dot, face_normals, largest_move, mean_edge_length, scale, sub, vertex_normals,
+};
 use crate::mesh::Topology;
 
 /// Weight of the anchor term (relative to a data weight of 1).
@@ -518,12 +520,7 @@ pub(crate) fn fit(
                 return Err(FitError::NoOverlap { matched, total: nv });
             }
             let next = t.minimize(solver, p)?;
-            let moved = next
-                .iter()
-                .zip(&x)
-                .map(|(a, b)| dot(sub(*a, *b), sub(*a, *b)))
-                .fold(0.0, f64::max)
-                .sqrt();
+            let moved = largest_move(&next, &x);
             x = next;
             solves += 1;
             if moved < CONVERGED * lbar {

@@ -24,7 +24,7 @@ use super::nonrigid::{matches, Matches, Solver};
 use super::options::FitOptions;
 use super::rigid::stride;
 use super::target::Prepared;
-use crate::mesh::geometry::{dot, mean_edge_length, sub};
+use crate::mesh::geometry::{centroid_and_rms_radius, dot, largest_move, mean_edge_length, sub};
 
 use super::options::MAX_GLOBAL_DEGREE as MAX_DEGREE;
 
@@ -130,19 +130,7 @@ pub(crate) fn warp(
     let topo = &**solver.topology();
     let nv = start.len();
     let lbar = mean_edge_length(topo, &start);
-    let mut center = [0.0; 3];
-    for p in &start {
-        for k in 0..3 {
-            center[k] += p[k] / nv as f64;
-        }
-    }
-    let radius = (start
-        .iter()
-        .map(|p| dot(sub(*p, center), sub(*p, center)))
-        .sum::<f64>()
-        / nv as f64)
-        .sqrt()
-        .max(f64::MIN_POSITIVE);
+    let (center, radius) = centroid_and_rms_radius(&start);
     // Normalized template positions and their monomials (#V x k), for the highest degree.
     let q: Vec<[f64; 3]> = start
         .iter()
@@ -181,12 +169,7 @@ pub(crate) fn warp(
             let mn = matches(solver, &next, target, &samples, opts, lbar);
             let fnext = frame.objective(&mn, &next);
             if fnext < fx {
-                let moved = next
-                    .iter()
-                    .zip(&x)
-                    .map(|(a, b)| dot(sub(*a, *b), sub(*a, *b)))
-                    .fold(0.0, f64::max)
-                    .sqrt();
+                let moved = largest_move(&next, &x);
                 let gain = fx - fnext;
                 x = next;
                 m = mn;

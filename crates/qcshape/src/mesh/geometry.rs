@@ -24,6 +24,35 @@ pub fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
 pub fn scaled(p: &[[f64; 3]], f: f64) -> Vec<[f64; 3]> {
     p.iter().map(|v| scale(*v, f)).collect()
 }
+/// The largest distance between corresponding points of `a` and `b` (#V x 3 each; same units):
+/// how far a fit's iteration moved any vertex.
+pub fn largest_move(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| dot(sub(*p, *q), sub(*p, *q)))
+        .fold(0.0, f64::max)
+        .sqrt()
+}
+/// The centroid of the points `p` (#V x 3) and their rms distance from it (at least the
+/// smallest positive number): the frame in which a fit normalizes a template to centroid 0
+/// and rms radius 1.
+pub fn centroid_and_rms_radius(p: &[[f64; 3]]) -> ([f64; 3], f64) {
+    let n = p.len() as f64;
+    let mut center = [0.0; 3];
+    for q in p {
+        for k in 0..3 {
+            center[k] += q[k] / n;
+        }
+    }
+    let radius = (p
+        .iter()
+        .map(|q| dot(sub(*q, center), sub(*q, center)))
+        .sum::<f64>()
+        / n)
+        .sqrt()
+        .max(f64::MIN_POSITIVE);
+    (center, radius)
+}
 /// Dot product.
 #[inline]
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
