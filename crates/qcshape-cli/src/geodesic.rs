@@ -6,6 +6,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::geodesic::{geodesic, pair_metric, GeodesicOptions, Normalization, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
+use qcshape::metric::Folds;
 use qcshape_studies::contribution::path_contributions;
 
 use crate::args::{in_pool, MetricArgs, SolverArgs};
@@ -189,11 +190,15 @@ fn run_in_pool(args: &Args) -> Result<()> {
             spec.kind.label()
         ));
     }
+    let folds = spec
+        .bends()
+        .then(|| Folds::between(&a.topology, &a.positions, &b.positions));
+    warnings.extend(folds.and_then(|f| f.warning(g.bending_share(), "--bending 0")));
     if g.stop == StopReason::MaxIterations {
         warnings.push(format!(
             "the solver stopped at its iteration limit after {} iterations ({}: --max-iterations): the distance is not converged",
             g.iterations,
-            opts.solver.stall_hint()
+            opts.solver.stall_hint(spec.bends())
         ));
     }
     for w in &warnings[before_solve..] {
@@ -220,6 +225,8 @@ fn run_in_pool(args: &Args) -> Result<()> {
             "regularizer_share": share,
             "bending_energy": g.bending_energy,
             "bending_share": g.bending_share(),
+            "folding_hinges": folds.map(|f| f.folding),
+            "largest_turn_degrees": folds.map(|f| f.largest_degrees),
             "metric_scale": spec.scale.label(),
             "lambda": spec.lambda,
             "linear_energy": g.initial_energy,

@@ -205,7 +205,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         args.output.display(),
         t0.elapsed().as_secs_f64(),
     );
-    let hint = format!(" ({})", opts.geodesic.solver.stall_hint());
+    let hint = format!(" ({})", opts.geodesic.solver.stall_hint(opts.metric.bends()));
     if let Some(u) = unconverged {
         eprintln!("warning: {u}{hint}");
     }

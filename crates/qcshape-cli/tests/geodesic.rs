@@ -187,6 +187,46 @@ fn max_iterations_option_is_the_limit_and_the_warning_names_it() {
     );
 }
 
+/// A vertex pushed through its ring folds the faces around it: the bending term then carries
+/// most of the energy, and the warning (and `--json`'s `folding_hinges`) says so and names the
+/// way out; `--bending 0` has no bending term, no count and no warning; a smooth motion folds
+/// nothing.
+#[test]
+fn folding_faces_are_counted_and_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = qcshape::synth::icosphere(2);
+    let mut dented = s.positions.clone();
+    dented[0] = dented[0].map(|c| 0.6 * c);
+    let (a, b) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    qcshape::io::write_mesh(&a, &s.positions, s.topology.faces(), &Default::default()).unwrap();
+    qcshape::io::write_mesh(&b, &dented, s.topology.faces(), &Default::default()).unwrap();
+    let run = |extra: &[&str], b: &std::path::Path| -> serde_json::Value {
+        let out = qcshape()
+            .args(["geodesic", "--json"])
+            .args(extra)
+            .arg(&a)
+            .arg(b)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let v = run(&[], &b);
+    assert_eq!(v["folding_hinges"], 10, "{v}");
+    assert!(v["bending_share"].as_f64().unwrap() > 0.5, "{v}");
+    let w = v["warnings"].to_string();
+    assert!(w.contains("10 of 480 hinges") && w.contains("--bending 0"), "{w}");
+    let off = run(&["--bending", "0"], &b);
+    assert!(
+        off["folding_hinges"].is_null() && off["warnings"] == serde_json::json!([]),
+        "{off}"
+    );
+    let stretched = dir.path().join("c.ply");
+    write_sphere(&stretched, 2, 1.5);
+    let smooth = run(&[], &stretched);
+    assert_eq!(smooth["folding_hinges"], 0, "{smooth}");
+}
+
 /// `geodesic A B` and `geodesic B A` give the same distance for every metric, on shapes that
 /// are not congruent and differ in size (the normalization factor is symmetric in A and B).
 #[test]

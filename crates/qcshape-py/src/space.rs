@@ -558,7 +558,7 @@ impl PyShapeSpace {
         crate::warn::sizes(py, &space, &pa, &pb)?;
         let bar = self.one_solve(py, &space, progress)?;
         let g = solve(py, &space, None, Some(&bar), |s, _| s.geodesic(&pa, &pb))?;
-        crate::warn::geodesic(py, &g, space.spec(), space.geodesic_options().solver)?;
+        crate::warn::geodesic(py, &g, &space)?;
         Ok(PyGeodesic { g })
     }
 
@@ -583,7 +583,7 @@ impl PyShapeSpace {
             crate::warn::dist_path(&watched(&space, w)?, &pa, &pb)
         })?;
         if let Some(g) = &g {
-            crate::warn::geodesic(py, g, space.spec(), space.geodesic_options().solver)?;
+            crate::warn::geodesic(py, g, &space)?;
         }
         Ok(g.map_or(0.0, |g| g.length))
     }

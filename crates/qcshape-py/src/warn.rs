@@ -1,14 +1,15 @@
 //! Warnings through Python's `warnings` module, category `qcshape.QcshapeWarning` (a
 //! `UserWarning`), for the conditions the CLI prints `warning:` for: the metric's own warning
 //! (lambda = 0 with a conformal metric), an L2 regularizer carrying more than half of a
-//! geodesic's energy (of most pairs, for a matrix), a solver stopped at its iteration limit and,
-//! for a matrix, pairs whose geodesic did not converge.
+//! geodesic's energy (of most pairs, for a matrix), the bending term carrying more than half of a
+//! geodesic's energy on folding faces, a solver stopped at its iteration limit and, for a matrix,
+//! pairs whose geodesic did not converge.
 
 use std::ffi::CString;
 
 use pyo3::prelude::*;
 use qcshape::geodesic::{Geodesic, Solver, StopReason};
-use qcshape::metric::{MetricKind, MetricSpec};
+use qcshape::metric::{Folds, MetricKind, MetricSpec};
 use qcshape::similarity::shares::ShareSummary;
 use qcshape::similarity::PairDistance;
 use qcshape::space::{ShapeSpace, SpaceError};
@@ -55,9 +56,11 @@ pub fn spec(py: Python<'_>, spec: &MetricSpec) -> PyResult<()> {
     }
 }
 
-/// The warnings of one geodesic (as `qcshape geodesic`): regularizer share above 0.5, iteration
-/// limit.
-pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver) -> PyResult<()> {
+/// The warnings of one geodesic of `space` (as `qcshape geodesic`): regularizer share above 0.5,
+/// the bending term's share above 0.5 with folding hinges between the ends ([`Folds`]),
+/// iteration limit.
+pub fn geodesic(py: Python<'_>, g: &Geodesic, space: &ShapeSpace) -> PyResult<()> {
+    let (spec, solver) = (space.spec(), space.geodesic_options().solver);
     let share = g.regularizer_share();
     if share > 0.5 {
         warn(
@@ -71,8 +74,13 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, spec: &MetricSpec, solver: Solver)
             ),
         )?;
     }
+    if let (true, Some(a), Some(b)) = (spec.bends(), g.poses.first(), g.poses.last()) {
+        if let Some(w) = Folds::between(space.topology(), a, b).warning(g.bending_share(), "bending=0") {
+            warn(py, &w)?;
+        }
+    }
     if g.stop == StopReason::MaxIterations {
-        let hint = format!(" ({})", solver.stall_hint());
+        let hint = format!(" ({})", solver.stall_hint(spec.bends()));
         warn(
             py,
             &format!(
@@ -123,7 +131,7 @@ pub fn pairs(
     }
     let unconverged = pairs.iter().filter(|p| !p.converged).count();
     if unconverged > 0 || !converged {
-        let hint = format!(" ({})", solver.stall_hint());
+        let hint = format!(" ({})", solver.stall_hint(spec.bends()));
         let what = if unconverged > 0 {
             format!("{unconverged} pair(s) with a geodesic that did not converge")
         } else {

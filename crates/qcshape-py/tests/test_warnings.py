@@ -108,3 +108,15 @@ def test_an_unconverged_stop_warns(sphere):
                 assert g.stop == "NoProgress", g.stop
                 assert any("stopped without converging" in m and "no step lowered" in m for m in stop_msgs), msgs
     assert unconverged > 0
+
+def test_folding_faces_warn_with_the_python_keyword():
+    # A vertex pushed through its ring folds 10 of the 480 hinges: the bending term carries
+    # most of the energy, and the warning names bending=0 (the CLI's twin names --bending 0).
+    V, F = qs.icosphere(2)
+    B = V.copy()
+    B[0] *= 0.6
+    g, msgs = caught(lambda: qs.ShapeSpace(F).geodesic(V, B))
+    assert g.converged
+    assert len(msgs) == 1 and "10 of 480 hinges" in msgs[0] and "bending=0" in msgs[0], msgs
+    _, msgs = caught(lambda: qs.ShapeSpace(F, bending=0).geodesic(V, B))
+    assert msgs == []

@@ -81,15 +81,26 @@ impl Solver {
         }
     }
 
-    /// What to try when a solve stopped at its iteration limit: a higher limit. The
-    /// iterations grow with the resolution (twisted sphere, invariant scale, quasi-conformal,
-    /// without the bending term: 271, 690 and 1,516 iterations at 642, 2,562 and 10,242
-    /// vertices; conformal 4,058 at 10,242; docs/log/scale-invariant.md).
-    pub fn stall_hint(self) -> &'static str {
-        "the path was still moving; the default limit, 60 sqrt(#V), covers the slowest \
-         measured (conformal, 10,242 vertices: 4,058 iterations), so a higher limit or a \
-         coarser mesh lets it converge; for the isometric metric on fine meshes the \
-         hessian-kronecker solver needs fewer (1,340 against 3,772 at 10,242 vertices)"
+    /// What to try when a solve stopped at its iteration limit, for a metric with the bending
+    /// term (`bending`) or without. Without it the iterations grow with the resolution
+    /// (twisted sphere, invariant scale, quasi-conformal: 271, 690 and 1,516 iterations at 642,
+    /// 2,562 and 10,242 vertices; conformal 4,058 at 10,242; docs/log/scale-invariant.md), so a
+    /// higher limit or a coarser mesh helps, and for the isometric metric the hessian-kronecker
+    /// solver. With it the slowest measured solves are captured meshes whose thin faces fold
+    /// between the ends (horse gallop: more than 5,510 iterations with every solver, 904 with
+    /// `bending = 0`; docs/log/bending.md "Folding faces on captured meshes"), and the
+    /// hessian-kronecker solver is the default's model refitted more often: it does not help.
+    pub fn stall_hint(self, bending: bool) -> &'static str {
+        if bending {
+            "the path was still moving; a higher limit or a coarser mesh lets it converge, unless \
+             thin faces fold between the ends, as in captured meshes, where leaving the bending \
+             term out does"
+        } else {
+            "the path was still moving; the default limit, 60 sqrt(#V), covers the slowest \
+             measured (conformal, 10,242 vertices: 4,058 iterations), so a higher limit or a \
+             coarser mesh lets it converge; for the isometric metric on fine meshes the \
+             hessian-kronecker solver needs fewer (1,340 against 3,772 at 10,242 vertices)"
+        }
     }
 
     /// The iteration limit when [`GeodesicOptions::max_iterations`] is `None`, on the coarsest

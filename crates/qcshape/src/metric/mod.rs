@@ -55,7 +55,10 @@ pub use l2::{FrozenL2, L2};
 pub use pattern::{Jacobian, JacobianMut, Pattern, PatternRef};
 pub use quasi_conformal::{QcNormalize, QcWeights, QuasiConformal};
 pub use regularized::{Regularized, RegularizerL2};
-pub use relative::{dihedral_angles, RelativeBending, RelativeConformal, RelativeIsometric, RelativeL2};
+pub use relative::{
+    dihedral_angles, Folds, RelativeBending, RelativeConformal, RelativeIsometric, RelativeL2,
+    BENDING_SHARE_WARNING, FOLD_TURN_DEGREES,
+};
 pub use rigid::{fit_motion_weighted, Rigid};
 pub use rigid_frozen::FrozenRigid;
 pub use second_order::SecondOrderSink;

@@ -328,6 +328,12 @@ impl MetricSpec {
 
     /// Whether the metric has `term` on its scale ([`MetricKind::has_term`], without the terms
     /// only the invariant scale has on the others).
+    /// Whether the metric built from this spec has the bending term ([`super::RelativeBending`]:
+    /// a membrane metric on the invariant scale with `bending > 0`).
+    pub fn bends(&self) -> bool {
+        self.has(TermKind::Bending) && self.bending > 0.0
+    }
+
     fn has(&self, term: TermKind) -> bool {
         self.kind
             .info()
@@ -401,7 +407,7 @@ impl MetricSpec {
             }
         };
         let mut inner = scaled(self.inner(), cal.geometric);
-        if self.has(TermKind::Bending) && self.bending > 0.0 {
+        if self.bends() {
             inner = Box::new(Bent::new(inner, self.bending));
         }
         if !self.kind.takes("lambda") {

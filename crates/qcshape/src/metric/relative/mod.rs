@@ -19,11 +19,13 @@
 mod bending;
 mod conformal;
 mod faces;
+mod folds;
 mod isometric;
 mod l2;
 
 pub use bending::{dihedral_angles, RelativeBending};
 pub use conformal::RelativeConformal;
+pub use folds::{Folds, BENDING_SHARE_WARNING, FOLD_TURN_DEGREES};
 pub use isometric::RelativeIsometric;
 pub use l2::RelativeL2;
 
