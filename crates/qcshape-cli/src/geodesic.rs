@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use qcshape::geodesic::{geodesic, pair_metric, GeodesicOptions, Normalization, StopReason};
+use qcshape::geodesic::{geodesic, pair_metric, GeodesicOptions, Normalization, OffPath, StopReason};
 use qcshape::io::{self, Field};
 use qcshape::mesh::Shape;
 use qcshape::metric::Folds;
@@ -194,6 +194,7 @@ fn run_in_pool(args: &Args) -> Result<()> {
         .bends()
         .then(|| Folds::between(&a.topology, &a.positions, &b.positions));
     warnings.extend(folds.and_then(|f| f.warning(g.bending_share(), "--bending 0")));
+    warnings.extend(OffPath::find(&a.topology, &g.poses).map(|o| o.warning(spec.bends())));
     if g.stop == StopReason::MaxIterations {
         warnings.push(format!(
             "the solver stopped at its iteration limit after {} iterations ({}: --max-iterations): the distance is not converged",

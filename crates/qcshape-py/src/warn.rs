@@ -8,7 +8,7 @@
 use std::ffi::CString;
 
 use pyo3::prelude::*;
-use qcshape::geodesic::{Geodesic, Solver, StopReason};
+use qcshape::geodesic::{Geodesic, OffPath, Solver, StopReason};
 use qcshape::metric::{Folds, MetricKind, MetricSpec};
 use qcshape::similarity::shares::ShareSummary;
 use qcshape::similarity::PairDistance;
@@ -57,8 +57,8 @@ pub fn spec(py: Python<'_>, spec: &MetricSpec) -> PyResult<()> {
 }
 
 /// The warnings of one geodesic of `space` (as `qcshape geodesic`): regularizer share above 0.5,
-/// the bending term's share above 0.5 with folding hinges between the ends ([`Folds`]),
-/// iteration limit.
+/// the bending term's share above 0.5 with folding hinges between the ends ([`Folds`]), a
+/// vertex far off its straight path ([`OffPath`]), iteration limit.
 pub fn geodesic(py: Python<'_>, g: &Geodesic, space: &ShapeSpace) -> PyResult<()> {
     let (spec, solver) = (space.spec(), space.geodesic_options().solver);
     let share = g.regularizer_share();
@@ -78,6 +78,9 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, space: &ShapeSpace) -> PyResult<()
         if let Some(w) = Folds::between(space.topology(), a, b).warning(g.bending_share(), "bending=0") {
             warn(py, &w)?;
         }
+    }
+    if let Some(o) = OffPath::find(space.topology(), &g.poses) {
+        warn(py, &o.warning(spec.bends()))?;
     }
     if g.stop == StopReason::MaxIterations {
         let hint = format!(" ({})", solver.stall_hint(spec.bends()));

@@ -28,6 +28,7 @@
 mod compact;
 pub mod defaults;
 mod energy;
+mod escape;
 mod gauge;
 mod hessian;
 mod interpolate;
@@ -54,6 +55,7 @@ use std::time::Instant;
 use thiserror::Error;
 
 pub use energy::{Ends, PathEnergy};
+pub use escape::{OffPath, OFF_PATH_EDGES, OFF_PATH_FACTOR};
 pub use interpolate::{
     insertion_schedule, interpolate_middle, interpolate_sequence, Interpolated, InterpolationError,
     InterpolationOptions, Interpolator, LevelStats, MiddleError, PairInterpolation, PairStats,

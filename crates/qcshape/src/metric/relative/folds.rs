@@ -67,10 +67,11 @@ impl Folds {
         Some(format!(
             "the bending term carries {:.0} % of the energy and {} of {} hinges turn by more \
              than {FOLD_TURN_DEGREES} degrees between the ends (largest {:.0}): faces folding \
-             over, as thin faces of captured meshes do, rather than a smooth surface's motion; \
-             the distance mostly measures those folds, and on fine meshes the solve converges \
+             over, as thin faces of captured meshes do, or a motion finer than the mesh; the \
+             distance mostly measures those folds, and on fine meshes the solve converges \
              slowly. {off} leaves the term out (horse gallop frames 1 and 3: converged in 904 \
-             iterations, against more than 5,510 with it), or repair the folding faces",
+             iterations, against more than 5,510 with it); a finer mesh or repaired faces keep \
+             it",
             100.0 * bending_share,
             self.folding,
             self.hinges,
