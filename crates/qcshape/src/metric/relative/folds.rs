@@ -1,11 +1,11 @@
 //! Folding hinges between two poses: interior edges whose dihedral angle turns by more than
 //! [`FOLD_TURN_DEGREES`] from one pose to the other. Between nearby frames of a smooth surface in
 //! motion no hinge turns that far; thin faces of captured meshes fold over, and the bending term
-//! ([`super::RelativeBending`]) charges each fold as much as a whole surface's bending: on the
-//! horse gallop's frames 1 and 3 (8,431 vertices) 83 of 25,255 hinges fold, the bending term
-//! carries 92 % of the default geodesic's energy and the solve runs to its iteration limit
-//! (docs/log/bending.md "Folding faces on captured meshes"). The geodesic warnings use this to
-//! say so.
+//! ([`super::RelativeBending`]) charges such faces heavily (the angle's gradient grows like one
+//! over the face's height): on the horse gallop's frames 1 and 3 (8,431 vertices) 83 of 25,255
+//! hinges fold, the bending term carries 92 % of the default geodesic's energy and the solve runs
+//! to its iteration limit (docs/log/bending.md "Folding faces on captured meshes"). The geodesic
+//! warnings use this to say so.
 
 use super::bending::dihedral_angles;
 use crate::mesh::Topology;
@@ -68,8 +68,8 @@ impl Folds {
             "the bending term carries {:.0} % of the energy and {} of {} hinges turn by more \
              than {FOLD_TURN_DEGREES} degrees between the ends (largest {:.0}): faces folding \
              over, as thin faces of captured meshes do, or a motion finer than the mesh; the \
-             distance mostly measures those folds, and on fine meshes the solve converges \
-             slowly. {off} leaves the term out (horse gallop frames 1 and 3: converged in 904 \
+             distance then mostly measures the bending of such faces, and on fine meshes the \
+             solve converges slowly. {off} leaves the term out (horse gallop frames 1 and 3: converged in 904 \
              iterations, against more than 5,510 with it); a finer mesh or repaired faces keep \
              it",
             100.0 * bending_share,
