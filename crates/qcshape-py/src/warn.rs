@@ -2,8 +2,8 @@
 //! `UserWarning`), for the conditions the CLI prints `warning:` for: the metric's own warning
 //! (lambda = 0 with a conformal metric), an L2 regularizer carrying more than half of a
 //! geodesic's energy (of most pairs, for a matrix), the bending term carrying more than half of a
-//! geodesic's energy on folding faces, a solver stopped at its iteration limit and, for a matrix,
-//! pairs whose geodesic did not converge.
+//! geodesic's energy on folding faces, a vertex of a geodesic far off its surface, a solver stopped
+//! at its iteration limit and, for a matrix, pairs whose geodesic did not converge.
 
 use std::ffi::CString;
 
