@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use qcshape::dataset::{Dataset, MANIFEST_NAME};
 use qcshape::geodesic::{
     normalization_factor, GeodesicOptions, Interpolated, InterpolationOptions, Interpolator, Normalization,
+    OffPath,
 };
 use qcshape::io;
 use qcshape::mesh::Topology;
@@ -163,6 +164,12 @@ fn run_in_pool(args: &Args) -> Result<()> {
         results.push(out);
     }
     bar.finish_and_clear();
+    for (d, r) in data.deformations.iter().zip(&results) {
+        if let Some((from, to, o)) = OffPath::in_sequence(&d.topology, &r.poses, &r.is_key) {
+            let w = o.warning(spec.bends());
+            eprintln!("warning: deformation {:?}, poses {from} to {to}: {w}", d.name);
+        }
+    }
     write_outputs(args, &data, &results, metric.as_ref(), factor)?;
     outln!("deformation,key_poses,poses,length,energy,converged_pairs,seconds");
     for (d, r) in data.deformations.iter().zip(&results) {

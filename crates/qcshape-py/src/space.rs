@@ -684,6 +684,7 @@ impl PyShapeSpace {
         let r = solve(py, &self.space, None, Some(&bar), |s, _| {
             s.interpolate(&p, insert, levels, &|| bar.tick(Stage::Similarity))
         })?;
+        crate::warn::sequence(py, &r, &self.space)?;
         sequence_out(py, &r.poses)
     }
 

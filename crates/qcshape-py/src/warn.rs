@@ -8,7 +8,7 @@
 use std::ffi::CString;
 
 use pyo3::prelude::*;
-use qcshape::geodesic::{Geodesic, OffPath, Solver, StopReason};
+use qcshape::geodesic::{Geodesic, Interpolated, OffPath, Solver, StopReason};
 use qcshape::metric::{Folds, MetricKind, MetricSpec};
 use qcshape::similarity::shares::ShareSummary;
 use qcshape::similarity::PairDistance;
@@ -107,6 +107,18 @@ pub fn geodesic(py: Python<'_>, g: &Geodesic, space: &ShapeSpace) -> PyResult<()
         )?;
     }
     Ok(())
+}
+
+/// The warning of an interpolated sequence of `space` (as `qcshape interpolate`): a vertex of
+/// an inserted pose far off its straight path between two key poses ([`OffPath::in_sequence`]).
+pub fn sequence(py: Python<'_>, r: &Interpolated, space: &ShapeSpace) -> PyResult<()> {
+    match OffPath::in_sequence(space.topology(), &r.poses, &r.is_key) {
+        Some((from, to, o)) => warn(
+            py,
+            &format!("poses {from} to {to}: {}", o.warning(space.spec().bends())),
+        ),
+        None => Ok(()),
+    }
 }
 
 /// The warnings of a similarity matrix (as `qcshape similarity`): the regularizer carries more

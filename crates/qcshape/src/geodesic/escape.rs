@@ -97,6 +97,29 @@ impl OffPath {
         worst.map(|(_, w)| w)
     }
 
+    /// The worst off-path vertex of an interpolated sequence (`poses`, with `is_key` marking the
+    /// key poses, as [`super::Interpolated`]): each stretch between consecutive key poses is a
+    /// path of its own ([`OffPath::find`]). Returns the two key poses' indices in `poses` with
+    /// the vertex (its `pose` counted from the first of them).
+    pub fn in_sequence(
+        topo: &Topology,
+        poses: &[Vec<[f64; 3]>],
+        is_key: &[bool],
+    ) -> Option<(usize, usize, OffPath)> {
+        let keys: Vec<usize> = is_key
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| k)
+            .map(|(i, _)| i)
+            .collect();
+        keys.windows(2)
+            .filter(|w| w[1] <= poses.len().saturating_sub(1))
+            .filter_map(|w| OffPath::find(topo, &poses[w[0]..=w[1]]).map(|o| (w[0], w[1], o)))
+            .max_by(|x, y| {
+                (x.2.off_edges - x.2.nearby_move_edges).total_cmp(&(y.2.off_edges - y.2.nearby_move_edges))
+            })
+    }
+
     /// The warning for this vertex, for a metric with the bending term (`bends`) or without
     /// (then the advice is the term: it charges such a vertex, measured on the horse).
     pub fn warning(&self, bends: bool) -> String {
@@ -153,5 +176,13 @@ mod tests {
         assert!(off.warning(false).contains("vertex 17 of pose 4"));
         // Two poses (no interior pose) or none: nothing to check.
         assert_eq!(OffPath::find(topo, &spiked[..1]), None);
+        // A sequence of two stretches (key poses 0, 4, 8) with a spike in pose 6: found in the
+        // second stretch, as its pose 2.
+        let keys: Vec<bool> = (0..=8).map(|i| i % 4 == 0).collect();
+        let mut sequence = turned.clone();
+        sequence[6][17] = sequence[6][17].map(|c| 100.0 * c);
+        let (from, to, off) = OffPath::in_sequence(topo, &sequence, &keys).expect("found");
+        assert_eq!((from, to, off.vertex, off.pose), (4, 8, 17, 2));
+        assert_eq!(OffPath::in_sequence(topo, &turned, &keys), None);
     }
 }
