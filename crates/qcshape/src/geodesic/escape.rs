@@ -82,14 +82,14 @@ impl OffPath {
                 };
                 let off = geometry::sub(r, geometry::scale(*d, t));
                 let off = geometry::dot(off, off).sqrt() / edge;
-                let excess = off - (OFF_PATH_FACTOR * nearby[vertex] + OFF_PATH_EDGES);
+                let found = OffPath {
+                    vertex,
+                    pose,
+                    off_edges: off,
+                    nearby_move_edges: nearby[vertex],
+                };
+                let excess = found.excess();
                 if excess > 0.0 && worst.is_none_or(|(e, _)| excess > e) {
-                    let found = OffPath {
-                        vertex,
-                        pose,
-                        off_edges: off,
-                        nearby_move_edges: nearby[vertex],
-                    };
                     worst = Some((excess, found));
                 }
             }
@@ -115,9 +115,13 @@ impl OffPath {
         keys.windows(2)
             .filter(|w| w[1] <= poses.len().saturating_sub(1))
             .filter_map(|w| OffPath::find(topo, &poses[w[0]..=w[1]]).map(|o| (w[0], w[1], o)))
-            .max_by(|x, y| {
-                (x.2.off_edges - x.2.nearby_move_edges).total_cmp(&(y.2.off_edges - y.2.nearby_move_edges))
-            })
+            .max_by(|x, y| x.2.excess().total_cmp(&y.2.excess()))
+    }
+
+    /// How far beyond its bound the vertex lies, in mean edge lengths (positive for a found
+    /// vertex).
+    pub fn excess(&self) -> f64 {
+        self.off_edges - (OFF_PATH_FACTOR * self.nearby_move_edges + OFF_PATH_EDGES)
     }
 
     /// The warning for this vertex, for a metric with the bending term (`bends`) or without
