@@ -54,17 +54,15 @@ impl OffPath {
             .zip(last)
             .map(|(a, b)| geometry::sub(*b, *a))
             .collect();
-        let mut nearby: Vec<f64> = moves
-            .iter()
-            .map(|d| geometry::dot(*d, *d).sqrt() / edge)
-            .collect();
-        let own = nearby.clone();
+        let squared: Vec<f64> = moves.iter().map(|d| geometry::dot(*d, *d)).collect();
+        let own: Vec<f64> = squared.iter().map(|dd| dd.sqrt() / edge).collect();
+        let mut nearby = own.clone();
         for &[i, j] in topo.edges() {
             let (i, j) = (i as usize, j as usize);
             nearby[i] = nearby[i].max(own[j]);
             nearby[j] = nearby[j].max(own[i]);
         }
-        let mut worst: Option<(f64, OffPath)> = None;
+        let mut worst: Option<OffPath> = None;
         for (pose, p) in poses
             .iter()
             .enumerate()
@@ -74,27 +72,25 @@ impl OffPath {
             for (vertex, ((x, a), d)) in p.iter().zip(first).zip(&moves).enumerate() {
                 // Distance from the segment a + t d, t in [0, 1].
                 let r = geometry::sub(*x, *a);
-                let dd = geometry::dot(*d, *d);
+                let dd = squared[vertex];
                 let t = if dd > 0.0 {
                     (geometry::dot(r, *d) / dd).clamp(0.0, 1.0)
                 } else {
                     0.0
                 };
                 let off = geometry::sub(r, geometry::scale(*d, t));
-                let off = geometry::dot(off, off).sqrt() / edge;
                 let found = OffPath {
                     vertex,
                     pose,
-                    off_edges: off,
+                    off_edges: geometry::dot(off, off).sqrt() / edge,
                     nearby_move_edges: nearby[vertex],
                 };
-                let excess = found.excess();
-                if excess > 0.0 && worst.is_none_or(|(e, _)| excess > e) {
-                    worst = Some((excess, found));
+                if found.excess() > worst.map_or(0.0, |w| w.excess()) {
+                    worst = Some(found);
                 }
             }
         }
-        worst.map(|(_, w)| w)
+        worst
     }
 
     /// The worst off-path vertex of an interpolated sequence (`poses`, with `is_key` marking the
@@ -130,9 +126,8 @@ impl OffPath {
         format!(
             "vertex {} of pose {} lies {:.1} mean edges off the straight line between its end \
              positions, where neither it nor a neighbour moves more than {:.1} between the ends: \
-             the path \
-             leaves the surface there (a vertex of small faces costs the relative forms little \
-             however far it goes) and the distance is not reliable; {}",
+             the path leaves the surface there (a vertex of small faces costs the relative forms \
+             little however far it goes) and the distance is not reliable; {}",
             self.vertex,
             self.pose,
             self.off_edges,

@@ -147,7 +147,7 @@ fn wing_factors(w: &Wings) -> ([f64; 2], [f64; 2]) {
 /// `[sin theta, cos theta]` and its sliver factor `Phi = phi_1 phi_2` at positions `p`;
 /// `([0, 1], 0)` for a degenerate hinge.
 #[inline(always)]
-fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
+pub(super) fn hinge_value(p: &[[f64; 3]; 4]) -> ([f64; 2], f64) {
     match wings(p) {
         Some(w) => wings_value(&w),
         None => ([0.0, 1.0], 0.0),
@@ -258,6 +258,13 @@ fn hinge_state(p: [[f64; 3]; 4], want: bool) -> HingeState {
     st
 }
 
+/// `[sin, cos]` of the change `theta_b - theta_a` of an angle from `a` to `b` (each
+/// `[sin, cos]`).
+#[inline(always)]
+pub(super) fn angle_change(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [b[0] * a[1] - b[1] * a[0], b[1] * a[1] + b[0] * a[0]]
+}
+
 /// The change of an angle from `a` to `b` (each `[sin, cos]`) as the chord
 /// `2 sin((theta_b - theta_a) / 2)` (the change itself to within its cube over 24; smooth and
 /// periodic, so no wrapping and no arctangent), with its derivative `cos((theta_b - theta_a) /
@@ -265,8 +272,7 @@ fn hinge_state(p: [[f64; 3]; 4], want: bool) -> HingeState {
 /// chord is taken as 2 and its derivative as 0.
 #[inline(always)]
 fn angle_chord(a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
-    let sin = b[0] * a[1] - b[1] * a[0];
-    let cos = b[1] * a[1] + b[0] * a[0];
+    let [sin, cos] = angle_change(a, b);
     // h = 2 cos(delta / 2) >= 0; 2 sin(delta / 2) = 2 sin(delta) / h.
     let h = (2.0 * (1.0 + cos)).max(0.0).sqrt();
     if h > 0.0 {
@@ -554,7 +560,7 @@ fn for_each_hinge(
 /// The signed dihedral angle at every interior edge of `pose` (radians in `(-pi, pi]`, in the
 /// pattern's hinge order; 0 where the two faces are coplanar or one is degenerate; the term's
 /// residual is `sqrt(w_e) Phi_a Phi_b` times the chord of its change along a segment). For tests and studies
-/// of the bending term.
+/// of the bending term ([`super::Folds`] compares two poses' angles directly).
 pub fn dihedral_angles(topo: &Topology, pose: &[[f64; 3]]) -> Vec<f64> {
     hinges(topo)
         .iter()

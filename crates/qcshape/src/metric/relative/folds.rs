@@ -7,7 +7,9 @@
 //! to its iteration limit (docs/log/bending.md "Folding faces on captured meshes"). The geodesic
 //! warnings use this to say so.
 
+#[cfg(doc)]
 use super::bending::dihedral_angles;
+use super::bending::{angle_change, hinge_value, hinges};
 use crate::mesh::Topology;
 
 /// A hinge folds when its dihedral angle turns by more than this many degrees between two poses.
@@ -34,17 +36,19 @@ pub struct Folds {
 
 impl Folds {
     /// The folds from pose `a` to pose `b` (each #V x 3 on `topo`; any units: angles do not
-    /// depend on scale). A turn is the difference of the signed dihedral angles
-    /// ([`dihedral_angles`]) wrapped to `[-180, 180]` degrees.
+    /// depend on scale). A turn is the change of the signed dihedral angle (as
+    /// [`dihedral_angles`]) in `[-180, 180]` degrees, from the two poses' `(sin, cos)` as the
+    /// bending term forms it.
     pub fn between(topo: &Topology, a: &[[f64; 3]], b: &[[f64; 3]]) -> Folds {
-        let (ta, tb) = (dihedral_angles(topo, a), dihedral_angles(topo, b));
-        let turns = ta.iter().zip(&tb).map(|(x, y)| {
-            let d = y - x;
-            d.sin().atan2(d.cos()).abs().to_degrees()
+        let hinges = hinges(topo);
+        let turns = hinges.iter().map(|(vs, _)| {
+            let at = |p: &[[f64; 3]]| hinge_value(&vs.map(|v| p[v as usize])).0;
+            let [sin, cos] = angle_change(at(a), at(b));
+            sin.atan2(cos).abs().to_degrees()
         });
         let mut folds = Folds {
             folding: 0,
-            hinges: ta.len(),
+            hinges: hinges.len(),
             largest_degrees: 0.0,
         };
         for t in turns {
@@ -69,9 +73,9 @@ impl Folds {
              than {FOLD_TURN_DEGREES} degrees between the ends (largest {:.0}): faces folding \
              over, as thin faces of captured meshes do, or a motion finer than the mesh; the \
              distance then mostly measures the bending of such faces, and on fine meshes the \
-             solve converges slowly. {off} leaves the term out (horse gallop frames 1 and 3: converged in 904 \
-             iterations, against more than 5,510 with it); a finer mesh or repaired faces keep \
-             it",
+             solve converges slowly. {off} leaves the term out (horse gallop frames 1 and 3: \
+             converged in 904 iterations, against more than 5,510 with it); a finer mesh or \
+             repaired faces keep it",
             100.0 * bending_share,
             self.folding,
             self.hinges,
